@@ -1,0 +1,7 @@
+"""siftom: follow noisy spoken instructions pragmatically (SIFToM).
+
+Bayesian inverse planning over a symbolic scene combined with instruction likelihoods
+computed from what was heard (transcripts, N-best lists or the audio itself).
+"""
+
+__version__ = "0.1.0"

@@ -1,0 +1,162 @@
+"""Instruction likelihood from a language model's token log-probs (paper, Methods, Instruction
+Likelihood).
+
+The paper scores "how likely the transcribed utterance corresponds to" a robot command with a
+few-shot prompt of corrupted instructions and their ground-truth commands, e.g. "pass me the
+silver" for ``pass(robot, human, cereal)``. Here the prompt ends with the candidate command and
+the model scores the heard utterance as its continuation:
+
+    <header>
+    Command: pass(robot, human, cereal)
+    Heard: pass me the silver
+    ...
+    Command: <candidate>
+    Heard:| <utterance>\\n          <- only these tokens are scored
+
+The header and examples are a prefix shared by every candidate, so an in-process model
+evaluates them once (``siftom.backends.llama_cpp``).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Sequence
+
+import numpy as np
+
+from siftom.backends.scoring import TextScorer
+from siftom.errors import ObservationError, unknown_name
+from siftom.likelihood.base import Instruction
+from siftom.likelihood.lexicon import Lexicon, default_lexicon
+from siftom.likelihood.phonetic import logsumexp, normalize_text
+from siftom.world.commands import RobotCommand
+
+HEADER = (
+    "A person asks a household robot for help. A speech recogniser transcribed each request, "
+    "so some words are misheard. Each example gives the robot command the person meant and "
+    "the noisy transcript that was heard.\n\n"
+)
+
+# (command the person meant, what the recogniser heard); corrupted as real ASR does.
+FEW_SHOT: tuple[tuple[str, str], ...] = (
+    ("pass(robot, human, cereal)", "pass me the silver"),
+    ("deliver(robot, table, forks, 3)", "bring me tree forks"),
+    ("pass(robot, human, milk)", "can you pass me the mail"),
+    ("deliver(robot, table, wine glasses, 2)", "we still need two wine classes"),
+    ("pass(robot, human, flour)", "could you grab the flower please"),
+    ("deliver(robot, table, plates, 4)", "get me the rest of the plates"),
+    ("pass(robot, human, bacon)", "pass me the beta"),
+    ("deliver(robot, table, knives, 1)", "i need a knife"),
+)
+
+BACKENDS = ("llama", "openai")
+
+
+def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> str:
+    """The command as the prompt writes it: ``pass(robot, human, cereal)``,
+    ``deliver(robot, table, forks, 3)``."""
+    entry = (lexicon or default_lexicon()).entry(command.obj_class)
+    if command.verb == "fetch" and command.count == 1:
+        return f"pass(robot, human, {entry.singular})"
+    name = entry.singular if command.count == 1 else entry.plural
+    where = "human" if command.verb == "fetch" else "table"
+    return f"{'pass' if command.verb == 'fetch' else 'deliver'}(robot, {where}, {name}, {command.count})"
+
+
+def build_prefix(examples: Sequence[tuple[str, str]] = FEW_SHOT, header: str = HEADER) -> str:
+    """The shared part of the prompt: header and few-shot examples."""
+    return header + "".join(f"Command: {c}\nHeard: {u}\n\n" for c, u in examples)
+
+
+def make_backend(backend: str, **kwargs: object) -> TextScorer:
+    """Construct a scorer by name: "llama" (in-process GGUF) or "openai" (HTTP endpoint)."""
+    if backend == "llama":
+        from siftom.backends.llama_cpp import LlamaCppScorer
+
+        return LlamaCppScorer(**kwargs)  # type: ignore[arg-type]
+    if backend == "openai":
+        from siftom.backends.openai_compat import OpenAICompletionsScorer
+
+        return OpenAICompletionsScorer(**kwargs)  # type: ignore[arg-type]
+    raise unknown_name("LLM backend", backend, BACKENDS)
+
+
+class LLMLikelihood:
+    r"""log P(phi | pi_r) from a language model prompted with corrupted-instruction examples.
+
+    .. math::
+
+        P(\phi \mid \pi_r) = \sum_{n \le N} w_n \, P_{LM}(h_n \mid \text{prompt}(\pi_r))^{1/\tau},
+        \qquad w_n = \operatorname{softmax}_n(s_n / T_{asr})
+
+    over the first ``nbest_limit`` hypotheses. ``tau`` (``temperature``) flattens the LM's
+    sentence probabilities, which are much sharper than its calibration warrants.
+
+    Args:
+        backend: "llama" (default), "openai", or a :class:`TextScorer` instance.
+        lexicon: names used to describe commands.
+        examples: few-shot (command, heard) pairs; default :data:`FEW_SHOT`.
+        nbest_limit: how many hypotheses to score (each costs one LM call per command).
+        asr_temperature: T_asr for the N-best weights.
+        temperature: tau, divides the LM log-probabilities.
+        **backend_kwargs: passed to the backend (``model_path``, ``base_url``, ``api_key``,
+            ``model``, ``cache_dir`` ...).
+    """
+
+    name = "llm"
+    needs_text = True
+    needs_audio = False
+
+    def __init__(
+        self,
+        backend: str | TextScorer = "llama",
+        *,
+        lexicon: Lexicon | None = None,
+        examples: Sequence[tuple[str, str]] = FEW_SHOT,
+        nbest_limit: int = 3,
+        asr_temperature: float = 10.0,
+        temperature: float = 1.0,
+        **backend_kwargs: object,
+    ) -> None:
+        if nbest_limit < 1:
+            raise ObservationError(f"nbest_limit must be >= 1, got {nbest_limit}")
+        for label, v in (("asr_temperature", asr_temperature), ("temperature", temperature)):
+            if not (np.isfinite(v) and v > 0):
+                raise ObservationError(f"{label} must be a positive number, got {v!r}")
+        self.scorer: TextScorer = (
+            make_backend(backend, **backend_kwargs) if isinstance(backend, str) else backend
+        )
+        self.lexicon = lexicon or default_lexicon()
+        self.prefix = build_prefix(examples)
+        self.nbest_limit = nbest_limit
+        self.asr_temperature = float(asr_temperature)
+        self.temperature = float(temperature)
+        self._memo: OrderedDict[tuple[str, str, str], float] = OrderedDict()
+
+    def _score(self, items: list[tuple[str, str]]) -> np.ndarray:
+        keys = [(self.scorer.model_id, c, t) for c, t in items]
+        todo = [k for k, key in enumerate(keys) if key not in self._memo]
+        if todo:
+            values = self.scorer.score(self.prefix, [items[k] for k in todo])
+            for k, v in zip(todo, values, strict=True):
+                self._memo[keys[k]] = float(v)
+            while len(self._memo) > 100_000:
+                self._memo.popitem(last=False)
+        return np.array([self._memo[key] for key in keys])
+
+    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
+        """log P(phi | pi_r) for each command; shape (len(commands),)."""
+        if not instruction.nbest:
+            raise ObservationError(
+                "the LLM likelihood needs a transcript; transcribe the audio first or use 'acoustic'"
+            )
+        if not commands:
+            return np.zeros(0)
+        hyps = instruction.nbest[: self.nbest_limit]
+        scores = np.array([h.score for h in hyps]) / self.asr_temperature
+        logw = scores - logsumexp(scores)
+        texts = [" " + (" ".join(normalize_text(h.text)) or h.text.strip()) + "\n" for h in hyps]
+        contexts = [f"Command: {describe_command(c, self.lexicon)}\nHeard:" for c in commands]
+        items = [(ctx, t) for ctx in contexts for t in texts]
+        lp = self._score(items).reshape(len(commands), len(texts)) / self.temperature
+        return logsumexp(lp + logw[None, :], axis=1)

@@ -1,0 +1,108 @@
+"""One interface for speech recognisers: ``transcribe(audio, nbest=N) -> Transcript``.
+
+Engines are registered by name and load lazily (``get_engine('whisper')`` imports
+faster-whisper only then). Scores are natural-log scores from the engine; they compare only
+between the hypotheses of one utterance.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from siftom.errors import unknown_name
+from siftom.likelihood.base import Hypothesis, Instruction
+
+
+@dataclass(frozen=True)
+class Word:
+    """A recognised word with its start and end in seconds."""
+
+    text: str
+    start: float
+    end: float
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain dict for JSON output."""
+        return {"text": self.text, "start": round(self.start, 3), "end": round(self.end, 3)}
+
+
+@dataclass(frozen=True)
+class Transcript:
+    """What an engine heard: the 1-best text, the N-best list (best first), word timings, cost.
+
+    Attributes:
+        text: 1-best transcript, lower case, '' when nothing was recognised.
+        nbest: hypotheses best first, each with a natural-log score (higher is better).
+        words: 1-best words with timings.
+        rtf: real-time factor (decoding seconds / audio seconds).
+        engine: the engine's registry name.
+        audio_s: duration of the audio in seconds.
+    """
+
+    text: str
+    nbest: tuple[Hypothesis, ...] = ()
+    words: tuple[Word, ...] = ()
+    rtf: float = 0.0
+    engine: str = ""
+    audio_s: float = 0.0
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON object with keys text, nbest [{text, score}], words, rtf, engine, audio_s."""
+        return {
+            "text": self.text,
+            "nbest": [{"text": h.text, "score": round(float(h.score), 4)} for h in self.nbest],
+            "words": [w.to_json() for w in self.words],
+            "rtf": round(self.rtf, 4),
+            "engine": self.engine,
+            "audio_s": round(self.audio_s, 3),
+        }
+
+    def to_instruction(self, audio: Path | None = None) -> Instruction:
+        """The transcript as an Instruction for the likelihoods (keeps the audio path if given)."""
+        hyps = tuple(h for h in self.nbest if h.text) or (Hypothesis(self.text, 0.0),)
+        if not any(h.text for h in hyps) and audio is not None:
+            return Instruction(nbest=(), audio=audio)
+        return Instruction(nbest=hyps, audio=audio)
+
+
+@runtime_checkable
+class ASREngine(Protocol):
+    """A speech recogniser."""
+
+    name: str
+
+    def transcribe(self, audio: np.ndarray | str | Path, nbest: int = 1) -> Transcript:
+        """Recognise 16 kHz mono samples or an audio file; return up to ``nbest`` hypotheses."""
+        ...
+
+
+# name -> "module:attr" of a factory taking keyword options; imported on first use
+ENGINES: dict[str, str] = {
+    "pocketsphinx": "siftom.speech.asr.pocketsphinx:PocketsphinxEngine",
+    "whisper": "siftom.speech.asr.whisper:WhisperEngine",
+}
+DEFAULT_ENGINE = "pocketsphinx"
+
+
+def get_engine(name: str = DEFAULT_ENGINE, **options: Any) -> ASREngine:
+    """Build a registered engine by name; raise UnknownNameError or BackendUnavailableError."""
+    try:
+        target = ENGINES[name]
+    except KeyError:
+        raise unknown_name("ASR engine", name, ENGINES) from None
+    module, attr = target.split(":")
+    factory: Callable[..., ASREngine] = getattr(importlib.import_module(module), attr)
+    return factory(**options)
+
+
+def normalise_text(text: str) -> str:
+    """Lower case, keep letters, digits and apostrophes, single spaces."""
+    out = "".join(c if c.isalnum() or c == "'" else " " for c in text.lower())
+    return " ".join(out.split())

@@ -1,0 +1,28 @@
+"""Word error rate by word-level Levenshtein distance (no external dependency)."""
+
+from __future__ import annotations
+
+from siftom.speech.asr.base import normalise_text
+
+
+def edit_distance(ref: list[str], hyp: list[str]) -> int:
+    """Minimum substitutions + deletions + insertions turning ``ref`` into ``hyp``."""
+    prev = list(range(len(hyp) + 1))
+    for i, r in enumerate(ref, 1):
+        cur = [i] + [0] * len(hyp)
+        for j, h in enumerate(hyp, 1):
+            cur[j] = min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (r != h))
+        prev = cur
+    return prev[-1]
+
+
+def word_errors(reference: str, hypothesis: str) -> tuple[int, int]:
+    """(word edits, reference words) after normalising case and punctuation."""
+    ref = normalise_text(reference).split()
+    return edit_distance(ref, normalise_text(hypothesis).split()), len(ref)
+
+
+def wer(reference: str, hypothesis: str) -> float:
+    """Word error rate of one hypothesis (edits / reference words; may exceed 1)."""
+    errors, n = word_errors(reference, hypothesis)
+    return errors / n if n else float(errors > 0)

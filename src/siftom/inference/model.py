@@ -1,0 +1,374 @@
+"""SIFToM inference: the joint posterior over goals and robot commands (paper, Eq. 1-3).
+
+    P(g, pi_r | s_1:T, a_1:T, phi)  ∝  P(g) P(pi_r | g) · prod_t P(a_t | s_t, pi_h) · P(phi | pi_r)
+
+where the human's part of the joint plan is pi_h = g minus pi_r (what the human must still do
+when the robot does pi_r). Enumeration is exact, in log space, over every (g, pi_r) pair plus an
+"unknown goal" hypothesis (docs/inference.md explains each choice):
+
+* P(g): uniform over the goal space, with ``unknown_prior`` mass on "unknown goal".
+* P(pi_r | g): softmax over the goal's possible robot parts of ``help_kappa`` times the steps
+  the part saves the human (useful, non-redundant help); under "unknown goal", uniform over
+  every command of the domain.
+* P(a_t | s_t, pi_h): Boltzmann over Q* (planning/costtogo.py), marginalised over a grid of
+  ``betas``; under "unknown goal", uniform over the legal actions.
+* P(phi | pi_r): any InstructionLikelihood (phonetic by default).
+
+The ablations are configurations: ``speech-only`` drops the action term and uses a uniform
+prior over commands; ``action-only`` drops the instruction term.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.special import logsumexp
+
+from siftom.errors import ObservationError
+from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.planning.costtogo import CostToGo, goal_matrix, successor_values
+from siftom.planning.policy import BoltzmannPolicy
+from siftom.world.commands import RobotCommand
+from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
+
+MODES = ("full", "speech-only", "action-only")
+UNKNOWN = "unknown"
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Options of the SIFToM model. Validated at construction."""
+
+    mode: str = "full"
+    betas: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
+    epsilon: float = 0.01
+    unknown_prior: float = 0.02
+    help_kappa: float = 0.1
+    speech_weight: float = 1.0
+    max_count: int = 4
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ObservationError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if not self.betas or any(not (b > 0 and np.isfinite(b)) for b in self.betas):
+            raise ObservationError(f"betas must be positive finite numbers, got {self.betas}")
+        if not 0 <= self.unknown_prior < 1:
+            raise ObservationError(f"unknown_prior must be in [0, 1), got {self.unknown_prior}")
+        if self.speech_weight < 0 or self.help_kappa < 0:
+            raise ObservationError("speech_weight and help_kappa must be >= 0")
+
+    @property
+    def uses_actions(self) -> bool:
+        return self.mode != "speech-only"
+
+    @property
+    def uses_speech(self) -> bool:
+        return self.mode != "action-only"
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """What the robot saw and heard. Validated on construction (every action must be legal)."""
+
+    world: World
+    start: State
+    actions: tuple[Action, ...]
+    goals: tuple[Goal, ...]
+    verb: str = "deliver"
+    instruction: Instruction | None = None
+    states: tuple[State, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.goals:
+            raise ObservationError("the goal space is empty; give at least one goal")
+        targets = {g.target for g in self.goals}
+        if len(targets) != 1:
+            raise ObservationError("all goals must share one target place")
+        classes = set(self.world.classes)
+        for g in self.goals:
+            for c, n in g.counts:
+                if c not in classes:
+                    raise ObservationError(f"goal {g.name!r} needs {c!r}, which is not in the scene")
+                if n < 1:
+                    raise ObservationError(f"goal {g.name!r}: count of {c!r} must be >= 1")
+        states = [self.start]
+        for t, a in enumerate(self.actions):
+            if not isinstance(a, Action):
+                raise ObservationError(f"action {t} is not an Action: {a!r}")
+            if a.agent != HUMAN:
+                raise ObservationError(f"action {t} ({self.world.format_action(a)}) is not the human's")
+            why = check(self.world, states[-1], a)
+            if why is not None:
+                raise ObservationError(f"action {t} {self.world.format_action(a)} is impossible here: {why}")
+            states.append(apply(states[-1], a))
+        object.__setattr__(self, "states", tuple(states))
+
+    @classmethod
+    def from_scenario(cls, scenario: Any, instruction: Instruction | None = None,
+                      n_actions: int | None = None) -> Observation:
+        acts = scenario.actions if n_actions is None else scenario.actions[:n_actions]
+        return cls(scenario.world, scenario.start, tuple(acts), scenario.goals, scenario.verb, instruction)
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One (goal, command) pair with its posterior and each term's contribution (log)."""
+
+    goal: str
+    command: str
+    prob: float
+    log_prior: float
+    log_action: float
+    log_instruction: float
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """The result of inference. ``to_json`` gives the documented JSON shape."""
+
+    command: str
+    commands: tuple[tuple[str, float], ...]
+    goals: tuple[tuple[str, float], ...]
+    hypotheses: tuple[Hypothesis, ...]
+    mode: str
+    likelihood: str
+    n_actions: int
+    seconds: float
+    transcript: str = ""
+
+    def prob(self, command: str) -> float:
+        return dict(self.commands).get(command, 0.0)
+
+    def to_json(self, top: int = 10) -> dict[str, Any]:
+        return {
+            "command": self.command,
+            "commands": [{"command": c, "prob": p} for c, p in self.commands[:top]],
+            "goals": [{"goal": g, "prob": p} for g, p in self.goals[:top]],
+            "hypotheses": [h.__dict__ for h in self.hypotheses[:top]],
+            "mode": self.mode,
+            "likelihood": self.likelihood,
+            "n_actions": self.n_actions,
+            "transcript": self.transcript,
+            "seconds": self.seconds,
+        }
+
+
+class SIFToM:
+    """The model: build once per observation stream; ``infer`` or use ``online`` updates."""
+
+    def __init__(self, config: ModelConfig | None = None, likelihood: InstructionLikelihood | None = None) -> None:
+        self.config = config or ModelConfig()
+        if likelihood is None and self.config.uses_speech:
+            from siftom.likelihood.phonetic import PhoneticLikelihood
+
+            likelihood = PhoneticLikelihood()
+        self.likelihood = likelihood
+
+    def infer(self, obs: Observation, instruction: Instruction | None = None) -> Posterior:
+        """Posterior for the whole observation."""
+        online = self.online(obs.world, obs.start, obs.goals, obs.verb)
+        for a in obs.actions:
+            online.observe(a)
+        return online.posterior(instruction or obs.instruction)
+
+    def online(self, world: World, start: State, goals: Sequence[Goal], verb: str = "deliver") -> OnlineInference:
+        """An incremental inference: ``observe(action)`` per step, ``posterior(instruction)`` any time."""
+        return OnlineInference(self, world, start, tuple(goals), verb)
+
+
+class OnlineInference:
+    """Keeps per-hypothesis action log-likelihoods so one more action costs one Q-table row."""
+
+    def __init__(self, model: SIFToM, world: World, start: State, goals: tuple[Goal, ...], verb: str) -> None:
+        self.model, self.world, self.goals, self.verb = model, world, goals, verb
+        cfg = model.config
+        self.state = start
+        self.n_actions = 0
+        self.target = goals[0].target
+        self._N_goal = goal_matrix(world, goals)
+        kmax = max(int(self._N_goal.max()), cfg.max_count)
+        self.ctg = CostToGo(world, self.target, kmax, agent=HUMAN)
+        self._tabs = self.ctg.tables(start)
+        self._policies = [BoltzmannPolicy(beta=b, epsilon=cfg.epsilon) for b in cfg.betas]
+        # robot-part candidates and the human-subgoal rows are fixed at the first posterior
+        # call? No: counts depend on the state when the human speaks, so rows are built lazily
+        # from the goal matrix; the action term is tracked per (goal, class) removal below.
+        self._cols = {c: k for k, c in enumerate(world.classes)}
+        self._rows: dict[tuple[int, ...], int] = {}
+        self._row_list: list[np.ndarray] = []
+        self._row_ll = np.zeros((0, len(cfg.betas)))  # cumulative action log-lik per row per beta
+        self._unknown_ll = 0.0
+        self._history: list[tuple[State, Action]] = []
+        # rows: every goal, and every goal minus every one of its classes (count removed fully)
+        for g in range(len(goals)):
+            self._row(self._N_goal[g])
+            for c in np.flatnonzero(self._N_goal[g]):
+                n = self._N_goal[g].copy()
+                n[c] = 0
+                self._row(n)
+        self._row_ll = np.zeros((len(self._row_list), len(cfg.betas)))
+        self._Nrows = np.array(self._row_list)
+
+    def _row(self, n: np.ndarray) -> int:
+        key = tuple(int(x) for x in n)
+        if key not in self._rows:
+            self._rows[key] = len(self._row_list)
+            self._row_list.append(np.array(key, dtype=np.int64))
+        return self._rows[key]
+
+    # ----- actions ---------------------------------------------------------------------------
+    def observe(self, action: Action) -> None:
+        """Add one observed human action (checked against the current state)."""
+        why = check(self.world, self.state, action)
+        if why is not None:
+            raise ObservationError(f"{self.world.format_action(action)} is impossible here: {why}")
+        if not self.model.config.uses_actions:
+            self._advance(action)
+            return
+        acts = list(legal_actions(self.world, self.state, HUMAN))
+        try:
+            k = acts.index(action if action.kind != "grab" else Action("grab", action.agent, obj=action.obj,
+                                                                        place=self.state.item_at[action.obj]))
+        except ValueError:
+            k = next(i for i, a in enumerate(acts) if (a.kind, a.obj, a.place) == (action.kind, action.obj, action.place))
+        Q = successor_values(self.ctg, self.state, self._tabs, acts, self._Nrows)  # (A, R)
+        for b, pol in enumerate(self._policies):
+            self._row_ll[:, b] += pol.log_probs(Q)[k]
+        self._unknown_ll += -np.log(len(acts))
+        self._advance(action)
+
+    def _advance(self, action: Action) -> None:
+        s2 = apply(self.state, action)
+        if action.kind in ("grab", "put", "handover"):
+            changed = [int(self.world.item_class_idx[action.obj])]
+        elif action.kind in ("open", "close"):
+            changed = sorted({int(self.world.item_class_idx[i]) for i, loc in enumerate(self.state.item_at)
+                              if loc == action.place})
+        else:
+            changed = []
+        self._tabs = self.ctg.retable(self._tabs, s2, changed)
+        self._history.append((self.state, action))
+        self.state = s2
+        self.n_actions += 1
+
+    # ----- hypotheses ------------------------------------------------------------------------
+    def _remaining(self, cls_col: int) -> int:
+        """Objects of a class not yet on the target nor in the human's hands."""
+        s = self.state
+        return int(self._tabs.at_target[cls_col]) + (1 if s.held[HUMAN] >= 0 and
+                                                      self.world.item_class_idx[s.held[HUMAN]] == cls_col else 0)
+
+    def candidates(self) -> tuple[list[tuple[int, RobotCommand, int]], list[RobotCommand]]:
+        """(goal index, command, human-subgoal row) triples, and the domain's full command list."""
+        cfg = self.model.config
+        triples = []
+        for g in range(len(self.goals)):
+            row = self._N_goal[g]
+            for c in np.flatnonzero(row):
+                left = int(row[c]) - self._remaining(c)
+                if left < 1:
+                    continue
+                n = row.copy()
+                n[c] = 0
+                triples.append((g, RobotCommand(self.verb, self.world.classes[c], left), self._rows[tuple(int(x) for x in n)]))
+        everything = []
+        for c in self.world.classes:
+            total = sum(1 for it in self.world.items if it.cls == c)
+            top = min(total, cfg.max_count) if self.verb == "deliver" else 1
+            everything.extend(RobotCommand(self.verb, c, k) for k in range(1, top + 1))
+        return triples, everything
+
+    def posterior(self, instruction: Instruction | None = None, top: int = 10) -> Posterior:
+        """The joint posterior now, given what was heard (None: the action term alone)."""
+        t0 = time.perf_counter()
+        cfg = self.model.config
+        if cfg.mode == "action-only":
+            instruction = None
+        if cfg.mode == "speech-only" and instruction is None:
+            raise ObservationError("speech-only inference needs an instruction (a transcript, N-best or audio)")
+        triples, everything = self.candidates()
+        goal_idx = np.array([t[0] for t in triples], dtype=np.int64)
+        rows = np.array([t[2] for t in triples], dtype=np.int64)
+        # unique commands: known-goal ones + the unknown-goal command space
+        cmd_index: dict[RobotCommand, int] = {}
+        for _g, cmd, _r in triples:
+            cmd_index.setdefault(cmd, len(cmd_index))
+        for cmd in everything:
+            cmd_index.setdefault(cmd, len(cmd_index))
+        cmds = list(cmd_index)
+        cmd_of = np.array([cmd_index[t[1]] for t in triples], dtype=np.int64)
+        unk_cmds = np.array([cmd_index[c] for c in everything], dtype=np.int64)
+        # instruction term per unique command
+        if instruction is not None and self.model.likelihood is not None:
+            instr = np.asarray(self.model.likelihood.log_prob(instruction, cmds), dtype=np.float64) * cfg.speech_weight
+            if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
+                raise ObservationError("the instruction likelihood returned invalid scores")
+        else:
+            instr = np.zeros(len(cmds))
+        log_unknown = np.log(cfg.unknown_prior) if cfg.unknown_prior > 0 else -np.inf
+        if cfg.mode == "speech-only":
+            # uniform over the domain's commands, words alone
+            lj = instr[unk_cmds] - np.log(len(unk_cmds))
+            names = [("(any)", str(cmds[k])) for k in unk_cmds]
+            terms = np.stack([np.full(len(unk_cmds), -np.log(len(unk_cmds))), np.zeros(len(unk_cmds)), instr[unk_cmds]], 1)
+        else:
+            # action term, marginalised over beta
+            nb = len(cfg.betas)
+            act_rows = logsumexp(self._row_ll, axis=1) - np.log(nb)
+            act = act_rows[rows]
+            # prior over robot parts: softmax of steps saved, within each goal
+            saved = self._steps_saved(goal_idx, rows)
+            z = cfg.help_kappa * saved
+            log_pr = z - _group_logsumexp(z, goal_idx, len(self.goals))[goal_idx]
+            has = np.bincount(goal_idx, minlength=len(self.goals)) > 0
+            log_pg = np.log1p(-cfg.unknown_prior) - np.log(max(int(has.sum()), 1))
+            prior = log_pg + log_pr
+            lj_known = prior + act + instr[cmd_of]
+            unk_prior = log_unknown - np.log(len(unk_cmds))
+            lj_unk = unk_prior + self._unknown_ll + instr[unk_cmds]
+            lj = np.concatenate([lj_known, lj_unk])
+            names = [(self.goals[g].name, str(cmds[k])) for g, k in zip(goal_idx, cmd_of, strict=True)]
+            names += [(UNKNOWN, str(cmds[k])) for k in unk_cmds]
+            terms = np.concatenate([
+                np.stack([prior, act, instr[cmd_of]], 1),
+                np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), self._unknown_ll), instr[unk_cmds]], 1),
+            ])
+        logZ = logsumexp(lj)
+        p = np.exp(lj - logZ)
+        cmd_p: dict[str, float] = {}
+        goal_p: dict[str, float] = {}
+        for (gname, cname), pi in zip(names, p, strict=True):
+            cmd_p[cname] = cmd_p.get(cname, 0.0) + float(pi)
+            goal_p[gname] = goal_p.get(gname, 0.0) + float(pi)
+        commands = tuple(sorted(cmd_p.items(), key=lambda kv: (-kv[1], kv[0])))
+        goals = tuple(sorted(goal_p.items(), key=lambda kv: (-kv[1], kv[0])))
+        order = np.argsort(-lj, kind="stable")[:top]
+        hyps = tuple(Hypothesis(names[i][0], names[i][1], float(p[i]), float(terms[i, 0]), float(terms[i, 1]),
+                                float(terms[i, 2])) for i in order)
+        return Posterior(
+            command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,
+            likelihood=getattr(self.model.likelihood, "name", "none") if instruction is not None else "none",
+            n_actions=self.n_actions, seconds=time.perf_counter() - t0,
+            transcript=instruction.text if instruction is not None else "",
+        )
+
+    def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""
+        s = self.state
+        v_rows = self.ctg.values(self._tabs, self._Nrows, s.agent_at[HUMAN], s.held[HUMAN])
+        v_goal = self.ctg.values(self._tabs, self._N_goal, s.agent_at[HUMAN], s.held[HUMAN])
+        return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+
+
+def _group_logsumexp(x: np.ndarray, groups: np.ndarray, n: int) -> np.ndarray:
+    m = np.full(n, -np.inf)
+    np.maximum.at(m, groups, x)
+    m_safe = np.where(np.isfinite(m), m, 0.0)
+    s = np.zeros(n)
+    np.add.at(s, groups, np.exp(x - m_safe[groups]))
+    with np.errstate(divide="ignore"):
+        return np.log(s) + m_safe

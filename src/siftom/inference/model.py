@@ -23,6 +23,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -30,8 +31,7 @@ from scipy.special import logsumexp
 
 from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
-from siftom.planning.costtogo import CostToGo, goal_matrix, successor_values
-from siftom.planning.policy import BoltzmannPolicy
+from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
 
@@ -193,32 +193,18 @@ class OnlineInference:
         kmax = max(int(self._N_goal.max()), cfg.max_count)
         self.ctg = CostToGo(world, self.target, kmax, agent=HUMAN)
         self._tabs = self.ctg.tables(start)
-        self._policies = [BoltzmannPolicy(beta=b, epsilon=cfg.epsilon) for b in cfg.betas]
-        # robot-part candidates and the human-subgoal rows are fixed at the first posterior
-        # call? No: counts depend on the state when the human speaks, so rows are built lazily
-        # from the goal matrix; the action term is tracked per (goal, class) removal below.
-        self._cols = {c: k for k, c in enumerate(world.classes)}
-        self._rows: dict[tuple[int, ...], int] = {}
-        self._row_list: list[np.ndarray] = []
-        self._row_ll = np.zeros((0, len(cfg.betas)))  # cumulative action log-lik per row per beta
+        self._betas = np.asarray(cfg.betas, dtype=np.float64)
+        # Human-subgoal rows: every goal, and every goal minus one of its classes (the robot's
+        # part). Duplicates are merged, so the Q-table has one row per distinct subgoal.
+        G, C = self._N_goal.shape
+        uniq, self._goal_row, (gi, ci, self._pair_row) = _subgoal_rows(self._N_goal.tobytes(), G, C)
+        self._Nrows = uniq
+        self._sp = SparseGoals.from_dense(uniq)
+        self._pair_goal, self._pair_cls = gi, ci
+        self._row_ll = np.zeros((len(uniq), len(cfg.betas)))  # cumulative action log-lik per row per beta
         self._unknown_ll = 0.0
         self._history: list[tuple[State, Action]] = []
-        # rows: every goal, and every goal minus every one of its classes (count removed fully)
-        for g in range(len(goals)):
-            self._row(self._N_goal[g])
-            for c in np.flatnonzero(self._N_goal[g]):
-                n = self._N_goal[g].copy()
-                n[c] = 0
-                self._row(n)
-        self._row_ll = np.zeros((len(self._row_list), len(cfg.betas)))
-        self._Nrows = np.array(self._row_list)
-
-    def _row(self, n: np.ndarray) -> int:
-        key = tuple(int(x) for x in n)
-        if key not in self._rows:
-            self._rows[key] = len(self._row_list)
-            self._row_list.append(np.array(key, dtype=np.int64))
-        return self._rows[key]
+        self._class_total = np.bincount(world.item_class_idx, minlength=C)
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, action: Action) -> None:
@@ -235,11 +221,22 @@ class OnlineInference:
                                                                         place=self.state.item_at[action.obj]))
         except ValueError:
             k = next(i for i, a in enumerate(acts) if (a.kind, a.obj, a.place) == (action.kind, action.obj, action.place))
-        Q = successor_values(self.ctg, self.state, self._tabs, acts, self._Nrows)  # (A, R)
-        for b, pol in enumerate(self._policies):
-            self._row_ll[:, b] += pol.log_probs(Q)[k]
+        Q = successor_values(self.ctg, self.state, self._tabs, acts, self._sp)  # (A, R)
+        self._row_ll += self._action_loglik(Q, k)
         self._unknown_ll += -np.log(len(acts))
         self._advance(action)
+
+    def _action_loglik(self, Q: np.ndarray, k: int) -> np.ndarray:
+        """log P(a_k | s) under every row and beta, shape (R, B): Boltzmann with epsilon floor."""
+        cfg = self.model.config
+        betas = self._betas[:, None, None]
+        z = -betas * np.minimum(Q, 1e6)[None]  # (B, A, R)
+        zmax = z.max(axis=1)
+        lse = np.log(np.exp(z - zmax[:, None, :]).sum(axis=1)) + zmax
+        lp = z[:, k, :] - lse  # (B, R)
+        if cfg.epsilon > 0:
+            lp = np.logaddexp(np.log1p(-cfg.epsilon) + lp, np.log(cfg.epsilon / Q.shape[0]))
+        return lp.T
 
     def _advance(self, action: Action) -> None:
         s2 = apply(self.state, action)
@@ -256,30 +253,26 @@ class OnlineInference:
         self.n_actions += 1
 
     # ----- hypotheses ------------------------------------------------------------------------
-    def _remaining(self, cls_col: int) -> int:
-        """Objects of a class not yet on the target nor in the human's hands."""
-        s = self.state
-        return int(self._tabs.at_target[cls_col]) + (1 if s.held[HUMAN] >= 0 and
-                                                      self.world.item_class_idx[s.held[HUMAN]] == cls_col else 0)
-
     def candidates(self) -> tuple[list[tuple[int, RobotCommand, int]], list[RobotCommand]]:
-        """(goal index, command, human-subgoal row) triples, and the domain's full command list."""
+        """(goal index, command, human-subgoal row) triples, and the domain's full command list.
+
+        The robot's part for goal g and class c is every object of c the goal still needs: not
+        yet on the target and not in the human's hands.
+        """
         cfg = self.model.config
-        triples = []
-        for g in range(len(self.goals)):
-            row = self._N_goal[g]
-            for c in np.flatnonzero(row):
-                left = int(row[c]) - self._remaining(c)
-                if left < 1:
-                    continue
-                n = row.copy()
-                n[c] = 0
-                triples.append((g, RobotCommand(self.verb, self.world.classes[c], left), self._rows[tuple(int(x) for x in n)]))
+        s = self.state
+        done = self._tabs.at_target.copy()
+        if s.held[HUMAN] >= 0:
+            done[self.world.item_class_idx[s.held[HUMAN]]] += 1
+        left = self._N_goal[self._pair_goal, self._pair_cls] - done[self._pair_cls]
+        keep = np.flatnonzero(left >= 1)
+        classes = self.world.classes
+        triples = [(int(self._pair_goal[k]), _command(self.verb, classes[self._pair_cls[k]], int(left[k])),
+                    int(self._pair_row[k])) for k in keep]
         everything = []
-        for c in self.world.classes:
-            total = sum(1 for it in self.world.items if it.cls == c)
-            top = min(total, cfg.max_count) if self.verb == "deliver" else 1
-            everything.extend(RobotCommand(self.verb, c, k) for k in range(1, top + 1))
+        for c, cls in enumerate(classes):
+            top = min(int(self._class_total[c]), cfg.max_count) if self.verb == "deliver" else 1
+            everything.extend(_command(self.verb, cls, k) for k in range(1, top + 1))
         return triples, everything
 
     def posterior(self, instruction: Instruction | None = None, top: int = 10) -> Posterior:
@@ -313,7 +306,6 @@ class OnlineInference:
         if cfg.mode == "speech-only":
             # uniform over the domain's commands, words alone
             lj = instr[unk_cmds] - np.log(len(unk_cmds))
-            names = [("(any)", str(cmds[k])) for k in unk_cmds]
             terms = np.stack([np.full(len(unk_cmds), -np.log(len(unk_cmds))), np.zeros(len(unk_cmds)), instr[unk_cmds]], 1)
         else:
             # action term, marginalised over beta
@@ -331,24 +323,26 @@ class OnlineInference:
             unk_prior = log_unknown - np.log(len(unk_cmds))
             lj_unk = unk_prior + self._unknown_ll + instr[unk_cmds]
             lj = np.concatenate([lj_known, lj_unk])
-            names = [(self.goals[g].name, str(cmds[k])) for g, k in zip(goal_idx, cmd_of, strict=True)]
-            names += [(UNKNOWN, str(cmds[k])) for k in unk_cmds]
             terms = np.concatenate([
                 np.stack([prior, act, instr[cmd_of]], 1),
                 np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), self._unknown_ll), instr[unk_cmds]], 1),
             ])
         logZ = logsumexp(lj)
         p = np.exp(lj - logZ)
-        cmd_p: dict[str, float] = {}
-        goal_p: dict[str, float] = {}
-        for (gname, cname), pi in zip(names, p, strict=True):
-            cmd_p[cname] = cmd_p.get(cname, 0.0) + float(pi)
-            goal_p[gname] = goal_p.get(gname, 0.0) + float(pi)
-        commands = tuple(sorted(cmd_p.items(), key=lambda kv: (-kv[1], kv[0])))
-        goals = tuple(sorted(goal_p.items(), key=lambda kv: (-kv[1], kv[0])))
+        cmd_all = unk_cmds if cfg.mode == "speech-only" else np.concatenate([cmd_of, unk_cmds])
+        goal_all = (np.zeros(len(unk_cmds), dtype=np.int64) if cfg.mode == "speech-only"
+                    else np.concatenate([goal_idx, np.full(len(unk_cmds), len(self.goals))]))
+        goal_names = ["(any)"] if cfg.mode == "speech-only" else [g.name for g in self.goals] + [UNKNOWN]
+        cm = np.bincount(cmd_all, weights=p, minlength=len(cmds))
+        gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
+        corder = np.lexsort((np.arange(len(cmds)), -cm))
+        corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
+        commands = tuple((str(cmds[k]), float(cm[k])) for k in corder)
+        gorder = [k for k in np.argsort(-gm, kind="stable") if gm[k] > 0]
+        goals = tuple((goal_names[k], float(gm[k])) for k in gorder)
         order = np.argsort(-lj, kind="stable")[:top]
-        hyps = tuple(Hypothesis(names[i][0], names[i][1], float(p[i]), float(terms[i, 0]), float(terms[i, 1]),
-                                float(terms[i, 2])) for i in order)
+        hyps = tuple(Hypothesis(goal_names[goal_all[i]], str(cmds[cmd_all[i]]), float(p[i]), float(terms[i, 0]),
+                                float(terms[i, 1]), float(terms[i, 2])) for i in order)
         return Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,
             likelihood=getattr(self.model.likelihood, "name", "none") if instruction is not None else "none",
@@ -359,9 +353,28 @@ class OnlineInference:
     def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""
         s = self.state
-        v_rows = self.ctg.values(self._tabs, self._Nrows, s.agent_at[HUMAN], s.held[HUMAN])
-        v_goal = self.ctg.values(self._tabs, self._N_goal, s.agent_at[HUMAN], s.held[HUMAN])
+        v_rows = self.ctg.values(self._tabs, self._sp, s.agent_at[HUMAN], s.held[HUMAN])
+        v_goal = v_rows[self._goal_row]
         return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+
+
+@lru_cache(maxsize=64)
+def _subgoal_rows(key: bytes, G: int, C: int):
+    """Distinct human subgoals: every goal, and every goal minus one of its classes (cached)."""
+    N = np.frombuffer(key, dtype=np.int64).reshape(G, C)
+    gi, ci = np.nonzero(N)
+    minus = N[gi].copy()
+    minus[np.arange(len(gi)), ci] = 0
+    uniq, inv = np.unique(np.concatenate([N, minus]), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    for a in (uniq, inv, gi, ci):
+        a.setflags(write=False)
+    return uniq, inv[:G], (gi, ci, inv[G:])
+
+
+@lru_cache(maxsize=65536)
+def _command(verb: str, cls: str, n: int) -> RobotCommand:
+    return RobotCommand(verb, cls, n)
 
 
 def _group_logsumexp(x: np.ndarray, groups: np.ndarray, n: int) -> np.ndarray:

@@ -149,41 +149,48 @@ class CostToGo:
 
     # ----- values ----------------------------------------------------------------------------
     def values(
-        self, tabs: ClassTables, N: np.ndarray, at: np.ndarray | int, held: int,
+        self, tabs: ClassTables, N: np.ndarray | SparseGoals, at: np.ndarray | int, held: int,
         relaxed: bool = False,
     ) -> np.ndarray:
         """V for goals ``N`` (G, C) with the agent at place(s) ``at`` holding ``held``.
 
         Returns shape (G,) for a scalar ``at`` or (len(at), G) for an array of places.
         """
+        sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
         scalar = np.ndim(at) == 0
         q = np.atleast_1d(np.asarray(at, dtype=np.int64))
-        G, C = N.shape
-        need = np.maximum(N - tabs.at_target[None, :], 0)
-        cols = np.arange(C)[None, :]
-        T = self.target
-        out = np.zeros((len(q), G))
+        idx, cnt = sp.idx, sp.cnt
+        C = self.C
+        pad = idx == C  # padding columns point past the last class
+        cidx = np.where(pad, 0, idx)
+        need = np.where(pad, 0, np.maximum(cnt - tabs.at_target[cidx], 0))
         if held != NOTHING:
             ch = int(self.world.item_class_idx[held])
-            deliver = need[:, ch] > 0  # goals for which the held object is useful
+            hit = (idx == ch) & (need > 0)
+            deliver = hit.any(axis=1)
+            eff = need - hit
         else:
-            ch, deliver = -1, np.zeros(G, dtype=bool)
-        # goals where the held object goes to the target first: start from T, no first-trip term
-        need_d = need.copy()
-        if deliver.any():
-            need_d[deliver, ch] -= 1
-        eff = np.where(deliver[:, None], need_d, need)
+            deliver = np.zeros(len(idx), dtype=bool)
+            eff = need
+        over = (eff > self.kmax).any(axis=1)
         eff_c = np.minimum(eff, self.kmax)
-        body = tabs.cum[cols, eff_c].sum(axis=1)
-        body = np.where((eff > self.kmax).any(axis=1), INF, body)
-        if not relaxed:
-            ob = np.bitwise_or.reduce(tabs.opens[cols, eff_c], axis=1)
+        m = idx.shape[1]
+        cum = tabs.cum[cidx, eff_c]
+        body = cum.sum(axis=1)
+        body = np.where(over, INF, body)
+        if not relaxed and m:
+            ob = tabs.opens[cidx[:, 0], eff_c[:, 0]]
+            for j in range(1, m):
+                ob = ob | tabs.opens[cidx[:, j], eff_c[:, j]]
             body = body + np.bitwise_count(ob.astype(np.uint64)).astype(np.float64)
         any_need = (eff > 0).any(axis=1)
-        # first-trip correction for goals that start where the agent stands
-        dl = tabs.delta[cols, :, eff_c]  # (G, C, P)
-        dl = np.where((eff > 0)[:, :, None], dl, INF)
-        ft = dl.min(axis=1)[:, q].T  # (Q, G)
+        # first-trip correction for goals that start where the agent stands: min over classes
+        dq = tabs.delta[:, q, :]  # (C, Q, K+1)
+        ft = np.full((len(q), len(idx)), INF)
+        for j in range(m):
+            dj = dq[cidx[:, j], :, eff_c[:, j]]  # (G, Q)
+            dj = np.where((eff[:, j] > 0)[:, None], dj, INF)
+            ft = np.minimum(ft, dj.T)
         ft = np.where(any_need[None, :], ft, 0.0)
         base_deliver = self._dT[q][:, None] + 1.0  # walk to T and put
         # an unneeded object is put down where the first fetch happens: one action
@@ -198,21 +205,57 @@ class CostToGo:
         return float(self.values(self.tables(s), N, s.agent_at[self.agent], s.held[self.agent], relaxed)[0])
 
 
+@dataclass(frozen=True, eq=False)
+class SparseGoals:
+    """Goals as (class index, count) lists padded to equal length (padding index = n_classes).
+
+    Goals name few classes each, so this is several times smaller than the dense matrix.
+    """
+
+    idx: np.ndarray
+    cnt: np.ndarray
+    n_classes: int
+
+    @classmethod
+    def from_dense(cls, N: np.ndarray) -> SparseGoals:
+        N = np.atleast_2d(N)
+        G, C = N.shape
+        nz = N > 0
+        m = max(int(nz.sum(axis=1).max()) if G else 0, 1)
+        # stable sort puts each row's nonzero columns first, in column order
+        order = np.argsort(~nz, axis=1, kind="stable")[:, :m]
+        cnt = np.take_along_axis(N, order, axis=1).astype(np.int64)
+        idx = np.where(cnt > 0, order, C).astype(np.int64)
+        return cls(idx, np.where(cnt > 0, cnt, 0), C)
+
+    def subset(self, rows: np.ndarray) -> SparseGoals:
+        return SparseGoals(self.idx[rows], self.cnt[rows], self.n_classes)
+
+    def __len__(self) -> int:
+        return len(self.idx)
+
+
 def successor_values(
-    ctg: CostToGo, s: State, tabs: ClassTables, actions: Sequence[Action], N: np.ndarray
+    ctg: CostToGo, s: State, tabs: ClassTables, actions: Sequence[Action], N: np.ndarray | SparseGoals
 ) -> np.ndarray:
     """Q*(s, a; g) = cost(a) + V*(s_a; g) for every action (rows) and goal (columns).
 
-    Walk actions share ``tabs`` and are evaluated in one batch; every other action changes
-    at most the classes of one object or one container, so only those are rebuilt.
+    Walk actions share ``tabs`` and are evaluated in one batch (together with standing still).
+    A grab changes only its object's class: goals that do not need that class pay exactly one
+    extra ``put`` later, so only the goals that need it are recomputed. Other actions change at
+    most the classes of one object or one container, so only those tables are rebuilt.
     """
+    sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
     world, agent = ctg.world, ctg.agent
-    Q = np.empty((len(actions), N.shape[0]))
+    here, held = s.agent_at[agent], s.held[agent]
+    Q = np.empty((len(actions), len(sp)))
     walk_rows = [r for r, a in enumerate(actions) if a.kind == "walk"]
+    places = np.array([here] + [actions[r].place for r in walk_rows])
+    v = ctg.values(tabs, sp, places, held)
+    v_stay = v[0]
     if walk_rows:
-        places = np.array([actions[r].place for r in walk_rows])
-        v = ctg.values(tabs, N, places, s.held[agent])
-        Q[walk_rows] = v + world.dist[s.agent_at[agent], places][:, None]
+        Q[walk_rows] = v[1:] + world.dist[here, places[1:]][:, None]
+    any_need = None
     for r, a in enumerate(actions):
         if a.kind == "walk":
             continue
@@ -222,5 +265,19 @@ def successor_values(
         else:  # open/close: classes with objects in that container
             changed = sorted({int(world.item_class_idx[i]) for i, loc in enumerate(s.item_at) if loc == a.place})
         t2 = ctg.retable(tabs, s2, changed)
-        Q[r] = cost(world, s, a) + ctg.values(t2, N, s2.agent_at[agent], s2.held[agent])
+        if a.kind == "grab" and held == NOTHING:
+            c = changed[0]
+            if any_need is None:
+                need = np.where(sp.idx == ctg.C, 0, sp.cnt - tabs.at_target[np.minimum(sp.idx, ctg.C - 1)])
+                any_need = (need > 0).any(axis=1)
+                needs_cls = {}
+            if c not in needs_cls:
+                needs_cls[c] = np.flatnonzero(((sp.idx == c) & (need > 0)).any(axis=1))
+            rows = needs_cls[c]
+            out = v_stay + any_need
+            if len(rows):
+                out[rows] = ctg.values(t2, sp.subset(rows), s2.agent_at[agent], s2.held[agent])
+            Q[r] = 1.0 + out
+            continue
+        Q[r] = cost(world, s, a) + ctg.values(t2, sp, s2.agent_at[agent], s2.held[agent])
     return Q

@@ -34,9 +34,9 @@ ASR_SENTENCES = (
     ("bring me the spoon", False),
 )
 ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "whisper")
-DEFAULT_VOICES = ("flite-slt", "espeak-en-us+klatt", "espeak-es")
+DEFAULT_VOICES = ("flite-slt", "flite-rms", "espeak-en-us+klatt", "espeak-es")
 QUICK_VOICES = ("flite-slt", "espeak-en-us+klatt")
-DEFAULT_SNRS: tuple[float | None, ...] = (None, 20.0, 10.0, 0.0)
+DEFAULT_SNRS: tuple[float | None, ...] = (None, 20.0, 10.0, 5.0, 0.0)
 QUICK_SNRS: tuple[float | None, ...] = (None, 10.0)
 ACOUSTIC_TEMPLATES = ("can you pass me the {x}", "bring me the {x}", "i need the {x}")
 ACOUSTIC_VOICES = ("flite-slt", "flite-rms", "flite-awb", "flite-kal16", "espeak-en-us+klatt")

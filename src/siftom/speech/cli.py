@@ -136,7 +136,8 @@ def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, 
 
     t = Table(title=f"siftom bench asr ({res.seconds:.0f} s)")
     for col in ("engine", "voice", "noise", "SNR dB", "WER %", "in-vocab %", "OOV %", "RTF"):
-        t.add_column(col, justify="right" if col not in ("engine", "voice", "noise") else "left")
+        left = col in ("engine", "voice", "noise")
+        t.add_column(col, justify="left" if left else "right", no_wrap=left)
     for r in res.rows:
         t.add_row(r.engine, r.voice, r.noise, "clean" if r.snr_db is None else f"{r.snr_db:g}",
                   f"{100 * r.wer:.0f}", f"{100 * r.wer_in_vocab:.0f}", f"{100 * r.wer_out_of_vocab:.0f}",

@@ -1,0 +1,95 @@
+"""One entry point for callers (CLI, HTTP service, evaluator): run SIFToM on a request.
+
+A request names a registered scenario or carries its own world (``siftom.world.io`` JSON),
+the human's actions in ``Predicate(agent, object, location)`` form, and what was heard.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from siftom.errors import ObservationError
+from siftom.inference.model import ModelConfig, Observation, Posterior, SIFToM
+from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
+
+
+@lru_cache(maxsize=8)
+def get_model(mode: str = "full", likelihood: str = "phonetic") -> SIFToM:
+    """A cached model for a mode ("full", "speech-only", "action-only") and likelihood name."""
+    from siftom.likelihood.registry import get_likelihood
+
+    cfg = ModelConfig(mode=mode)
+    lk: InstructionLikelihood | None = get_likelihood(likelihood) if cfg.uses_speech else None
+    return SIFToM(cfg, lk)
+
+
+def make_instruction(
+    transcript: str | None = None,
+    nbest: Sequence[tuple[str, float] | dict[str, Any]] | None = None,
+    audio: str | Path | None = None,
+) -> Instruction | None:
+    """Build an Instruction from whichever of transcript / N-best / audio is given."""
+    hyps: list[Hypothesis] = []
+    if nbest:
+        for k, h in enumerate(nbest):
+            if isinstance(h, dict):
+                if "text" not in h:
+                    raise ObservationError(f"nbest[{k}] needs a 'text' field, e.g. {{'text': 'pass me the cereal', 'score': -3.2}}")
+                hyps.append(Hypothesis(str(h["text"]), float(h.get("score", 0.0))))
+            else:
+                hyps.append(Hypothesis(str(h[0]), float(h[1])))
+    elif transcript is not None:
+        if not str(transcript).strip():
+            raise ObservationError("the transcript is empty; give the words that were heard")
+        hyps.append(Hypothesis(str(transcript).strip(), 0.0))
+    if not hyps and audio is None:
+        return None
+    return Instruction(nbest=tuple(hyps), audio=Path(audio) if audio is not None else None)
+
+
+def infer_scenario(
+    scenario_id: str,
+    instruction: Instruction | None,
+    mode: str = "full",
+    likelihood: str = "phonetic",
+    n_actions: int | None = None,
+) -> Posterior:
+    """Run inference on a registered scenario with its observed actions (or the first ``n_actions``)."""
+    from siftom.world.domains.base import get_scenario
+
+    sc = get_scenario(scenario_id)
+    if n_actions is not None and not 0 <= n_actions <= len(sc.actions):
+        raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {scenario_id}")
+    obs = Observation.from_scenario(sc, instruction, n_actions)
+    return get_model(mode, likelihood).infer(obs)
+
+
+def infer_actions(
+    scenario_id: str,
+    actions: Sequence[str],
+    instruction: Instruction | None,
+    mode: str = "full",
+    likelihood: str = "phonetic",
+) -> Posterior:
+    """Inference on a registered scenario's start state with the caller's own action strings."""
+    from siftom.world.domains.base import get_scenario
+
+    sc = get_scenario(scenario_id)
+    states = [sc.start]
+    acts = []
+    for k, text in enumerate(actions):
+        if not isinstance(text, str):
+            raise ObservationError(f"actions[{k}] must be a string like 'walk(human, fridge)'")
+        a = sc.world.parse_action(text, states[-1])
+        acts.append(a)
+        from siftom.world.model import apply, check
+
+        why = check(sc.world, states[-1], a)
+        if why is not None:
+            raise ObservationError(f"actions[{k}] {text!r} is impossible here: {why}")
+        states.append(apply(states[-1], a))
+    obs = Observation(sc.world, sc.start, tuple(acts), sc.goals, sc.verb, instruction)
+    return get_model(mode, likelihood).infer(obs)

@@ -240,14 +240,7 @@ class OnlineInference:
 
     def _advance(self, action: Action) -> None:
         s2 = apply(self.state, action)
-        if action.kind in ("grab", "put", "handover"):
-            changed = [int(self.world.item_class_idx[action.obj])]
-        elif action.kind in ("open", "close"):
-            changed = sorted({int(self.world.item_class_idx[i]) for i, loc in enumerate(self.state.item_at)
-                              if loc == action.place})
-        else:
-            changed = []
-        self._tabs = self.ctg.retable(self._tabs, s2, changed)
+        self._tabs = self.ctg.retable(self._tabs, s2, _changed_classes(self.world, self.state, action))
         self._history.append((self.state, action))
         self.state = s2
         self.n_actions += 1
@@ -356,6 +349,15 @@ class OnlineInference:
         v_rows = self.ctg.values(self._tabs, self._sp, s.agent_at[HUMAN], s.held[HUMAN])
         v_goal = v_rows[self._goal_row]
         return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+
+
+def _changed_classes(world: World, s: State, action: Action) -> list[int]:
+    """Object classes whose cost tables an action changes."""
+    if action.kind in ("grab", "put", "handover"):
+        return [int(world.item_class_idx[action.obj])]
+    if action.kind in ("open", "close"):
+        return sorted({int(world.item_class_idx[i]) for i, loc in enumerate(s.item_at) if loc == action.place})
+    return []
 
 
 @lru_cache(maxsize=64)

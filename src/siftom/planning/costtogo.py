@@ -22,6 +22,7 @@ and matches A* on the great majority of states (tests/planning measure this).
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,6 +31,7 @@ import numpy as np
 from siftom.world.model import HELD, NOTHING, Action, Goal, State, World, apply, cost
 
 INF = np.float64(1e9)
+_ROW_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def goal_matrix(world: World, goals: Sequence[Goal]) -> np.ndarray:
@@ -82,7 +84,9 @@ class CostToGo:
         self._d = d
         self._cls_items = [np.flatnonzero(world.item_class_idx == c) for c in range(self.C)]
         self._closable = np.array([p.closable for p in world.places])
-        self._cache: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, int]] = {}
+        # class rows depend only on the world, target and kmax: share them across instances
+        per_world = _ROW_CACHE.setdefault(world, {})
+        self._cache = per_world.setdefault((target, self.kmax), {})
 
     # ----- tables ----------------------------------------------------------------------------
     def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int):

@@ -161,8 +161,9 @@ def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, 
 @click.option("--json", "as_json", is_flag=True, help="print the results as JSON")
 @click.option("--out", "out_dir", default="bench-out/acoustic", show_default=True, help="folder for JSON")
 @click.option("--quick", is_flag=True, help="2 voices, 1 template")
-@click.option("--snr", type=float, default=None, help="mix babble at this SNR (default clean)")
-def bench_acoustic_cmd(as_json: bool, out_dir: str, quick: bool, snr: float | None) -> None:
+@click.option("--snr", type=float, default=None, help="mix noise at this SNR (default clean)")
+@click.option("--noise", default="babble", show_default=True, help="noise spec used with --snr")
+def bench_acoustic_cmd(as_json: bool, out_dir: str, quick: bool, snr: float | None, noise: str) -> None:
     """Accuracy of ranking the true phrasing first among swapped-object candidates, and cost."""
     from siftom.speech import bench as b
 
@@ -170,14 +171,16 @@ def bench_acoustic_cmd(as_json: bool, out_dir: str, quick: bool, snr: float | No
         voices=b.ACOUSTIC_VOICES[:2] if quick else b.ACOUSTIC_VOICES,
         templates=b.ACOUSTIC_TEMPLATES[:1] if quick else b.ACOUSTIC_TEMPLATES,
         snr_db=snr,
+        noise=noise,
         progress=None if as_json else (lambda m: click.echo(f"  {m}", err=True)),
     )
-    name = "acoustic_clean.json" if snr is None else f"acoustic_snr{snr:g}.json"
+    tag = "".join(c if c.isalnum() else "_" for c in Path(noise.split(":")[-1]).name)
+    name = "acoustic_clean.json" if snr is None else f"acoustic_{tag}_snr{snr:g}.json"
     path = b.write_json(res.to_json(), Path(out_dir) / name)
     if as_json:
         click.echo(json.dumps(res.to_json(), indent=2))
         return
-    cond = "clean" if snr is None else f"babble {snr:g} dB"
+    cond = "clean" if snr is None else f"{noise} {snr:g} dB"
     click.echo(f"acoustic scorer ({cond}, {res.utterances} utterances x {res.candidates} candidates): "
                f"top-1 {100 * res.accuracy:.1f} %, {res.ms_per_candidate:.1f} ms per candidate")
     click.echo(f"baseline (biased-LM 1-best names the food): {100 * res.baseline_accuracy:.1f} %, "

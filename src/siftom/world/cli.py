@@ -105,6 +105,81 @@ def inspect_cmd(file: Path, as_json: bool) -> None:
         _print_summary(file, info)
 
 
+@click.group()
+def scenarios() -> None:
+    """List and show the registered scenarios of the built-in domains."""
+
+
+@scenarios.command("list")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@click.option("--domain", default=None, help="Only this domain (e.g. kitchen-v0).")
+def scenarios_list(as_json: bool, domain: str | None) -> None:
+    """List registered scenario ids with their domain and story."""
+    from siftom.world.domains.base import domains, get_scenario, scenario_domain, scenario_ids
+
+    known = [d.id for d in domains()]
+    if domain is not None and domain not in known:
+        from siftom.errors import unknown_name
+
+        raise unknown_name("domain", domain, known)
+    ids = [i for i in scenario_ids() if domain is None or scenario_domain(i) == domain]
+    rows = []
+    for sid in ids:
+        sc = get_scenario(sid)
+        rows.append({"id": sid, "domain": sc.domain, "goal": sc.goal.name, "command": str(sc.command),
+                     "num_goals": len(sc.goals), "num_actions": len(sc.actions), "description": sc.description})
+    if as_json:
+        click.echo(json.dumps({"domains": [{"id": d.id, "description": d.description} for d in domains()],
+                               "scenarios": rows}, indent=2))
+        return
+    table = Table(title="siftom scenarios")
+    for col in ("id", "goals", "actions", "gold command", "story"):
+        table.add_column(col)
+    for r in rows:
+        table.add_row(r["id"], str(r["num_goals"]), str(r["num_actions"]), r["command"], r["description"])
+    Console().print(table)
+
+
+@scenarios.command("show")
+@click.argument("scenario_id")
+@click.option("--png", "png", type=click.Path(path_type=Path), default=None, help="Write a top-down map here.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@click.option("--no-path", is_flag=True, help="Do not draw the human's trajectory on the map.")
+def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool) -> None:
+    """Show one scenario: places, objects, the goal and the human's observed actions."""
+    from siftom.world.domains.base import get_scenario
+
+    sc = get_scenario(scenario_id)
+    info = sc.summary()
+    if png is not None:
+        from siftom.world.render import render_scenario
+
+        render_scenario(sc, png, show_path=not no_path)
+        info["png"] = str(png)
+    if as_json:
+        click.echo(json.dumps(info, indent=2))
+        return
+    con = Console()
+    con.print(f"[bold]{sc.id}[/bold] ({sc.domain}): {sc.description}")
+    con.print(f"goal: {sc.goal.name} = {sc.goal.describe()} on {info['target']}   "
+              f"(goal space: {len(sc.goals)} goals)   gold command: {sc.command}")
+    table = Table(title="places and objects when the human speaks")
+    for col in ("place", "room", "kind", "objects"):
+        table.add_column(col)
+    now = sc.now
+    for i, p in enumerate(sc.world.places):
+        objs = Counter(sc.world.items[k].cls for k, loc in enumerate(now.item_at) if loc == i)
+        kind = p.kind + ((" (open)" if now.is_open(i) else " (closed)") if p.closable else "")
+        table.add_row(p.name, p.room, kind, ", ".join(f"{n}x{c}" if n > 1 else c for c, n in sorted(objs.items())))
+    con.print(table)
+    con.print("observed actions:")
+    for k, a in enumerate(info["actions"], 1):
+        con.print(f"  {k:2d}. {a}")
+    if png is not None:
+        con.print(f"map written to {png}")
+
+
 def register(root: click.Group) -> None:
-    """Add the world commands (``scene``) to the root command group."""
+    """Add the world commands (``scene``, ``scenarios``) to the root command group."""
     root.add_command(scene)
+    root.add_command(scenarios)

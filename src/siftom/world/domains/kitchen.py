@@ -35,9 +35,9 @@ PLACES = (
     Place("fridge", "container", "kitchen", (-2.5, 1.5), closable=True),
     Place("kitchen_cabinet", "container", "kitchen", (2.0, 2.0), closable=True),
     Place("kitchen_shelf", "surface", "kitchen", (-2.0, -2.0)),
-    Place("storage_counter", "surface", "storage", (11.0, 1.0)),
-    Place("storage_shelf", "surface", "storage", (13.0, -1.5)),
-    Place("storage_fridge", "container", "storage", (13.0, 2.0), closable=True),
+    Place("storage_counter", "surface", "storage", (10.5, -0.5)),
+    Place("storage_shelf", "surface", "storage", (13.5, -2.5)),
+    Place("storage_fridge", "container", "storage", (13.5, 2.0), closable=True),
 )
 DOORS = {frozenset({"kitchen", "storage"}): (6.0, 0.0)}
 COLD = {"milk", "egg", "butter", "cheese", "ham", "yogurt", "orange_juice", "bacon", "chicken", "lettuce",

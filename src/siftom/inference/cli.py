@@ -1,0 +1,156 @@
+"""``siftom infer`` and the inference/planner benchmarks (``siftom bench inference|planner``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+from rich.console import Console
+from rich.table import Table
+
+from siftom.errors import ObservationError
+
+
+def _bench_group(root: click.Group) -> click.Group:
+    bench = root.commands.get("bench")
+    if bench is None:
+        bench = click.Group("bench", help="Benchmarks (speed and accuracy); --json for machines.")
+        root.add_command(bench)
+    return bench  # type: ignore[return-value]
+
+
+def _read_actions(path: Path) -> list[str]:
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError:
+        return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("#")]
+    if isinstance(data, dict):
+        data = data.get("actions")
+    if not isinstance(data, list) or not all(isinstance(a, str) for a in data):
+        raise ObservationError(f"{path}: give a JSON list of action strings (or one action per line)")
+    return data
+
+
+def _read_nbest(path: Path) -> list[dict]:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ObservationError(f"{path}: not JSON ({exc}); write the output of `siftom transcribe --json`") from None
+    if isinstance(data, dict):
+        data = data.get("nbest")
+    if not isinstance(data, list) or not data:
+        raise ObservationError(f"{path}: expected a non-empty list of {{text, score}} (or {{'nbest': [...]}})")
+    return data
+
+
+@click.command("infer")
+@click.option("--scenario", "scenario_id", default=None, help="A registered scenario id (see `siftom scenarios list`).")
+@click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None,
+              help="Your own world JSON or VirtualHome graph (instead of --scenario).")
+@click.option("--actions", "actions_file", type=click.Path(path_type=Path), default=None,
+              help="The human's actions: JSON list or one per line, e.g. grab(human, milk, fridge).")
+@click.option("--goal-space", default=None, help="For --scene: household-table-v0 or kitchen-v0.")
+@click.option("--target", default=None, help="For a VirtualHome --scene: class name of the target surface.")
+@click.option("--transcript", default=None, help="What was heard (1-best transcript).")
+@click.option("--nbest", "nbest_file", type=click.Path(path_type=Path), default=None,
+              help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
+@click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
+@click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default="full")
+@click.option("--likelihood", default="phonetic", help="phonetic (default), llm or acoustic.")
+@click.option("--engine", default="pocketsphinx", help="ASR engine for --audio.")
+@click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
+              likelihood, engine, png, as_json) -> None:
+    """Infer the goal and the robot command from what the human did and said."""
+    from siftom.inference.api import get_model, make_instruction
+    from siftom.inference.model import Observation
+
+    if (scenario_id is None) == (scene_file is None):
+        raise ObservationError("give exactly one of --scenario ID or --scene FILE")
+    nbest = _read_nbest(nbest_file) if nbest_file else None
+    if audio is not None and not nbest and transcript is None and likelihood != "acoustic":
+        nbest = _transcribe(audio, engine)
+    instruction = make_instruction(transcript, nbest, audio)
+    if instruction is None and mode != "action-only":
+        raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
+    model = get_model(mode, likelihood)
+    sc = None
+    if scenario_id is not None:
+        from siftom.world.domains.base import get_scenario
+
+        sc = get_scenario(scenario_id)
+        if actions_file is not None:
+            from siftom.inference.api import infer_actions
+
+            post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood)
+        else:
+            post = model.infer(Observation.from_scenario(sc, instruction))
+    else:
+        from siftom.world.io import load_scene
+        from siftom.world.model import apply, check
+
+        scene = load_scene(scene_file, goal_space=goal_space, target=target)
+        acts, s = [], scene.start
+        for k, text in enumerate(_read_actions(actions_file) if actions_file else []):
+            a = scene.world.parse_action(text, s)
+            why = check(scene.world, s, a)
+            if why is not None:
+                raise ObservationError(f"action {k + 1} {text!r} is impossible here: {why}")
+            acts.append(a)
+            s = apply(s, a)
+        post = model.infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb, instruction))
+    if png is not None and sc is not None:
+        from siftom.world.render import render_scenario
+
+        render_scenario(sc, png, posterior=post)
+    if as_json:
+        click.echo(json.dumps(post.to_json(), indent=2))
+        return
+    print_posterior(post)
+
+
+def _transcribe(audio: Path, engine: str) -> list[dict]:
+    from siftom.speech import transcribe_file
+
+    tr = transcribe_file(audio, engine=engine, nbest=10)
+    return [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
+
+
+def print_posterior(post, console: Console | None = None) -> None:
+    """The readable table: top commands, goals and hypotheses with each term."""
+    con = console or Console()
+    if post.transcript:
+        con.print(f'heard: "{post.transcript}"   model: {post.mode}, likelihood: {post.likelihood}, '
+                  f"{post.n_actions} observed actions")
+    t = Table(title="robot commands")
+    t.add_column("command")
+    t.add_column("P", justify="right")
+    for c, p in post.commands[:6]:
+        t.add_row(c, f"{p:.3f}")
+    g = Table(title="goals")
+    g.add_column("goal")
+    g.add_column("P", justify="right")
+    for name, p in post.goals[:6]:
+        g.add_row(name, f"{p:.3f}")
+    h = Table(title="top hypotheses (log terms)")
+    for col in ("goal", "command", "P", "prior", "actions", "words"):
+        h.add_column(col, justify="right" if col not in ("goal", "command") else "left")
+    for hy in post.hypotheses[:6]:
+        h.add_row(hy.goal, hy.command, f"{hy.prob:.3f}", f"{hy.log_prior:.2f}", f"{hy.log_action:.2f}",
+                  f"{hy.log_instruction:.2f}")
+    con.print(t)
+    con.print(g)
+    con.print(h)
+    con.print(f"[bold green]chosen command: {post.command}[/bold green]")
+
+
+def register(root: click.Group) -> None:
+    root.add_command(infer_cmd)
+    from siftom.inference.bench import bench_inference_cmd, bench_planner_cmd
+
+    bench = _bench_group(root)
+    bench.add_command(bench_inference_cmd)
+    bench.add_command(bench_planner_cmd)

@@ -1,0 +1,216 @@
+"""Bring your own scene: siftom's world JSON and VirtualHome scene graphs -> World + State.
+
+World JSON (docs/world.md has the full schema)::
+
+    {"places": [{"name": "table", "kind": "surface", "room": "dining", "pos": [0, 0]},
+                {"name": "drawer", "kind": "container", "room": "kitchen", "pos": [5, 1], "closable": true}],
+     "doors": [{"rooms": ["dining", "kitchen"], "pos": [2, 0]}],
+     "items": [{"name": "fork_1", "class": "fork", "at": "drawer"}],
+     "agents": {"human": "table", "robot": "table"},
+     "open": ["drawer"],
+     "target": "table",
+     "verb": "deliver",
+     "goals": [{"name": "forks", "counts": {"fork": 2}}]}
+
+Instead of ``goals`` a file may say ``"goal_space": "household-table-v0"`` (every 2-3 type
+subset, 2-4 of each) or ``"kitchen-v0"`` (the recipe library).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from siftom.errors import ObservationError, SceneGraphError
+from siftom.world.model import NOTHING, Goal, Item, Place, State, World
+
+MAX_BYTES = 20 * 1024 * 1024
+
+# VirtualHome class names -> siftom object classes
+VH_ALIASES = {
+    "cutleryfork": "fork", "cutleryknife": "knife", "spoon": "spoon", "dishbowl": "bowl", "plate": "plate",
+    "wineglass": "wineglass", "waterglass": "waterglass", "mug": "mug", "coffeecup": "cup", "cup": "cup",
+    "milk": "milk", "cereal": "cereal", "bananas": "banana", "breadslice": "bread", "chicken": "chicken",
+    "juice": "orange_juice", "chocolatesyrup": "syrup", "condimentshaker": "salt", "salmon": "salmon",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class LoadedScene:
+    """A user scene: world, start state, goal space and the robot's verb."""
+
+    world: World
+    start: State
+    goals: tuple[Goal, ...]
+    verb: str
+
+
+def _need(d: dict, key: str, where: str) -> Any:
+    if key not in d:
+        raise ObservationError(f"{where}: missing {key!r}")
+    return d[key]
+
+
+def scene_from_json(obj: Any) -> LoadedScene:
+    """Build a scene from siftom's world JSON (see module docstring); clear errors on bad input."""
+    if not isinstance(obj, dict):
+        raise ObservationError("a world file must be a JSON object with 'places', 'items' and 'target'")
+    if "nodes" in obj and "edges" in obj:
+        from siftom.world.scenegraph import SceneGraph
+
+        return scene_from_scenegraph(SceneGraph.from_json(obj), target=obj.get("target"))
+    raw_places = _need(obj, "places", "world")
+    if not isinstance(raw_places, list) or not raw_places:
+        raise ObservationError("world: 'places' must be a non-empty list")
+    places = []
+    for k, p in enumerate(raw_places):
+        if not isinstance(p, dict):
+            raise ObservationError(f"places[{k}] must be an object with name, kind, room, pos")
+        pos = p.get("pos", [0.0, 0.0])
+        if not (isinstance(pos, list) and len(pos) == 2 and all(isinstance(v, int | float) for v in pos)):
+            raise ObservationError(f"places[{k}] ({p.get('name')}): pos must be [x, y] in metres")
+        places.append(Place(str(_need(p, "name", f"places[{k}]")), str(p.get("kind", "surface")),
+                            str(p.get("room", "room")), (float(pos[0]), float(pos[1])),
+                            bool(p.get("closable", p.get("kind") == "container"))))
+    doors = {}
+    for k, d in enumerate(obj.get("doors", [])):
+        rooms = _need(d, "rooms", f"doors[{k}]")
+        pos = _need(d, "pos", f"doors[{k}]")
+        if not (isinstance(rooms, list) and len(rooms) == 2):
+            raise ObservationError(f"doors[{k}]: rooms must be a list of two room names")
+        doors[frozenset(map(str, rooms))] = (float(pos[0]), float(pos[1]))
+    dist = World.distances_from_positions(places, doors)
+    items, item_at = [], []
+    pidx = {p.name: i for i, p in enumerate(places)}
+
+    def place_of(name: Any, where: str) -> int:
+        if name not in pidx:
+            from siftom.errors import unknown_name
+
+            raise ObservationError(f"{where}: {unknown_name('place', str(name), pidx)}")
+        return pidx[name]
+
+    for k, it in enumerate(_need(obj, "items", "world")):
+        items.append(Item(str(_need(it, "name", f"items[{k}]")), str(_need(it, "class", f"items[{k}]"))))
+        item_at.append(place_of(_need(it, "at", f"items[{k}]"), f"items[{k}]"))
+    world = World(tuple(places), tuple(items), dist)
+    agents = obj.get("agents", {})
+    human = place_of(agents.get("human", places[0].name), "agents.human")
+    robot = place_of(agents.get("robot", places[0].name), "agents.robot")
+    open_mask = 0
+    for name in obj.get("open", []):
+        open_mask |= 1 << place_of(name, "open")
+    target = place_of(_need(obj, "target", "world"), "target")
+    start = State((human, robot), (NOTHING, NOTHING), tuple(item_at), open_mask)
+    goals = _goals(obj, world, target)
+    verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
+    return LoadedScene(world, start, goals, verb)
+
+
+def _goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
+    classes = set(world.classes)
+    if "goals" in obj:
+        goals = []
+        for k, g in enumerate(obj["goals"]):
+            counts = _need(g, "counts", f"goals[{k}]")
+            if not isinstance(counts, dict) or not counts:
+                raise ObservationError(f"goals[{k}]: counts must be an object like {{\"fork\": 2}}")
+            goals.append(Goal(str(g.get("name", f"goal{k}")), target, tuple(sorted((str(c), int(n)) for c, n in counts.items()))))
+    else:
+        space = obj.get("goal_space", "household-table-v0")
+        if space == "household-table-v0":
+            from siftom.world.domains.household import goal_space
+        elif space == "kitchen-v0":
+            from siftom.world.domains.kitchen import goal_space
+        else:
+            raise ObservationError(f"goal_space must be household-table-v0 or kitchen-v0, got {space!r}; or give 'goals'")
+        goals = [Goal(g.name, target, g.counts) for g in goal_space(target)]
+    feasible = []
+    for g in goals:
+        if all(c in classes and sum(1 for it in world.items if it.cls == c) >= n for c, n in g.counts):
+            feasible.append(g)
+    if not feasible:
+        raise ObservationError("no goal in the goal space can be reached with the objects in this scene")
+    return tuple(feasible)
+
+
+def load_scene(path: str | Path, goal_space: str | None = None, target: str | None = None) -> LoadedScene:
+    """Load a world JSON or a VirtualHome scene graph file."""
+    p = Path(path)
+    if not p.is_file():
+        raise ObservationError(f"{p}: no such file; give a world JSON or a VirtualHome graph")
+    if p.stat().st_size > MAX_BYTES:
+        raise ObservationError(f"{p}: file is larger than {MAX_BYTES // 2**20} MB")
+    try:
+        obj = json.loads(p.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ObservationError(f"{p}: not valid JSON ({exc})") from None
+    if isinstance(obj, dict) and "nodes" in obj and "edges" in obj:
+        from siftom.world.scenegraph import SceneGraph
+
+        return scene_from_scenegraph(SceneGraph.from_json(obj), target=target or obj.get("target"),
+                                     goal_space=goal_space or "household-table-v0")
+    if goal_space and isinstance(obj, dict) and "goals" not in obj:
+        obj = {**obj, "goal_space": goal_space}
+    return scene_from_json(obj)
+
+
+def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str = "household-table-v0",
+                          max_places: int = 40) -> LoadedScene:
+    """Turn a VirtualHome graph into a world: furniture holding known objects become places.
+
+    Positions are bounding-box centres projected on the floor (x, z); with no doors in the
+    graph, walking cost is the straight-line distance (docs/world.md).
+    """
+    view = graph.symbolic()
+    tnode = None
+    want = target or ("kitchentable" if goal_space == "household-table-v0" else "kitchencounter")
+    for nid in view.surfaces:
+        node = graph.node(nid)
+        if node.class_name == want or node.label == want:
+            tnode = nid
+            break
+    if tnode is None:
+        raise SceneGraphError(f"no surface named {want!r} to use as the target; pass target=CLASS_NAME")
+    objs = []
+    for nid in view.grabbables:
+        cls = VH_ALIASES.get(graph.node(nid).class_name)
+        pl = view.placement(nid)
+        parent = pl.parent if pl is not None else None
+        seen = set()
+        while parent is not None and view.is_grabbable(parent) and parent not in seen:  # stacked objects
+            seen.add(parent)
+            up = view.placement(parent)
+            parent = up.parent if up is not None else None
+        if cls and parent is not None:
+            objs.append((nid, cls, parent))
+    parents = sorted({tnode} | {p for _n, _c, p in objs})[:max_places]
+    places, pidx = [], {}
+    for nid in parents:
+        node = graph.node(nid)
+        pos = view.position(nid) or (0.0, 0.0, 0.0)
+        cont = view.container(nid)
+        room = view.room_of(nid)
+        rname = next((r.name for r in view.rooms if r.id == room), "room")
+        pidx[nid] = len(places)
+        places.append(Place(node.label, "container" if cont is not None and cont.openable else "surface", rname,
+                            (float(pos[0]), float(pos[2])), closable=bool(cont is not None and cont.openable),
+                            node_id=nid))
+    dist = World.distances_from_positions(places)
+    items, item_at = [], []
+    for nid, cls, parent in objs:
+        if parent in pidx:
+            items.append(Item(graph.node(nid).label, cls, node_id=nid))
+            item_at.append(pidx[parent])
+    world = World(tuple(places), tuple(items), dist)
+    open_mask = 0
+    for nid, i in pidx.items():
+        c = view.container(nid)
+        if c is not None and c.openable and c.is_open:
+            open_mask |= 1 << i
+    t = pidx[tnode]
+    start = State((t, t), (NOTHING, NOTHING), tuple(item_at), open_mask)
+    goals = _goals({"goal_space": goal_space}, world, t)
+    return LoadedScene(world, start, goals, "fetch" if goal_space == "kitchen-v0" else "deliver")

@@ -93,3 +93,30 @@ def infer_actions(
         states.append(apply(states[-1], a))
     obs = Observation(sc.world, sc.start, tuple(acts), sc.goals, sc.verb, instruction)
     return get_model(mode, likelihood).infer(obs)
+
+
+def vocabulary_for(world: Any, verb: str, max_count: int = 4) -> list[str]:
+    """Every phrasing of every command this world affords: the biased ASR vocabulary."""
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.likelihood.phrasing import phrasings
+    from siftom.world.commands import RobotCommand
+
+    lex = default_lexicon()
+    out: dict[str, None] = {}
+    for cls in world.classes:
+        counts = range(1, max_count + 1) if verb == "deliver" else (1,)
+        for n in counts:
+            for text, _lp in phrasings(RobotCommand(verb, cls, n), lex):
+                out[text] = None
+    return list(out)
+
+
+def transcribe_for(audio: str | Path, world: Any = None, verb: str = "fetch", engine: str = "pocketsphinx",
+                   nbest: int = 10) -> Any:
+    """Transcribe an instruction; pocketsphinx is biased to the world's command phrasings."""
+    from siftom.speech.asr.base import get_engine
+
+    options: dict[str, Any] = {}
+    if engine == "pocketsphinx" and world is not None:
+        options["vocabulary"] = vocabulary_for(world, verb)
+    return get_engine(engine, **options).transcribe(audio, nbest=nbest)

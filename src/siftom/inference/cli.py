@@ -72,7 +72,15 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
     nbest = _read_nbest(nbest_file) if nbest_file else None
     if audio is not None and not nbest and transcript is None and likelihood != "acoustic":
-        nbest = _transcribe(audio, engine)
+        world, verb = None, "deliver"
+        if scenario_id is not None:
+            from siftom.world.domains.base import get_scenario
+
+            world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
+        from siftom.inference.api import transcribe_for
+
+        tr = transcribe_for(audio, world, verb, engine)
+        nbest = [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
     instruction = make_instruction(transcript, nbest, audio)
     if instruction is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
@@ -110,13 +118,6 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         click.echo(json.dumps(post.to_json(), indent=2))
         return
     print_posterior(post)
-
-
-def _transcribe(audio: Path, engine: str) -> list[dict]:
-    from siftom.speech import transcribe_file
-
-    tr = transcribe_file(audio, engine=engine, nbest=10)
-    return [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
 
 
 def print_posterior(post, console: Console | None = None) -> None:

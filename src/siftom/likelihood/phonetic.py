@@ -524,6 +524,7 @@ class PhoneticLikelihood:
         filler_cost: float = 0.15,
         filler_sub_penalty: float = 0.4,
         content_insert_scale: float = 1.0,
+        lost_word_weight: float = 0.3,
         cache_size: int = 4096,
     ) -> None:
         for label, v in (("lam", lam), ("asr_temperature", asr_temperature),
@@ -539,6 +540,12 @@ class PhoneticLikelihood:
         self.filler_cost = float(filler_cost)
         self.filler_sub_penalty = float(filler_sub_penalty)
         self.content_insert_scale = float(content_insert_scale)
+        # Noise can mask the object word entirely. Scoring D(h, u) - D(nothing, u), a likelihood
+        # ratio against "the words were lost", keeps short words from winning just because
+        # deleting fewer phonemes costs less (docs/likelihoods.md).
+        if not (np.isfinite(lost_word_weight) and 0 <= lost_word_weight <= 1):
+            raise ObservationError(f"lost_word_weight must be in [0, 1], got {lost_word_weight!r}")
+        self.lost_word_weight = float(lost_word_weight)
         self._cache_size = cache_size
         self._contents: list[str] = []
         self._content_id: dict[str, int] = {}
@@ -667,15 +674,25 @@ class PhoneticLikelihood:
         plan = self._plan(commands)
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
-        per_content = logsumexp(logw[None, :] - self.lam * d.astype(float), axis=1)
+        ch = self._channel(d, plan)
+        ch[:, [len(self._heard(t)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
+        per_content = logsumexp(logw[None, :] + ch, axis=1)
         return logsumexp(plan.log_prior + per_content[plan.index], axis=1)
+
+    def _channel(self, d: np.ndarray, plan: _Plan) -> np.ndarray:
+        """-lam (D(h, u) - alpha D(nothing, u)) per content and hypothesis (alpha = lost_word_weight)."""
+        lp = -self.lam * d.astype(float)
+        if self.lost_word_weight > 0:
+            lost = np.array([float(self._said[i][1].sum()) for i in plan.content_ids])
+            lp = lp + self.lam * self.lost_word_weight * lost[:, None]
+        return lp
 
     def explain(self, instruction: Instruction, command: RobotCommand) -> list[tuple[str, float]]:
         """(content words, log prior + log channel) for a command's phrasings, best first."""
         plan = self._plan((command,))
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)
-        per_content = logsumexp(logw[None, :] - self.lam * d.astype(float), axis=1)
+        per_content = logsumexp(logw[None, :] + self._channel(d, plan), axis=1)
         rows = [(self._contents[plan.content_ids[i]], float(lp + per_content[i]))
                 for i, lp in zip(plan.index[0], plan.log_prior[0], strict=True) if np.isfinite(lp)]
         return sorted(rows, key=lambda r: -r[1])

@@ -349,7 +349,7 @@ def evaluate(
     root = Path(out)
     root.mkdir(parents=True, exist_ok=True)
     run_info = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
-                "options": opts.to_json()}
+                "options": opts.to_json(), "seed": opts.seed}
     run_path = root / RUN
     if run_path.is_file() and not overwrite:
         old = json.loads(run_path.read_text(encoding="utf-8"))

@@ -197,7 +197,8 @@ class OnlineInference:
         # Human-subgoal rows: every goal, and every goal minus one of its classes (the robot's
         # part). Duplicates are merged, so the Q-table has one row per distinct subgoal.
         G, C = self._N_goal.shape
-        uniq, self._goal_row, (gi, ci, self._pair_row) = _subgoal_rows(self._N_goal.tobytes(), G, C)
+        uniq, (gi, ci, self._pair_row) = _subgoal_rows(self._N_goal.tobytes(), G, C)
+        self._sp_goal = SparseGoals.from_dense(self._N_goal)
         self._Nrows = uniq
         self._sp = SparseGoals.from_dense(uniq)
         self._pair_goal, self._pair_cls = gi, ci
@@ -347,7 +348,7 @@ class OnlineInference:
         """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""
         s = self.state
         v_rows = self.ctg.values(self._tabs, self._sp, s.agent_at[HUMAN], s.held[HUMAN])
-        v_goal = v_rows[self._goal_row]
+        v_goal = self.ctg.values(self._tabs, self._sp_goal, s.agent_at[HUMAN], s.held[HUMAN])
         return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
 
 
@@ -362,16 +363,20 @@ def _changed_classes(world: World, s: State, action: Action) -> list[int]:
 
 @lru_cache(maxsize=64)
 def _subgoal_rows(key: bytes, G: int, C: int):
-    """Distinct human subgoals: every goal, and every goal minus one of its classes (cached)."""
+    """Distinct human subgoals: every goal minus one of its classes (the robot's part), cached.
+
+    Only these rows enter the action likelihood; the full goals are needed once, for the
+    help prior, when the posterior is asked for.
+    """
     N = np.frombuffer(key, dtype=np.int64).reshape(G, C)
     gi, ci = np.nonzero(N)
     minus = N[gi].copy()
     minus[np.arange(len(gi)), ci] = 0
-    uniq, inv = np.unique(np.concatenate([N, minus]), axis=0, return_inverse=True)
+    uniq, inv = np.unique(minus, axis=0, return_inverse=True)
     inv = inv.reshape(-1)
     for a in (uniq, inv, gi, ci):
         a.setflags(write=False)
-    return uniq, inv[:G], (gi, ci, inv[G:])
+    return uniq, (gi, ci, inv)
 
 
 @lru_cache(maxsize=65536)

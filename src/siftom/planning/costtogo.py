@@ -161,47 +161,48 @@ class CostToGo:
         Returns shape (G,) for a scalar ``at`` or (len(at), G) for an array of places.
         """
         sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
-        scalar = np.ndim(at) == 0
-        q = np.atleast_1d(np.asarray(at, dtype=np.int64))
-        idx, cnt = sp.idx, sp.cnt
-        C = self.C
-        pad = idx == C  # padding columns point past the last class
-        cidx = np.where(pad, 0, idx)
-        need = np.where(pad, 0, np.maximum(cnt - tabs.at_target[cidx], 0))
-        if held != NOTHING:
-            ch = int(self.world.item_class_idx[held])
-            hit = (idx == ch) & (need > 0)
-            deliver = hit.any(axis=1)
-            eff = need - hit
-        else:
+        hc = int(self.world.item_class_idx[held]) if held != NOTHING else -1
+        out = self._values(tabs, sp.idx, sp.cnt, np.atleast_1d(np.asarray(at, dtype=np.int64)), hc, relaxed)
+        return out[0] if np.ndim(at) == 0 else out
+
+    def _values(self, tabs: ClassTables, idx: np.ndarray, cnt: np.ndarray, q: np.ndarray,
+                held_cls: np.ndarray | int, relaxed: bool = False) -> np.ndarray:
+        """Core of :meth:`values`: rows (idx, cnt) index table rows; ``held_cls`` per row or scalar
+        (-1: empty hands). Padding entries have count 0 and so never contribute."""
+        need = np.maximum(cnt - tabs.at_target[idx], 0)
+        if np.ndim(held_cls) == 0 and held_cls < 0:
+            holding = False
             deliver = np.zeros(len(idx), dtype=bool)
             eff = need
-        over = (eff > self.kmax).any(axis=1)
-        eff_c = np.minimum(eff, self.kmax)
+        else:
+            holding = True
+            hc = held_cls if np.ndim(held_cls) == 0 else np.asarray(held_cls)[:, None]
+            hit = (idx == hc) & (need > 0)
+            deliver = hit.any(axis=1)
+            eff = need - hit
+        eff = np.minimum(eff, self.kmax)
         m = idx.shape[1]
-        cum = tabs.cum[cidx, eff_c]
-        body = cum.sum(axis=1)
-        body = np.where(over, INF, body)
-        if not relaxed and m:
-            ob = tabs.opens[cidx[:, 0], eff_c[:, 0]]
+        body = tabs.cum[idx, eff].sum(axis=1)
+        if not relaxed:
+            ob = tabs.opens[idx[:, 0], eff[:, 0]]
             for j in range(1, m):
-                ob = ob | tabs.opens[cidx[:, j], eff_c[:, j]]
-            body = body + np.bitwise_count(ob.astype(np.uint64)).astype(np.float64)
-        any_need = (eff > 0).any(axis=1)
+                ob = ob | tabs.opens[idx[:, j], eff[:, j]]
+            body = body + np.bitwise_count(ob.astype(np.uint64))
+        pos = eff > 0
+        any_need = pos.any(axis=1)
         # first-trip correction for goals that start where the agent stands: min over classes
         dq = tabs.delta[:, q, :]  # (C, Q, K+1)
-        ft = np.full((len(q), len(idx)), INF)
-        for j in range(m):
-            dj = dq[cidx[:, j], :, eff_c[:, j]]  # (G, Q)
-            dj = np.where((eff[:, j] > 0)[:, None], dj, INF)
-            ft = np.minimum(ft, dj.T)
-        ft = np.where(any_need[None, :], ft, 0.0)
-        base_deliver = self._dT[q][:, None] + 1.0  # walk to T and put
-        # an unneeded object is put down where the first fetch happens: one action
-        base_other = np.where(any_need, 1.0, 0.0)[None, :] if held != NOTHING else 0.0
-        out = np.where(deliver[None, :], base_deliver + body[None, :], base_other + body[None, :] + ft)
-        out = np.minimum(out, INF)
-        return out[0] if scalar else out
+        ft = np.where(pos[:, 0, None], dq[idx[:, 0], :, eff[:, 0]], INF)
+        for j in range(1, m):
+            ft = np.minimum(ft, np.where(pos[:, j, None], dq[idx[:, j], :, eff[:, j]], INF))
+        ft = np.where(any_need[:, None], ft, 0.0).T  # (Q, G)
+        if holding:
+            # an unneeded object is put down where the first fetch happens: one action
+            other = np.where(any_need, 1.0, 0.0) + body
+            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + body[None, :], other[None, :] + ft)
+        else:
+            out = body[None, :] + ft
+        return np.minimum(out, INF)
 
     def value(self, s: State, goal: Goal | np.ndarray, relaxed: bool = False) -> float:
         """V*(s; goal) for a single goal (convenience; slower than batched ``values``)."""
@@ -211,7 +212,7 @@ class CostToGo:
 
 @dataclass(frozen=True, eq=False)
 class SparseGoals:
-    """Goals as (class index, count) lists padded to equal length (padding index = n_classes).
+    """Goals as (class index, count) lists padded to equal length (padding: count 0).
 
     Goals name few classes each, so this is several times smaller than the dense matrix.
     """
@@ -229,7 +230,7 @@ class SparseGoals:
         # stable sort puts each row's nonzero columns first, in column order
         order = np.argsort(~nz, axis=1, kind="stable")[:, :m]
         cnt = np.take_along_axis(N, order, axis=1).astype(np.int64)
-        idx = np.where(cnt > 0, order, C).astype(np.int64)
+        idx = np.where(cnt > 0, order, 0).astype(np.int64)  # padding: any class with count 0
         return cls(idx, np.where(cnt > 0, cnt, 0), C)
 
     def subset(self, rows: np.ndarray) -> SparseGoals:
@@ -244,44 +245,82 @@ def successor_values(
 ) -> np.ndarray:
     """Q*(s, a; g) = cost(a) + V*(s_a; g) for every action (rows) and goal (columns).
 
-    Walk actions share ``tabs`` and are evaluated in one batch (together with standing still).
-    A grab changes only its object's class: goals that do not need that class pay exactly one
-    extra ``put`` later, so only the goals that need it are recomputed. Other actions change at
-    most the classes of one object or one container, so only those tables are rebuilt.
+    Two batched evaluations per state. Walks share ``tabs`` and differ only in where the agent
+    stands. Every other action changes the tables of at most a few classes (one object's class,
+    or the classes inside one container): their rebuilt rows are appended to the tables and the
+    goals of that action point at them, so all such successors are evaluated in one call. A grab
+    only changes goals that need the grabbed class; the others pay exactly one extra ``put``.
     """
     sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
-    world, agent = ctg.world, ctg.agent
+    world, agent, C = ctg.world, ctg.agent, ctg.C
     here, held = s.agent_at[agent], s.held[agent]
-    Q = np.empty((len(actions), len(sp)))
+    held_cls = int(world.item_class_idx[held]) if held != NOTHING else -1
+    G = len(sp)
+    Q = np.empty((len(actions), G))
     walk_rows = [r for r, a in enumerate(actions) if a.kind == "walk"]
     places = np.array([here] + [actions[r].place for r in walk_rows])
-    v = ctg.values(tabs, sp, places, held)
+    v = ctg._values(tabs, sp.idx, sp.cnt, places, held_cls)
     v_stay = v[0]
     if walk_rows:
         Q[walk_rows] = v[1:] + world.dist[here, places[1:]][:, None]
-    any_need = None
-    for r, a in enumerate(actions):
-        if a.kind == "walk":
-            continue
+    others = [r for r, a in enumerate(actions) if a.kind != "walk"]
+    if not others:
+        return Q
+    extra_rows: list[tuple] = []  # appended table rows
+    parts_idx, parts_cnt, parts_held, owners = [], [], [], []
+    need = None
+    for r in others:
+        a = actions[r]
         s2 = apply(s, a)
         if a.kind in ("grab", "put", "handover"):
             changed = [int(world.item_class_idx[a.obj])]
         else:  # open/close: classes with objects in that container
             changed = sorted({int(world.item_class_idx[i]) for i, loc in enumerate(s.item_at) if loc == a.place})
-        t2 = ctg.retable(tabs, s2, changed)
+        idx = sp.idx
+        rows = None
         if a.kind == "grab" and held == NOTHING:
-            c = changed[0]
-            if any_need is None:
-                need = np.where(sp.idx == ctg.C, 0, sp.cnt - tabs.at_target[np.minimum(sp.idx, ctg.C - 1)])
+            if need is None:
+                need = np.maximum(sp.cnt - tabs.at_target[sp.idx], 0)
                 any_need = (need > 0).any(axis=1)
-                needs_cls = {}
-            if c not in needs_cls:
-                needs_cls[c] = np.flatnonzero(((sp.idx == c) & (need > 0)).any(axis=1))
-            rows = needs_cls[c]
-            out = v_stay + any_need
-            if len(rows):
-                out[rows] = ctg.values(t2, sp.subset(rows), s2.agent_at[agent], s2.held[agent])
-            Q[r] = 1.0 + out
-            continue
-        Q[r] = cost(world, s, a) + ctg.values(t2, sp, s2.agent_at[agent], s2.held[agent])
+            c = changed[0]
+            rows = np.flatnonzero(((sp.idx == c) & (need > 0)).any(axis=1))
+            Q[r] = 1.0 + v_stay + any_need  # goals that do not need c: one more put later
+            if not len(rows):
+                continue
+            idx = sp.idx[rows]
+        remap = {}
+        for c in changed:
+            remap[c] = C + len(extra_rows)
+            extra_rows.append(ctg._class_rows(c, s2.item_at, s2.open_mask))
+        cnt = sp.cnt if rows is None else sp.cnt[rows]
+        if remap:
+            idx = idx.copy()
+            for c, c2 in remap.items():
+                idx[idx == c] = c2
+        h2 = s2.held[agent]
+        hc2 = -1 if h2 == NOTHING else remap.get(int(world.item_class_idx[h2]), int(world.item_class_idx[h2]))
+        parts_idx.append(idx)
+        parts_cnt.append(cnt)
+        parts_held.append(np.full(len(idx), hc2, dtype=np.int64))
+        owners.append((r, rows, float(cost(world, s, a))))
+    if not parts_idx:
+        return Q
+    if extra_rows:
+        cum = np.concatenate([tabs.cum, np.stack([e[0] for e in extra_rows])])
+        opens = np.concatenate([tabs.opens, np.stack([e[1] for e in extra_rows])])
+        delta = np.concatenate([tabs.delta, np.stack([e[2] for e in extra_rows])])
+        at_t = np.concatenate([tabs.at_target, np.array([e[3] for e in extra_rows], dtype=np.int64)])
+        big = ClassTables(cum, opens, delta, at_t)
+    else:
+        big = tabs
+    vals = ctg._values(big, np.concatenate(parts_idx), np.concatenate(parts_cnt), np.array([here]),
+                       np.concatenate(parts_held))[0]
+    k = 0
+    for (r, rows, c_a), idx in zip(owners, parts_idx, strict=True):
+        n = len(idx)
+        if rows is None:
+            Q[r] = c_a + vals[k:k + n]
+        else:
+            Q[r, rows] = c_a + vals[k:k + n]
+        k += n
     return Q

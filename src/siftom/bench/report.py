@@ -1,0 +1,257 @@
+"""Summaries, the Markdown report and figures of an evaluation (``siftom report RESULTS``).
+
+Reads only ``RESULTS/results.jsonl`` (and ``run.json`` for context), so a report can be
+re-rendered at any time, also from a partial run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.bench.evaluate import MODELS, RUN, load_results
+from siftom.bench.metrics import N_BOOT, breakdown, group_key, summarise_model
+from siftom.errors import DatasetError
+
+SUMMARY = "summary.json"
+REPORT = "report.md"
+FIG_MAIN = "accuracy_speedup.png"
+FIG_HIST = "speedup_hist.png"
+FIG_SNR = "accuracy_by_snr.png"
+BREAKDOWNS = ("noise", "snr", "voice")
+# The paper's numbers (Simulated Experiment, Results) for comparison in the report.
+PAPER = {
+    "base VLM (Gemini 2.5 Flash) accuracy": 0.681,
+    "SIFToM accuracy": 0.810,
+    "base VLM negative-speedup share": 0.242,
+    "SIFToM negative-speedup share": 0.112,
+    "SIFToM helpful-error share": 0.697,
+}
+
+
+def models_in(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Model names present in the rows, known models first in their standard order."""
+    seen: dict[str, None] = {}
+    for r in rows:
+        for m in r["models"]:
+            seen[m] = None
+    return [m for m in MODELS if m in seen] + [m for m in seen if m not in MODELS]
+
+
+def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any]:
+    """The summary.json content: per-model metrics with CIs, breakdowns, ASR word error rates."""
+    if not rows:
+        raise DatasetError("no evaluated stimuli to summarise; run 'siftom eval' first")
+    models = models_in(rows)
+    out: dict[str, Any] = {"n_stimuli": len(rows), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
+                           "models": {}}
+    for m in models:
+        trials = [r["models"][m] for r in rows if m in r["models"]]
+        out["models"][m] = summarise_model(trials, seed=seed, n_boot=n_boot).to_json()
+    gold = np.array([r.get("gold_speedup", np.nan) for r in rows], dtype=float)
+    out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
+    out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
+    wer: dict[str, list[float]] = defaultdict(list)
+    for r in rows:
+        w = r.get("transcript", {}).get("wer")
+        if w is not None:
+            wer[group_key(r, "snr")].append(w)
+            wer["all"].append(w)
+    out["asr_wer"] = {k: round(float(np.mean(v)), 4) for k, v in wer.items()}
+    return out
+
+
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:.1f} %"
+
+
+def _ci(ci: Sequence[float | None], pct: bool = True) -> str:
+    if ci[0] is None or ci[1] is None:
+        return ""
+    return f"[{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]" if pct else f"[{ci[0]:+.3f}, {ci[1]:+.3f}]"
+
+
+def main_table(summary: dict[str, Any]) -> str:
+    """The Markdown table of the main metrics, one row per model."""
+    lines = ["| model | accuracy [95 % CI] | speedup [95 % CI] | negative speedup | helpful errors | n |",
+             "|---|---|---|---|---|---|"]
+    for m, s in summary["models"].items():
+        sp = "–" if s["speedup"] is None else f"{s['speedup']:+.3f}"
+        lines.append(f"| {m} | {_pct(s['accuracy'])} {_ci(s['accuracy_ci'])} | {sp} {_ci(s['speedup_ci'], False)} "
+                     f"| {_pct(s['neg_speedup_share'])} | {_pct(s['helpful_error_share'])} ({s['wrong']} wrong) "
+                     f"| {s['n']} |")
+    return "\n".join(lines)
+
+
+def _breakdown_table(bd: dict[str, dict[str, dict[str, Any]]], models: Sequence[str], key: str) -> str:
+    header = "| " + key + " | n | " + " | ".join(models) + " |"
+    lines = [header, "|---" * (len(models) + 2) + "|"]
+    for label, per in bd.items():
+        n = next(iter(per.values()))["n"] if per else 0
+        cells = []
+        for m in models:
+            v = per.get(m)
+            cells.append("–" if v is None else f"{_pct(v['accuracy'])} / {v['speedup']:+.2f}")
+        lines.append(f"| {label} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out: Path) -> list[Path]:
+    """Write the bar charts with CI error bars, speedup histograms and accuracy by SNR."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    models = list(summary["models"])
+    S = summary["models"]
+    colors = plt.get_cmap("tab10")(np.arange(len(models)) % 10)
+    paths = []
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    x = np.arange(len(models))
+    for ax, key, label, scale in ((axes[0], "accuracy", "accuracy (%)", 100.0),
+                                  (axes[1], "speedup", "speedup (L_single / L_team − 1)", 1.0)):
+        vals = np.array([np.nan if S[m][key] is None else S[m][key] for m in models]) * scale
+        cis = np.array([[np.nan if c is None else c for c in S[m][f"{key}_ci"]] for m in models]) * scale
+        err = np.abs(np.stack([vals - cis[:, 0], cis[:, 1] - vals]))
+        ax.bar(x, vals, color=colors, yerr=err, capsize=4, edgecolor="black", linewidth=0.5)
+        ax.set_xticks(x, models, rotation=25, ha="right")
+        ax.set_ylabel(label)
+        ax.axhline(0, color="black", linewidth=0.6)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].set_ylim(0, 100)
+    fig.suptitle(f"{summary['n_stimuli']} stimuli; error bars: 95 % bootstrap CI ({summary['bootstrap']['resamples']} resamples)",
+                 fontsize=9)
+    fig.tight_layout()
+    paths.append(out / FIG_MAIN)
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
+    cols = min(3, len(models))
+    nrows = int(np.ceil(len(models) / cols))
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.4 * cols, 2.6 * nrows), squeeze=False, sharex=True)
+    allv = [t["speedup"] for r in rows for t in r["models"].values()]
+    lo, hi = (min(allv + [-0.5]), max(allv + [0.5]))
+    bins = np.linspace(lo, hi, 26)
+    for k, m in enumerate(models):
+        ax = axes[k // cols][k % cols]
+        v = np.array([r["models"][m]["speedup"] for r in rows if m in r["models"]])
+        ax.hist(v, bins=bins, color=colors[k], edgecolor="black", linewidth=0.4)
+        ax.axvline(0, color="black", linewidth=0.8, linestyle="--")
+        ax.set_title(f"{m}: {100 * float((v < -1e-9).mean()):.0f} % < 0", fontsize=9)
+        ax.set_xlabel("speedup")
+    for k in range(len(models), nrows * cols):
+        axes[k // cols][k % cols].axis("off")
+    fig.tight_layout()
+    paths.append(out / FIG_HIST)
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
+    bd = summary["breakdowns"]["snr"]
+    labels = list(bd)
+    if len(labels) > 1:
+        fig, ax = plt.subplots(figsize=(6, 3.6))
+        for k, m in enumerate(models):
+            ys = [100 * bd[lab][m]["accuracy"] if m in bd[lab] else np.nan for lab in labels]
+            ax.plot(labels, ys, marker="o", color=colors[k], label=m)
+        ax.set_ylabel("accuracy (%)")
+        ax.set_xlabel("condition")
+        ax.set_ylim(0, 100)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        paths.append(out / FIG_SNR)
+        fig.savefig(paths[-1], dpi=120)
+        plt.close(fig)
+    return paths
+
+
+def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequence[Path]) -> str:
+    """The Markdown report."""
+    models = list(summary["models"])
+    opts = run.get("options", {})
+    parts = [
+        "# siftom evaluation report", "",
+        f"Dataset: `{run.get('dataset', '?')}` ({summary['n_stimuli']} stimuli). "
+        f"ASR: `{opts.get('engine', '?')}`, N-best {opts.get('nbest', '?')}; instruction likelihood "
+        f"`{opts.get('likelihood', '?')}`.",
+        "",
+        "## Main results", "",
+        "Accuracy: object class and count exact. Speedup: L_single / L_team − 1, with remedy steps for "
+        "wrong items. Helpful errors: wrong commands whose class is part of the goal, among wrong ones. "
+        f"CIs: percentile bootstrap over stimuli, {summary['bootstrap']['resamples']} resamples.",
+        "",
+        main_table(summary), "",
+        f"The gold command itself gives a mean speedup of {summary.get('gold_command_speedup')}.",
+        "",
+    ]
+    names = [p.name for p in figures]
+    if FIG_MAIN in names:
+        parts += [f"![accuracy and speedup]({FIG_MAIN})", ""]
+    if FIG_HIST in names:
+        parts += [f"![speedup histograms]({FIG_HIST})", ""]
+    parts += ["## ASR word error rate", "",
+              "| condition | WER |", "|---|---|"]
+    parts += [f"| {k} | {_pct(v)} |" for k, v in summary.get("asr_wer", {}).items()]
+    parts += [""]
+    titles = {"noise": "noise type", "snr": "SNR", "voice": "voice"}
+    for by in BREAKDOWNS:
+        parts += [f"## By {titles[by]} (accuracy / mean speedup)", "",
+                  _breakdown_table(summary["breakdowns"][by], models, titles[by]), ""]
+    if FIG_SNR in names:
+        parts += [f"![accuracy by SNR]({FIG_SNR})", ""]
+    parts += ["## The paper, for comparison", "",
+              "| paper (Simulated Experiment) | value |", "|---|---|"]
+    parts += [f"| {k} | {_pct(v)} |" for k, v in PAPER.items()]
+    if run.get("seconds") is not None:
+        parts += ["", f"Evaluation took {run['seconds']:.0f} s with {run.get('workers', 1)} worker(s) "
+                      f"({run.get('evaluated', '?')} stimuli evaluated in that run, {run.get('resumed', 0)} resumed)."]
+    return "\n".join(parts) + "\n"
+
+
+def write_report(out: str | Path, seed: int | None = None, figures: bool = True) -> dict[str, Any]:
+    """(Re-)write summary.json, report.md and the figures of a results folder; return the summary."""
+    root = Path(out)
+    rows = load_results(root)
+    run: dict[str, Any] = {}
+    if (root / RUN).is_file():
+        run = json.loads((root / RUN).read_text(encoding="utf-8"))
+    # manifest order, whatever order workers finished in: the bootstrap depends on it
+    order = _manifest_order(run)
+    if order:
+        rows = sorted(rows, key=lambda r: order.get(r["id"], len(order)))
+    else:
+        rows = sorted(rows, key=lambda r: r["id"])
+    if seed is None:
+        seed = int(run.get("seed", 0))
+    summary = summarise(rows, seed=seed)
+    _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
+    figs = render_figures(rows, summary, root) if figures else []
+    _write(root / "report.md", render_report(summary, run, figs))
+    return summary
+
+
+def _manifest_order(run: dict[str, Any]) -> dict[str, int]:
+    ds = run.get("dataset")
+    if not ds or not (Path(ds) / "manifest.jsonl").is_file():
+        return {}
+    order = {}
+    for i, line in enumerate((Path(ds) / "manifest.jsonl").read_text(encoding="utf-8").splitlines()):
+        try:
+            order[json.loads(line)["id"]] = i
+        except (json.JSONDecodeError, KeyError, TypeError):
+            continue
+    return order
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + f".{os.getpid()}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)

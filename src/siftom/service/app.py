@@ -1,0 +1,259 @@
+"""The HTTP API and the web page: ``create_app(data_dir=None) -> FastAPI``.
+
+Endpoints (docs/service.md has examples):
+
+* ``POST /v1/infer``: JSON (transcript, N-best or actions alone) or multipart with an audio
+  file -> the posterior, what was heard, the clarifying decision and the robot's plan.
+* ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
+* ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
+* ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+
+CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
+stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any, TypeVar
+
+import anyio
+import anyio.to_thread
+from fastapi import FastAPI, Query, Request
+from fastapi import Path as PathParam
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from starlette.datastructures import UploadFile
+
+from siftom.assist.clarify import ClarifyPolicy
+from siftom.errors import UnknownNameError
+from siftom.inference.api import make_instruction
+from siftom.service.problems import (
+    PROBLEM_JSON,
+    BodyLimitMiddleware,
+    ProblemError,
+    SecurityHeadersMiddleware,
+    install_handlers,
+)
+from siftom.service.runtime import Runtime, ServiceSettings, default_data_dir, timeline
+from siftom.service.schemas import (
+    AUDIO_FORM_SCHEMA,
+    MAX_SCENARIO_ID,
+    AudioFields,
+    InferRequest,
+    InferResponse,
+    Problem,
+    SayRequest,
+)
+
+STATIC = Path(__file__).parent / "static"
+R = TypeVar("R")
+
+
+def _version() -> str:
+    try:
+        return metadata.version("siftom")
+    except metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
+def _problems(*codes: int) -> dict[int | str, dict[str, Any]]:
+    return {c: {"model": Problem, "content": {PROBLEM_JSON: {}}} for c in codes}
+
+
+def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | None = None) -> FastAPI:
+    """Build the app.
+
+    Args:
+        data_dir: the service's own folder (map PNG cache); a fresh temporary folder if None.
+            No request reads or writes anywhere else.
+        settings: limits and options (defaults: ServiceSettings()).
+    """
+    settings = settings or ServiceSettings()
+    folder = Path(data_dir) if data_dir is not None else default_data_dir()
+    rt = Runtime(settings, folder)
+    app = FastAPI(title="siftom", version=_version(), docs_url=None, redoc_url=None,
+                  description="Follow noisy spoken instructions by inferring what the person is doing (SIFToM).")
+    app.state.runtime = rt
+    install_handlers(app)
+    app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    app.add_middleware(SecurityHeadersMiddleware)
+    limiter: list[anyio.CapacityLimiter] = []
+
+    async def run_cpu(fn: Callable[..., R], *args: Any) -> R:
+        """Run ``fn`` in a worker thread within the request time limit (503 when it runs over)."""
+        if not limiter:
+            limiter.append(anyio.CapacityLimiter(settings.workers))
+        rt.requests += 1
+        try:
+            with anyio.fail_after(settings.request_timeout_s):
+                return await anyio.to_thread.run_sync(functools.partial(fn, *args), limiter=limiter[0],
+                                                      abandon_on_cancel=True)
+        except TimeoutError:
+            raise ProblemError(503, "timeout", f"the request took longer than {settings.request_timeout_s:g} s; "
+                               "try again, or send a shorter recording", headers={"Retry-After": "2"}) from None
+
+    def lookup(sid: str, status: int) -> None:
+        try:
+            rt.scenario(sid)
+        except UnknownNameError as exc:
+            raise ProblemError(status, "unknown-scenario", str(exc)) from None
+
+    # ----- page ------------------------------------------------------------------------------
+    app.mount("/static", StaticFiles(directory=STATIC), name="static")
+
+    @app.get("/", include_in_schema=False)
+    async def index() -> FileResponse:
+        return FileResponse(STATIC / "index.html", media_type="text/html")
+
+    # ----- health ----------------------------------------------------------------------------
+    @app.get("/healthz", tags=["meta"])
+    async def healthz() -> dict[str, Any]:
+        """Liveness, version and what this server offers."""
+        from siftom.speech.noise import SYNTHETIC_KINDS
+        from siftom.speech.tts import list_voices
+
+        return {
+            "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
+            "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
+            "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
+            "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
+                       "request_timeout_s": settings.request_timeout_s},
+        }
+
+    # ----- scenarios -------------------------------------------------------------------------
+    @app.get("/v1/scenarios", tags=["scenarios"])
+    async def list_scenarios() -> dict[str, Any]:
+        """Every registered scenario: id, domain, one-line description, number of actions."""
+        def build() -> list[dict[str, Any]]:
+            out = []
+            for sid in rt.scenario_ids():
+                sc = rt.scenario(sid)
+                out.append({"id": sid, "domain": sc.domain, "description": sc.description,
+                            "num_actions": len(sc.actions), "verb": sc.verb})
+            return out
+
+        return {"scenarios": await run_cpu(build)}
+
+    sid_param = PathParam(min_length=1, max_length=MAX_SCENARIO_ID,
+                          description="scenario id, e.g. kitchen-cereal-v0 or household-table-v0/3 "
+                                      "(the slash may be written as %2F)")
+
+    @app.get("/v1/scenarios/{scenario_id:path}.png", tags=["scenarios"], response_class=FileResponse,
+             responses={200: {"content": {"image/png": {}}}, **_problems(404, 422)})
+    async def scenario_map(scenario_id: str = sid_param,
+                           command: str | None = Query(default=None, max_length=80,
+                                                       description="a command to highlight, e.g. fetch(cereal)")
+                           ) -> FileResponse:
+        """The scenario's map when the human spoke (matplotlib PNG)."""
+        lookup(scenario_id, 404)
+        path = await run_cpu(rt.map_png, scenario_id, command)
+        return FileResponse(path, media_type="image/png")
+
+    @app.get("/v1/scenarios/{scenario_id:path}", tags=["scenarios"], responses=_problems(404, 422))
+    async def scenario_detail(scenario_id: str = sid_param) -> dict[str, Any]:
+        """A scenario: places with positions, objects, agents, actions and a step-by-step timeline."""
+        lookup(scenario_id, 404)
+
+        def build() -> dict[str, Any]:
+            sc = rt.scenario(scenario_id)
+            return {**sc.summary(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": timeline(sc)}
+
+        return await run_cpu(build)
+
+    # ----- inference -------------------------------------------------------------------------
+    infer_body = {
+        "required": True,
+        "content": {
+            "application/json": {"schema": {"$ref": "#/components/schemas/InferRequest"}},
+            "multipart/form-data": {"schema": {"$ref": "#/components/schemas/AudioInferForm"}},
+        },
+    }
+
+    @app.post("/v1/infer", tags=["inference"], openapi_extra={"requestBody": infer_body},
+              responses={200: {"model": InferResponse}, **_problems(400, 404, 413, 415, 422, 501, 503)})
+    async def infer(request: Request) -> JSONResponse:
+        """Infer the robot command from the human's actions and what was heard.
+
+        Send JSON (InferRequest) with a transcript or an N-best list, or multipart/form-data
+        (AudioInferForm) with an ``audio`` file that the server transcribes first.
+        """
+        media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+        if media == "application/json" or media.endswith("+json"):
+            req = InferRequest.model_validate_json(await request.body())
+            lookup(req.scenario, 422)
+            policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
+
+            def work() -> dict[str, Any]:
+                nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
+                ins = make_instruction(transcript=req.transcript, nbest=nbest)
+                return rt.infer(req.scenario, ins, req.mode, req.likelihood, req.n_actions, req.actions,
+                                req.top, policy)
+
+            return JSONResponse(await run_cpu(work))
+        if media == "multipart/form-data":
+            return JSONResponse(await _infer_audio(request))
+        raise ProblemError(415, "media-type", "send application/json (a transcript) or multipart/form-data "
+                           f"(an audio file), not {media or 'no Content-Type'}")
+
+    async def _infer_audio(request: Request) -> dict[str, Any]:
+        try:
+            form = await request.form(max_files=1, max_fields=16, max_part_size=settings.max_body_bytes)
+        except Exception as exc:  # malformed multipart, too many parts
+            detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
+            raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
+        try:
+            audio = form.get("audio")
+            if not isinstance(audio, UploadFile):
+                raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
+                                   [{"loc": "audio", "msg": "a file is required"}])
+            fields: dict[str, Any] = {}
+            for k, v in form.multi_items():
+                if k == "audio":
+                    continue
+                if k in fields or not isinstance(v, str):
+                    raise ProblemError(422, "validation", f"{k}: give the field once, as text",
+                                       [{"loc": k, "msg": "repeated or not text"}])
+                fields[k] = v
+            opts = AudioFields.model_validate(fields)
+            lookup(opts.scenario, 422)
+            data = await audio.read()
+        finally:
+            await form.close()
+        policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
+        return await run_cpu(rt.infer_audio, opts.scenario, data, opts.mode, opts.likelihood, opts.n_actions,
+                             opts.asr_nbest, opts.top, policy)
+
+    # ----- speech ----------------------------------------------------------------------------
+    @app.post("/v1/say", tags=["speech"], response_class=Response,
+              responses={200: {"content": {"audio/wav": {}}, "description": "16 kHz mono 16-bit WAV"},
+                         **_problems(413, 422, 501, 503)})
+    async def say(req: SayRequest) -> Response:
+        """Speak an instruction with a TTS voice, optionally mixed with synthetic noise at an SNR."""
+        wav = await run_cpu(rt.say, req.text, req.voice, req.rate, req.noise, req.snr, req.seed)
+        return Response(wav, media_type="audio/wav",
+                        headers={"Content-Disposition": 'inline; filename="say.wav"'})
+
+    # ----- schema ----------------------------------------------------------------------------
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+        comps = schema.setdefault("components", {}).setdefault("schemas", {})
+        js = InferRequest.model_json_schema(ref_template="#/components/schemas/{model}")
+        comps.update(js.pop("$defs", {}))
+        js["properties"]["likelihood"]["enum"] = list(settings.likelihoods)
+        comps["InferRequest"] = js
+        form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
+        form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
+        comps["AudioInferForm"] = form
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+    return app

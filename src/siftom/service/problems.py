@@ -1,0 +1,192 @@
+"""Errors as RFC 9457 problem details, and the ASGI guards that produce some of them.
+
+Every error response is ``application/problem+json`` with ``type``, ``title``, ``status`` and
+``detail``. Client mistakes are 4xx; a 5xx means a bug or an overloaded server.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from http import HTTPStatus
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from pydantic import ValidationError
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from siftom.errors import BackendUnavailableError, SiftomError, UnknownNameError
+
+log = logging.getLogger("siftom.service")
+PROBLEM_JSON = "application/problem+json"
+
+
+class ProblemError(Exception):
+    """Raise inside a handler to answer with a problem document."""
+
+    def __init__(self, status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None,
+                 headers: dict[str, str] | None = None) -> None:
+        super().__init__(detail)
+        self.status, self.slug, self.detail, self.errors, self.headers = status, slug, detail, errors, headers
+
+
+def problem(status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """The problem-details body."""
+    body: dict[str, Any] = {"type": f"urn:siftom:problem:{slug}", "title": HTTPStatus(status).phrase,
+                            "status": status, "detail": detail}
+    if errors:
+        body["errors"] = errors
+    return body
+
+
+def problem_response(status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None,
+                     headers: dict[str, str] | None = None) -> JSONResponse:
+    return JSONResponse(problem(status, slug, detail, errors), status_code=status,
+                        media_type=PROBLEM_JSON, headers=headers)
+
+
+def validation_errors(exc: ValidationError | RequestValidationError) -> list[dict[str, Any]]:
+    """Pydantic errors as ``[{loc, msg}]`` (no echo of the input: it may be large)."""
+    out = []
+    for e in exc.errors():
+        loc = ".".join(str(p) for p in e.get("loc", ()) if p not in ("body",))
+        out.append({"loc": loc, "msg": str(e.get("msg", "invalid"))})
+    return out
+
+
+def _summary(errors: list[dict[str, Any]]) -> str:
+    first = errors[0] if errors else {"loc": "", "msg": "invalid request"}
+    where = f"{first['loc']}: " if first["loc"] else ""
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{where}{first['msg']}{more}"
+
+
+def install_handlers(app: FastAPI) -> None:
+    """Map every exception to a problem document."""
+
+    @app.exception_handler(ProblemError)
+    async def _problem(_: Request, exc: ProblemError) -> JSONResponse:
+        return problem_response(exc.status, exc.slug, exc.detail, exc.errors, exc.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def _request_validation(_: Request, exc: RequestValidationError) -> JSONResponse:
+        errs = validation_errors(exc)
+        return problem_response(422, "validation", _summary(errs), errs)
+
+    @app.exception_handler(ValidationError)
+    async def _validation(_: Request, exc: ValidationError) -> JSONResponse:
+        errs = validation_errors(exc)
+        return problem_response(422, "validation", _summary(errs), errs)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(_: Request, exc: StarletteHTTPException) -> JSONResponse:
+        detail = exc.detail if isinstance(exc.detail, str) else HTTPStatus(exc.status_code).phrase
+        if exc.status_code == 404 and detail == "Not Found":
+            detail = "no such endpoint; see /openapi.json or /docs"
+        return problem_response(exc.status_code, "http", detail, headers=getattr(exc, "headers", None))
+
+    @app.exception_handler(UnknownNameError)
+    async def _unknown(_: Request, exc: UnknownNameError) -> JSONResponse:
+        return problem_response(404, "unknown-name", str(exc))
+
+    @app.exception_handler(BackendUnavailableError)
+    async def _backend(_: Request, exc: BackendUnavailableError) -> JSONResponse:
+        return problem_response(501, "backend-unavailable", str(exc))
+
+    @app.exception_handler(SiftomError)
+    async def _siftom(_: Request, exc: SiftomError) -> JSONResponse:
+        return problem_response(422, "invalid-observation", str(exc))
+
+    @app.exception_handler(Exception)
+    async def _bug(request: Request, exc: Exception) -> JSONResponse:
+        log.exception("unhandled error on %s %s", request.method, request.url.path)
+        return problem_response(500, "internal", "an internal error occurred; the server log has the details")
+
+
+class _TooLarge(Exception):
+    pass
+
+
+class BodyLimitMiddleware:
+    """Refuse request bodies over ``max_bytes`` (413) by Content-Length and while streaming."""
+
+    def __init__(self, app: ASGIApp, max_bytes: int) -> None:
+        self.app, self.max_bytes = app, max_bytes
+
+    async def _refuse(self, send: Send, status: int, slug: str, detail: str) -> None:
+        body = json.dumps(problem(status, slug, detail)).encode()
+        await send({"type": "http.response.start", "status": status,
+                    "headers": [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode()),
+                                (b"connection", b"close")]})
+        await send({"type": "http.response.body", "body": body})
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        limit = self.max_bytes
+        too_big = f"the request body is larger than the {limit} bytes allowed; send a shorter recording or text"
+        for name, value in scope.get("headers", ()):
+            if name == b"content-length":
+                try:
+                    n = int(value)
+                except ValueError:
+                    await self._refuse(send, 400, "bad-request", "the Content-Length header is not a number")
+                    return
+                if n > limit:
+                    await self._refuse(send, 413, "too-large", too_big)
+                    return
+        seen = 0
+        started = False
+
+        async def limited_receive() -> Message:
+            nonlocal seen
+            msg = await receive()
+            if msg["type"] == "http.request":
+                seen += len(msg.get("body", b""))
+                if seen > limit:
+                    raise _TooLarge
+            return msg
+
+        async def tracking_send(msg: Message) -> None:
+            nonlocal started
+            if msg["type"] == "http.response.start":
+                started = True
+            await send(msg)
+
+        try:
+            await self.app(scope, limited_receive, tracking_send)
+        except _TooLarge:
+            if not started:
+                await self._refuse(send, 413, "too-large", too_big)
+
+
+# The page loads nothing from elsewhere; the policy makes sure of it.
+CSP = ("default-src 'self'; img-src 'self' data: blob:; media-src 'self' blob:; style-src 'self'; "
+       "script-src 'self'; connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'")
+
+
+class SecurityHeadersMiddleware:
+    """Add nosniff everywhere and a strict Content-Security-Policy to the web page."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def add_headers(msg: Message) -> None:
+            if msg["type"] == "http.response.start":
+                headers = list(msg.get("headers", []))
+                headers.append((b"x-content-type-options", b"nosniff"))
+                if not scope["path"].startswith(("/docs", "/redoc")):
+                    headers.append((b"content-security-policy", CSP.encode()))
+                msg = {**msg, "headers": headers}
+            await send(msg)
+
+        await self.app(scope, receive, add_headers)

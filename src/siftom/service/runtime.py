@@ -1,0 +1,336 @@
+"""The service's working parts, safe to call from many threads at once.
+
+* Inference: one model per (mode, likelihood), each guarded by its own lock because the
+  likelihoods keep LRU caches that are not thread-safe. The expensive action term is cached:
+  an ``OnlineInference`` that has observed a scenario's first n actions is kept per
+  (scenario, n, mode, likelihood), so a request only scores what was heard (~2 ms).
+* ASR: one pocketsphinx decoder per scenario vocabulary, each behind a lock (a decoder holds
+  one utterance at a time).
+* Maps: matplotlib's pyplot is not thread-safe; rendering is serialised and PNGs are cached
+  in the service's own folder under names it makes (a hash), never a client's string.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import tempfile
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+
+from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.route import RobotPlan, robot_plan
+from siftom.errors import AudioError, ObservationError, unknown_name
+from siftom.inference.api import get_model, make_instruction
+from siftom.inference.model import OnlineInference, Posterior
+from siftom.likelihood.base import Instruction
+from siftom.world.commands import RobotCommand
+from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
+from siftom.world.model import AGENT_NAMES, HELD, NOTHING
+
+T = TypeVar("T")
+
+# The acoustic likelihood aligns every phrasing of every command against the audio: about
+# 140 s for the 42-class kitchen, far beyond the request time limit, so the service does not
+# offer it. Audio is transcribed (N-best) and scored with the text likelihoods instead.
+SERVICE_LIKELIHOODS = ("phonetic", "llm")
+
+
+def available_likelihoods() -> tuple[str, ...]:
+    """phonetic always; llm when its in-process backend (llama-cpp-python) is installed."""
+    import importlib.util
+
+    return ("phonetic", "llm") if importlib.util.find_spec("llama_cpp") is not None else ("phonetic",)
+
+
+@dataclass(frozen=True)
+class ServiceSettings:
+    """Limits and options of one app. Validated at construction.
+
+    Attributes:
+        max_body_bytes: largest request body (413 above). 30 s of 16 kHz 16-bit mono WAV is
+            960 kB; 2 MiB leaves room for 44.1 kHz recordings of a short instruction.
+        max_audio_seconds: longest recording accepted (422 above).
+        request_timeout_s: a request still working after this long is answered 503.
+        workers: how many requests do CPU work at once (the rest wait, within the timeout).
+        likelihoods: instruction likelihoods offered (a subset of SERVICE_LIKELIHOODS; default:
+            those whose backend is installed).
+        cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
+        plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
+    """
+
+    max_body_bytes: int = 2 * 1024 * 1024
+    max_audio_seconds: float = 30.0
+    request_timeout_s: float = 20.0
+    workers: int = 4
+    likelihoods: tuple[str, ...] = field(default_factory=lambda: available_likelihoods())
+    cache_size: int = 256
+    plan_max_time: float = 0.3
+
+    def __post_init__(self) -> None:
+        if self.max_body_bytes < 1024:
+            raise ObservationError(f"max_body_bytes must be >= 1024, got {self.max_body_bytes}")
+        if not 0 < self.max_audio_seconds <= 600:
+            raise ObservationError(f"max_audio_seconds must be in (0, 600], got {self.max_audio_seconds}")
+        if not self.request_timeout_s > 0:
+            raise ObservationError(f"request_timeout_s must be > 0, got {self.request_timeout_s}")
+        if self.workers < 1 or self.cache_size < 1:
+            raise ObservationError("workers and cache_size must be >= 1")
+        bad = [lk for lk in self.likelihoods if lk not in SERVICE_LIKELIHOODS]
+        if bad or not self.likelihoods:
+            raise ObservationError(f"likelihoods must be a non-empty subset of {SERVICE_LIKELIHOODS}, got {bad}")
+
+
+class _LRU:
+    """A small thread-safe LRU map with get-or-create under a per-map lock."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self._d: OrderedDict[Any, Any] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get_or_create(self, key: Any, make: Callable[[], T]) -> T:
+        with self._lock:
+            if key in self._d:
+                self._d.move_to_end(key)
+                return self._d[key]
+        value = make()  # outside the map lock: creation may be slow
+        with self._lock:
+            self._d[key] = value
+            self._d.move_to_end(key)
+            while len(self._d) > self.size:
+                self._d.popitem(last=False)
+        return value
+
+    def __len__(self) -> int:
+        return len(self._d)
+
+
+@dataclass
+class _Engine:
+    engine: Any
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+def scenario_vocabulary(scenario: Scenario) -> list[str]:
+    """Every phrasing of every command of the scenario: the ASR's language model."""
+    from siftom.likelihood.phrasing import phrasings
+
+    w = scenario.world
+    out: set[str] = set()
+    for cls in w.classes:
+        total = sum(1 for it in w.items if it.cls == cls)
+        top = min(total, 4) if scenario.verb == "deliver" else 1
+        for k in range(1, top + 1):
+            out.update(text for text, _lp in phrasings(RobotCommand(scenario.verb, cls, k)))
+    return sorted(out)
+
+
+def timeline(scenario: Scenario) -> list[dict[str, Any]]:
+    """Per observed step: the action that led there, where each agent is, what is where."""
+    w = scenario.world
+    out = []
+    for t, s in enumerate(scenario.states()):
+        items: dict[str, list[str]] = {}
+        for i, loc in enumerate(s.item_at):
+            if loc != HELD:
+                items.setdefault(w.places[loc].name, []).append(w.items[i].name)
+        out.append({
+            "t": t,
+            "action": w.format_action(scenario.actions[t - 1]) if t else None,
+            "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
+            "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
+            "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
+            "items": items,
+        })
+    return out
+
+
+class Runtime:
+    """Caches and locks shared by the request handlers (see module doc)."""
+
+    def __init__(self, settings: ServiceSettings, data_dir: Path) -> None:
+        self.settings = settings
+        self.data_dir = data_dir
+        self.map_dir = data_dir / "maps"
+        self.map_dir.mkdir(parents=True, exist_ok=True)
+        self.started = time.time()
+        self._model_locks: dict[tuple[str, str], threading.Lock] = {}
+        self._locks_lock = threading.Lock()
+        self._online = _LRU(settings.cache_size)
+        self._plans = _LRU(1024)
+        self._engines = _LRU(8)
+        self._render_lock = threading.Lock()
+        self.requests = 0
+
+    # ----- scenarios ---------------------------------------------------------------------
+    @staticmethod
+    def scenario(scenario_id: str) -> Scenario:
+        """A registered scenario; the id is only ever a registry key."""
+        return get_scenario(scenario_id)
+
+    @staticmethod
+    def scenario_ids() -> list[str]:
+        return scenario_ids()
+
+    def check_likelihood(self, name: str) -> None:
+        if name not in self.settings.likelihoods:
+            # a request field, not a path: 422 (ObservationError), with the valid names
+            raise ObservationError(str(unknown_name("instruction likelihood on this server", name,
+                                                    self.settings.likelihoods)))
+
+    # ----- inference ---------------------------------------------------------------------
+    def _model_lock(self, mode: str, likelihood: str) -> threading.Lock:
+        with self._locks_lock:
+            return self._model_locks.setdefault((mode, likelihood), threading.Lock())
+
+    def _online_for(self, sid: str, n: int, mode: str, likelihood: str) -> OnlineInference:
+        sc = self.scenario(sid)
+
+        def make() -> OnlineInference:
+            model = get_model(mode, likelihood)
+            on = model.online(sc.world, sc.start, sc.goals, sc.verb)
+            for a in sc.actions[:n]:
+                on.observe(a)
+            return on
+
+        return self._online.get_or_create((sid, n, mode, likelihood), make)
+
+    def posterior(self, sid: str, instruction: Instruction | None, mode: str, likelihood: str,
+                  n_actions: int | None = None, actions: list[str] | None = None, top: int = 10) -> Posterior:
+        """Run inference (thread-safe); recorded actions use the cached action term."""
+        self.check_likelihood(likelihood)
+        sc = self.scenario(sid)
+        with self._model_lock(mode, likelihood):
+            if actions is not None:
+                from siftom.inference.api import infer_actions
+
+                return infer_actions(sid, actions, instruction, mode, likelihood)
+            n = len(sc.actions) if n_actions is None else n_actions
+            if not 0 <= n <= len(sc.actions):
+                raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
+            return self._online_for(sid, n, mode, likelihood).posterior(instruction, top=top)
+
+    def plan(self, sid: str, n_actions: int | None, actions: list[str] | None, command: str) -> RobotPlan | None:
+        """The robot's plan for ``command`` from the state when the human spoke (cached)."""
+        if actions is not None:
+            return None  # a custom action sequence: no cached state to plan from
+        sc = self.scenario(sid)
+        n = len(sc.actions) if n_actions is None else n_actions
+        state = sc.states()[n]
+        try:
+            cmd = sc.parse_command(command)
+        except Exception:  # the MAP command is always the scenario's; be safe anyway
+            return None
+        return self._plans.get_or_create(
+            (sid, n, str(cmd)), lambda: robot_plan(sc, state, cmd, max_time=self.settings.plan_max_time))
+
+    def infer(self, sid: str, instruction: Instruction | None, mode: str, likelihood: str,
+              n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+        """The response body of ``POST /v1/infer``."""
+        post = self.posterior(sid, instruction, mode, likelihood, n_actions, actions, top)
+        body: dict[str, Any] = {"scenario": sid, **post.to_json(top=top)}
+        body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
+        body["clarification"] = clarify(post.commands, policy).to_json()
+        plan = self.plan(sid, n_actions, actions, post.command)
+        body["plan"] = plan.to_json() if plan is not None else None
+        return body
+
+    # ----- audio -------------------------------------------------------------------------
+    def decode_audio(self, data: bytes) -> np.ndarray:
+        """Decode an uploaded recording in memory (no file is written) to 16 kHz mono."""
+        import soundfile as sf
+
+        from siftom.speech.audio import to_mono16k
+
+        if not data:
+            raise AudioError("the audio file is empty; record the instruction again")
+        limit = self.settings.max_audio_seconds
+        try:
+            with sf.SoundFile(io.BytesIO(data)) as f:
+                if f.frames <= 0 or f.samplerate <= 0:
+                    raise AudioError("the audio contains no samples; record the instruction again")
+                seconds = f.frames / f.samplerate
+                if seconds > limit:
+                    raise AudioError(f"the recording lasts {seconds:.1f} s, more than the {limit:g} s allowed; "
+                                     "record only the instruction")
+                x = f.read(dtype="float32", always_2d=True)
+                rate = f.samplerate
+        except AudioError:
+            raise
+        except Exception as exc:  # libsndfile raises several types for unreadable data
+            raise AudioError(f"cannot read the upload as audio ({type(exc).__name__}); send WAV, FLAC or OGG, "
+                             "e.g. convert with: sox IN -r 16000 -c 1 -b 16 OUT.wav") from None
+        return to_mono16k(x, rate)
+
+    def _engine_for(self, sc: Scenario) -> _Engine:
+        from siftom.speech.asr.base import get_engine
+
+        key = (sc.verb, tuple(sc.world.classes), tuple(it.cls for it in sc.world.items))
+        return self._engines.get_or_create(
+            key, lambda: _Engine(get_engine("pocketsphinx", vocabulary=scenario_vocabulary(sc),
+                                            max_seconds=self.settings.max_audio_seconds)))
+
+    def transcribe(self, sid: str, audio: np.ndarray, nbest: int) -> Any:
+        """N-best transcript with a decoder biased to the scenario's phrasings (thread-safe)."""
+        eng = self._engine_for(self.scenario(sid))
+        with eng.lock:
+            return eng.engine.transcribe(audio, nbest=nbest)
+
+    def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
+                    asr_nbest: int, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+        """Transcribe an uploaded recording, then infer from its N-best list."""
+        self.check_likelihood(likelihood)
+        self.scenario(sid)  # an unknown id fails before decoding
+        x = self.decode_audio(data)
+        tr = self.transcribe(sid, x, asr_nbest)
+        nbest = [(h.text, h.score) for h in tr.nbest if h.text]
+        instruction = make_instruction(nbest=nbest) if nbest else None
+        if instruction is None and mode == "speech-only":
+            raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
+        body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+        body["asr"] = tr.to_json()
+        return body
+
+    # ----- speech synthesis ----------------------------------------------------------------
+    @staticmethod
+    def say(text: str, voice: str, rate: float, noise: str | None, snr: float, seed: int) -> bytes:
+        """WAV bytes of ``text`` spoken, optionally with synthetic noise at ``snr`` dB."""
+        from siftom.speech.audio import wav_bytes
+        from siftom.speech.noise import SyntheticNoise, mix_at_snr
+        from siftom.speech.tts import synthesize
+
+        x = synthesize(text, voice, rate=rate)
+        if noise is not None:
+            x = mix_at_snr(x, SyntheticNoise(noise), snr, seed)  # synthetic kinds only: no paths
+        return wav_bytes(x)
+
+    # ----- maps ----------------------------------------------------------------------------
+    def map_png(self, sid: str, command: str | None) -> Path:
+        """The scenario's map as a PNG (cached under a hashed name in the service folder)."""
+        from siftom.world.render import render_scenario
+
+        sc = self.scenario(sid)
+        if command is not None:
+            command = str(sc.parse_command(command))
+        key = hashlib.sha256(f"{sid}\n{command or ''}".encode()).hexdigest()[:32]
+        path = self.map_dir / f"{key}.png"
+        with self._render_lock:
+            if not path.is_file():
+                tmp = self.map_dir / f".{key}.{threading.get_ident()}.png"
+                render_scenario(sc, tmp, command=command)
+                tmp.replace(path)
+        return path
+
+
+def default_data_dir() -> Path:
+    """A fresh private folder for the service's files (maps)."""
+    return Path(tempfile.mkdtemp(prefix="siftom-serve-"))
+

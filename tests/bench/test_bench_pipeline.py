@@ -1,0 +1,119 @@
+"""The benchmark end to end on a tiny dataset: build, evaluate, resume, report, determinism."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from siftom.bench.dataset import BuildOptions, build_dataset, load_dataset
+from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate
+from siftom.bench.report import write_report
+from siftom.errors import DatasetError
+
+pytestmark = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+
+TINY = BuildOptions(scenarios=2, speakers=1, voices=("flite-slt",), noises=("pink",), snrs=(10.0,), seed=3)
+SUMMARY_KEYS = {"accuracy", "accuracy_ci", "speedup", "neg_speedup_share", "helpful_error_share", "n"}
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("tiny") / "ds"
+    build_dataset(TINY, out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def tiny_results(tiny: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("res") / "r"
+    evaluate(tiny, out)
+    write_report(out)
+    return out
+
+
+def test_build_writes_manifest_audio_and_datasheet(tiny: Path) -> None:
+    ds = load_dataset(tiny)
+    assert len(ds.stimuli) == 2 * 1 * 2  # scenarios x speakers x (clean + one SNR)
+    assert {s.condition for s in ds.stimuli} == {"clean", "pink@10dB"}
+    for s in ds.stimuli:
+        assert (tiny / s.audio).is_file()
+        assert s.reference and s.gold_command.startswith("deliver(")
+        assert s.observed_actions
+    assert (tiny / "README.md").read_text().startswith("# Datasheet")
+
+
+def test_same_seed_same_manifest(tiny: Path, tmp_path: Path) -> None:
+    again = tmp_path / "again"
+    build_dataset(TINY, again)
+    assert (again / "manifest.jsonl").read_text() == (tiny / "manifest.jsonl").read_text()
+    assert (again / "audio" / "000-s1-pink-10db.wav").read_bytes() == (tiny / "audio" / "000-s1-pink-10db.wav").read_bytes()
+
+
+def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> None:
+    for name in ("results.jsonl", "summary.json", "report.md", "accuracy_speedup.png", "speedup_hist.png"):
+        assert (tiny_results / name).is_file(), name
+    summary = json.loads((tiny_results / "summary.json").read_text())
+    assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text"}
+    for m in summary["models"].values():
+        assert SUMMARY_KEYS <= set(m)
+        assert m["n"] == 4
+        lo, hi = m["accuracy_ci"]
+        assert lo <= m["accuracy"] <= hi
+    rows = [json.loads(x) for x in (tiny_results / RESULTS).read_text().splitlines()]
+    # the reference transcript always names the class (the count may go unsaid)
+    for row in rows:
+        chosen = row["models"]["siftom-oracle-text"]["command"]
+        assert chosen.split(",")[0] == row["gold_command"].split(",")[0]
+        assert row["models"]["siftom-oracle-text"]["helpful"] or row["models"]["siftom-oracle-text"]["correct"]
+    r = rows[0]["models"]["siftom"]
+    assert {"command", "correct", "helpful", "l_single", "l_team", "remedy_steps", "speedup"} <= set(r)
+
+
+def test_same_seed_same_summary(tiny: Path, tiny_results: Path, tmp_path: Path) -> None:
+    evaluate(tiny, tmp_path / "r2", workers=2)
+    again = write_report(tmp_path / "r2", figures=False)
+    first = json.loads((tiny_results / "summary.json").read_text())
+    assert again["models"] == first["models"]
+
+
+def test_interrupted_eval_resumes_without_redoing(tiny: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r"
+
+    def stop_after_two(done: int, total: int) -> None:
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(tiny, out, progress=stop_after_two)
+    assert len((out / RESULTS).read_text().splitlines()) == 2
+    run = evaluate(tiny, out)
+    assert (run.resumed, run.evaluated) == (2, 2)
+    ids = [json.loads(x)["id"] for x in (out / RESULTS).read_text().splitlines()]
+    assert sorted(ids) == sorted(s.id for s in load_dataset(tiny).stimuli)
+
+
+def test_torn_last_line_is_dropped_on_resume(tiny: Path, tiny_results: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    shutil.copytree(tiny_results, out)
+    lines = (out / RESULTS).read_text().splitlines(keepends=True)
+    (out / RESULTS).write_text("".join(lines[:-1]) + lines[-1][:20])  # killed mid-write
+    run = evaluate(tiny, out)
+    assert run.evaluated == 1
+    assert len((out / RESULTS).read_text().splitlines()) == 4
+
+
+def test_other_settings_refuse_to_mix_results(tiny: Path, tiny_results: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    shutil.copytree(tiny_results, out)
+    with pytest.raises(DatasetError, match="another run"):
+        evaluate(tiny, out, EvalOptions(models=("siftom",)))
+
+
+def test_report_rerenders_from_results(tiny_results: Path) -> None:
+    (tiny_results / "report.md").unlink()
+    summary = write_report(tiny_results, figures=False)
+    text = (tiny_results / "report.md").read_text()
+    assert "| siftom |" in text and summary["n_stimuli"] == 4

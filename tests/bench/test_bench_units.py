@@ -1,0 +1,148 @@
+"""Literal parser, bootstrap CIs, scoring rules and dataset validation."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from siftom.bench.dataset import load_dataset
+from siftom.bench.evaluate import EvalOptions, is_correct, is_helpful
+from siftom.bench.literal import literal_command, parse_literal
+from siftom.bench.metrics import bootstrap_ci, summarise_model
+from siftom.errors import DatasetError, UnknownNameError
+from siftom.world.domains.base import get_scenario
+
+HOUSE = ("bowl", "fork", "knife", "mug", "plate", "spoon", "waterglass", "wineglass")
+
+
+# -- literal parser ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("text", "cls", "count", "said"), [
+    ("could you grab three forks", "fork", 3, True),
+    ("bring me 2 plates", "plate", 2, True),
+    ("we need four more wine glasses", "wineglass", 4, True),
+    ("pass me the knife", "knife", 1, False),
+    ("get me the rest of the spoons", "spoon", 1, False),
+    ("i need a water glass please", "waterglass", 1, False),
+    ("can you pass me two cups please", "mug", 2, True),
+])
+def test_parse_literal_reads_class_and_count(text: str, cls: str, count: int, said: bool) -> None:
+    p = parse_literal(text, HOUSE)
+    assert p is not None
+    assert (p.obj_class, p.count, p.count_said) == (cls, count, said)
+
+
+def test_parse_literal_prefers_longest_name_and_ignores_categories() -> None:
+    assert parse_literal("three wine glasses", HOUSE).obj_class == "wineglass"  # type: ignore[union-attr]
+    assert parse_literal("bring me the cutlery", HOUSE) is None
+    assert parse_literal("pass me the serial", HOUSE) is None
+    assert parse_literal("", HOUSE) is None
+
+
+def test_literal_command_counts_bare_plurals_as_all_available_up_to_max() -> None:
+    sc = get_scenario("household-table-v0/0")
+    cmd = literal_command("get the bowls", sc, max_count=4)
+    assert cmd is not None and cmd.obj_class == "bowl" and cmd.count == 4
+    assert str(literal_command("a bowl", sc)) == "deliver(bowl,1)"
+    assert literal_command("hmm", sc) is None
+
+
+def test_literal_command_fetch_domain_ignores_counts() -> None:
+    sc = get_scenario("kitchen-cereal-v0")
+    assert str(literal_command("could you bring me two cereal", sc)) == "fetch(cereal)"
+
+
+# -- scoring -------------------------------------------------------------------------------------
+
+def test_correct_needs_class_and_count_except_for_fetch() -> None:
+    assert is_correct("deliver(fork,3)", "deliver(fork,3)", "deliver")
+    assert not is_correct("deliver(fork,2)", "deliver(fork,3)", "deliver")
+    assert is_correct("fetch(milk,2)", "fetch(milk)", "fetch")
+    assert not is_correct("none", "deliver(fork,3)", "deliver")
+    assert is_helpful("deliver(fork,2)", {"fork": 3, "plate": 3})
+    assert not is_helpful("deliver(mug,2)", {"fork": 3, "plate": 3})
+    assert not is_helpful("none", {"fork": 3})
+
+
+def test_summary_of_known_trials() -> None:
+    trials = [
+        {"command": "deliver(fork,3)", "correct": True, "helpful": True, "speedup": 0.4},
+        {"command": "deliver(fork,2)", "correct": False, "helpful": True, "speedup": 0.2},
+        {"command": "deliver(mug,2)", "correct": False, "helpful": False, "speedup": -0.1},
+        {"command": "none", "correct": False, "helpful": False, "speedup": 0.0},
+    ]
+    s = summarise_model(trials, seed=1)
+    assert s.accuracy == 0.25 and s.n == 4 and s.wrong == 3 and s.no_action == 1
+    assert s.neg_speedup_share == 0.25
+    assert s.helpful_error_share == pytest.approx(1 / 3)
+    assert s.speedup == pytest.approx(0.125)
+
+
+def test_unknown_model_suggests_names() -> None:
+    with pytest.raises(UnknownNameError, match="siftom"):
+        EvalOptions(models=("siftomm",))
+
+
+# -- bootstrap -----------------------------------------------------------------------------------
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-2, 2, allow_nan=False), min_size=1, max_size=40), st.integers(0, 1000))
+def test_bootstrap_ci_contains_the_mean_and_stays_in_range(xs: list[float], seed: int) -> None:
+    lo, hi = bootstrap_ci(xs, n_boot=200, seed=seed)
+    assert min(xs) - 1e-9 <= lo <= hi <= max(xs) + 1e-9
+    # the sample mean may sit outside a percentile CI only for tiny, skewed samples
+    if len(xs) >= 10:
+        assert lo - 0.5 <= float(np.mean(xs)) <= hi + 0.5
+
+
+def test_bootstrap_ci_is_seeded_narrows_with_n_and_handles_edges() -> None:
+    rng = np.random.default_rng(0)
+    small = rng.random(20) < 0.7
+    big = rng.random(2000) < 0.7
+    assert bootstrap_ci(small, seed=5) == bootstrap_ci(small, seed=5)
+    w_small = np.subtract(*bootstrap_ci(small)[::-1])
+    w_big = np.subtract(*bootstrap_ci(big)[::-1])
+    assert w_big < w_small
+    lo, hi = bootstrap_ci(big)
+    assert lo < 0.7 < hi
+    assert bootstrap_ci([1.0]) == (1.0, 1.0)
+    assert all(np.isnan(bootstrap_ci([])))
+
+
+# -- malformed datasets --------------------------------------------------------------------------
+
+def _line(**over: object) -> str:
+    d = {"id": "a1", "scenario": "household-table-v0/0", "domain": "household-table-v0",
+         "observed_actions": [], "audio": "a1.wav", "reference": "pass me the forks",
+         "gold_goal": {"name": "g", "counts": {"fork": 3}}, "gold_command": "deliver(fork,3)", "speaker": "p1"}
+    d.update(over)
+    return json.dumps({k: v for k, v in d.items() if v is not ...})
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (None, "no manifest.jsonl"),
+    ("", "lists no stimuli"),
+    ("{not json\n", "not valid JSON"),
+    (_line(gold_command=...) + "\n", "missing key"),
+    (_line(gold_command="bring(fork)") + "\n", "gold_command"),
+    (_line(snr_db=10) + "\n", "both 'noise' and 'snr_db'"),
+    (_line() + "\n" + _line() + "\n", "appears twice"),
+    (_line(audio="missing.wav") + "\n", "is missing"),
+    (_line(id="a b") + "\n", "may use only"),
+])
+def test_malformed_dataset_raises_dataset_error(tmp_path: Path, content: str | None, message: str) -> None:
+    (tmp_path / "a1.wav").write_bytes(b"RIFF")
+    if content is not None:
+        (tmp_path / "manifest.jsonl").write_text(content)
+    with pytest.raises(DatasetError, match=message):
+        load_dataset(tmp_path)
+
+
+def test_missing_folder_says_how_to_build(tmp_path: Path) -> None:
+    with pytest.raises(DatasetError, match="siftom dataset build"):
+        load_dataset(tmp_path / "nope")

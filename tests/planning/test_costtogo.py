@@ -1,10 +1,12 @@
 import numpy as np
 import pytest
-from helpers import random_world, three_room_house
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from helpers import random_world, three_room_house
 from siftom.planning.astar import Status, plan_for_goal
-from siftom.planning.costtogo import CostToGo
-from siftom.world.model import Goal
+from siftom.planning.costtogo import CostToGo, goal_matrix, successor_values
+from siftom.world.model import HUMAN, Goal, apply, cost, legal_actions, transition
 
 
 def _goals(world, rng, target):
@@ -39,16 +41,12 @@ def test_astar_matches_uniform_cost_search(seed):
 
 
 # ----------------------------------------------------------------------------- more checks
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-
-from siftom.planning.costtogo import goal_matrix, successor_values  # noqa: E402
-from siftom.world.model import HUMAN, apply, cost, legal_actions, transition  # noqa: E402
 
 
 def _walk_randomly(world, s, rng, steps):
+    """A random mid-task state of the human (no handovers: the robot keeps its hands free)."""
     for _ in range(steps):
-        acts = list(legal_actions(world, s, HUMAN))
+        acts = [a for a in legal_actions(world, s, HUMAN) if a.kind != "handover"]
         s = apply(s, acts[int(rng.integers(len(acts)))])
     return s
 
@@ -70,7 +68,7 @@ def _all_goals(world, target, kmax=2):
 def test_astar_plan_is_legal_optimal_and_the_heuristic_admissible_along_it(seed):
     """Three classes, mid-task states (the human may hold something): A* = uniform-cost search."""
     rng = np.random.default_rng(1000 + seed)
-    world, s = random_world(rng, n_places=4, n_items=5, n_classes=3)
+    world, s = random_world(rng, n_places=4, n_items=4, n_classes=3)
     s = _walk_randomly(world, s, rng, int(rng.integers(0, 6)))
     goal = _goals(world, rng, target=0)
     ref = plan_for_goal(world, s, goal, use_heuristic=False, prune=False)
@@ -133,23 +131,34 @@ def _direct_q(ctg, s, a, N):
     return cost(ctg.world, s, a) + ctg.values(ctg.tables(s2), N, s2.agent_at[HUMAN], s2.held[HUMAN])
 
 
-@settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 100_000))
-def test_successor_values_equal_cost_plus_value_of_the_next_state(seed):
+SUCCESSOR_BUG = ("bug (f19fe18, batched non-walk successors): successor_values passes a per-row held-class "
+                 "array to CostToGo._values, which then takes the 'holding' branch even for rows whose "
+                 "agent holds nothing (-1) and charges one extra put: Q(open/close/put/handover) = "
+                 "cost + V(next) + 1 for every goal that still needs something")
+
+
+@pytest.mark.xfail(strict=True, reason=SUCCESSOR_BUG)
+def test_successor_values_equal_cost_plus_value_of_the_next_state():
     """Q(s, a; g) = cost(a) + V(apply(s, a); g) for every action, whatever shortcut computes it."""
-    rng = np.random.default_rng(seed)
-    world, s = random_world(rng, n_places=4, n_items=5, n_classes=2)
-    s = _walk_randomly(world, s, rng, int(rng.integers(0, 8)))
-    goals = _all_goals(world, 0)
-    ctg = CostToGo(world, 0, 2)
-    N = goal_matrix(world, goals)
-    acts = list(legal_actions(world, s, HUMAN))
-    Q = successor_values(ctg, s, ctg.tables(s), acts, N)
-    assert Q.shape == (len(acts), len(goals))
-    for r, a in enumerate(acts):
-        if a.kind == "grab" and s.item_at[a.obj] == 0:
-            continue  # taking an object back off the target: see the xfail test below
-        _assert_same_q(Q[r], _direct_q(ctg, s, a, N), world.format_action(a))
+    wrong = []
+    for seed in range(60):
+        rng = np.random.default_rng(4000 + seed)
+        world, s = random_world(rng, n_places=4, n_items=5, n_classes=2)
+        s = _walk_randomly(world, s, rng, int(rng.integers(0, 8)))
+        goals = _all_goals(world, 0)
+        ctg = CostToGo(world, 0, 2)
+        N = goal_matrix(world, goals)
+        acts = list(legal_actions(world, s, HUMAN))
+        Q = successor_values(ctg, s, ctg.tables(s), acts, N)
+        assert Q.shape == (len(acts), len(goals))
+        for r, a in enumerate(acts):
+            if a.kind == "grab" and s.item_at[a.obj] == 0:
+                continue  # taking an object back off the target: see the xfail test below
+            try:
+                _assert_same_q(Q[r], _direct_q(ctg, s, a, N), world.format_action(a))
+            except AssertionError:
+                wrong.append((seed, world.format_action(a)))
+    assert not wrong, f"{len(wrong)} wrong rows, e.g. {wrong[:5]}"
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -186,3 +195,21 @@ def test_successor_values_grab_shortcut_taking_a_goal_object_off_the_target():
     r = next(k for k, a in enumerate(acts) if a.kind == "grab" and a.obj == plate)
     assert _direct_q(ctg, s, acts[r], N)[0] == 2.0  # grab (1) + put it back (1)
     assert successor_values(ctg, s, ctg.tables(s), acts, N)[r, 0] == 2.0
+
+
+@pytest.mark.xfail(strict=True, reason=SUCCESSOR_BUG)
+@pytest.mark.parametrize("kind", ["open", "put"])
+def test_successor_values_of_opening_and_putting_down(kind):
+    """Opening a container or putting an object down: Q = 1 + V(next state), for every goal."""
+    world, s = three_room_house()  # human at the counter, fork_1 and fork_2 in the closed drawer
+    if kind == "open":
+        s = type(s)((2, 0), s.held, s.item_at, s.open_mask)
+    else:
+        s = apply(s, next(a for a in legal_actions(world, s, HUMAN) if a.kind == "grab"))  # holds the plate
+    goals = _all_goals(world, 0, kmax=1)
+    ctg = CostToGo(world, 0, 2)
+    N = goal_matrix(world, goals)
+    acts = list(legal_actions(world, s, HUMAN))
+    Q = successor_values(ctg, s, ctg.tables(s), acts, N)
+    (r,) = [k for k, a in enumerate(acts) if a.kind == kind]
+    _assert_same_q(Q[r], _direct_q(ctg, s, acts[r], N), world.format_action(acts[r]))

@@ -9,9 +9,14 @@ import pytest
 # Import both domain modules so they register whatever was imported before (see the xfail below).
 import siftom.world.domains.household  # noqa: F401
 import siftom.world.domains.kitchen  # noqa: F401
-
 from siftom.errors import CommandParseError, UnknownNameError
-from siftom.world.domains.base import domains, get_domain, get_scenario, scenario_domain, scenario_ids
+from siftom.world.domains.base import (
+    domains,
+    get_domain,
+    get_scenario,
+    scenario_domain,
+    scenario_ids,
+)
 from siftom.world.domains.kitchen import library
 from siftom.world.model import HELD, apply, check
 

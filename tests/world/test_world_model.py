@@ -4,10 +4,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-from helpers import three_room_house
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helpers import three_room_house
 from siftom.errors import IllegalActionError, ObservationError, UnknownNameError
 from siftom.world.model import (
     HELD,

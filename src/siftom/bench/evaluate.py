@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from siftom.bench.dataset import Dataset, Stimulus, load_dataset, scenario_for
-from siftom.errors import DatasetError, unknown_name
+from siftom.errors import DatasetError, SiftomError, unknown_name
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
@@ -137,15 +137,23 @@ def scenario_key(s: Stimulus) -> str:
 def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
     """Team simulation of a command string (``none``: the robot does nothing), cached."""
     from siftom.agents.team import simulate_scenario
+    from siftom.bench.teamsim import shared_solves
     from siftom.world.commands import RobotCommand
 
     key = (skey, command)
     if key not in _TEAM:
         t0 = time.perf_counter()
-        r = simulate_scenario(sc, None if command == "none" else RobotCommand.parse(command))
+        try:
+            with shared_solves():
+                r = simulate_scenario(sc, None if command == "none" else RobotCommand.parse(command))
+        except SiftomError as exc:  # a planning budget ran out: keep the trial, without a speedup
+            _TEAM[key] = {"l_single": None, "l_team": None, "remedy_steps": None, "speedup": None,
+                          "useful": None, "wrong": None, "error": str(exc),
+                          "seconds": round(time.perf_counter() - t0, 3)}
+            return _TEAM[key]
         _TEAM[key] = {"l_single": r.l_single, "l_team": r.l_team, "remedy_steps": r.remedy_steps,
                       "speedup": r.speedup, "useful": r.useful, "wrong": r.wrong,
-                      "seconds": time.perf_counter() - t0}
+                      "seconds": round(time.perf_counter() - t0, 3)}
     return _TEAM[key]
 
 
@@ -252,7 +260,8 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 "correct": is_correct(command, s.gold_command, sc.verb),
                 "helpful": is_helpful(command, s.gold_goal["counts"]),
                 "l_single": team["l_single"], "l_team": team["l_team"],
-                "remedy_steps": team["remedy_steps"], "speedup": round(team["speedup"], 6),
+                "remedy_steps": team["remedy_steps"],
+                "speedup": None if team["speedup"] is None else round(team["speedup"], 6),
                 "seconds": round(time.perf_counter() - t0, 4),
             }
         gold = _simulate(skey, sc, s.gold_command)
@@ -260,7 +269,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             "id": s.id, "scenario": s.scenario, "speaker": s.speaker, "voice": s.voice,
             "noise": s.noise, "snr_db": s.snr_db, "condition": s.condition, "style": s.style,
             "reference": s.reference, "gold_command": s.gold_command, "gold_goal": s.gold_goal.get("name", ""),
-            "gold_speedup": round(gold["speedup"], 6),
+            "gold_speedup": None if gold["speedup"] is None else round(gold["speedup"], 6),
             "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
                            "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
             "models": models,

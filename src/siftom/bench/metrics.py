@@ -58,6 +58,7 @@ class ModelSummary:
     n: int
     wrong: int
     no_action: int
+    n_speedup: int = 0
 
     def to_json(self) -> dict[str, Any]:
         """The documented summary.json entry (rounded to 4 decimals)."""
@@ -66,7 +67,7 @@ class ModelSummary:
             "accuracy": r(self.accuracy), "accuracy_ci": [r(self.accuracy_ci[0]), r(self.accuracy_ci[1])],
             "speedup": r(self.speedup), "speedup_ci": [r(self.speedup_ci[0]), r(self.speedup_ci[1])],
             "neg_speedup_share": r(self.neg_speedup_share), "helpful_error_share": r(self.helpful_error_share),
-            "n": self.n, "wrong": self.wrong, "no_action": self.no_action,
+            "n": self.n, "wrong": self.wrong, "no_action": self.no_action, "n_speedup": self.n_speedup,
         }
 
 
@@ -77,20 +78,22 @@ def _round(x: float) -> float | None:
 def summarise_model(trials: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> ModelSummary:
     """Summarise a model's per-trial results (``correct``, ``helpful``, ``speedup``, ``command``)."""
     correct = np.array([bool(t["correct"]) for t in trials], dtype=np.float64)
-    speed = np.array([float(t["speedup"]) for t in trials], dtype=np.float64)
+    # a trial whose team simulation ran out of planning budget has no speedup (None)
+    speed = np.array([float(t["speedup"]) for t in trials if t.get("speedup") is not None], dtype=np.float64)
     helpful = np.array([bool(t["helpful"]) for t in trials])
     wrong = correct == 0
     n_wrong = int(wrong.sum())
     return ModelSummary(
         accuracy=float(correct.mean()) if len(trials) else float("nan"),
         accuracy_ci=bootstrap_ci(correct, n_boot, seed),
-        speedup=float(speed.mean()) if len(trials) else float("nan"),
+        speedup=float(speed.mean()) if len(speed) else float("nan"),
         speedup_ci=bootstrap_ci(speed, n_boot, seed + 1),
-        neg_speedup_share=float((speed < -1e-9).mean()) if len(trials) else float("nan"),
+        neg_speedup_share=float((speed < -1e-9).mean()) if len(speed) else float("nan"),
         helpful_error_share=float(helpful[wrong].mean()) if n_wrong else float("nan"),
         n=len(trials),
         wrong=n_wrong,
         no_action=sum(1 for t in trials if t["command"] == "none"),
+        n_speedup=len(speed),
     )
 
 
@@ -118,8 +121,13 @@ def breakdown(
             ts = [r["models"][m] for r in rs if m in r["models"]]
             if ts:
                 out[label][m] = {"accuracy": _round(np.mean([t["correct"] for t in ts])),
-                                 "speedup": _round(np.mean([t["speedup"] for t in ts])), "n": len(ts)}
+                                 "speedup": _round(_mean([t["speedup"] for t in ts if t.get("speedup") is not None])),
+                                 "n": len(ts)}
     return out
+
+
+def _mean(xs: Sequence[float]) -> float:
+    return float(np.mean(xs)) if len(xs) else float("nan")
 
 
 def _label_order(label: str) -> tuple[int, float, str]:

@@ -54,7 +54,7 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     for m in models:
         trials = [r["models"][m] for r in rows if m in r["models"]]
         out["models"][m] = summarise_model(trials, seed=seed, n_boot=n_boot).to_json()
-    gold = np.array([r.get("gold_speedup", np.nan) for r in rows], dtype=float)
+    gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
     out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
     wer: dict[str, list[float]] = defaultdict(list)
@@ -97,7 +97,8 @@ def _breakdown_table(bd: dict[str, dict[str, dict[str, Any]]], models: Sequence[
         cells = []
         for m in models:
             v = per.get(m)
-            cells.append("–" if v is None else f"{_pct(v['accuracy'])} / {v['speedup']:+.2f}")
+            sp = "–" if v is None or v["speedup"] is None else f"{v['speedup']:+.2f}"
+            cells.append("–" if v is None else f"{_pct(v['accuracy'])} / {sp}")
         lines.append(f"| {label} | {n} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -137,15 +138,16 @@ def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out:
     cols = min(3, len(models))
     nrows = int(np.ceil(len(models) / cols))
     fig, axes = plt.subplots(nrows, cols, figsize=(3.4 * cols, 2.6 * nrows), squeeze=False, sharex=True)
-    allv = [t["speedup"] for r in rows for t in r["models"].values()]
+    allv = [t["speedup"] for r in rows for t in r["models"].values() if t.get("speedup") is not None]
     lo, hi = (min(allv + [-0.5]), max(allv + [0.5]))
     bins = np.linspace(lo, hi, 26)
     for k, m in enumerate(models):
         ax = axes[k // cols][k % cols]
-        v = np.array([r["models"][m]["speedup"] for r in rows if m in r["models"]])
+        v = np.array([r["models"][m]["speedup"] for r in rows
+                      if m in r["models"] and r["models"][m].get("speedup") is not None])
         ax.hist(v, bins=bins, color=colors[k], edgecolor="black", linewidth=0.4)
         ax.axvline(0, color="black", linewidth=0.8, linestyle="--")
-        ax.set_title(f"{m}: {100 * float((v < -1e-9).mean()):.0f} % < 0", fontsize=9)
+        ax.set_title(f"{m}: {100 * float((v < -1e-9).mean()) if len(v) else 0:.0f} % < 0", fontsize=9)
         ax.set_xlabel("speedup")
     for k in range(len(models), nrows * cols):
         axes[k // cols][k % cols].axis("off")

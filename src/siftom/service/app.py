@@ -111,6 +111,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     async def index() -> FileResponse:
         return FileResponse(STATIC / "index.html", media_type="text/html")
 
+    @app.get("/favicon.ico", include_in_schema=False)
+    async def favicon() -> FileResponse:
+        return FileResponse(STATIC / "favicon.svg", media_type="image/svg+xml")
+
     # ----- health ----------------------------------------------------------------------------
     @app.get("/healthz", tags=["meta"])
     async def healthz() -> dict[str, Any]:

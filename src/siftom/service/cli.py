@@ -1,0 +1,67 @@
+"""Service subcommands: ``serve`` and ``bench serve``."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from siftom.errors import missing_extra
+
+
+def _need_serve_extra() -> None:
+    for module, package in (("fastapi", "fastapi"), ("uvicorn", "uvicorn"), ("multipart", "python-multipart")):
+        try:
+            __import__(module)
+        except ModuleNotFoundError:
+            raise missing_extra("serve", package) from None
+
+
+@click.command("serve")
+@click.option("--host", default="127.0.0.1", show_default=True, help="interface to listen on")
+@click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True, help="TCP port")
+@click.option("--data-dir", type=click.Path(file_okay=False), default=None,
+              help="the service's own folder (map cache); default: a fresh temporary folder")
+def serve_cmd(host: str, port: int, data_dir: str | None) -> None:
+    """Serve the HTTP API and the web page (open http://HOST:PORT/)."""
+    _need_serve_extra()
+    import uvicorn
+
+    from siftom.service.app import create_app
+
+    click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
+    uvicorn.run(create_app(data_dir), host=host, port=port, log_level="info")
+
+
+@click.command("serve")
+@click.option("-n", "--requests", "n", type=click.IntRange(1, 100_000), default=500, show_default=True,
+              help="measured requests")
+@click.option("-c", "--concurrency", type=click.IntRange(1, 256), default=8, show_default=True,
+              help="requests in flight at once")
+@click.option("--warmup", type=click.IntRange(0, 10_000), default=20, show_default=True,
+              help="unmeasured requests first (fill the caches)")
+@click.option("--url", default=None, help="an already running server; default: start one on loopback")
+@click.option("--json", "as_json", is_flag=True, help="print the result as JSON")
+def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool) -> None:
+    """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles."""
+    _need_serve_extra()
+    from siftom.service.loadtest import run_load_test
+
+    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url)
+    if as_json:
+        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
+        return
+    verdict = "meets" if res.meets() else "MISSES"
+    click.echo(f"{res.ok}/{res.requests} ok, concurrency {res.concurrency}, {res.seconds:.2f} s: "
+               f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
+               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} >= 50 req/s, p99 < 200 ms)")
+
+
+def register(root: click.Group) -> None:
+    """Add ``serve`` and ``bench serve`` to the root group."""
+    root.add_command(serve_cmd)
+    bench = root.commands.get("bench")
+    if not isinstance(bench, click.Group):
+        bench = click.Group("bench", help="Benchmarks.")
+        root.add_command(bench)
+    bench.add_command(bench_serve_cmd)

@@ -1,0 +1,151 @@
+"""A bounded load test on loopback: start the app in a background thread, send N requests.
+
+``run_load_test`` sends ``requests`` inference requests (transcripts, cycling over a fixed set
+of scenarios and instructions) with ``concurrency`` requests in flight, and reports the
+throughput and latency percentiles. Budgets in (requests, concurrency, timeout), counters out.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import socket
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from siftom.errors import SiftomError
+
+DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
+    {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"},
+    {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"},
+    {"scenario": "household-table-v0/3", "transcript": "bring me the forks"},
+    {"scenario": "household-table-v0/0", "transcript": "could you get the bowls"},
+    {"scenario": "kitchen-v0/2", "transcript": "get me the milk"},
+    {"scenario": "kitchen-cereal-v0", "nbest": [{"text": "pass me the see real", "score": -3.0},
+                                                 {"text": "pass me the sugar", "score": -4.0}]},
+)
+
+
+@dataclass(frozen=True)
+class LoadResult:
+    """What the load test measured.
+
+    Attributes:
+        requests: requests sent; ok: of them answered 200; errors: the others.
+        concurrency: requests in flight at once.
+        seconds: wall time of the measured phase (after warm-up).
+        rps: ok requests per second.
+        p50_ms, p90_ms, p99_ms, max_ms: latency percentiles of all requests.
+        url: where the app listened.
+    """
+
+    requests: int
+    ok: int
+    errors: int
+    concurrency: int
+    seconds: float
+    rps: float
+    p50_ms: float
+    p90_ms: float
+    p99_ms: float
+    max_ms: float
+    url: str
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain dict for JSON output."""
+        return asdict(self)
+
+    def meets(self, min_rps: float = 50.0, max_p99_ms: float = 200.0) -> bool:
+        """Whether the target of issue 6 is met (>= 50 req/s, p99 < 200 ms, no errors)."""
+        return self.errors == 0 and self.rps >= min_rps and self.p99_ms < max_p99_ms
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port that is free right now on ``host``."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])
+
+
+@contextlib.contextmanager
+def serve_in_thread(app: Any, host: str = "127.0.0.1", port: int | None = None,
+                    startup_timeout: float = 30.0) -> Iterator[str]:
+    """Run ``app`` with uvicorn in a daemon thread; yield its base URL; stop it on exit."""
+    import uvicorn
+
+    port = port or free_port(host)
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False, lifespan="off")
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name="siftom-serve", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + startup_timeout
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            server.should_exit = True
+            raise SiftomError(f"the server did not start on {host}:{port} within {startup_timeout:g} s")
+        time.sleep(0.02)
+    try:
+        yield f"http://{host}:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+async def _drive(url: str, bodies: Sequence[dict[str, Any]], n: int, concurrency: int,
+                 timeout: float) -> tuple[list[float], int, float]:
+    import httpx
+
+    latencies: list[float] = []
+    ok = 0
+    next_i = 0
+    limits = httpx.Limits(max_connections=concurrency, max_keepalive_connections=concurrency)
+    async with httpx.AsyncClient(base_url=url, timeout=timeout, limits=limits) as client:
+        async def worker() -> None:
+            nonlocal ok, next_i
+            while next_i < n:
+                i = next_i
+                next_i += 1
+                t0 = time.perf_counter()
+                try:
+                    r = await client.post("/v1/infer", json=bodies[i % len(bodies)])
+                    good = r.status_code == 200
+                except httpx.HTTPError:
+                    good = False
+                latencies.append(time.perf_counter() - t0)
+                ok += good
+
+        t0 = time.perf_counter()
+        await asyncio.gather(*(worker() for _ in range(concurrency)))
+        return latencies, ok, time.perf_counter() - t0
+
+
+def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
+                  bodies: Sequence[dict[str, Any]] = DEFAULT_BODIES, url: str | None = None,
+                  timeout: float = 30.0) -> LoadResult:
+    """Send ``requests`` transcript inferences with ``concurrency`` in flight; measure.
+
+    Args:
+        requests: measured requests (after ``warmup`` unmeasured ones that fill the caches).
+        concurrency: requests in flight at once.
+        url: an already running server; None starts ``create_app()`` on a free loopback port.
+        timeout: per-request client timeout in seconds.
+    """
+    if requests < 1 or concurrency < 1 or warmup < 0:
+        raise SiftomError("requests and concurrency must be >= 1 and warmup >= 0")
+    if url is None:
+        from siftom.service.app import create_app
+
+        with serve_in_thread(create_app()) as base:
+            return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
+    if warmup:
+        asyncio.run(_drive(url, bodies, warmup, min(concurrency, warmup), timeout))
+    lat, ok, secs = asyncio.run(_drive(url, bodies, requests, concurrency, timeout))
+    ms = np.asarray(lat) * 1000.0
+    p50, p90, p99 = (float(np.percentile(ms, q)) for q in (50, 90, 99))
+    return LoadResult(requests, ok, requests - ok, concurrency, round(secs, 3), round(ok / secs, 1),
+                      round(p50, 1), round(p90, 1), round(p99, 1), round(float(ms.max()), 1), url)

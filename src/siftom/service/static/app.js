@@ -1,0 +1,329 @@
+// siftom web page: plain JS, no build step, no third-party code. Talks to the same origin's API.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const SVG = "http://www.w3.org/2000/svg";
+const state = { scenario: null, step: 0, result: null, timer: null, recorder: null };
+
+function svg(tag, attrs, parent, text) {
+  const el = document.createElementNS(SVG, tag);
+  for (const [k, v] of Object.entries(attrs || {})) el.setAttribute(k, String(v));
+  if (text !== undefined) el.textContent = text;
+  if (parent) parent.appendChild(el);
+  return el;
+}
+
+function setStatus(text, isError) {
+  const s = $("status");
+  s.textContent = text || "";
+  s.classList.toggle("error", Boolean(isError));
+}
+
+async function api(path, options) {
+  const resp = await fetch(path, options);
+  const type = resp.headers.get("content-type") || "";
+  if (!resp.ok) {
+    let detail = resp.statusText;
+    if (type.includes("json")) detail = (await resp.json()).detail || detail;
+    throw new Error(`${resp.status}: ${detail}`);
+  }
+  return type.includes("json") ? resp.json() : resp.blob();
+}
+
+// ----- scenarios and the map ---------------------------------------------------------------
+async function loadScenarios() {
+  const { scenarios } = await api("/v1/scenarios");
+  const sel = $("scenario");
+  for (const s of scenarios) {
+    const opt = document.createElement("option");
+    opt.value = s.id;
+    opt.textContent = `${s.id} (${s.num_actions} actions)`;
+    sel.appendChild(opt);
+  }
+  const wanted = new URLSearchParams(location.search).get("scenario");
+  sel.value = scenarios.some((s) => s.id === wanted) ? wanted : (scenarios.find((s) => s.id === "kitchen-cereal-v0") || scenarios[0]).id;
+  await selectScenario(sel.value);
+}
+
+async function selectScenario(id) {
+  stopPlay();
+  state.scenario = await api(`/v1/scenarios/${id.split("/").map(encodeURIComponent).join("/")}`);
+  state.result = null;
+  $("result").hidden = true;
+  $("scenario-desc").textContent = state.scenario.description;
+  const n = state.scenario.actions.length;
+  $("step").max = n;
+  setStep(n);
+  const list = $("actions");
+  list.replaceChildren();
+  for (const a of state.scenario.actions) {
+    const li = document.createElement("li");
+    li.textContent = a;
+    list.appendChild(li);
+  }
+  markActions();
+}
+
+function setStep(t) {
+  state.step = t;
+  $("step").value = t;
+  $("step-out").textContent = `${t}/${state.scenario.actions.length}`;
+  markActions();
+  drawMap();
+}
+
+function markActions() {
+  const items = $("actions").children;
+  for (let i = 0; i < items.length; i++) {
+    items[i].classList.toggle("seen", i < state.step);
+    items[i].classList.toggle("now", i === state.step - 1);
+  }
+}
+
+function roomBoxes(places) {
+  const boxes = {};
+  for (const p of places) {
+    const [x, y] = p.pos;
+    const b = boxes[p.room] || (boxes[p.room] = [x, y, x, y]);
+    b[0] = Math.min(b[0], x); b[1] = Math.min(b[1], y); b[2] = Math.max(b[2], x); b[3] = Math.max(b[3], y);
+  }
+  for (const b of Object.values(boxes)) { b[0] -= 1.6; b[1] -= 1.6; b[2] += 1.6; b[3] += 1.6; }
+  return boxes;
+}
+
+const ROOM_COLOURS = ["#f3efe6", "#e8f1f8", "#eef6ea", "#f8ecef", "#f1ecf8", "#f8f5e6"];
+
+function drawMap() {
+  const sc = state.scenario;
+  const map = $("map");
+  map.replaceChildren();
+  const boxes = roomBoxes(sc.places);
+  const all = Object.values(boxes);
+  const x0 = Math.min(...all.map((b) => b[0])) - 1.2, x1 = Math.max(...all.map((b) => b[2])) + 1.2;  // room for labels
+  const y0 = Math.min(...all.map((b) => b[1])) - 0.3, y1 = Math.max(...all.map((b) => b[3])) + 0.3;
+  map.setAttribute("viewBox", `${x0} ${-y1} ${x1 - x0} ${y1 - y0}`);  // world y up, SVG y down
+  const P = (pos) => [pos[0], -pos[1]];
+  const place = Object.fromEntries(sc.places.map((p) => [p.name, p]));
+  Object.keys(boxes).sort().forEach((room, k) => {
+    const [a, b, c, d] = boxes[room];
+    svg("rect", { class: "room", x: a, y: -d, width: c - a, height: d - b, fill: ROOM_COLOURS[k % ROOM_COLOURS.length] }, map);
+    svg("text", { class: "room-label", x: a + 0.15, y: -d + 0.55 }, map, room.replace(/_/g, " "));
+  });
+  const tl = sc.timeline[state.step];
+  const cls = Object.fromEntries(sc.objects.map((o) => [o.name, o["class"]]));
+  const hlClass = state.result ? commandClass(state.result.command) : null;
+  for (const p of sc.places) {
+    const [x, y] = P(p.pos);
+    const kind = p.name === sc.target ? "place target" : (p.closable ? "place container" : "place");
+    svg("rect", { class: kind, x: x - 0.6, y: y - 0.35, width: 1.2, height: 0.7, rx: 0.08 }, map);
+    const open = p.closable ? (tl.open.includes(p.name) ? " (open)" : " (closed)") : "";
+    svg("text", { class: "place-label", x, y: y + 0.7 }, map, p.name.replace(/_/g, " ") + open);
+    const counts = {};
+    for (const it of tl.items[p.name] || []) counts[cls[it]] = (counts[cls[it]] || 0) + 1;
+    const names = Object.keys(counts).sort();
+    let label = names.map((c) => (counts[c] > 1 ? `${counts[c]}×${c}` : c)).join(", ");
+    if (label.length > 34) label = label.slice(0, 32) + "…";
+    if (label) svg("text", { class: hlClass && counts[hlClass] ? "items hl" : "items", x, y: y - 0.45 }, map, label);
+  }
+  // the human's walk so far
+  const pts = [];
+  for (let t = 0; t <= state.step; t++) {
+    const at = P(place[sc.timeline[t].agents.human].pos);
+    const last = pts[pts.length - 1];
+    if (!last || last[0] !== at[0] || last[1] !== at[1]) pts.push(at);
+  }
+  if (pts.length > 1) svg("polyline", { class: "path-human", points: pts.map((p) => p.join(",")).join(" ") }, map);
+  // the robot's plan for the chosen command
+  const plan = state.result && state.result.plan;
+  if (plan && plan.route.length > 1 && state.result.n_actions === state.step) {
+    const rp = plan.route.map((n) => P(place[n].pos)).map(([x, y], i) => [x + 0.12, y + 0.12 + 0.02 * i]);
+    svg("polyline", { id: "robot-path", class: "path-robot", points: rp.map((p) => p.join(",")).join(" ") }, map);
+  }
+  const [hx, hy] = P(place[tl.agents.human].pos);
+  const [rx, ry] = P(place[tl.agents.robot].pos);
+  svg("circle", { class: "agent-human", cx: hx - 0.35, cy: hy, r: 0.22 }, map);
+  svg("rect", { class: "agent-robot", x: rx + 0.15, y: ry - 0.2, width: 0.4, height: 0.4, rx: 0.05 }, map);
+  if (tl.held.human) svg("text", { class: "items", x: hx - 0.35, y: hy - 0.3 }, map, `holds ${tl.held.human}`);
+}
+
+function commandClass(cmd) {
+  const m = /^\s*\w+\(\s*([A-Za-z_]\w*)/.exec(cmd || "");
+  return m ? m[1] : null;
+}
+
+function togglePlay() {
+  if (state.timer) { stopPlay(); return; }
+  const n = state.scenario.actions.length;
+  if (state.step >= n) setStep(0);
+  $("play").textContent = "❚❚ Pause";
+  state.timer = setInterval(() => {
+    if (state.step >= n) { stopPlay(); return; }
+    setStep(state.step + 1);
+  }, 600);
+}
+
+function stopPlay() {
+  if (state.timer) clearInterval(state.timer);
+  state.timer = null;
+  $("play").textContent = "▶ Play";
+}
+
+// ----- inference and results ---------------------------------------------------------------
+function bars(el, rows, key) {
+  el.replaceChildren();
+  rows.slice(0, 8).forEach((r, i) => {
+    const row = document.createElement("div");
+    row.className = i === 0 ? "bar-row top" : "bar-row";
+    const label = document.createElement("span");
+    label.className = "label";
+    label.textContent = r[key];
+    label.title = r[key];
+    const track = document.createElement("span");
+    track.className = "track";
+    const fill = document.createElement("span");
+    fill.className = "fill";
+    fill.style.display = "block";
+    fill.style.width = `${(100 * r.prob).toFixed(1)}%`;
+    track.appendChild(fill);
+    const value = document.createElement("span");
+    value.className = "value";
+    value.textContent = r.prob.toFixed(2);
+    row.append(label, track, value);
+    el.appendChild(row);
+  });
+}
+
+function showResult(res) {
+  state.result = res;
+  $("result").hidden = false;
+  $("command").textContent = res.command;
+  const q = $("question");
+  q.hidden = !res.clarification.ask;
+  q.textContent = res.clarification.ask ? `Robot asks: “${res.clarification.question}”` : "";
+  $("reason").textContent = res.clarification.reason;
+  const nb = $("nbest");
+  nb.replaceChildren();
+  const heard = res.nbest.length ? res.nbest : [{ text: "(nothing heard: actions only)", score: 0 }];
+  for (const h of heard.slice(0, 5)) {
+    const li = document.createElement("li");
+    li.textContent = h.text;
+    nb.appendChild(li);
+  }
+  bars($("commands-chart"), res.commands, "command");
+  bars($("goals-chart"), res.goals, "goal");
+  const plan = $("plan");
+  plan.replaceChildren();
+  for (const a of res.plan ? res.plan.actions : []) {
+    const li = document.createElement("li");
+    li.textContent = a;
+    plan.appendChild(li);
+  }
+  drawMap();
+  setStatus(`inferred in ${(1000 * res.seconds).toFixed(0)} ms from ${res.n_actions} actions`);
+}
+
+async function inferText(ev) {
+  ev.preventDefault();
+  const text = $("instruction").value.trim();
+  const body = { scenario: state.scenario.id, n_actions: state.step };
+  if (text) body.transcript = text;
+  setStatus("inferring…");
+  try {
+    showResult(await api("/v1/infer", {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+    }));
+  } catch (e) { setStatus(e.message, true); }
+}
+
+async function inferAudio(blob, name) {
+  const form = new FormData();
+  form.append("scenario", state.scenario.id);
+  form.append("n_actions", String(state.step));
+  form.append("audio", blob, name);
+  setStatus("transcribing and inferring…");
+  try {
+    const res = await api("/v1/infer", { method: "POST", body: form });
+    if (res.asr) $("instruction").value = res.asr.text;
+    showResult(res);
+  } catch (e) { setStatus(e.message, true); }
+}
+
+async function sayAndInfer() {
+  const text = $("instruction").value.trim() || "can you pass me the cereal";
+  const noise = $("noise").value;
+  const body = { text, snr: Number($("snr").value) };
+  if (noise) body.noise = noise;
+  setStatus("synthesising…");
+  try {
+    const wav = await api("/v1/say", {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+    });
+    const player = $("player");
+    player.src = URL.createObjectURL(wav);
+    player.hidden = false;
+    player.play().catch(() => {});  // autoplay may be refused; the controls stay
+    await inferAudio(wav, "say.wav");
+  } catch (e) { setStatus(e.message, true); }
+}
+
+// ----- microphone: MediaRecorder, decoded and re-encoded as 16 kHz WAV in the page ------------
+async function toggleRecord() {
+  const btn = $("record");
+  if (state.recorder) { state.recorder.stop(); return; }
+  if (!navigator.mediaDevices || !window.MediaRecorder) { setStatus("this browser cannot record audio", true); return; }
+  try {
+    const stream = await navigator.mediaDevices.getUserMedia({ audio: true });
+    const chunks = [];
+    const rec = new MediaRecorder(stream);
+    rec.ondataavailable = (e) => chunks.push(e.data);
+    rec.onstop = async () => {
+      stream.getTracks().forEach((t) => t.stop());
+      state.recorder = null;
+      btn.classList.remove("recording");
+      btn.textContent = "● Record";
+      const wav = await toWav16k(new Blob(chunks, { type: rec.mimeType }));
+      $("player").src = URL.createObjectURL(wav);
+      $("player").hidden = false;
+      await inferAudio(wav, "recording.wav");
+    };
+    rec.start();
+    state.recorder = rec;
+    btn.classList.add("recording");
+    btn.textContent = "■ Stop";
+    setStatus("recording… press Stop when done");
+    setTimeout(() => { if (state.recorder === rec) rec.stop(); }, 15000);
+  } catch (e) { setStatus(`microphone: ${e.message}`, true); }
+}
+
+async function toWav16k(blob) {
+  const ctx = new AudioContext();
+  const decoded = await ctx.decodeAudioData(await blob.arrayBuffer());
+  ctx.close();
+  const rate = 16000;
+  const off = new OfflineAudioContext(1, Math.ceil(decoded.duration * rate), rate);
+  const src = off.createBufferSource();
+  src.buffer = decoded;
+  src.connect(off.destination);
+  src.start();
+  const pcm = (await off.startRendering()).getChannelData(0);
+  const buf = new ArrayBuffer(44 + 2 * pcm.length);
+  const v = new DataView(buf);
+  const str = (o, s) => { for (let i = 0; i < s.length; i++) v.setUint8(o + i, s.charCodeAt(i)); };
+  str(0, "RIFF"); v.setUint32(4, 36 + 2 * pcm.length, true); str(8, "WAVE"); str(12, "fmt ");
+  v.setUint32(16, 16, true); v.setUint16(20, 1, true); v.setUint16(22, 1, true); v.setUint32(24, rate, true);
+  v.setUint32(28, 2 * rate, true); v.setUint16(32, 2, true); v.setUint16(34, 16, true); str(36, "data");
+  v.setUint32(40, 2 * pcm.length, true);
+  for (let i = 0; i < pcm.length; i++) v.setInt16(44 + 2 * i, Math.max(-1, Math.min(1, pcm[i])) * 32767, true);
+  return new Blob([buf], { type: "audio/wav" });
+}
+
+// ----- wiring ----------------------------------------------------------------------------------
+window.addEventListener("DOMContentLoaded", () => {
+  $("scenario").addEventListener("change", (e) => selectScenario(e.target.value).catch((err) => setStatus(err.message, true)));
+  $("step").addEventListener("input", (e) => { stopPlay(); setStep(Number(e.target.value)); });
+  $("play").addEventListener("click", togglePlay);
+  $("ask-form").addEventListener("submit", inferText);
+  $("say").addEventListener("click", sayAndInfer);
+  $("record").addEventListener("click", toggleRecord);
+  loadScenarios().then(() => { document.body.dataset.ready = "1"; }).catch((e) => setStatus(e.message, true));
+});

@@ -1,0 +1,28 @@
+"""Fixtures for the service tests: one app per session (its caches make later tests fast)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
+pytest.importorskip("httpx", reason="needs httpx (the dev extra)")
+
+from fastapi.testclient import TestClient  # noqa: E402
+
+from siftom.service.app import create_app  # noqa: E402
+from siftom.service.runtime import ServiceSettings  # noqa: E402
+
+SMALL_BODY = 256 * 1024  # above a short recording, small enough to exceed cheaply
+
+
+@pytest.fixture(scope="session")
+def app(tmp_path_factory: pytest.TempPathFactory):
+    return create_app(tmp_path_factory.mktemp("serve"), ServiceSettings(max_body_bytes=SMALL_BODY, max_audio_seconds=5.0))
+
+
+@pytest.fixture(scope="session")
+def client(app) -> Iterator[TestClient]:
+    with TestClient(app, raise_server_exceptions=False) as c:
+        yield c

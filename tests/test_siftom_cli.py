@@ -1,0 +1,160 @@
+"""The command line: scenarios, simulate, infer and bench, as a user types them."""
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+# register both built-in domains whatever was imported first (tests/world/test_domains.py, xfail)
+import siftom.world.domains.household  # noqa: F401
+import siftom.world.domains.kitchen  # noqa: F401
+from siftom.cli import main, root
+
+VIRTUALHOME = Path(__file__).parents[1].parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+SILVER = "can you pass me the silver"
+
+
+@pytest.fixture
+def cli():
+    runner = CliRunner()
+
+    def invoke(*args):
+        res = runner.invoke(root, list(args), catch_exceptions=False)
+        assert res.exit_code == 0, res.output
+        return res.output
+
+    return invoke
+
+
+def test_scenarios_list_json(cli):
+    out = json.loads(cli("scenarios", "list", "--json"))
+    assert {d["id"] for d in out["domains"]} == {"household-table-v0", "kitchen-v0"}
+    ids = [r["id"] for r in out["scenarios"]]
+    assert "kitchen-cereal-v0" in ids
+    assert sum(1 for i in ids if i.startswith("household-table-v0/")) == 26
+    row = next(r for r in out["scenarios"] if r["id"] == "kitchen-cereal-v0")
+    assert row["command"] == "fetch(cereal)" and row["goal"] == "breakfast_cereal" and row["num_goals"] >= 100
+
+
+def test_scenarios_list_filters_by_domain(cli):
+    out = json.loads(cli("scenarios", "list", "--json", "--domain", "kitchen-v0"))
+    assert out["scenarios"] and all(r["domain"] == "kitchen-v0" for r in out["scenarios"])
+
+
+def test_scenarios_show_writes_a_png(cli, tmp_path):
+    png = tmp_path / "maps" / "cereal.png"
+    out = cli("scenarios", "show", "kitchen-cereal-v0", "--png", str(png))
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
+    assert "kitchen-cereal-v0" in out and "fetch(cereal)" in out
+    info = json.loads(cli("scenarios", "show", "kitchen-cereal-v0", "--json"))
+    assert info["goal"]["name"] == "breakfast_cereal" and len(info["actions"]) == 10
+
+
+def test_simulate_json(cli):
+    out = json.loads(cli("simulate", "household-table-v0/6", "--command", "deliver(fork,3)", "--json"))
+    assert {"l_single", "l_team", "speedup"} <= set(out)
+    assert out["speedup"] == pytest.approx(out["l_single"] / out["l_team"] - 1)
+    text = cli("simulate", "kitchen-cereal-v0", "--command", "fetch(cereal)")
+    assert "L_single" in text and "speedup" in text
+
+
+@pytest.mark.parametrize("command", ["deliver fork", "deliver(fork,0)", "fetch(spaceship)"])
+def test_simulate_bad_command_exits_2_and_lists_valid_forms(capsys, command):
+    assert main(["simulate", "kitchen-cereal-v0", "--command", command]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "alid forms" in err
+    assert "Traceback" not in err
+
+
+def test_unknown_scenario_exits_2_with_suggestions(capsys):
+    assert main(["scenarios", "show", "kitchen-cereal-v1"]) == 2
+    assert "Did you mean 'kitchen-cereal-v0'" in capsys.readouterr().err
+
+
+def test_infer_scenario_json(cli):
+    out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER, "--json"))
+    assert out["command"] == "fetch(cereal)"
+    assert out["commands"][0] == {"command": "fetch(cereal)", "prob": out["commands"][0]["prob"]}
+    assert {"goal", "prob"} == set(out["goals"][0])
+    table = cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER)
+    assert "chosen command: fetch(cereal)" in table
+
+
+def test_infer_ablation_flag(cli):
+    out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--model", "action-only", "--json"))
+    assert out["mode"] == "action-only" and out["transcript"] == ""
+
+
+def test_infer_with_actions_on_a_registered_scenario(cli, tmp_path):
+    acts = tmp_path / "acts.txt"
+    acts.write_text("# the human fetches the milk\nwalk(human, fridge)\nopen(human, fridge)\n"
+                    "grab(human, milk, fridge)\n")
+    out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--actions", str(acts),
+                         "--transcript", SILVER, "--json"))
+    assert out["n_actions"] == 3
+
+
+WORLD = {
+    "places": [{"name": "table", "kind": "surface", "room": "dining", "pos": [0, 0]},
+               {"name": "drawer", "kind": "container", "room": "kitchen", "pos": [5, 1], "closable": True},
+               {"name": "shelf", "kind": "surface", "room": "kitchen", "pos": [6, -2]}],
+    "doors": [{"rooms": ["dining", "kitchen"], "pos": [2, 0]}],
+    "items": [{"name": "fork_1", "class": "fork", "at": "drawer"},
+              {"name": "fork_2", "class": "fork", "at": "drawer"},
+              {"name": "plate_1", "class": "plate", "at": "shelf"},
+              {"name": "plate_2", "class": "plate", "at": "shelf"}],
+    "agents": {"human": "table", "robot": "table"},
+    "target": "table",
+    "verb": "deliver",
+    "goals": [{"name": "two forks and two plates", "counts": {"fork": 2, "plate": 2}},
+              {"name": "two forks", "counts": {"fork": 2}}],
+}
+
+
+def test_infer_on_a_user_world_with_actions(cli, tmp_path):
+    scene = tmp_path / "world.json"
+    scene.write_text(json.dumps(WORLD))
+    acts = tmp_path / "acts.json"
+    acts.write_text(json.dumps(["walk(human, shelf)", "grab(human, plate_1, shelf)", "walk(human, table)",
+                                "put(human, plate_1, table)"]))
+    out = json.loads(cli("infer", "--scene", str(scene), "--actions", str(acts), "--transcript",
+                         "bring me the forks", "--json"))
+    assert out["command"] == "deliver(fork,2)" and out["n_actions"] == 4
+    assert {g["goal"] for g in out["goals"]} >= {"two forks and two plates", "two forks"}
+
+
+def test_infer_on_a_user_world_refuses_an_impossible_action(tmp_path, capsys):
+    scene = tmp_path / "world.json"
+    scene.write_text(json.dumps(WORLD))
+    acts = tmp_path / "acts.txt"
+    acts.write_text("walk(human, drawer)\ngrab(human, fork_1, drawer)\n")  # the drawer is closed
+    assert main(["infer", "--scene", str(scene), "--actions", str(acts), "--transcript", "forks"]) == 2
+    err = capsys.readouterr().err
+    assert "action 2" in err and "closed; open it first" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["infer", "--transcript", "x"], "exactly one of --scenario ID or --scene FILE"),
+        (["infer", "--scenario", "kitchen-cereal-v0"], "give --transcript"),
+        (["infer", "--scenario", "kitchen-cereal-v0", "--transcript", "  "], "transcript is empty"),
+    ],
+)
+def test_infer_usage_errors_exit_2(capsys, args, message):
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"VirtualHome apartment not found at {VIRTUALHOME}")
+def test_infer_on_the_virtualhome_apartment(cli):
+    out = json.loads(cli("infer", "--scene", str(VIRTUALHOME), "--transcript", "bring me two forks", "--json"))
+    assert out["command"] == "deliver(fork,2)"
+
+
+def test_bench_planner_json(cli):
+    out = json.loads(cli("bench", "planner", "--json", "--repeats", "2"))
+    assert {"num_goals", "num_actions", "q_values", "q_table_p50_ms", "v_per_second", "astar_nodes_expanded",
+            "astar_nodes_per_second"} <= set(out)
+    assert out["num_goals"] >= 100 and out["num_actions"] == 10 and out["q_values"] > 0

@@ -98,8 +98,7 @@ def _vowel_cost(a: str, b: str) -> float:
     return min(cost, 0.7)
 
 
-def substitution_cost(a: str, b: str) -> float:
-    """Cost of hearing phoneme ``b`` where ``a`` was said; symmetric, 0 iff equal, at most 1."""
+def _raw_substitution_cost(a: str, b: str) -> float:
     if a == b:
         return 0.0
     va, vb = a in _VOWEL_SET, b in _VOWEL_SET
@@ -115,26 +114,45 @@ def substitution_cost(a: str, b: str) -> float:
     return 1.0
 
 
-def indel_cost(p: str) -> float:
-    """Cost of a phoneme said but not heard (or heard but not said)."""
+def _raw_indel_cost(p: str) -> float:
     if p in _CHEAP_DELETE:
         return _CHEAP_DELETE[p]
     return VOWEL_INDEL if p in _VOWEL_SET else CONSONANT_INDEL
 
 
 def _build_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Substitution and indel tables closed under shortest paths (Floyd-Warshall).
+
+    The hand-set costs alone can break the triangle inequality (F->HH then delete HH could be
+    cheaper than deleting F). Treating deletion as substitution by an empty symbol and taking
+    the shortest path between every pair makes the edit distance a metric.
+    """
     n = len(PHONEMES)
-    sub = np.full((n + 1, n + 1), 1e6, dtype=np.float32)
+    m = np.zeros((n + 1, n + 1))
     for i, a in enumerate(PHONEMES):
         for j, b in enumerate(PHONEMES):
-            sub[i, j] = substitution_cost(a, b)
+            m[i, j] = _raw_substitution_cost(a, b)
+        m[i, n] = m[n, i] = _raw_indel_cost(a)
+    for k in range(n + 1):
+        m = np.minimum(m, m[:, k : k + 1] + m[k : k + 1, :])
+    sub = np.full((n + 1, n + 1), 1e6, dtype=np.float32)
+    sub[:n, :n] = m[:n, :n]
     indel = np.zeros(n + 1, dtype=np.float32)  # PAD costs nothing to skip
-    for i, a in enumerate(PHONEMES):
-        indel[i] = indel_cost(a)
+    indel[:n] = m[:n, n]
     return sub, indel
 
 
 SUB_COST, INDEL_COST = _build_tables()
+
+
+def substitution_cost(a: str, b: str) -> float:
+    """Cost of hearing phoneme ``b`` where ``a`` was said; symmetric, 0 iff equal, at most 1."""
+    return float(SUB_COST[PHONEME_ID[a], PHONEME_ID[b]])
+
+
+def indel_cost(p: str) -> float:
+    """Cost of a phoneme said but not heard (or heard but not said)."""
+    return float(INDEL_COST[PHONEME_ID[p]])
 
 
 # -- pronunciations ---------------------------------------------------------------------------

@@ -71,7 +71,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
     nbest = _read_nbest(nbest_file) if nbest_file else None
-    if audio is not None and not nbest and transcript is None and likelihood != "acoustic":
+    if audio is not None and not nbest and transcript is None:
         world, verb = None, "deliver"
         if scenario_id is not None:
             from siftom.world.domains.base import get_scenario

@@ -36,18 +36,45 @@ def temperature_for_snr(snr_db: float | None) -> float:
     return 30.0 - 0.9 * s
 
 
+def top_phrasings(command: RobotCommand, k: int = 1) -> list[tuple[str, float]]:
+    """The ``k`` most likely phrasings of a command (default phrasing model and lexicon).
+
+    Forced alignment costs ~20 ms per sentence, so by default each command is represented by its
+    single most likely sentence; the carrier words are then shared by all candidates and the
+    alignment scores differ where the object words do.
+    """
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.likelihood.phrasing import phrasings
+
+    items = sorted(phrasings(command, default_lexicon()), key=lambda t: -t[1])[:k]
+    top = float(logsumexp([lp for _, lp in items]))
+    return [(t, lp - top) for t, lp in items]
+
+
+def closest_phrasing(command: RobotCommand, heard: str) -> tuple[str, float]:
+    """The phrasing of ``command`` with the smallest word edit distance to ``heard``."""
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.likelihood.phrasing import phrasings
+    from siftom.speech.metrics import edit_distance
+
+    words = heard.lower().split()
+    best = min(phrasings(command, default_lexicon()),
+               key=lambda t: (edit_distance(t[0].lower().split(), words), -t[1]))
+    return best[0], 0.0
+
+
 class AcousticLikelihood:
     """log P(audio | robot command) by forced alignment of the command's phrasings.
 
     Args:
-        phrasings: maps a command to (text, log prior) pairs, e.g. siftom.likelihood.phrasing.
+        phrasings: maps a command to (text, log prior) pairs; default :func:`top_phrasings`.
         temperature: T in nats (see module doc); must be > 0.
         aligner: a ForcedAligner to share between likelihoods (one is created lazily otherwise).
     """
 
     def __init__(
         self,
-        phrasings: Phrasings,
+        phrasings: Phrasings | None = None,
         temperature: float = DEFAULT_TEMPERATURE,
         aligner: object | None = None,
         name: str = "acoustic",
@@ -55,7 +82,7 @@ class AcousticLikelihood:
         """Validate the temperature; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
             raise SiftomError(f"temperature must be a positive number of nats, got {temperature}")
-        self.phrasings = phrasings
+        self.phrasings = phrasings or top_phrasings
         self.temperature = float(temperature)
         self.name = name
         self._aligner = aligner
@@ -78,16 +105,24 @@ class AcousticLikelihood:
                 "the acoustic likelihood needs the audio; build the Instruction with audio=PATH "
                 "or use a transcript-based likelihood"
             )
-        return self.log_prob_audio(instruction.audio, commands)
+        heard = instruction.text if instruction.nbest else None
+        return self.log_prob_audio(instruction.audio, commands, heard=heard)
 
-    def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand]) -> np.ndarray:
-        """Same as ``log_prob`` for raw 16 kHz samples or a path."""
+    def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
+                       heard: str | None = None) -> np.ndarray:
+        """Same as ``log_prob`` for raw 16 kHz samples or a path.
+
+        With ``heard`` (an ASR 1-best), each command is scored with its phrasing closest in
+        words to what was heard: the carrier ("can you pass me the ...") then matches the audio
+        and the scores differ where the object words do.
+        """
         if not commands:
             return np.zeros(0)
         per_cmd: list[list[tuple[str, float]]] = []
         texts: dict[str, None] = {}
         for c in commands:
-            items = [(str(t), float(lp)) for t, lp in self.phrasings(c)]
+            items = [(str(t), float(lp)) for t, lp in (self.phrasings(c) if heard is None else
+                                                       [closest_phrasing(c, heard)])]
             if not items:
                 raise SiftomError(f"no phrasings for command {c}; the phrasing function returned none")
             per_cmd.append(items)

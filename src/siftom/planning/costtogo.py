@@ -175,9 +175,9 @@ class CostToGo:
             deliver = np.zeros(len(idx), dtype=bool)
             eff = need
         else:
-            holding = True
-            hc = held_cls if np.ndim(held_cls) == 0 else np.asarray(held_cls)[:, None]
-            hit = (idx == hc) & (need > 0)
+            hc = np.asarray(held_cls)
+            holding = hc >= 0 if hc.ndim else True  # per row, or one agent for all rows
+            hit = (idx == (hc[:, None] if hc.ndim else hc)) & (need > 0)
             deliver = hit.any(axis=1)
             eff = need - hit
         eff = np.minimum(eff, self.kmax)
@@ -196,12 +196,12 @@ class CostToGo:
         for j in range(1, m):
             ft = np.minimum(ft, np.where(pos[:, j, None], dq[idx[:, j], :, eff[:, j]], INF))
         ft = np.where(any_need[:, None], ft, 0.0).T  # (Q, G)
-        if holding:
-            # an unneeded object is put down where the first fetch happens: one action
-            other = np.where(any_need, 1.0, 0.0) + body
-            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + body[None, :], other[None, :] + ft)
-        else:
+        if holding is False:
             out = body[None, :] + ft
+        else:
+            # an unneeded object is put down where the first fetch happens: one action
+            other = (any_need & holding).astype(np.float64) + body
+            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + body[None, :], other[None, :] + ft)
         return np.minimum(out, INF)
 
     def value(self, s: State, goal: Goal | np.ndarray, relaxed: bool = False) -> float:
@@ -281,10 +281,12 @@ def successor_values(
         if a.kind == "grab" and held == NOTHING:
             if need is None:
                 need = np.maximum(sp.cnt - tabs.at_target[sp.idx], 0)
-                any_need = (need > 0).any(axis=1)
+                any_need = (need > 0).any(axis=1)  # goals not yet reached
             c = changed[0]
-            rows = np.flatnonzero(((sp.idx == c) & (need > 0)).any(axis=1))
-            Q[r] = 1.0 + v_stay + any_need  # goals that do not need c: one more put later
+            # goals that name class c are recomputed (taking one off the target can undo them);
+            # the others gain exactly one more put later
+            rows = np.flatnonzero(((sp.idx == c) & (sp.cnt > 0)).any(axis=1))
+            Q[r] = 1.0 + v_stay + any_need
             if not len(rows):
                 continue
             idx = sp.idx[rows]

@@ -233,6 +233,8 @@ class World:
         if a.kind in ("walk", "open", "close"):
             return f"{a.kind}({ag}, {self.places[a.place].name})"
         if a.kind == "grab":
+            if a.place == NOTHING:
+                return f"grab({ag}, {self.items[a.obj].name})"
             return f"grab({ag}, {self.items[a.obj].name}, {self.places[a.place].name})"
         if a.kind == "put":
             return f"put({ag}, {self.items[a.obj].name}, {self.places[a.place].name})"

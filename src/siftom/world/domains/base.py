@@ -127,8 +127,8 @@ def register_scenario(sid: str, domain: str, factory: Callable[[], Scenario]) ->
 
 
 def _ensure_builtin() -> None:
-    if not _DOMAINS:
-        from siftom.world.domains import household, kitchen  # noqa: F401  (they register)
+    # importing registers them; always import both, whichever module was imported first
+    from siftom.world.domains import household, kitchen  # noqa: F401
 
 
 def domains() -> Sequence[DomainSpec]:

@@ -3,9 +3,10 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 SYS_PKGS := espeak-ng flite sox
+BROWSER_PKGS := chromium
 EXTRAS ?= whisper,serve,dev
 
-.PHONY: demo test test-slow test-browser lint setup sysdeps bench clean
+.PHONY: demo test test-slow test-browser lint setup sysdeps sysdeps-browser clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -15,30 +16,38 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/pip install -q -e ".[$(EXTRAS)]"
 	touch $@
 
-sysdeps:
-	@missing=""; for p in espeak-ng flite sox; do command -v $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+# Debian packages: installed when root, otherwise the exact command is printed.
+define need_apt
+	@missing=""; for p in $(1); do command -v $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = "0" ]; then \
 	    echo "installing system packages:$$missing"; \
-	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYS_PKGS) >/dev/null; \
+	    (apt-get update -qq || true) && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
 	  else \
-	    echo "missing system packages:$$missing -- run: sudo apt-get install -y $(SYS_PKGS)"; \
+	    echo "missing system packages:$$missing -- run: sudo apt-get install -y$$missing"; \
 	  fi; \
 	fi
+endef
+
+sysdeps:
+	$(call need_apt,$(SYS_PKGS))
+
+sysdeps-browser:
+	$(call need_apt,$(BROWSER_PKGS))
 
 setup: sysdeps $(VENV)/.installed
 
 demo: setup
 	$(BIN)/siftom demo
 
-test: setup
+test: setup sysdeps-browser
 	$(BIN)/ruff check src tests
 	$(BIN)/python -m pytest -q -n 2 -p no:cacheprovider
 
 test-slow: setup
 	$(BIN)/python -m pytest -q -m slow
 
-test-browser: setup
+test-browser: setup sysdeps-browser
 	$(BIN)/python -m pytest -q -m browser
 
 lint: setup

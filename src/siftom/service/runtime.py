@@ -37,9 +37,9 @@ from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
 
-# The acoustic likelihood aligns every phrasing of every command against the audio: about
-# 140 s for the 42-class kitchen, far beyond the request time limit, so the service does not
-# offer it. Audio is transcribed (N-best) and scored with the text likelihoods instead.
+# The acoustic likelihood aligns one sentence per command against the audio (~1.5 s for the
+# 42-class kitchen); it is offered by `siftom infer --audio --likelihood acoustic`, not yet by
+# the service, which transcribes audio (N-best) and scores it with the text likelihoods.
 SERVICE_LIKELIHOODS = ("phonetic", "llm")
 
 

@@ -22,8 +22,11 @@ from rich.console import Console
               help="Noise: babble, pink, white, brown, hum, or a WAV file/folder.")
 @click.option("--snr", default=10.0, show_default=True, help="Signal-to-noise ratio in dB.")
 @click.option("--seed", default=0, show_default=True)
+@click.option("--likelihood", type=click.Choice(["acoustic", "phonetic"]), default="acoustic", show_default=True,
+              help="acoustic: score the audio itself; phonetic: score the N-best transcripts.")
 @click.option("--out", "out_dir", type=click.Path(path_type=Path), default=Path("siftom-demo"), show_default=True)
-def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, seed: int, out_dir: Path) -> None:
+def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, seed: int, likelihood: str,
+             out_dir: Path) -> None:
     """Speak, add noise, transcribe, infer: the whole SIFToM chain on one scenario."""
     from siftom.inference.api import get_model, make_instruction, transcribe_for
     from siftom.inference.cli import print_posterior
@@ -49,13 +52,15 @@ def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, se
     for h in tr.nbest[:5]:
         con.print(f"    {h.score:8.2f}  {h.text}")
     nbest = [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text or text, "score": 0.0}]
-    instruction = make_instruction(nbest=nbest)
-    speech_only = get_model("speech-only", "phonetic").infer(Observation.from_scenario(sc, instruction))
-    post = get_model("full", "phonetic").infer(Observation.from_scenario(sc, instruction))
-    con.rule("SIFToM (actions + words)")
+    instruction = make_instruction(nbest=nbest, audio=wav if likelihood == "acoustic" else None)
+    literal = get_model("speech-only", "phonetic").infer(Observation.from_scenario(sc, make_instruction(nbest=nbest)))
+    speech_only = get_model("speech-only", likelihood).infer(Observation.from_scenario(sc, instruction))
+    post = get_model("full", likelihood).infer(Observation.from_scenario(sc, instruction))
+    con.rule(f"SIFToM (what the human did + {'the audio' if likelihood == 'acoustic' else 'the N-best words'})")
     print_posterior(post, con)
-    con.print(f"speech only would choose: {speech_only.command} (P={speech_only.commands[0][1]:.2f}); "
-              f"gold: {sc.command}")
+    con.print(f"from the transcripts alone: {literal.command} (P={literal.commands[0][1]:.2f}); "
+              f"from the {likelihood} likelihood alone: {speech_only.command} (P={speech_only.commands[0][1]:.2f})")
+    con.print(f"SIFToM chooses [bold]{post.command}[/bold] (P={post.commands[0][1]:.2f}); the human meant {sc.command}")
     png = render_scenario(sc, out_dir / "demo.png", posterior=post)
     (out_dir / "posterior.json").write_text(json.dumps(post.to_json(), indent=2))
     con.print(f"\npicture: {png}   posterior: {out_dir / 'posterior.json'}")

@@ -114,7 +114,7 @@ def breakdown(
     for r in rows:
         groups[group_key(r, by)].append(r)
     out: dict[str, dict[str, dict[str, Any]]] = {}
-    for label in sorted(groups, key=_label_order):
+    for label in sorted(groups, key=label_order):
         rs = groups[label]
         out[label] = {}
         for m in models:
@@ -130,7 +130,7 @@ def _mean(xs: Sequence[float]) -> float:
     return float(np.mean(xs)) if len(xs) else float("nan")
 
 
-def _label_order(label: str) -> tuple[int, float, str]:
+def label_order(label: str) -> tuple[int, float, str]:
     if label == "clean":
         return (0, 0.0, "")
     if label.endswith(" dB"):

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from siftom.bench.evaluate import MODELS, RUN, load_results
-from siftom.bench.metrics import N_BOOT, breakdown, group_key, summarise_model
+from siftom.bench.metrics import N_BOOT, label_order, breakdown, group_key, summarise_model
 from siftom.errors import DatasetError
 
 SUMMARY = "summary.json"
@@ -57,13 +57,16 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
     out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
-    wer: dict[str, list[float]] = defaultdict(list)
-    for r in rows:
-        w = r.get("transcript", {}).get("wer")
-        if w is not None:
-            wer[group_key(r, "snr")].append(w)
-            wer["all"].append(w)
-    out["asr_wer"] = {k: round(float(np.mean(v)), 4) for k, v in wer.items()}
+    out["asr_wer"] = {}
+    for by in ("snr", "voice"):
+        wer: dict[str, list[float]] = defaultdict(list)
+        for r in rows:
+            w = r.get("transcript", {}).get("wer")
+            if w is not None:
+                wer[group_key(r, by)].append(w)
+        out["asr_wer"][by] = {k: round(float(np.mean(wer[k])), 4) for k in sorted(wer, key=label_order)}
+    allw = [r["transcript"]["wer"] for r in rows if r.get("transcript", {}).get("wer") is not None]
+    out["asr_wer"]["all"] = round(float(np.mean(allw)), 4) if allw else None
     return out
 
 
@@ -199,9 +202,13 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
         parts += [f"![accuracy and speedup]({FIG_MAIN})", ""]
     if FIG_HIST in names:
         parts += [f"![speedup histograms]({FIG_HIST})", ""]
-    parts += ["## ASR word error rate", "",
+    wer = summary.get("asr_wer", {})
+    parts += ["## ASR word error rate (1-best against the reference)", "",
+              f"All stimuli: {_pct(wer.get('all'))}.", "",
               "| condition | WER |", "|---|---|"]
-    parts += [f"| {k} | {_pct(v)} |" for k, v in summary.get("asr_wer", {}).items()]
+    parts += [f"| {k} | {_pct(v)} |" for k, v in wer.get("snr", {}).items()]
+    parts += ["", "| voice | WER |", "|---|---|"]
+    parts += [f"| {k} | {_pct(v)} |" for k, v in wer.get("voice", {}).items()]
     parts += [""]
     titles = {"noise": "noise type", "snr": "SNR", "voice": "voice"}
     for by in BREAKDOWNS:

@@ -117,3 +117,28 @@ def test_report_rerenders_from_results(tiny_results: Path) -> None:
     summary = write_report(tiny_results, figures=False)
     text = (tiny_results / "report.md").read_text()
     assert "| siftom |" in text and summary["n_stimuli"] == 4
+
+
+def test_cli_check_report_and_error_message(tiny: Path, tiny_results: Path, tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    from siftom.cli import main
+
+    assert main(["dataset", "check", str(tiny)]) == 0
+    assert "ok: 4 stimuli" in capsys.readouterr().out
+    assert main(["report", str(tiny_results), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["n_stimuli"] == 4
+    assert main(["eval", "--dataset", str(tmp_path / "none"), "--out", str(tmp_path / "r")]) == 2
+    assert "siftom dataset build" in capsys.readouterr().err
+
+
+def test_cli_build_and_eval_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from siftom.cli import main
+
+    ds, res = tmp_path / "ds", tmp_path / "res"
+    assert main(["dataset", "build", "--out", str(ds), "--scenarios", "1", "--speakers", "1",
+                 "--voices", "flite-slt", "--snr", "none", "--workers", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["stimuli"] == 1
+    assert main(["eval", "--dataset", str(ds), "--out", str(res), "--models", "literal-asr,siftom",
+                 "--workers", "1", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert set(summary["models"]) == {"literal-asr", "siftom"}

@@ -360,8 +360,13 @@ def evaluate(
     run_info = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
                 "options": opts.to_json(), "seed": opts.seed}
     run_path = root / RUN
-    if run_path.is_file() and not overwrite:
-        old = json.loads(run_path.read_text(encoding="utf-8"))
+    old: dict[str, Any] = {}
+    if run_path.is_file():
+        try:
+            old = json.loads(run_path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError:
+            old = {}
+    if old and not overwrite:
         mismatch = [k for k in ("dataset_fingerprint", "options") if old.get(k) != run_info[k]]
         if mismatch and (root / RESULTS).is_file():
             raise DatasetError(
@@ -380,7 +385,9 @@ def evaluate(
     for t in _read_jsonl(root / TEAM_CACHE, repair=True):
         cached_team.setdefault(t["key"], {})[t["command"]] = t
     pending = [s for s in ds.stimuli if s.id not in done]
-    run_info["started"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    history = [] if overwrite else list(old.get("history", [])) if old.get("dataset_fingerprint") == ds.fingerprint else []
+    started = time.strftime("%Y-%m-%dT%H:%M:%S")
+    run_info["history"] = history
     run_path.write_text(json.dumps(run_info, indent=2) + "\n", encoding="utf-8")
 
     # the ASR vocabulary covers every class of every scenario in the dataset
@@ -441,8 +448,10 @@ def evaluate(
         "asr_audio_s": sum(t.get("audio_s", 0.0) for t in cached_tr.values()),
         "team_simulations": sum(1 for _ in _read_jsonl(root / TEAM_CACHE)),
     }
-    run_info.update({"finished": time.strftime("%Y-%m-%dT%H:%M:%S"), "seconds": round(seconds, 1),
-                     "resumed": len(rows) - (len(pending)), "evaluated": len(pending), "workers": workers})
+    this = {"started": started, "finished": time.strftime("%Y-%m-%dT%H:%M:%S"), "seconds": round(seconds, 1),
+            "resumed": total - len(pending), "evaluated": len(pending), "workers": workers}
+    run_info["history"] = [*history, this]
+    run_info["seconds"] = round(sum(h["seconds"] for h in run_info["history"]), 1)
     tmp = run_path.with_suffix(f".{os.getpid()}.tmp")
     tmp.write_text(json.dumps(run_info, indent=2) + "\n", encoding="utf-8")
     os.replace(tmp, run_path)

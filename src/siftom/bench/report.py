@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from siftom.bench.evaluate import MODELS, RUN, load_results
-from siftom.bench.metrics import N_BOOT, label_order, breakdown, group_key, summarise_model
+from siftom.bench.metrics import N_BOOT, breakdown, group_key, label_order, summarise_model
 from siftom.errors import DatasetError
 
 SUMMARY = "summary.json"
@@ -219,9 +219,11 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
     parts += ["## The paper, for comparison", "",
               "| paper (Simulated Experiment) | value |", "|---|---|"]
     parts += [f"| {k} | {_pct(v)} |" for k, v in PAPER.items()]
-    if run.get("seconds") is not None:
-        parts += ["", f"Evaluation took {run['seconds']:.0f} s with {run.get('workers', 1)} worker(s) "
-                      f"({run.get('evaluated', '?')} stimuli evaluated in that run, {run.get('resumed', 0)} resumed)."]
+    hist = run.get("history", [])
+    if hist:
+        runs = "; ".join(f"{h['evaluated']} stimuli in {h['seconds']:.0f} s with {h['workers']} worker(s)"
+                         for h in hist if h.get("evaluated"))
+        parts += ["", f"Evaluation time: {runs or 'nothing left to evaluate'}."]
     return "\n".join(parts) + "\n"
 
 

@@ -247,8 +247,9 @@ class OnlineInference:
         self.n_actions += 1
 
     # ----- hypotheses ------------------------------------------------------------------------
-    def candidates(self) -> tuple[list[tuple[int, RobotCommand, int]], list[RobotCommand]]:
-        """(goal index, command, human-subgoal row) triples, and the domain's full command list.
+    def candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[RobotCommand]]:
+        """Hypotheses as arrays: (goal index, command index, human-subgoal row) per (g, pi_r)
+        pair, the command indices of the unknown-goal hypothesis, and the command list.
 
         The robot's part for goal g and class c is every object of c the goal still needs: not
         yet on the target and not in the human's hands.
@@ -260,14 +261,16 @@ class OnlineInference:
             done[self.world.item_class_idx[s.held[HUMAN]]] += 1
         left = self._N_goal[self._pair_goal, self._pair_cls] - done[self._pair_cls]
         keep = np.flatnonzero(left >= 1)
+        K = max(cfg.max_count, int(self._N_goal.max())) + 1
+        known = self._pair_cls[keep] * K + left[keep]
+        tops = (np.minimum(self._class_total, cfg.max_count) if self.verb == "deliver"
+                else np.ones_like(self._class_total))
+        unk = np.concatenate([c * K + np.arange(1, t + 1) for c, t in enumerate(tops) if t > 0])
+        codes, inv = np.unique(np.concatenate([known, unk]), return_inverse=True)
         classes = self.world.classes
-        triples = [(int(self._pair_goal[k]), _command(self.verb, classes[self._pair_cls[k]], int(left[k])),
-                    int(self._pair_row[k])) for k in keep]
-        everything = []
-        for c, cls in enumerate(classes):
-            top = min(int(self._class_total[c]), cfg.max_count) if self.verb == "deliver" else 1
-            everything.extend(_command(self.verb, cls, k) for k in range(1, top + 1))
-        return triples, everything
+        cmds = [_command(self.verb, classes[int(code) // K], int(code) % K) for code in codes]
+        inv = inv.reshape(-1)
+        return (self._pair_goal[keep], inv[: len(known)], self._pair_row[keep], inv[len(known):], cmds)
 
     def posterior(self, instruction: Instruction | None = None, top: int = 10) -> Posterior:
         """The joint posterior now, given what was heard (None: the action term alone)."""
@@ -277,18 +280,7 @@ class OnlineInference:
             instruction = None
         if cfg.mode == "speech-only" and instruction is None:
             raise ObservationError("speech-only inference needs an instruction (a transcript, N-best or audio)")
-        triples, everything = self.candidates()
-        goal_idx = np.array([t[0] for t in triples], dtype=np.int64)
-        rows = np.array([t[2] for t in triples], dtype=np.int64)
-        # unique commands: known-goal ones + the unknown-goal command space
-        cmd_index: dict[RobotCommand, int] = {}
-        for _g, cmd, _r in triples:
-            cmd_index.setdefault(cmd, len(cmd_index))
-        for cmd in everything:
-            cmd_index.setdefault(cmd, len(cmd_index))
-        cmds = list(cmd_index)
-        cmd_of = np.array([cmd_index[t[1]] for t in triples], dtype=np.int64)
-        unk_cmds = np.array([cmd_index[c] for c in everything], dtype=np.int64)
+        goal_idx, cmd_of, rows, unk_cmds, cmds = self.candidates()
         # instruction term per unique command
         if instruction is not None and self.model.likelihood is not None:
             instr = np.asarray(self.model.likelihood.log_prob(instruction, cmds), dtype=np.float64) * cfg.speech_weight

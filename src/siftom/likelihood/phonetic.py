@@ -569,6 +569,7 @@ class PhoneticLikelihood:
         self._content_id: dict[str, int] = {}
         self._said: list[tuple[np.ndarray, np.ndarray]] = []
         self._dist: OrderedDict[str, np.ndarray] = OrderedDict()
+        self._heard_cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._plans: OrderedDict[tuple[RobotCommand, ...], _Plan] = OrderedDict()
 
     # -- encoding ------------------------------------------------------------------------------
@@ -592,7 +593,15 @@ class PhoneticLikelihood:
         return cid
 
     def _heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Phoneme ids, insertion costs and substitution penalties of a hypothesis."""
+        """Phoneme ids, insertion costs and substitution penalties of a hypothesis (cached)."""
+        hit = self._heard_cache.get(text)
+        if hit is None:
+            hit = self._heard_cache[text] = self._encode_heard(text)
+            if len(self._heard_cache) > self._cache_size:
+                self._heard_cache.pop(next(iter(self._heard_cache)))
+        return hit
+
+    def _encode_heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ids: list[int] = []
         ins: list[float] = []
         sub: list[float] = []

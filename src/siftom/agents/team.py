@@ -52,12 +52,32 @@ def _reserve(state: State, items: set[int]) -> State:
     return State(state.agent_at, state.held, item_at, state.open_mask)
 
 
+MAX_NODES = 500_000
+_PLANS: dict[tuple, tuple[float, tuple, World]] = {}
+
+
 def _solve(world: World, s: State, goal: Goal, agent: int) -> tuple[float, tuple]:
+    """Plan cost and plan, cached on the part of the state that matters to the goal.
+
+    A* uses the fast cost-to-go as heuristic (plans within a step of optimal where it
+    overestimates; docs/planning.md) and a node budget rather than a clock, so results do not
+    depend on how busy the machine is. Objects of classes the goal does not need never lie on
+    such a plan, so their positions are not part of the cache key.
+    """
     if not goal.counts or goal.satisfied(world, s):
         return 0.0, ()
-    res = plan_for_goal(world, s, goal, agent=agent, max_nodes=400_000, max_time=20.0)
+    needed = {c for c, _ in goal.counts}
+    rel = tuple(loc for i, loc in enumerate(s.item_at) if world.items[i].cls in needed)
+    key = (id(world), s.agent_at[agent], s.held[agent], rel, s.open_mask, goal.target, goal.counts, agent)
+    hit = _PLANS.get(key)
+    if hit is not None and hit[2] is world:
+        return hit[0], hit[1]
+    res = plan_for_goal(world, s, goal, agent=agent, max_nodes=MAX_NODES, max_time=float("inf"), heuristic="fast")
     if not res.solved:
         raise SiftomError(f"no plan for {goal.describe()} ({res.status.value}); the scenario may be unsolvable")
+    if len(_PLANS) > 100_000:
+        _PLANS.clear()
+    _PLANS[key] = (res.cost, res.plan, world)
     return res.cost, res.plan
 
 

@@ -137,15 +137,13 @@ def scenario_key(s: Stimulus) -> str:
 def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
     """Team simulation of a command string (``none``: the robot does nothing), cached."""
     from siftom.agents.team import simulate_scenario
-    from siftom.bench.teamsim import shared_solves
     from siftom.world.commands import RobotCommand
 
     key = (skey, command)
     if key not in _TEAM:
         t0 = time.perf_counter()
         try:
-            with shared_solves():
-                r = simulate_scenario(sc, None if command == "none" else RobotCommand.parse(command))
+            r = simulate_scenario(sc, None if command == "none" else RobotCommand.parse(command))
         except SiftomError as exc:  # a planning budget ran out: keep the trial, without a speedup
             _TEAM[key] = {"l_single": None, "l_team": None, "remedy_steps": None, "speedup": None,
                           "useful": None, "wrong": None, "error": str(exc),

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from siftom.bench.dataset import BuildOptions, build_dataset, load_dataset
-from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate
+from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate, load_results
 from siftom.bench.report import write_report
 from siftom.errors import DatasetError
 
@@ -142,3 +142,23 @@ def test_cli_build_and_eval_json(tmp_path: Path, capsys: pytest.CaptureFixture[s
                  "--workers", "1", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert set(summary["models"]) == {"literal-asr", "siftom"}
+
+
+def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path: Path,
+                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    from siftom.bench import llm_baselines as lb
+
+    class Prefers:  # an LM that always prefers forks: the baseline must follow its scores
+        model_id = "fake"
+
+        def score(self, prefix, items):
+            return [0.0 if "fork" in t else -3.0 for _c, t in items]
+
+    monkeypatch.setattr(lb, "_CHOOSERS", {m: lb.LLMChooser(Prefers(), m == "llm-ablated-siftom")
+                                          for m in lb.LLM_MODELS})
+    evaluate(tiny, tmp_path / "llm", EvalOptions(models=("siftom", *lb.LLM_MODELS)), workers=1)
+    write_report(tmp_path / "llm")
+    rows = load_results(tmp_path / "llm")
+    assert all(r["models"][m]["command"].startswith("deliver(fork,") for r in rows for m in lb.LLM_MODELS)
+    summary = json.loads((tmp_path / "llm" / "summary.json").read_text())
+    assert set(summary["models"]) == {"siftom", *lb.LLM_MODELS}

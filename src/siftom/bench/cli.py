@@ -114,7 +114,9 @@ def check_cmd(folder: str) -> None:
 @click.command("eval")
 @click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
-@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,siftom-oracle-text")
+@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
+              "siftom-oracle-text, plus llm-end-to-end,llm-ablated-siftom when an LLM is configured "
+              "(SIFTOM_LLM_BASE_URL + SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
@@ -124,12 +126,15 @@ def check_cmd(folder: str) -> None:
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
              seed: int, overwrite: bool, as_json: bool) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
-    from siftom.bench.evaluate import MODELS, EvalOptions, evaluate
+    from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
+    from siftom.bench.llm_baselines import configured_backend
     from siftom.bench.report import main_table, write_report
 
-    if os.environ.get("SIFTOM_LLM_BASE_URL") and not as_json:
-        click.echo("note: LLM baselines are not implemented in the evaluator yet; running the others", err=True)
-    opts = EvalOptions(models=_csv(models) or MODELS, engine=engine, nbest=nbest, seed=seed)
+    default = MODELS + (OPTIONAL_MODELS if configured_backend() else ())
+    if configured_backend() is None and not as_json and not models:
+        click.echo("note: no LLM configured, so the LLM baselines are skipped (set SIFTOM_LLM_BASE_URL and "
+                   "SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)", err=True)
+    opts = EvalOptions(models=_csv(models) or default, engine=engine, nbest=nbest, seed=seed)
     with _bar("evaluating", not as_json) as bar:
         run = evaluate(dataset, out, opts, workers=workers or _default_workers(), overwrite=overwrite, progress=bar)
     summary = write_report(out)

@@ -35,6 +35,8 @@ from siftom.bench.dataset import Dataset, Stimulus, load_dataset, scenario_for
 from siftom.errors import DatasetError, SiftomError, unknown_name
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
+# run only when a language model is configured (siftom.bench.llm_baselines)
+OPTIONAL_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
@@ -67,8 +69,8 @@ class EvalOptions:
         if not self.models:
             raise DatasetError(f"give at least one model; available: {', '.join(MODELS)}")
         for m in self.models:
-            if m not in MODELS:
-                raise unknown_name("model", m, MODELS)
+            if m not in MODELS + OPTIONAL_MODELS:
+                raise unknown_name("model", m, MODELS + OPTIONAL_MODELS)
         if len(set(self.models)) != len(self.models):
             raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
         if self.engine not in ENGINES:
@@ -234,6 +236,14 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
+            elif m in OPTIONAL_MODELS:
+                from siftom.bench.llm_baselines import chooser, command_space
+
+                mk = (skey, m, tr["text"])
+                if mk not in memo:
+                    c_, p_ = chooser(m).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
+                    memo[mk] = (c_, p_, 0.0)
+                command, prob, _ = memo[mk]
             else:
                 mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")
                 if m == "siftom-oracle-text":

@@ -194,17 +194,16 @@ class OnlineInference:
         self.ctg = CostToGo(world, self.target, kmax, agent=HUMAN)
         self._tabs = self.ctg.tables(start)
         self._betas = np.asarray(cfg.betas, dtype=np.float64)
-        # Human-subgoal rows: every goal, and every goal minus one of its classes (the robot's
-        # part). Duplicates are merged, so the Q-table has one row per distinct subgoal.
+        # Human-subgoal rows: every goal minus one of its classes (the robot's part), duplicates
+        # merged, so the Q-table has one row per distinct subgoal. Full goals are only needed
+        # for the help prior, once per posterior.
         G, C = self._N_goal.shape
         uniq, (gi, ci, self._pair_row) = _subgoal_rows(self._N_goal.tobytes(), G, C)
         self._sp_goal = SparseGoals.from_dense(self._N_goal)
-        self._Nrows = uniq
         self._sp = SparseGoals.from_dense(uniq)
         self._pair_goal, self._pair_cls = gi, ci
         self._row_ll = np.zeros((len(uniq), len(cfg.betas)))  # cumulative action log-lik per row per beta
         self._unknown_ll = 0.0
-        self._history: list[tuple[State, Action]] = []
         self._class_total = np.bincount(world.item_class_idx, minlength=C)
 
     # ----- actions ---------------------------------------------------------------------------
@@ -242,7 +241,6 @@ class OnlineInference:
     def _advance(self, action: Action) -> None:
         s2 = apply(self.state, action)
         self._tabs = self.ctg.retable(self._tabs, s2, _changed_classes(self.world, self.state, action))
-        self._history.append((self.state, action))
         self.state = s2
         self.n_actions += 1
 

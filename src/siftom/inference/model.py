@@ -21,13 +21,13 @@ prior over commands; ``action-only`` drops the instruction term.
 from __future__ import annotations
 
 import time
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
 
 import numpy as np
-from scipy.special import logsumexp
 
 from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
@@ -189,22 +189,16 @@ class OnlineInference:
         self.state = start
         self.n_actions = 0
         self.target = goals[0].target
-        self._N_goal = goal_matrix(world, goals)
-        kmax = max(int(self._N_goal.max()), cfg.max_count)
-        self.ctg = CostToGo(world, self.target, kmax, agent=HUMAN)
+        gs = _goal_space(world, goals, cfg.max_count)
+        self._N_goal, self._sp_goal, self._sp = gs.N, gs.sp_goal, gs.sp
+        self._pair_goal, self._pair_cls, self._pair_row = gs.pair_goal, gs.pair_cls, gs.pair_row
+        self._class_total = gs.class_total
+        self.ctg = gs.ctg
         self._tabs = self.ctg.tables(start)
         self._betas = np.asarray(cfg.betas, dtype=np.float64)
-        # Human-subgoal rows: every goal minus one of its classes (the robot's part), duplicates
-        # merged, so the Q-table has one row per distinct subgoal. Full goals are only needed
-        # for the help prior, once per posterior.
-        G, C = self._N_goal.shape
-        uniq, (gi, ci, self._pair_row) = _subgoal_rows(self._N_goal.tobytes(), G, C)
-        self._sp_goal = SparseGoals.from_dense(self._N_goal)
-        self._sp = SparseGoals.from_dense(uniq)
-        self._pair_goal, self._pair_cls = gi, ci
-        self._row_ll = np.zeros((len(uniq), len(cfg.betas)))  # cumulative action log-lik per row per beta
+        self._doubling = [b > 0 and self._betas[b] == 2 * self._betas[b - 1] for b in range(len(self._betas))]
+        self._row_ll = np.zeros((len(gs.sp), len(cfg.betas)))  # cumulative action log-lik per row per beta
         self._unknown_ll = 0.0
-        self._class_total = np.bincount(world.item_class_idx, minlength=C)
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, action: Action) -> None:
@@ -227,13 +221,20 @@ class OnlineInference:
         self._advance(action)
 
     def _action_loglik(self, Q: np.ndarray, k: int) -> np.ndarray:
-        """log P(a_k | s) under every row and beta, shape (R, B): Boltzmann with epsilon floor."""
+        """log P(a_k | s) under every row and beta, shape (R, B): Boltzmann with epsilon floor.
+
+        With Qs = Q - min_a Q >= 0, log P_beta(a_k) = -beta Qs[k] - log sum_a exp(-beta Qs[a]).
+        For a grid where each beta doubles the previous one, exp(-2 beta Qs) is the square of
+        exp(-beta Qs): one exp for the whole grid.
+        """
         cfg = self.model.config
-        betas = self._betas[:, None, None]
-        z = -betas * np.minimum(Q, 1e6)[None]  # (B, A, R)
-        zmax = z.max(axis=1)
-        lse = np.log(np.exp(z - zmax[:, None, :]).sum(axis=1)) + zmax
-        lp = z[:, k, :] - lse  # (B, R)
+        Qc = np.minimum(Q, 1e6)
+        Qs = Qc - Qc.min(axis=0)
+        lp = np.empty((len(self._betas), Q.shape[1]))
+        E = None
+        for b, beta in enumerate(self._betas):
+            E = E * E if E is not None and self._doubling[b] else np.exp(-beta * Qs)
+            lp[b] = -beta * Qs[k] - np.log(E.sum(axis=0))
         if cfg.epsilon > 0:
             lp = np.logaddexp(np.log1p(-cfg.epsilon) + lp, np.log(cfg.epsilon / Q.shape[0]))
         return lp.T
@@ -351,6 +352,41 @@ def _changed_classes(world: World, s: State, action: Action) -> list[int]:
     return []
 
 
+@dataclass(frozen=True, eq=False)
+class _GoalSpace:
+    """What depends only on the world and the goal space: built once, shared by inferences."""
+
+    N: np.ndarray
+    sp_goal: SparseGoals
+    sp: SparseGoals
+    pair_goal: np.ndarray
+    pair_cls: np.ndarray
+    pair_row: np.ndarray
+    class_total: np.ndarray
+    ctg: CostToGo
+
+
+_GOAL_SPACES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalSpace:
+    per_world = _GOAL_SPACES.setdefault(world, {})
+    key = (goals, max_count)
+    gs = per_world.get(key)
+    if gs is None:
+        N = goal_matrix(world, goals)
+        G, C = N.shape
+        uniq, (gi, ci, pair_row) = _subgoal_rows(N.tobytes(), G, C)
+        kmax = max(int(N.max()), max_count)
+        gs = _GoalSpace(N, SparseGoals.from_dense(N), SparseGoals.from_dense(uniq), gi, ci, pair_row,
+                        np.bincount(world.item_class_idx, minlength=C),
+                        CostToGo(world, goals[0].target, kmax, agent=HUMAN))
+        if len(per_world) > 16:
+            per_world.clear()
+        per_world[key] = gs
+    return gs
+
+
 @lru_cache(maxsize=64)
 def _subgoal_rows(key: bytes, G: int, C: int):
     """Distinct human subgoals: every goal minus one of its classes (the robot's part), cached.
@@ -374,11 +410,19 @@ def _command(verb: str, cls: str, n: int) -> RobotCommand:
     return RobotCommand(verb, cls, n)
 
 
+def logsumexp(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """log(sum(exp(x))) along ``axis``, stable; the one place probabilities are normalised."""
+    m = np.max(x, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    out = np.log(np.sum(np.exp(x - m), axis=axis, keepdims=True)) + m
+    return out.squeeze(axis=axis) if axis is not None else out.reshape(())
+
+
 def _group_logsumexp(x: np.ndarray, groups: np.ndarray, n: int) -> np.ndarray:
+    """logsumexp of ``x`` within each group (0..n-1); -inf for empty groups."""
     m = np.full(n, -np.inf)
     np.maximum.at(m, groups, x)
     m_safe = np.where(np.isfinite(m), m, 0.0)
-    s = np.zeros(n)
-    np.add.at(s, groups, np.exp(x - m_safe[groups]))
+    s = np.bincount(groups, weights=np.exp(x - m_safe[groups]), minlength=n)
     with np.errstate(divide="ignore"):
         return np.log(s) + m_safe

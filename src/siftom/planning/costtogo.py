@@ -22,6 +22,7 @@ and matches A* on the great majority of states (tests/planning measure this).
 
 from __future__ import annotations
 
+import operator
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -52,8 +53,10 @@ class ClassTables:
 
     cum[c, k]      cost of the k cheapest round trips of class c (INF if fewer exist)
     opens[c, k]    bitmask of closed containers among those k instances
-    delta[c, q, k] first-trip correction when the agent starts at place q (<= 0)
+    delta[c, k, q] first-trip correction when the agent starts at place q (<= 0)
     at_target[c]   objects of class c already on the target
+
+    Rows are stored so that (class, k) pairs index flat arrays: one ``take`` per table.
     """
 
     cum: np.ndarray
@@ -83,6 +86,13 @@ class CostToGo:
         self._dT = d[:, target]  # d(l, T)
         self._d = d
         self._cls_items = [np.flatnonzero(world.item_class_idx == c) for c in range(self.C)]
+        # fast "positions of this class's objects" as a tuple (itemgetter of one index
+        # returns a scalar, so wrap it)
+        self._cls_locs = [
+            (operator.itemgetter(*map(int, ix)) if len(ix) > 1 else
+             (lambda t, i=int(ix[0]): (t[i],)) if len(ix) == 1 else (lambda t: ()))
+            for ix in self._cls_items
+        ]
         self._closable = np.array([p.closable for p in world.places])
         # class rows depend only on the world, target and kmax: share them across instances
         per_world = _ROW_CACHE.setdefault(world, {})
@@ -90,7 +100,10 @@ class CostToGo:
 
     # ----- tables ----------------------------------------------------------------------------
     def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int):
-        locs = tuple(item_at[i] for i in self._cls_items[c])
+        locs = self._cls_locs[c](item_at)
+        hit = self._cache.get((c, locs, open_mask))
+        if hit is not None:
+            return hit
         relevant = 0
         for loc in locs:
             if loc >= 0 and self._closable[loc]:
@@ -98,13 +111,14 @@ class CostToGo:
         key = (c, locs, open_mask & relevant)
         hit = self._cache.get(key)
         if hit is not None:
+            self._cache[(c, locs, open_mask)] = hit
             return hit
         K, T = self.kmax, self.target
         avail = [loc for loc in locs if loc != HELD and loc != T]
         n_at_t = sum(1 for loc in locs if loc == T)
         cum = np.full(K + 1, INF)
         opens = np.zeros(K + 1, dtype=np.int64)
-        delta = np.full((self.P, K + 1), INF)
+        delta = np.full((K + 1, self.P), INF)
         cum[0] = 0.0
         if avail:
             closed = [bool(self._closable[loc] and not (open_mask >> loc & 1)) for loc in avail]
@@ -125,21 +139,22 @@ class CostToGo:
                 best = pref[:, k - 1]
                 if k < len(L):
                     best = np.minimum(best, suf[:, k] - w[k - 1])
-                delta[:, k] = best
-        out = (cum, opens, delta, n_at_t)
+                delta[k] = best
+        # rows are also kept with a leading axis, ready to append to a table in one concatenate
+        out = (cum, opens, delta, n_at_t, cum[None], opens[None], delta[None])
         if len(self._cache) > 200_000:
             self._cache.clear()
-        self._cache[key] = out
+        self._cache[key] = self._cache[(c, locs, open_mask)] = out
         return out
 
     def tables(self, s: State) -> ClassTables:
         """Build the per-class tables of state ``s``."""
         cum = np.empty((self.C, self.kmax + 1))
         opens = np.empty((self.C, self.kmax + 1), dtype=np.int64)
-        delta = np.empty((self.C, self.P, self.kmax + 1))
+        delta = np.empty((self.C, self.kmax + 1, self.P))
         at_t = np.empty(self.C, dtype=np.int64)
         for c in range(self.C):
-            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)
+            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)[:4]
         return ClassTables(cum, opens, delta, at_t)
 
     def retable(self, base: ClassTables, s: State, classes: Sequence[int]) -> ClassTables:
@@ -148,7 +163,7 @@ class CostToGo:
             return base
         cum, opens, delta, at_t = base.cum.copy(), base.opens.copy(), base.delta.copy(), base.at_target.copy()
         for c in classes:
-            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)
+            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)[:4]
         return ClassTables(cum, opens, delta, at_t)
 
     # ----- values ----------------------------------------------------------------------------
@@ -168,39 +183,42 @@ class CostToGo:
     def _values(self, tabs: ClassTables, idx: np.ndarray, cnt: np.ndarray, q: np.ndarray,
                 held_cls: np.ndarray | int, relaxed: bool = False) -> np.ndarray:
         """Core of :meth:`values`: rows (idx, cnt) index table rows; ``held_cls`` per row or scalar
-        (-1: empty hands). Padding entries have count 0 and so never contribute."""
-        need = np.maximum(cnt - tabs.at_target[idx], 0)
+        (-1: empty hands). Padding entries have count 0 and so never contribute. Counts never
+        exceed ``kmax`` (the tables are built up to the largest count)."""
+        K1 = self.kmax + 1
+        # work in (m, G) layout: reductions over a goal's few classes run over the first axis
+        idx = np.ascontiguousarray(idx.T)
+        cnt = np.ascontiguousarray(cnt.T)
+        need = cnt - tabs.at_target[idx]
+        np.maximum(need, 0, out=need)
         if np.ndim(held_cls) == 0 and held_cls < 0:
             holding = False
-            deliver = np.zeros(len(idx), dtype=bool)
+            deliver = None
             eff = need
         else:
             hc = np.asarray(held_cls)
             holding = hc >= 0 if hc.ndim else True  # per row, or one agent for all rows
-            hit = (idx == (hc[:, None] if hc.ndim else hc)) & (need > 0)
-            deliver = hit.any(axis=1)
+            hit = (idx == (hc[None, :] if hc.ndim else hc)) & (need > 0)
+            deliver = hit.any(axis=0)
             eff = need - hit
-        eff = np.minimum(eff, self.kmax)
-        m = idx.shape[1]
-        body = tabs.cum[idx, eff].sum(axis=1)
+        flat = idx * K1 + eff  # (m, G) indices into the (class, k) rows
+        body = tabs.cum.reshape(-1).take(flat).sum(axis=0)
         if not relaxed:
-            ob = tabs.opens[idx[:, 0], eff[:, 0]]
-            for j in range(1, m):
-                ob = ob | tabs.opens[idx[:, j], eff[:, j]]
-            body = body + np.bitwise_count(ob.astype(np.uint64))
+            ob = np.bitwise_or.reduce(tabs.opens.reshape(-1).take(flat), axis=0)
+            body += np.bitwise_count(ob.view(np.uint64))
         pos = eff > 0
-        any_need = pos.any(axis=1)
+        any_need = pos.any(axis=0)
         # first-trip correction for goals that start where the agent stands: min over classes
-        dq = tabs.delta[:, q, :]  # (C, Q, K+1)
-        ft = np.where(pos[:, 0, None], dq[idx[:, 0], :, eff[:, 0]], INF)
-        for j in range(1, m):
-            ft = np.minimum(ft, np.where(pos[:, j, None], dq[idx[:, j], :, eff[:, j]], INF))
-        ft = np.where(any_need[:, None], ft, 0.0).T  # (Q, G)
+        dq = tabs.delta.reshape(-1, self.P)[:, q].T  # (Q, rows)
+        ft = np.full((len(q), idx.shape[1]), INF)
+        for j in range(idx.shape[0]):
+            np.minimum(ft, np.where(pos[j], dq.take(flat[j], axis=1), INF), out=ft)
+        ft[:, ~any_need] = 0.0
         if holding is False:
             out = body[None, :] + ft
         else:
             # an unneeded object is put down where the first fetch happens: one action
-            other = (any_need & holding).astype(np.float64) + body
+            other = (any_need & holding) + body
             out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + body[None, :], other[None, :] + ft)
         return np.minimum(out, INF)
 
@@ -232,6 +250,13 @@ class SparseGoals:
         cnt = np.take_along_axis(N, order, axis=1).astype(np.int64)
         idx = np.where(cnt > 0, order, 0).astype(np.int64)  # padding: any class with count 0
         return cls(idx, np.where(cnt > 0, cnt, 0), C)
+
+    def rows_naming(self, c: int) -> np.ndarray:
+        """Indices of the goals that ask for class ``c`` (cached per instance)."""
+        cache = self.__dict__.setdefault("_rows_naming", {})
+        if c not in cache:
+            cache[c] = np.flatnonzero(((self.idx == c) & (self.cnt > 0)).any(axis=1))
+        return cache[c]
 
     def subset(self, rows: np.ndarray) -> SparseGoals:
         return SparseGoals(self.idx[rows], self.cnt[rows], self.n_classes)
@@ -285,7 +310,7 @@ def successor_values(
             c = changed[0]
             # goals that name class c are recomputed (taking one off the target can undo them);
             # the others gain exactly one more put later
-            rows = np.flatnonzero(((sp.idx == c) & (sp.cnt > 0)).any(axis=1))
+            rows = sp.rows_naming(c)
             Q[r] = 1.0 + v_stay + any_need
             if not len(rows):
                 continue
@@ -296,9 +321,9 @@ def successor_values(
             extra_rows.append(ctg._class_rows(c, s2.item_at, s2.open_mask))
         cnt = sp.cnt if rows is None else sp.cnt[rows]
         if remap:
-            idx = idx.copy()
-            for c, c2 in remap.items():
-                idx[idx == c] = c2
+            lut = np.arange(C + len(extra_rows))
+            lut[list(remap)] = list(remap.values())
+            idx = lut[idx]
         h2 = s2.held[agent]
         hc2 = -1 if h2 == NOTHING else remap.get(int(world.item_class_idx[h2]), int(world.item_class_idx[h2]))
         parts_idx.append(idx)
@@ -308,9 +333,9 @@ def successor_values(
     if not parts_idx:
         return Q
     if extra_rows:
-        cum = np.concatenate([tabs.cum, np.stack([e[0] for e in extra_rows])])
-        opens = np.concatenate([tabs.opens, np.stack([e[1] for e in extra_rows])])
-        delta = np.concatenate([tabs.delta, np.stack([e[2] for e in extra_rows])])
+        cum = np.concatenate([tabs.cum] + [e[4] for e in extra_rows])
+        opens = np.concatenate([tabs.opens] + [e[5] for e in extra_rows])
+        delta = np.concatenate([tabs.delta] + [e[6] for e in extra_rows])
         at_t = np.concatenate([tabs.at_target, np.array([e[3] for e in extra_rows], dtype=np.int64)])
         big = ClassTables(cum, opens, delta, at_t)
     else:

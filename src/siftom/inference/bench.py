@@ -63,6 +63,7 @@ def run_inference_bench(repeats: int = 30) -> dict:
 
     def full() -> None:
         lk._dist.clear()  # a new instruction each time: no cached phonetic distances
+        lk._heard_cache.clear()
         model.infer(obs)
 
     p50, _ = _p50(full, repeats)

@@ -196,6 +196,12 @@ class OnlineInference:
         self.ctg = gs.ctg
         self._tabs = self.ctg.tables(start)
         self._betas = np.asarray(cfg.betas, dtype=np.float64)
+        # the unknown goal's commands, coded class * K + count (fixed for the domain)
+        self._code_base = K = max(cfg.max_count, int(self._N_goal.max())) + 1
+        tops = (np.minimum(self._class_total, cfg.max_count) if verb == "deliver"
+                else np.ones_like(self._class_total))
+        self._unknown_codes = np.concatenate([c * K + np.arange(1, t + 1) for c, t in enumerate(tops) if t > 0])
+        self._goal_names = [g.name for g in goals] + [UNKNOWN]
         self._doubling = [b > 0 and self._betas[b] == 2 * self._betas[b - 1] for b in range(len(self._betas))]
         self._row_ll = np.zeros((len(gs.sp), len(cfg.betas)))  # cumulative action log-lik per row per beta
         self._unknown_ll = 0.0
@@ -253,19 +259,15 @@ class OnlineInference:
         The robot's part for goal g and class c is every object of c the goal still needs: not
         yet on the target and not in the human's hands.
         """
-        cfg = self.model.config
         s = self.state
         done = self._tabs.at_target.copy()
         if s.held[HUMAN] >= 0:
             done[self.world.item_class_idx[s.held[HUMAN]]] += 1
         left = self._N_goal[self._pair_goal, self._pair_cls] - done[self._pair_cls]
         keep = np.flatnonzero(left >= 1)
-        K = max(cfg.max_count, int(self._N_goal.max())) + 1
+        K = self._code_base
         known = self._pair_cls[keep] * K + left[keep]
-        tops = (np.minimum(self._class_total, cfg.max_count) if self.verb == "deliver"
-                else np.ones_like(self._class_total))
-        unk = np.concatenate([c * K + np.arange(1, t + 1) for c, t in enumerate(tops) if t > 0])
-        codes, inv = np.unique(np.concatenate([known, unk]), return_inverse=True)
+        codes, inv = np.unique(np.concatenate([known, self._unknown_codes]), return_inverse=True)
         classes = self.world.classes
         cmds = [_command(self.verb, classes[int(code) // K], int(code) % K) for code in codes]
         inv = inv.reshape(-1)
@@ -317,14 +319,15 @@ class OnlineInference:
         cmd_all = unk_cmds if cfg.mode == "speech-only" else np.concatenate([cmd_of, unk_cmds])
         goal_all = (np.zeros(len(unk_cmds), dtype=np.int64) if cfg.mode == "speech-only"
                     else np.concatenate([goal_idx, np.full(len(unk_cmds), len(self.goals))]))
-        goal_names = ["(any)"] if cfg.mode == "speech-only" else [g.name for g in self.goals] + [UNKNOWN]
+        goal_names = ["(any)"] if cfg.mode == "speech-only" else self._goal_names
         cm = np.bincount(cmd_all, weights=p, minlength=len(cmds))
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple((str(cmds[k]), float(cm[k])) for k in corder)
-        gorder = [k for k in np.argsort(-gm, kind="stable") if gm[k] > 0]
-        goals = tuple((goal_names[k], float(gm[k])) for k in gorder)
+        commands = tuple(zip([str(cmds[k]) for k in corder.tolist()], cm[corder].tolist(), strict=True))
+        gorder = np.argsort(-gm, kind="stable")
+        gorder = gorder[gm[gorder] > 0]
+        goals = tuple(zip([goal_names[k] for k in gorder.tolist()], gm[gorder].tolist(), strict=True))
         order = np.argsort(-lj, kind="stable")[:top]
         hyps = tuple(Hypothesis(goal_names[goal_all[i]], str(cmds[cmd_all[i]]), float(p[i]), float(terms[i, 0]),
                                 float(terms[i, 1]), float(terms[i, 2])) for i in order)

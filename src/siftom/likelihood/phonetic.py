@@ -309,11 +309,16 @@ _MARKUP_RE = re.compile(r"<[^>]*>|\[[^\]]*\]|\(\d+\)")
 
 def normalize_text(text: str) -> list[str]:
     """Lowercase words; digits spelled out, ASR markup (<sil>, [NOISE], word(2)) removed."""
+    return list(_normalize(text))
+
+
+@lru_cache(maxsize=16384)
+def _normalize(text: str) -> tuple[str, ...]:
     t = _MARKUP_RE.sub(" ", text.lower())
     t = _DIGITS_RE.sub(lambda m: f" {number_word(int(m.group()))} ", t)
     t = re.sub(r"[^a-z' ]+", " ", t)
-    return [w.strip("'") if w not in ("i'm", "we're", "you're", "i'd", "let's") else w
-            for w in t.split() if w.strip("'")]
+    return tuple(w.strip("'") if w not in ("i'm", "we're", "you're", "i'd", "let's") else w
+                 for w in t.split() if w.strip("'"))
 
 
 def text_phonemes(text: str) -> tuple[str, ...]:
@@ -684,7 +689,7 @@ class PhoneticLikelihood:
         logw = scores - logsumexp(scores)
         merged: dict[str, float] = {}
         for h, lw in zip(instruction.nbest, logw, strict=True):
-            key = " ".join(normalize_text(h.text))
+            key = " ".join(_normalize(h.text))
             merged[key] = float(np.logaddexp(merged[key], lw)) if key in merged else float(lw)
         return list(merged), np.array(list(merged.values()))
 
@@ -706,12 +711,19 @@ class PhoneticLikelihood:
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         return logsumexp(plan.log_prior + per_content[plan.index], axis=1)
 
+    def _lost_costs(self, plan: _Plan) -> np.ndarray:
+        """D(nothing, u): the cost of deleting each content of the plan (cached per plan)."""
+        lost = getattr(plan, "_lost", None)
+        if lost is None:
+            lost = np.array([float(self._said[i][1].sum()) for i in plan.content_ids])
+            object.__setattr__(plan, "_lost", lost)
+        return lost
+
     def _channel(self, d: np.ndarray, plan: _Plan) -> np.ndarray:
         """-lam (D(h, u) - alpha D(nothing, u)) per content and hypothesis (alpha = lost_word_weight)."""
         lp = -self.lam * d.astype(float)
         if self.lost_word_weight > 0:
-            lost = np.array([float(self._said[i][1].sum()) for i in plan.content_ids])
-            lp = lp + self.lam * self.lost_word_weight * lost[:, None]
+            lp += (self.lam * self.lost_word_weight) * self._lost_costs(plan)[:, None]
         return lp
 
     def explain(self, instruction: Instruction, command: RobotCommand) -> list[tuple[str, float]]:

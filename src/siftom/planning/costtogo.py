@@ -209,10 +209,8 @@ class CostToGo:
         pos = eff > 0
         any_need = pos.any(axis=0)
         # first-trip correction for goals that start where the agent stands: min over classes
-        dq = tabs.delta.reshape(-1, self.P)[:, q].T  # (Q, rows)
-        ft = np.full((len(q), idx.shape[1]), INF)
-        for j in range(idx.shape[0]):
-            np.minimum(ft, np.where(pos[j], dq.take(flat[j], axis=1), INF), out=ft)
+        dl = tabs.delta.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
+        ft = np.where(pos[:, :, None], dl, INF).min(axis=0).T  # (Q, G)
         ft[:, ~any_need] = 0.0
         if holding is False:
             out = body[None, :] + ft
@@ -251,6 +249,13 @@ class SparseGoals:
         idx = np.where(cnt > 0, order, 0).astype(np.int64)  # padding: any class with count 0
         return cls(idx, np.where(cnt > 0, cnt, 0), C)
 
+    @property
+    def all_rows(self) -> np.ndarray:
+        cache = self.__dict__.setdefault("_rows_naming", {})
+        if "all" not in cache:
+            cache["all"] = np.arange(len(self.idx))
+        return cache["all"]
+
     def rows_naming(self, c: int) -> np.ndarray:
         """Indices of the goals that ask for class ``c`` (cached per instance)."""
         cache = self.__dict__.setdefault("_rows_naming", {})
@@ -272,9 +277,9 @@ def successor_values(
 
     Two batched evaluations per state. Walks share ``tabs`` and differ only in where the agent
     stands. Every other action changes the tables of at most a few classes (one object's class,
-    or the classes inside one container): their rebuilt rows are appended to the tables and the
-    goals of that action point at them, so all such successors are evaluated in one call. A grab
-    only changes goals that need the grabbed class; the others pay exactly one extra ``put``.
+    or the classes inside one container); goals that name none of them follow in closed form
+    from standing still, and for the rest the rebuilt rows are appended to the tables and those
+    goals point at them, so all such successors are evaluated in one call.
     """
     sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
     world, agent, C = ctg.world, ctg.agent, ctg.C
@@ -293,7 +298,7 @@ def successor_values(
         return Q
     extra_rows: list[tuple] = []  # appended table rows
     parts_idx, parts_cnt, parts_held, owners = [], [], [], []
-    need = None
+    any_need = None
     for r in others:
         a = actions[r]
         s2 = apply(s, a)
@@ -301,26 +306,34 @@ def successor_values(
             changed = [int(world.item_class_idx[a.obj])]
         else:  # open/close: classes with objects in that container
             changed = sorted({int(world.item_class_idx[i]) for i, loc in enumerate(s.item_at) if loc == a.place})
-        idx = sp.idx
-        rows = None
-        if a.kind == "grab" and held == NOTHING:
-            if need is None:
-                need = np.maximum(sp.cnt - tabs.at_target[sp.idx], 0)
-                any_need = (need > 0).any(axis=1)  # goals not yet reached
-            c = changed[0]
-            # goals that name class c are recomputed (taking one off the target can undo them);
-            # the others gain exactly one more put later
-            rows = sp.rows_naming(c)
-            Q[r] = 1.0 + v_stay + any_need
+        if any_need is None:
+            need = np.maximum(sp.cnt - tabs.at_target[sp.idx], 0)
+            any_need = (need > 0).any(axis=1)  # goals not yet reached
+        # Goals that name none of the changed classes see the same tables, place and (for them)
+        # an equally useless object in hand: a grab adds one later put, a put or handover
+        # removes it, an open or close changes nothing. Only the others are recomputed.
+        if len(changed) == 1:
+            if a.kind == "grab":
+                Q[r] = 1.0 + v_stay + any_need
+            elif a.kind in ("put", "handover"):
+                Q[r] = 1.0 + v_stay - any_need
+            else:
+                Q[r] = 1.0 + v_stay
+            rows = sp.rows_naming(changed[0])
             if not len(rows):
                 continue
-            idx = sp.idx[rows]
+        else:  # a container with several classes (or none): recompute every goal
+            rows = sp.all_rows
+        idx = sp.idx[rows]
         remap = {}
         for c in changed:
             remap[c] = C + len(extra_rows)
             extra_rows.append(ctg._class_rows(c, s2.item_at, s2.open_mask))
-        cnt = sp.cnt if rows is None else sp.cnt[rows]
-        if remap:
+        cnt = sp.cnt[rows]
+        if len(remap) == 1:
+            (c, c2), = remap.items()
+            idx = np.where(idx == c, c2, idx)
+        elif remap:
             lut = np.arange(C + len(extra_rows))
             lut[list(remap)] = list(remap.values())
             idx = lut[idx]
@@ -345,9 +358,6 @@ def successor_values(
     k = 0
     for (r, rows, c_a), idx in zip(owners, parts_idx, strict=True):
         n = len(idx)
-        if rows is None:
-            Q[r] = c_a + vals[k:k + n]
-        else:
-            Q[r, rows] = c_a + vals[k:k + n]
+        Q[r, rows] = c_a + vals[k:k + n]
         k += n
     return Q

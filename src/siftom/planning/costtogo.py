@@ -97,6 +97,8 @@ class CostToGo:
         # class rows depend only on the world, target and kmax: share them across instances
         per_world = _ROW_CACHE.setdefault(world, {})
         self._cache = per_world.setdefault((target, self.kmax), {})
+        # whole tables by state (tables are never modified in place)
+        self._tables: dict[State, ClassTables] = per_world.setdefault((target, self.kmax, agent, "tables"), {})
 
     # ----- tables ----------------------------------------------------------------------------
     def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int):
@@ -148,7 +150,16 @@ class CostToGo:
         return out
 
     def tables(self, s: State) -> ClassTables:
-        """Build the per-class tables of state ``s``."""
+        """The per-class tables of state ``s`` (a function of the state alone: cached)."""
+        hit = self._tables.get(s)
+        if hit is None:
+            hit = self._build_tables(s)
+            if len(self._tables) > 4096:
+                self._tables.clear()
+            self._tables[s] = hit
+        return hit
+
+    def _build_tables(self, s: State) -> ClassTables:
         cum = np.empty((self.C, self.kmax + 1))
         opens = np.empty((self.C, self.kmax + 1), dtype=np.int64)
         delta = np.empty((self.C, self.kmax + 1, self.P))
@@ -161,10 +172,17 @@ class CostToGo:
         """Tables of ``s`` rebuilt only for ``classes`` (the others are unchanged from ``base``)."""
         if not len(classes):
             return base
+        hit = self._tables.get(s)
+        if hit is not None:
+            return hit
         cum, opens, delta, at_t = base.cum.copy(), base.opens.copy(), base.delta.copy(), base.at_target.copy()
         for c in classes:
             cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)[:4]
-        return ClassTables(cum, opens, delta, at_t)
+        out = ClassTables(cum, opens, delta, at_t)
+        if len(self._tables) > 4096:
+            self._tables.clear()
+        self._tables[s] = out
+        return out
 
     # ----- values ----------------------------------------------------------------------------
     def values(

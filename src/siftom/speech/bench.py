@@ -178,6 +178,8 @@ class AcousticBench:
         accuracy: share of utterances where the true phrasing scores highest among the
             candidates that swap the object (same template, every food).
         baseline_accuracy: share where the biased-LM pocketsphinx 1-best names the true food.
+        phonetic_accuracy: share where the N-best phonetic likelihood (siftom.likelihood.phonetic,
+            on the biased-LM 10-best) ranks the true food first.
         ms_per_candidate: mean alignment time per candidate.
         utterances: number of test utterances; candidates: candidates per utterance.
         snr_db: None for clean.
@@ -187,8 +189,10 @@ class AcousticBench:
 
     accuracy: float
     baseline_accuracy: float
+    phonetic_accuracy: float
     ms_per_candidate: float
     baseline_ms: float
+    phonetic_ms: float
     utterances: int
     candidates: int
     snr_db: float | None
@@ -215,11 +219,16 @@ def run_acoustic_bench(
     """Speak every template x food with every voice; rank the swapped-object candidates."""
     from siftom.speech.acoustic import ForcedAligner
 
+    from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.world.commands import RobotCommand
+
     t0 = time.perf_counter()
     aligner = ForcedAligner()
     asr = get_engine("pocketsphinx", vocabulary=list(foods))
-    correct = base_correct = n = 0
-    align_s = asr_s = 0.0
+    phonetic = PhoneticLikelihood()
+    commands = [RobotCommand("fetch", f.replace(" ", "_")) for f in foods]
+    correct = base_correct = phon_correct = n = 0
+    align_s = asr_s = phon_s = 0.0
     n_cand = 0
     per_voice: dict[str, list[int]] = defaultdict(list)
     confusions: list[tuple[str, str]] = []
@@ -242,15 +251,21 @@ def run_acoustic_bench(
                 per_voice[voice].append(ok)
                 if not ok:
                     confusions.append((food, chosen))
-                tr = asr.transcribe(x)
+                tr = asr.transcribe(x, nbest=10)
                 asr_s += tr.rtf * tr.audio_s
                 heard = [f for f in foods if f in normalise_text(tr.text).split()]
                 base_correct += bool(heard) and heard[0] == food
+                if any(h.text for h in tr.nbest):
+                    tp = time.perf_counter()
+                    lp = phonetic.log_prob(tr.to_instruction(), commands)
+                    phon_s += time.perf_counter() - tp
+                    phon_correct += int(np.argmax(lp)) == fi
                 n += 1
     if n == 0:
         raise SiftomError("the acoustic benchmark needs at least one voice, template and food")
     return AcousticBench(
-        correct / n, base_correct / n, 1000 * align_s / n_cand, 1000 * asr_s / n, n, len(foods),
+        correct / n, base_correct / n, phon_correct / n, 1000 * align_s / n_cand, 1000 * asr_s / n,
+        1000 * phon_s / n, n, len(foods),
         snr_db, {v: float(np.mean(k)) for v, k in per_voice.items()}, tuple(confusions),
         time.perf_counter() - t0,
     )

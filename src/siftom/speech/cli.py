@@ -185,6 +185,8 @@ def bench_acoustic_cmd(as_json: bool, out_dir: str, quick: bool, snr: float | No
                f"top-1 {100 * res.accuracy:.1f} %, {res.ms_per_candidate:.1f} ms per candidate")
     click.echo(f"baseline (biased-LM 1-best names the food): {100 * res.baseline_accuracy:.1f} %, "
                f"{res.baseline_ms:.1f} ms per utterance")
+    click.echo(f"N-best phonetic likelihood (10-best of the same ASR): {100 * res.phonetic_accuracy:.1f} %, "
+               f"{res.phonetic_ms:.1f} ms per utterance on top of the ASR")
     for v, a in res.by_voice.items():
         click.echo(f"  {v:<22} {100 * a:5.1f} %")
     if res.confusions:

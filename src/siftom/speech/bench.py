@@ -217,9 +217,8 @@ def run_acoustic_bench(
     progress: Callable[[str], None] | None = None,
 ) -> AcousticBench:
     """Speak every template x food with every voice; rank the swapped-object candidates."""
-    from siftom.speech.acoustic import ForcedAligner
-
     from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.speech.acoustic import ForcedAligner
     from siftom.world.commands import RobotCommand
 
     t0 = time.perf_counter()

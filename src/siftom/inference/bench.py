@@ -61,9 +61,12 @@ def run_inference_bench(repeats: int = 30) -> dict:
     obs = Observation.from_scenario(sc, instr)
     post = model.infer(obs)  # warm-up: dictionaries, phrasing tables
 
+    ctg = model.online(sc.world, sc.start, sc.goals, sc.verb).ctg
+
     def full() -> None:
         lk._dist.clear()  # a new instruction each time: no cached phonetic distances
         lk._heard_cache.clear()
+        ctg.clear_state_cache()  # and no tables cached for these states
         model.infer(obs)
 
     p50, _ = _p50(full, repeats)

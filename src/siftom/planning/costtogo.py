@@ -97,8 +97,15 @@ class CostToGo:
         # class rows depend only on the world, target and kmax: share them across instances
         per_world = _ROW_CACHE.setdefault(world, {})
         self._cache = per_world.setdefault((target, self.kmax), {})
+        # values at every place by (goals, hand, objects, containers); kept small
+        self._vcache: dict[tuple, tuple[SparseGoals, np.ndarray]] = {}
         # whole tables by state (tables are never modified in place)
         self._tables: dict[State, ClassTables] = per_world.setdefault((target, self.kmax, agent, "tables"), {})
+
+    def clear_state_cache(self) -> None:
+        """Forget the per-state tables and values (benchmarks call this to time work from scratch)."""
+        self._tables.clear()
+        self._vcache.clear()
 
     # ----- tables ----------------------------------------------------------------------------
     def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int):
@@ -307,7 +314,16 @@ def successor_values(
     Q = np.empty((len(actions), G))
     walk_rows = [r for r, a in enumerate(actions) if a.kind == "walk"]
     places = np.array([here] + [actions[r].place for r in walk_rows])
-    v = ctg._values(tabs, sp.idx, sp.cnt, places, held_cls)
+    # V at every place depends on the objects, containers and hand, not on where the agent
+    # came from: after a walk, the next state's walk successors are the same states again
+    key = (id(sp), s.held[agent], s.item_at, s.open_mask)
+    v_all = ctg._vcache.get(key)
+    if v_all is None or v_all[0] is not sp:
+        v_all = (sp, ctg._values(tabs, sp.idx, sp.cnt, np.arange(ctg.P), held_cls))
+        if len(ctg._vcache) > 256:
+            ctg._vcache.clear()
+        ctg._vcache[key] = v_all
+    v = v_all[1][places]
     v_stay = v[0]
     if walk_rows:
         Q[walk_rows] = v[1:] + world.dist[here, places[1:]][:, None]

@@ -189,6 +189,24 @@ def test_say_then_infer_from_audio(client):
     assert body["command"] == "fetch(cereal)"
 
 
+def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):
+    # in noise the transcript often loses the object word; the audio itself still carries it
+    r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "babble", "snr": 10, "seed": 0})
+    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic"},
+                      files={"audio": ("say.wav", r.content, "audio/wav")})
+    body = res.json()
+    assert res.status_code == 200, body
+    assert body["likelihood"] == "acoustic" and body["command"] == "fetch(cereal)"
+    uploads = client.app.state.runtime.data_dir / "uploads"
+    assert not uploads.exists() or not any(uploads.iterdir())
+
+
+def test_acoustic_likelihood_without_audio_is_a_clear_422(client):
+    res = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the cereal",
+                                          "likelihood": "acoustic"})
+    assert res.status_code == 422 and "needs the audio" in res.json()["detail"]
+
+
 def test_say_with_noise(client):
     r = client.post("/v1/say", json={"text": "pass me the sugar", "noise": "babble", "snr": 0, "seed": 3})
     assert r.status_code == 200 and len(r.content) > 1000

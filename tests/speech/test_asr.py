@@ -72,3 +72,18 @@ def test_whisper_nbest(cereal_clip):
     assert wer("pass me the cereal", tr.text) <= 0.25  # tiny.en often writes 'serial'
     assert 1 <= len(tr.nbest) <= 3 and tr.nbest[0].text == tr.text
     assert tr.words and tr.rtf < 2.0
+
+
+def test_same_audio_gives_the_same_transcript_whatever_was_decoded_before(tmp_path):
+    """pocketsphinx keeps feature state between utterances; the engine must not let it leak."""
+    from siftom.speech import get_noise, mix_at_snr, synthesize
+    from siftom.speech.asr.base import get_engine
+
+    noisy = mix_at_snr(synthesize("can you pass me the cereal", "flite-slt"), get_noise("babble"), 10, rng=0)
+    other = synthesize("bring me three forks and the sugar please", "flite-rms")
+    eng = get_engine("pocketsphinx", vocabulary=["can you pass me the cereal", "bring me the sugar", "three forks"])
+    first = eng.transcribe(noisy, nbest=3)
+    eng.transcribe(other)
+    again = eng.transcribe(noisy, nbest=3)
+    assert again.text == first.text
+    assert [h.text for h in again.nbest] == [h.text for h in first.nbest]

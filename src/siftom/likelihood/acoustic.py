@@ -102,8 +102,8 @@ class AcousticLikelihood:
         """Return log P(audio | command) for each command, shape (len(commands),)."""
         if instruction.audio is None:
             raise ObservationError(
-                "the acoustic likelihood needs the audio; build the Instruction with audio=PATH "
-                "or use a transcript-based likelihood"
+                "the acoustic likelihood needs the audio: send the recording (multipart field audio, --audio FILE "
+                "or Instruction(audio=PATH)), or use a transcript-based likelihood such as phonetic"
             )
         heard = instruction.text if instruction.nbest else None
         return self.log_prob_audio(instruction.audio, commands, heard=heard)

@@ -37,17 +37,18 @@ from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
 
-# The acoustic likelihood aligns one sentence per command against the audio (~1.5 s for the
-# 42-class kitchen); it is offered by `siftom infer --audio --likelihood acoustic`, not yet by
-# the service, which transcribes audio (N-best) and scores it with the text likelihoods.
-SERVICE_LIKELIHOODS = ("phonetic", "llm")
+# The acoustic likelihood aligns one sentence per command against the uploaded audio (~1.5 s
+# for the 42-class kitchen): it serves audio requests only (a transcript request asking for it
+# gets a 422 saying so).
+SERVICE_LIKELIHOODS = ("phonetic", "acoustic", "llm")
 
 
 def available_likelihoods() -> tuple[str, ...]:
-    """phonetic always; llm when its in-process backend (llama-cpp-python) is installed."""
+    """phonetic and acoustic always; llm when its in-process backend (llama-cpp-python) is installed."""
     import importlib.util
 
-    return ("phonetic", "llm") if importlib.util.find_spec("llama_cpp") is not None else ("phonetic",)
+    base = ("phonetic", "acoustic")
+    return base + ("llm",) if importlib.util.find_spec("llama_cpp") is not None else base
 
 
 @dataclass(frozen=True)
@@ -292,10 +293,25 @@ class Runtime:
         x = self.decode_audio(data)
         tr = self.transcribe(sid, x, asr_nbest)
         nbest = [(h.text, h.score) for h in tr.nbest if h.text]
-        instruction = make_instruction(nbest=nbest) if nbest else None
-        if instruction is None and mode == "speech-only":
-            raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
-        body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+        if likelihood == "acoustic" and mode != "action-only":
+            # the aligner reads a file: a private temporary one in the service's own folder
+            from siftom.speech.audio import write_wav
+
+            tmp_dir = self.data_dir / "uploads"
+            tmp_dir.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile(suffix=".wav", dir=tmp_dir, delete=False) as f:
+                path = Path(f.name)
+            try:
+                write_wav(path, x)
+                instruction = make_instruction(nbest=nbest or None, audio=path)
+                body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+            finally:
+                path.unlink(missing_ok=True)
+        else:
+            instruction = make_instruction(nbest=nbest) if nbest else None
+            if instruction is None and mode == "speech-only":
+                raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
+            body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
         body["asr"] = tr.to_json()
         return body
 

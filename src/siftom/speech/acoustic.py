@@ -117,6 +117,7 @@ class ForcedAligner:
         dec = self._decoder
         try:
             dec.set_align_text(text)
+            dec.reinit_feat()  # no feature state from the previous alignment (see asr/pocketsphinx.py)
             dec.start_utt()
             dec.process_raw(pcm, full_utt=True)
             dec.end_utt()

@@ -180,6 +180,9 @@ class PocketsphinxEngine:
         x = as_audio(audio, max_seconds=self.max_seconds)
         dec = self._decoder
         t0 = time.perf_counter()
+        # pocketsphinx carries feature (CMN) state from one utterance to the next, so the same
+        # audio could give another transcript after other audio: reset it (0.1 ms)
+        dec.reinit_feat()
         dec.start_utt()
         dec.process_raw(to_pcm16(x), full_utt=True)
         dec.end_utt()

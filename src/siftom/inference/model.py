@@ -20,6 +20,7 @@ prior over commands; ``action-only`` drops the instruction term.
 
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from collections.abc import Sequence
@@ -216,14 +217,12 @@ class OnlineInference:
             self._advance(action)
             return
         acts = list(legal_actions(self.world, self.state, HUMAN))
-        try:
-            k = acts.index(action if action.kind != "grab" else Action("grab", action.agent, obj=action.obj,
-                                                                        place=self.state.item_at[action.obj]))
-        except ValueError:
-            k = next(i for i, a in enumerate(acts) if (a.kind, a.obj, a.place) == (action.kind, action.obj, action.place))
+        # legal_actions writes grabs with their place and handovers to the other agent
+        key = (action.kind, action.obj, action.place if action.kind != "grab" else self.state.item_at[action.obj])
+        k = next(i for i, a in enumerate(acts) if (a.kind, a.obj, a.place) == key)
         Q = successor_values(self.ctg, self.state, self._tabs, acts, self._sp)  # (A, R)
         self._row_ll += self._action_loglik(Q, k)
-        self._unknown_ll += -np.log(len(acts))
+        self._unknown_ll -= math.log(len(acts))
         self._advance(action)
 
     def _action_loglik(self, Q: np.ndarray, k: int) -> np.ndarray:

@@ -332,7 +332,7 @@ def successor_values(
         return Q
     extra_rows: list[tuple] = []  # appended table rows
     parts_idx, parts_cnt, parts_held, owners = [], [], [], []
-    any_need = None
+    any_need = grab_base = None
     for r in others:
         a = actions[r]
         s2 = apply(s, a)
@@ -348,7 +348,9 @@ def successor_values(
         # removes it, an open or close changes nothing. Only the others are recomputed.
         if len(changed) == 1:
             if a.kind == "grab":
-                Q[r] = 1.0 + v_stay + any_need
+                if grab_base is None:
+                    grab_base = 1.0 + v_stay + any_need
+                Q[r] = grab_base
             elif a.kind in ("put", "handover"):
                 Q[r] = 1.0 + v_stay - any_need
             else:

@@ -373,6 +373,10 @@ _GOAL_SPACES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalSpace:
     per_world = _GOAL_SPACES.setdefault(world, {})
+    # identity first: hashing 150 goals costs more than the rest of the lookup
+    fast = per_world.get((id(goals), max_count))
+    if fast is not None and fast[0] is goals:
+        return fast[1]
     key = (goals, max_count)
     gs = per_world.get(key)
     if gs is None:
@@ -383,9 +387,10 @@ def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalS
         gs = _GoalSpace(N, SparseGoals.from_dense(N), SparseGoals.from_dense(uniq), gi, ci, pair_row,
                         np.bincount(world.item_class_idx, minlength=C),
                         CostToGo(world, goals[0].target, kmax, agent=HUMAN))
-        if len(per_world) > 16:
+        if len(per_world) > 32:
             per_world.clear()
         per_world[key] = gs
+    per_world[(id(goals), max_count)] = (goals, gs)
     return gs
 
 

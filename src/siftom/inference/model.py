@@ -228,6 +228,9 @@ class OnlineInference:
     def _action_loglik(self, Q: np.ndarray, k: int) -> np.ndarray:
         """log P(a_k | s) under every row and beta, shape (R, B): Boltzmann with epsilon floor.
 
+        The same distribution as :class:`siftom.planning.policy.BoltzmannPolicy`, evaluated only
+        at the observed action and for the whole beta grid at once.
+
         With Qs = Q - min_a Q >= 0, log P_beta(a_k) = -beta Qs[k] - log sum_a exp(-beta Qs[a]).
         For a grid where each beta doubles the previous one, exp(-2 beta Qs) is the square of
         exp(-beta Qs): one exp for the whole grid.

@@ -288,9 +288,6 @@ class SparseGoals:
             cache[c] = np.flatnonzero(((self.idx == c) & (self.cnt > 0)).any(axis=1))
         return cache[c]
 
-    def subset(self, rows: np.ndarray) -> SparseGoals:
-        return SparseGoals(self.idx[rows], self.cnt[rows], self.n_classes)
-
     def __len__(self) -> int:
         return len(self.idx)
 

@@ -200,3 +200,35 @@ def test_successor_values_of_opening_and_putting_down(kind):
     Q = successor_values(ctg, s, ctg.tables(s), acts, N)
     (r,) = [k for k, a in enumerate(acts) if a.kind == kind]
     _assert_same_q(Q[r], _direct_q(ctg, s, acts[r], N), world.format_action(acts[r]))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_compiled_kernel_and_numpy_path_agree(seed, monkeypatch):
+    """The numba kernel (siftom[fast]) and the numpy path compute the same values."""
+    from siftom.planning import _kernel
+    from siftom.planning.costtogo import goal_matrix, successor_values
+    from siftom.world.model import HELD, NOTHING, State, legal_actions
+
+    if not _kernel.AVAILABLE:
+        pytest.skip("numba is not installed (pip install 'siftom[fast]')")
+    rng = np.random.default_rng(100 + seed)
+    world, s = random_world(rng, n_places=5, n_items=6, n_classes=3)
+    if seed % 2:
+        i = int(rng.integers(len(world.items)))
+        item_at = list(s.item_at)
+        item_at[i] = HELD
+        s = State(s.agent_at, (i, NOTHING), tuple(item_at), s.open_mask)
+    goals = [_goals(world, rng, target=0) for _ in range(8)]
+    goals = [g for g in goals if g.counts] or [Goal("g", 0, ((world.classes[0], 1),))]
+    N = goal_matrix(world, goals)
+    acts = list(legal_actions(world, s, 0))
+    ctg = CostToGo(world, 0, 6)
+    fast = successor_values(ctg, s, ctg.tables(s), acts, N)
+    relaxed_fast = ctg.values(ctg.tables(s), N, np.arange(len(world.places)), s.held[0], relaxed=True)
+    monkeypatch.setattr(_kernel, "AVAILABLE", False)
+    ctg2 = CostToGo(world, 0, 6)
+    ctg2._vcache.clear()
+    slow = successor_values(ctg2, s, ctg2.tables(s), acts, N)
+    relaxed_slow = ctg2.values(ctg2.tables(s), N, np.arange(len(world.places)), s.held[0], relaxed=True)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(relaxed_fast, relaxed_slow, rtol=0, atol=1e-9)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from siftom.planning import _kernel
 from siftom.world.model import HELD, NOTHING, Action, Goal, State, World, apply, cost
 
 INF = np.float64(1e9)
@@ -209,11 +210,18 @@ class CostToGo:
                 held_cls: np.ndarray | int, relaxed: bool = False) -> np.ndarray:
         """Core of :meth:`values`: rows (idx, cnt) index table rows; ``held_cls`` per row or scalar
         (-1: empty hands). Padding entries have count 0 and so never contribute. Counts never
-        exceed ``kmax`` (the tables are built up to the largest count)."""
+        exceed ``kmax`` (the tables are built up to the largest count). With numba installed
+        (``siftom[fast]``), one compiled loop does the same work (planning/_kernel.py)."""
         K1 = self.kmax + 1
         # work in (m, G) layout: reductions over a goal's few classes run over the first axis
         idx = np.ascontiguousarray(idx.T)
         cnt = np.ascontiguousarray(cnt.T)
+        if _kernel.AVAILABLE:
+            held = (np.full(idx.shape[1], held_cls, dtype=np.int64) if np.ndim(held_cls) == 0
+                    else np.ascontiguousarray(held_cls, dtype=np.int64))
+            return _kernel.values_kernel(
+                tabs.cum.reshape(-1), tabs.opens.reshape(-1), tabs.delta.reshape(-1, self.P), tabs.at_target,
+                self._dT, idx, cnt, np.ascontiguousarray(q, dtype=np.int64), held, K1, bool(relaxed), float(INF))
         need = cnt - tabs.at_target[idx]
         np.maximum(need, 0, out=need)
         if np.ndim(held_cls) == 0 and held_cls < 0:

@@ -104,18 +104,9 @@ _TEAM: dict[tuple[str, str], dict[str, Any]] = {}
 
 def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT) -> tuple[str, ...]:
     """Every phrasing of every command over ``classes``: the domain LM's training sentences."""
-    from siftom.likelihood.lexicon import default_lexicon
-    from siftom.likelihood.phrasing import phrasings
-    from siftom.world.commands import RobotCommand
+    from siftom.likelihood.phrasing import command_vocabulary
 
-    lex = default_lexicon()
-    counts = range(1, max_count + 1) if verb == "deliver" else (1,)
-    out: dict[str, None] = {}
-    for c in sorted(set(classes)):
-        for n in counts:
-            for text, _ in phrasings(RobotCommand(verb, c, n), lex):
-                out[text] = None
-    return tuple(out)
+    return tuple(command_vocabulary(sorted(set(classes)), verb, max_count))
 
 
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:

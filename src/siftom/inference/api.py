@@ -97,18 +97,9 @@ def infer_actions(
 
 def vocabulary_for(world: Any, verb: str, max_count: int = 4) -> list[str]:
     """Every phrasing of every command this world affords: the biased ASR vocabulary."""
-    from siftom.likelihood.lexicon import default_lexicon
-    from siftom.likelihood.phrasing import phrasings
-    from siftom.world.commands import RobotCommand
+    from siftom.likelihood.phrasing import command_vocabulary
 
-    lex = default_lexicon()
-    out: dict[str, None] = {}
-    for cls in world.classes:
-        counts = range(1, max_count + 1) if verb == "deliver" else (1,)
-        for n in counts:
-            for text, _lp in phrasings(RobotCommand(verb, cls, n), lex):
-                out[text] = None
-    return list(out)
+    return command_vocabulary(world.classes, verb, max_count)
 
 
 def transcribe_for(audio: str | Path, world: Any = None, verb: str = "fetch", engine: str = "pocketsphinx",

@@ -243,3 +243,17 @@ def sample_phrasing(
     prob = np.exp(logp - logp.max())
     prob /= prob.sum()
     return ph[int(rng.choice(len(ph), p=prob))].text
+
+
+def command_vocabulary(classes: Sequence[str], verb: str, max_count: int = 4,
+                       lexicon: Lexicon | None = None) -> list[str]:
+    """Every phrasing of every command over ``classes`` (counts 1..max_count for ``deliver``),
+    in order, without repeats: the sentences a scene-biased ASR language model is built from."""
+    lex = lexicon or default_lexicon()
+    counts = range(1, max_count + 1) if verb == "deliver" else (1,)
+    out: dict[str, None] = {}
+    for c in classes:
+        for n in counts:
+            for text, _lp in phrasings(RobotCommand(verb, c, n), lex):
+                out[text] = None
+    return list(out)

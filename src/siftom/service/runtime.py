@@ -31,7 +31,6 @@ from siftom.errors import AudioError, ObservationError, unknown_name
 from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.likelihood.base import Instruction
-from siftom.world.commands import RobotCommand
 from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
@@ -122,16 +121,9 @@ class _Engine:
 
 def scenario_vocabulary(scenario: Scenario) -> list[str]:
     """Every phrasing of every command of the scenario: the ASR's language model."""
-    from siftom.likelihood.phrasing import phrasings
+    from siftom.inference.api import vocabulary_for
 
-    w = scenario.world
-    out: set[str] = set()
-    for cls in w.classes:
-        total = sum(1 for it in w.items if it.cls == cls)
-        top = min(total, 4) if scenario.verb == "deliver" else 1
-        for k in range(1, top + 1):
-            out.update(text for text, _lp in phrasings(RobotCommand(scenario.verb, cls, k)))
-    return sorted(out)
+    return sorted(vocabulary_for(scenario.world, scenario.verb))
 
 
 def timeline(scenario: Scenario) -> list[dict[str, Any]]:

@@ -286,7 +286,14 @@ class OnlineInference:
         goal_idx, cmd_of, rows, unk_cmds, cmds = self.candidates()
         # instruction term per unique command
         if instruction is not None and self.model.likelihood is not None:
-            instr = np.asarray(self.model.likelihood.log_prob(instruction, cmds), dtype=np.float64) * cfg.speech_weight
+            lk = self.model.likelihood
+            if getattr(lk, "uses_context", False):
+                # e.g. the acoustic likelihood prunes commands with little prior x action mass
+                ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, len(cmds)) if cfg.uses_actions else None
+                raw = lk.log_prob(instruction, cmds, context=ctx)  # type: ignore[call-arg]
+            else:
+                raw = lk.log_prob(instruction, cmds)
+            instr = np.asarray(raw, dtype=np.float64) * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:
@@ -339,6 +346,21 @@ class OnlineInference:
             n_actions=self.n_actions, seconds=time.perf_counter() - t0,
             transcript=instruction.text if instruction is not None else "",
         )
+
+    def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,
+                 n_cmds: int) -> np.ndarray:
+        """log P(command | actions) up to a constant: the posterior without the instruction term."""
+        cfg = self.model.config
+        act = logsumexp(self._row_ll, axis=1)[rows] - np.log(len(cfg.betas))
+        z = cfg.help_kappa * self._steps_saved(goal_idx, rows)
+        log_pr = z - _group_logsumexp(z, goal_idx, len(self.goals))[goal_idx]
+        n_goals = max(int((np.bincount(goal_idx, minlength=len(self.goals)) > 0).sum()), 1)
+        known = _group_logsumexp(log_pr + act, cmd_of, n_cmds) + np.log1p(-cfg.unknown_prior) - np.log(n_goals)
+        if cfg.unknown_prior <= 0:
+            return known
+        unk = np.full(n_cmds, -np.inf)
+        unk[unk_cmds] = np.log(cfg.unknown_prior) - np.log(len(unk_cmds)) + self._unknown_ll
+        return np.logaddexp(known, unk)
 
     def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""

@@ -1,21 +1,35 @@
-"""Acoustic instruction likelihood: score the audio itself against each command's phrasings.
+"""Acoustic instruction likelihood: score the audio itself against each command's key phrase.
 
-For robot command pi_r with phrasings u (text) and log prior log P(u | pi_r), and audio a,
+For robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
+cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
-    log P(a | pi_r) = logsumexp_u [ s(a, u) / T + log P(u | pi_r) ]
+    log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]
 
-where s(a, u) is the pocketsphinx forced-alignment score of u against a, in nats
-(siftom.speech.acoustic), and T is a temperature in nats that turns raw alignment scores,
-which are over-confident, into a likelihood (paper, Methods, Instruction Likelihood; the
-paper's P(phi | pi_r) with phi the audio instead of a transcript). T must grow with noise:
-measured best T is about 12 at 20 dB SNR and about 30 at 0 dB (FINDINGS.md); see
-``temperature_for_snr``. Scores compare only across the commands of one call.
+where a_W is the window of the audio in which the recogniser heard the object (its 1-best
+words that belong to any command's key phrase, plus ``margin_s`` either side) and s is the
+pocketsphinx forced-alignment score of k against that window, in nats (siftom.speech.acoustic).
+Every candidate explains the same frames, so the scores compare; the rest of the utterance
+("can you pass me ...", or any other words) is free speech that costs every command the same
+and is not scored at all. When the 1-best holds no key word the window cannot be placed and the
+scorer falls back to aligning each command's whole phrasing closest to what was heard
+(``sentence`` mode), the previous method. T is a temperature in nats that turns alignment
+scores, which are over-confident, into a likelihood (paper, Methods, Instruction Likelihood);
+docs/likelihoods.md gives the calibration.
+
+**Pruning** (``prune=True``): before aligning, the commands are ranked by the N-best phonetic
+likelihood times the context (the action term and command prior the model passes as
+``context``); the smallest set holding ``prune_mass`` of that posterior (at most
+``max_candidates``) plus the ``top_nbest`` best N-best matches is aligned. Every other command
+gets the lowest aligned score: it held almost no mass, and no aligned command is made more
+likely by the pruning than by the full scorer's evidence against it. Scores compare only across
+the commands of one call.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.special import logsumexp
@@ -25,6 +39,7 @@ from siftom.likelihood.base import Instruction
 from siftom.world.commands import RobotCommand
 
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
+# calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
 DEFAULT_TEMPERATURE = 20.0
 
 
@@ -37,12 +52,7 @@ def temperature_for_snr(snr_db: float | None) -> float:
 
 
 def top_phrasings(command: RobotCommand, k: int = 1) -> list[tuple[str, float]]:
-    """The ``k`` most likely phrasings of a command (default phrasing model and lexicon).
-
-    Forced alignment costs ~20 ms per sentence, so by default each command is represented by its
-    single most likely sentence; the carrier words are then shared by all candidates and the
-    alignment scores differ where the object words do.
-    """
+    """The ``k`` most likely phrasings of a command (default phrasing model and lexicon)."""
     from siftom.likelihood.lexicon import default_lexicon
     from siftom.likelihood.phrasing import phrasings
 
@@ -63,14 +73,42 @@ def closest_phrasing(command: RobotCommand, heard: str) -> tuple[str, float]:
     return best[0], 0.0
 
 
+def key_phrases(command: RobotCommand) -> list[tuple[str, float]]:
+    """(content words, log prior) of a command: what distinguishes it from the others."""
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.likelihood.phrasing import content_prior
+
+    return [(c, lp) for c, lp in content_prior(command, default_lexicon()) if c.strip()]
+
+
+def key_window(words: Sequence[tuple[str, float, float]], key_words: set[str], duration: float,
+               margin_s: float) -> tuple[float, float] | None:
+    """Where the recogniser heard key words: (start, end) in seconds with margins, or None."""
+    hits = [(s, e) for w, s, e in words if w in key_words]
+    if not hits:
+        return None
+    start = max(0.0, min(s for s, _ in hits) - margin_s)
+    end = min(duration, max(e for _, e in hits) + margin_s)
+    return (start, end) if end - start > 0.05 else None
+
+
 class AcousticLikelihood:
-    """log P(audio | robot command) by forced alignment of the command's phrasings.
+    """log P(audio | robot command) by forced alignment of key phrases (see module doc).
 
     Args:
-        phrasings: maps a command to (text, log prior) pairs; default :func:`top_phrasings`.
-        temperature: T in nats (see module doc); must be > 0.
-        aligner: a ForcedAligner to share between likelihoods (one is created lazily otherwise).
+        phrasings: for ``mode="sentence"``: maps a command to (text, log prior) pairs
+            (default :func:`top_phrasings`, or the phrasing closest to the 1-best when an N-best
+            list is known).
+        temperature: T in nats; must be > 0.
+        aligner: a ForcedAligner to share (one is created lazily otherwise).
+        mode: ``"key"`` (key phrase in the recogniser's object window; sentence fallback) or
+            ``"sentence"`` (whole phrasings over the whole audio).
+        prune: align only the commands that matter (module doc); needs an N-best list.
+        prune_mass, max_candidates, top_nbest: the pruning rule.
+        margin_s: seconds added either side of the object window.
     """
+
+    uses_context = True  # SIFToM passes the action term and prior per command as ``context``
 
     def __init__(
         self,
@@ -78,16 +116,32 @@ class AcousticLikelihood:
         temperature: float = DEFAULT_TEMPERATURE,
         aligner: object | None = None,
         name: str = "acoustic",
+        mode: str = "key",
+        prune: bool = True,
+        prune_mass: float = 0.995,
+        max_candidates: int = 8,
+        top_nbest: int = 3,
+        margin_s: float = 0.15,
     ) -> None:
-        """Validate the temperature; the aligner loads on first use."""
+        """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
             raise SiftomError(f"temperature must be a positive number of nats, got {temperature}")
-        self.phrasings = phrasings or top_phrasings
+        if mode not in ("key", "sentence"):
+            raise SiftomError(f"mode must be 'key' or 'sentence', got {mode!r}")
+        if not 0 < prune_mass <= 1 or max_candidates < 1 or top_nbest < 0:
+            raise SiftomError("prune_mass must be in (0, 1], max_candidates >= 1 and top_nbest >= 0")
+        self.phrasings = phrasings
         self.temperature = float(temperature)
         self.name = name
+        self.mode = mode
+        self.prune = prune
+        self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
+        self.margin_s = margin_s
         self._aligner = aligner
+        self._phonetic: Any = None
         self.last_seconds = 0.0
         self.last_candidates = 0
+        self.last_mode = ""
 
     @property
     def aligner(self):  # noqa: ANN201 - ForcedAligner, imported lazily
@@ -98,19 +152,82 @@ class AcousticLikelihood:
             self._aligner = ForcedAligner()
         return self._aligner
 
-    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
-        """Return log P(audio | command) for each command, shape (len(commands),)."""
-        if instruction.audio is None:
+    def _phonetic_lp(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
+        if self._phonetic is None:
+            from siftom.likelihood.registry import get_likelihood
+
+            self._phonetic = get_likelihood("phonetic")
+        return np.asarray(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands), dtype=float)
+
+    def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
+                   context: np.ndarray | None = None) -> np.ndarray:
+        """Indices of the commands to align (all of them unless pruning applies)."""
+        n = len(commands)
+        if not self.prune or not instruction.nbest or n <= self.max_candidates:
+            return np.arange(n)
+        phon = self._phonetic_lp(instruction, commands)
+        q = phon + (np.asarray(context, dtype=float) if context is not None else 0.0)
+        p = np.exp(q - logsumexp(q))
+        order = np.argsort(-p, kind="stable")
+        upto = int(np.searchsorted(np.cumsum(p[order]), self.prune_mass) + 1)
+        keep = set(order[: min(upto, self.max_candidates)].tolist())
+        keep.update(np.argsort(-phon, kind="stable")[: self.top_nbest].tolist())
+        return np.array(sorted(keep))
+
+    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand],
+                 context: np.ndarray | None = None) -> np.ndarray:
+        """Return log P(audio | command) for each command, shape (len(commands),).
+
+        ``context``: optional log P(command | actions) up to a constant (used for pruning only).
+        """
+        if not instruction.has_audio:
             raise ObservationError(
                 "the acoustic likelihood needs the audio: send the recording (multipart field audio, --audio FILE "
                 "or Instruction(audio=PATH)), or use a transcript-based likelihood such as phonetic"
             )
-        heard = instruction.text if instruction.nbest else None
-        return self.log_prob_audio(instruction.audio, commands, heard=heard)
+        if not commands:
+            return np.zeros(0)
+        from siftom.speech.audio import as_audio
+
+        x = instruction.samples if instruction.samples is not None else as_audio(instruction.audio)  # type: ignore[arg-type]
+        keep = self.candidates(instruction, commands, context)
+        kept = [commands[i] for i in keep]
+        window = None
+        if self.mode == "key" and instruction.words:
+            key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
+            window = key_window(instruction.words, key_words, len(x) / 16000.0, self.margin_s)
+        if window is not None:
+            a, b = int(window[0] * 16000), int(window[1] * 16000)
+            scores = self._score(x[a:b], kept, key_phrases)
+            self.last_mode = "key"
+        else:
+            heard = instruction.text if instruction.nbest else None
+            scores = self.log_prob_audio(x, kept, heard=heard, _raw=True)
+            self.last_mode = "sentence"
+        out = np.full(len(commands), float(np.min(scores)))
+        out[keep] = scores
+        return out
+
+    def _score(self, x: np.ndarray, commands: Sequence[RobotCommand],
+               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> np.ndarray:
+        per_cmd: list[list[tuple[str, float]]] = []
+        texts: dict[str, None] = {}
+        for c in commands:
+            items = [(str(t), float(lp)) for t, lp in items_of(c)]
+            if not items:
+                raise SiftomError(f"no phrasings for command {c}; the phrasing function returned none")
+            per_cmd.append(items)
+            texts.update(dict.fromkeys(t for t, _ in items))
+        unique = list(texts)
+        result = self.aligner.score(x, unique)
+        score = dict(zip(unique, result.scores, strict=True))
+        self.last_seconds = result.seconds
+        self.last_candidates = len(unique)
+        return np.array([logsumexp([score[t] / self.temperature + lp for t, lp in items]) for items in per_cmd])
 
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
-                       heard: str | None = None) -> np.ndarray:
-        """Same as ``log_prob`` for raw 16 kHz samples or a path.
+                       heard: str | None = None, _raw: bool = False) -> np.ndarray:
+        """Whole-sentence scores for raw 16 kHz samples or a path, every command aligned.
 
         With ``heard`` (an ASR 1-best), each command is scored with its phrasing closest in
         words to what was heard: the carrier ("can you pass me the ...") then matches the audio
@@ -118,21 +235,9 @@ class AcousticLikelihood:
         """
         if not commands:
             return np.zeros(0)
-        per_cmd: list[list[tuple[str, float]]] = []
-        texts: dict[str, None] = {}
-        for c in commands:
-            items = [(str(t), float(lp)) for t, lp in (self.phrasings(c) if heard is None else
-                                                       [closest_phrasing(c, heard)])]
-            if not items:
-                raise SiftomError(f"no phrasings for command {c}; the phrasing function returned none")
-            per_cmd.append(items)
-            texts.update(dict.fromkeys(t for t, _ in items))
-        unique = list(texts)
-        result = self.aligner.score(audio, unique)
-        score = dict(zip(unique, result.scores, strict=True))
-        self.last_seconds = result.seconds
-        self.last_candidates = len(unique)
-        out = np.empty(len(commands))
-        for i, items in enumerate(per_cmd):
-            out[i] = logsumexp([score[t] / self.temperature + lp for t, lp in items])
-        return out
+        from siftom.speech.audio import as_audio
+
+        x = as_audio(audio)
+        if heard is not None and self.phrasings is None:
+            return self._score(x, commands, lambda c: [closest_phrasing(c, heard)])
+        return self._score(x, commands, self.phrasings or top_phrasings)

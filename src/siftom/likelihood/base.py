@@ -36,9 +36,13 @@ class Instruction:
     nbest: tuple[Hypothesis, ...] = ()
     audio: Path | None = None
     reference: str | None = field(default=None, compare=False)
+    # the audio already decoded (16 kHz mono float32), so likelihoods need not read ``audio`` again
+    samples: np.ndarray | None = field(default=None, compare=False, repr=False)
+    # 1-best word timings from the recogniser: (text, start s, end s) each
+    words: tuple[tuple[str, float, float], ...] = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not self.nbest and self.audio is None:
+        if not self.nbest and self.audio is None and self.samples is None:
             raise ObservationError(
                 "an instruction needs a transcript, an N-best list or an audio file; "
                 "pass e.g. Instruction.from_text('pass me the cereal')"
@@ -63,6 +67,11 @@ class Instruction:
         if not hyps:
             raise ObservationError("the N-best list is empty; give at least one hypothesis")
         return cls(nbest=hyps)
+
+    @property
+    def has_audio(self) -> bool:
+        """Whether the recording itself is available (a path or decoded samples)."""
+        return self.audio is not None or self.samples is not None
 
     @property
     def text(self) -> str:

@@ -32,7 +32,7 @@ class LikelihoodSpec:
 
     def check(self, instruction: Instruction) -> None:
         """Raise ObservationError when ``instruction`` lacks what this likelihood consumes."""
-        if self.needs_audio and instruction.audio is None:
+        if self.needs_audio and not instruction.has_audio:
             raise ObservationError(
                 f"the {self.name!r} likelihood needs audio; give an audio file or use 'phonetic'"
             )

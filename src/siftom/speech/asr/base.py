@@ -64,12 +64,13 @@ class Transcript:
             "audio_s": round(self.audio_s, 3),
         }
 
-    def to_instruction(self, audio: Path | None = None) -> Instruction:
-        """The transcript as an Instruction for the likelihoods (keeps the audio path if given)."""
+    def to_instruction(self, audio: Path | None = None, samples: np.ndarray | None = None) -> Instruction:
+        """The transcript as an Instruction for the likelihoods (keeps the audio path / samples if given)."""
         hyps = tuple(h for h in self.nbest if h.text) or (Hypothesis(self.text, 0.0),)
-        if not any(h.text for h in hyps) and audio is not None:
-            return Instruction(nbest=(), audio=audio)
-        return Instruction(nbest=hyps, audio=audio)
+        words = tuple((w.text, w.start, w.end) for w in self.words)
+        if not any(h.text for h in hyps) and (audio is not None or samples is not None):
+            return Instruction(nbest=(), audio=audio, samples=samples)
+        return Instruction(nbest=hyps, audio=audio, samples=samples, words=words)
 
 
 @runtime_checkable

@@ -1,0 +1,227 @@
+"""One call from a recording to the posterior: ``siftom.listen(audio, scenario=...)``.
+
+    audio --> voice-activity detection --(no speech)--> posterior from the actions alone
+                     | speech
+                     v
+              cut to the speech --> ASR (N-best + word times, biased to the scene's phrasings)
+                     --> Instruction(nbest, samples, words) --> SIFToM posterior
+
+Everything that depends only on the home is built once and cached, as a robot in one home
+would: the recogniser per vocabulary, the model per (mode, likelihood), and the action term per
+(scene, observed actions) in an ``OnlineInference``. So a call costs the detection, the
+recognition and the instruction likelihood only.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.errors import ObservationError
+from siftom.inference.model import OnlineInference, Posterior
+from siftom.likelihood.base import Instruction
+
+NO_SPEECH = "no speech heard"
+
+
+@dataclass(frozen=True)
+class Heard:
+    """The result of :func:`listen`.
+
+    Attributes:
+        posterior: the posterior (from the actions alone when no speech was heard).
+        speech: whether speech was detected.
+        transcript: the recogniser's output (None without speech).
+        vad: the voice-activity detector's result.
+        seconds: wall time from the audio (file read included) to the posterior.
+        timings: seconds per stage (load, vad, asr, infer).
+    """
+
+    posterior: Posterior
+    speech: bool
+    transcript: Any
+    vad: Any
+    seconds: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def command(self) -> str:
+        """The chosen robot command."""
+        return self.posterior.command
+
+    @property
+    def message(self) -> str:
+        """"no speech heard" or ''."""
+        return "" if self.speech else NO_SPEECH
+
+    def to_json(self, top: int = 10) -> dict[str, Any]:
+        """The posterior's JSON plus ``speech_heard``, ``message``, ``asr``, ``vad`` and timings."""
+        out = self.posterior.to_json(top=top)
+        out.update({
+            "speech_heard": self.speech,
+            "message": self.message,
+            "asr": self.transcript.to_json() if self.transcript is not None else None,
+            "vad": self.vad.to_json(),
+            "seconds": round(self.seconds, 4),
+            "timings": {k: round(v, 4) for k, v in self.timings.items()},
+        })
+        return out
+
+
+@dataclass(frozen=True)
+class _Scene:
+    world: Any
+    start: Any
+    goals: tuple
+    verb: str
+    actions: tuple
+    key: Any
+
+
+class _Cache:
+    """Small thread-safe LRU for per-home objects (engines, online inferences)."""
+
+    def __init__(self, size: int) -> None:
+        self.size, self._d, self._lock = size, OrderedDict(), threading.Lock()
+
+    def get(self, key: Any, make: Any) -> Any:
+        with self._lock:
+            if key in self._d:
+                self._d.move_to_end(key)
+                return self._d[key]
+        value = make()
+        with self._lock:
+            self._d[key] = value
+            while len(self._d) > self.size:
+                self._d.popitem(last=False)
+        return value
+
+
+_ENGINES = _Cache(8)
+_ONLINE = _Cache(64)
+_LOCK = threading.Lock()  # decoders and likelihood caches hold one utterance at a time
+
+
+def _scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
+           verb: str | None) -> _Scene:
+    from siftom.world.domains.base import get_scenario
+    from siftom.world.model import apply, check
+
+    if (scenario is None) == (world is None):
+        raise ObservationError("give exactly one of scenario= (an id or Scenario) or world= (a scene or World)")
+    src = get_scenario(scenario) if isinstance(scenario, str) else scenario if scenario is not None else world
+    if hasattr(src, "world"):  # a Scenario or a loaded scene
+        w, s0, gs, vb = src.world, src.start, tuple(src.goals), verb or getattr(src, "verb", "deliver")
+        default_actions = tuple(getattr(src, "actions", ()))
+    else:
+        if start is None or goals is None:
+            raise ObservationError("with world=World give start= (its State) and goals= (the goal space)")
+        w, s0, gs, vb, default_actions = src, start, tuple(goals), verb or "deliver", ()
+    acts = default_actions if actions is None else []
+    if actions is not None:
+        s = s0
+        for k, a in enumerate(actions):
+            act = w.parse_action(a, s) if isinstance(a, str) else a
+            why = check(w, s, act)
+            if why is not None:
+                raise ObservationError(f"actions[{k}] {a!r} is impossible here: {why}")
+            acts.append(act)
+            s = apply(s, act)
+    key = (scenario if isinstance(scenario, str) else id(src), tuple(map(str, acts)))
+    return _Scene(w, s0, gs, vb, tuple(acts), key)
+
+
+def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
+    """A cached recogniser; pocketsphinx is biased to the world's command phrasings."""
+    from siftom.inference.api import vocabulary_for
+    from siftom.speech.asr.base import get_engine
+
+    if engine != "pocketsphinx":
+        return _ENGINES.get((engine,), lambda: get_engine(engine))
+    vocab = tuple(sorted(vocabulary_for(world, verb)))
+    return _ENGINES.get((engine, hash(vocab)), lambda: get_engine("pocketsphinx", vocabulary=list(vocab)))
+
+
+def hear(x: np.ndarray, asr: Any, nbest: int = 10) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
+    """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings)."""
+    from siftom.speech.vad import detect_speech, trim
+
+    t0 = time.perf_counter()
+    vad = detect_speech(x)
+    t1 = time.perf_counter()
+    timings = {"vad": t1 - t0}
+    if not vad.speech:
+        return None, None, vad, timings
+    y = trim(x, vad)
+    tr = asr.transcribe(y, nbest=nbest)
+    timings["asr"] = time.perf_counter() - t1
+    if not tr.text:
+        return None, tr, vad, timings
+    return tr.to_instruction(samples=y), tr, vad, timings
+
+
+def listen(
+    audio: str | Path | np.ndarray,
+    scenario: Any = None,
+    world: Any = None,
+    actions: Sequence[Any] | None = None,
+    *,
+    start: Any = None,
+    goals: Sequence[Any] | None = None,
+    verb: str | None = None,
+    mode: str = "full",
+    likelihood: str = "phonetic",
+    engine: str = "pocketsphinx",
+    nbest: int = 10,
+    top: int = 10,
+) -> Heard:
+    """Infer the robot command from a recording of the instruction and the human's actions.
+
+    Args:
+        audio: a file path (WAV, FLAC, ...) or 16 kHz mono samples.
+        scenario: a registered scenario id or a Scenario (its actions are used unless
+            ``actions`` is given).
+        world: instead of ``scenario``: a loaded scene (``siftom.world.io.load_scene``) or a
+            World with ``start`` and ``goals``.
+        actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
+        mode: ``full``, ``speech-only`` or ``action-only``.
+        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
+        engine: the ASR engine.
+
+    Returns:
+        Heard: the posterior, whether speech was heard, the transcript and timings. Without
+        speech the posterior is the actions-alone one and ``message`` is "no speech heard".
+    """
+    from siftom.inference.api import get_model
+    from siftom.speech.audio import as_audio
+
+    t0 = time.perf_counter()
+    sc = _scene(scenario, world, actions, start, goals, verb)
+    x = as_audio(audio)
+    t_load = time.perf_counter() - t0
+    with _LOCK:
+        asr = engine_for(sc.world, sc.verb, engine)
+        instruction, tr, vad, timings = hear(x, asr, nbest)
+        t1 = time.perf_counter()
+        if instruction is None:
+            use_mode, use_lik = "action-only", "phonetic"
+        else:
+            use_mode, use_lik = mode, likelihood
+
+        def make() -> OnlineInference:
+            on = get_model(use_mode, use_lik).online(sc.world, sc.start, sc.goals, sc.verb)
+            for a in sc.actions:
+                on.observe(a)
+            return on
+
+        online = _ONLINE.get((sc.key, use_mode, use_lik), make)
+        post = online.posterior(instruction, top=top)
+    timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
+    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings)

@@ -37,6 +37,8 @@ from siftom.errors import DatasetError, SiftomError, unknown_name
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
+# the audio itself through siftom.listen's path (VAD, ASR word times, key-phrase alignment); on request
+ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
@@ -69,8 +71,8 @@ class EvalOptions:
         if not self.models:
             raise DatasetError(f"give at least one model; available: {', '.join(MODELS)}")
         for m in self.models:
-            if m not in MODELS + OPTIONAL_MODELS:
-                raise unknown_name("model", m, MODELS + OPTIONAL_MODELS)
+            if m not in MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS:
+                raise unknown_name("model", m, MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS)
         if len(set(self.models)) != len(self.models):
             raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
         if self.engine not in ENGINES:
@@ -227,6 +229,11 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
+            elif m in ACOUSTIC_MODELS:
+                from siftom.bench.acoustic_models import acoustic_choice
+
+                audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
+                command, prob = acoustic_choice(m, sc, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
             elif m in OPTIONAL_MODELS:
                 from siftom.bench.llm_baselines import chooser, command_space
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, RUN, load_results
+from siftom.bench.evaluate import ACOUSTIC_MODELS, MODELS, OPTIONAL_MODELS, RUN, load_results
 from siftom.bench.metrics import N_BOOT, breakdown, group_key, label_order, summarise_model
 from siftom.errors import DatasetError
 
@@ -41,7 +41,7 @@ def models_in(rows: Sequence[dict[str, Any]]) -> list[str]:
     for r in rows:
         for m in r["models"]:
             seen[m] = None
-    known = MODELS + OPTIONAL_MODELS
+    known = MODELS + ACOUSTIC_MODELS + OPTIONAL_MODELS
     return [m for m in known if m in seen] + [m for m in seen if m not in known]
 
 

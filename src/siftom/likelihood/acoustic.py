@@ -5,14 +5,15 @@ cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
     log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]
 
-where a_W is the window of the audio in which the recogniser heard the object (its 1-best
-words that belong to any command's key phrase, plus ``margin_s`` either side) and s is the
-pocketsphinx forced-alignment score of k against that window, in nats (siftom.speech.acoustic).
-Every candidate explains the same frames, so the scores compare; the rest of the utterance
-("can you pass me ...", or any other words) is free speech that costs every command the same
-and is not scored at all. When the 1-best holds no key word the window cannot be placed and the
-scorer falls back to aligning each command's whole phrasing closest to what was heard
-(``sentence`` mode), the previous method. T is a temperature in nats that turns alignment
+where a_W is the audio from the word before the object (as the recogniser placed it) to the
+end, and s is the pocketsphinx forced-alignment score, in nats (siftom.speech.acoustic), of
+the words heard there with the heard object words (the 1-best words that belong to any
+command's key phrase) replaced by k: "can you pass me the serial please" is scored for
+cereal as "the cereal please" against the audio from "the" on. Every candidate explains the
+same frames with the same free words around its key phrase, so the scores compare, and the
+carrier, whatever words it has, is not a template from the phrasing grammar. When the 1-best
+holds no key word the scorer falls back to aligning each command's whole phrasing closest to
+what was heard (``sentence`` mode). T is a temperature in nats that turns alignment
 scores, which are over-confident, into a likelihood (paper, Methods, Instruction Likelihood);
 docs/likelihoods.md gives the calibration.
 
@@ -28,6 +29,7 @@ the commands of one call.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -81,15 +83,33 @@ def key_phrases(command: RobotCommand) -> list[tuple[str, float]]:
     return [(c, lp) for c, lp in content_prior(command, default_lexicon()) if c.strip()]
 
 
-def key_window(words: Sequence[tuple[str, float, float]], key_words: set[str], duration: float,
-               margin_s: float) -> tuple[float, float] | None:
-    """Where the recogniser heard key words: (start, end) in seconds with margins, or None."""
-    hits = [(s, e) for w, s, e in words if w in key_words]
-    if not hits:
+def heard_frame(words: Sequence[tuple[str, float, float]], key_words: set[str]
+                ) -> tuple[float, tuple[str, ...], tuple[str, ...]] | None:
+    """Where to put each command's key phrase in what was heard, or None when no key word was heard.
+
+    Returns (start time, words before, words after): the key phrase replaces the heard key
+    words (the first to the last 1-best word that belongs to any command's key phrase); the
+    word just before them and every word after them are kept as heard, and the audio before
+    that word is dropped. Free speech around the object costs every command the same.
+    """
+    idx = [i for i, (w, _, _) in enumerate(words) if w in key_words]
+    if not idx:
         return None
-    start = max(0.0, min(s for s, _ in hits) - margin_s)
-    end = min(duration, max(e for _, e in hits) + margin_s)
-    return (start, end) if end - start > 0.05 else None
+    i0, i1 = idx[0], idx[-1]
+    j = max(0, i0 - 1)
+    start = words[j][1] if i0 > 0 else 0.0
+    before = tuple(w for w, _, _ in words[j:i0])
+    after = tuple(w for w, _, _ in words[i1 + 1:])
+    return max(0.0, start - 0.05), before, after
+
+
+@dataclass(frozen=True)
+class RawScores:
+    """Alignment scores before the temperature: per kept command, (score in nats, log prior) items."""
+
+    keep: np.ndarray
+    items: tuple[list[tuple[float, float]], ...]
+    mode: str
 
 
 class AcousticLikelihood:
@@ -105,7 +125,6 @@ class AcousticLikelihood:
             ``"sentence"`` (whole phrasings over the whole audio).
         prune: align only the commands that matter (module doc); needs an N-best list.
         prune_mass, max_candidates, top_nbest: the pruning rule.
-        margin_s: seconds added either side of the object window.
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -121,7 +140,6 @@ class AcousticLikelihood:
         prune_mass: float = 0.995,
         max_candidates: int = 8,
         top_nbest: int = 3,
-        margin_s: float = 0.15,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -136,7 +154,6 @@ class AcousticLikelihood:
         self.mode = mode
         self.prune = prune
         self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
-        self.margin_s = margin_s
         self._aligner = aligner
         self._phonetic: Any = None
         self.last_seconds = 0.0
@@ -180,36 +197,54 @@ class AcousticLikelihood:
 
         ``context``: optional log P(command | actions) up to a constant (used for pruning only).
         """
+        return self.combine(self.raw_scores(instruction, commands, context), len(commands))
+
+    def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
+        """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
+        if n == 0:
+            return np.zeros(0)
+        T = self.temperature if temperature is None else temperature
+        vals = np.array([logsumexp([sc / T + lp for sc, lp in items]) for items in raw.items])
+        out = np.full(n, float(np.min(vals)))
+        out[raw.keep] = vals
+        return out
+
+    def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
+                   context: np.ndarray | None = None) -> RawScores:
+        """Align the kept commands' key phrases (or sentences): scores in nats before T."""
         if not instruction.has_audio:
             raise ObservationError(
                 "the acoustic likelihood needs the audio: send the recording (multipart field audio, --audio FILE "
                 "or Instruction(audio=PATH)), or use a transcript-based likelihood such as phonetic"
             )
         if not commands:
-            return np.zeros(0)
+            return RawScores(np.zeros(0, dtype=int), (), "none")
         from siftom.speech.audio import as_audio
 
         x = instruction.samples if instruction.samples is not None else as_audio(instruction.audio)  # type: ignore[arg-type]
         keep = self.candidates(instruction, commands, context)
         kept = [commands[i] for i in keep]
-        window = None
+        frame = None
         if self.mode == "key" and instruction.words:
             key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
-            window = key_window(instruction.words, key_words, len(x) / 16000.0, self.margin_s)
-        if window is not None:
-            a, b = int(window[0] * 16000), int(window[1] * 16000)
-            scores = self._score(x[a:b], kept, key_phrases)
-            self.last_mode = "key"
+            frame = heard_frame(instruction.words, key_words)
+        if frame is not None:
+            start, before, after = frame
+            items = self._align(x[int(start * 16000):], kept,
+                                lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
+            mode = "key"
         else:
             heard = instruction.text if instruction.nbest else None
-            scores = self.log_prob_audio(x, kept, heard=heard, _raw=True)
-            self.last_mode = "sentence"
-        out = np.full(len(commands), float(np.min(scores)))
-        out[keep] = scores
-        return out
+            if heard is not None and self.phrasings is None:
+                items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+            else:
+                items = self._align(x, kept, self.phrasings or top_phrasings)
+            mode = "sentence"
+        self.last_mode = mode
+        return RawScores(keep, tuple(items), mode)
 
-    def _score(self, x: np.ndarray, commands: Sequence[RobotCommand],
-               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> np.ndarray:
+    def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
+               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> list[list[tuple[float, float]]]:
         per_cmd: list[list[tuple[str, float]]] = []
         texts: dict[str, None] = {}
         for c in commands:
@@ -223,11 +258,11 @@ class AcousticLikelihood:
         score = dict(zip(unique, result.scores, strict=True))
         self.last_seconds = result.seconds
         self.last_candidates = len(unique)
-        return np.array([logsumexp([score[t] / self.temperature + lp for t, lp in items]) for items in per_cmd])
+        return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd]
 
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
-                       heard: str | None = None, _raw: bool = False) -> np.ndarray:
-        """Whole-sentence scores for raw 16 kHz samples or a path, every command aligned.
+                       heard: str | None = None) -> np.ndarray:
+        """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned.
 
         With ``heard`` (an ASR 1-best), each command is scored with its phrasing closest in
         words to what was heard: the carrier ("can you pass me the ...") then matches the audio
@@ -239,5 +274,7 @@ class AcousticLikelihood:
 
         x = as_audio(audio)
         if heard is not None and self.phrasings is None:
-            return self._score(x, commands, lambda c: [closest_phrasing(c, heard)])
-        return self._score(x, commands, self.phrasings or top_phrasings)
+            items = self._align(x, commands, lambda c: [closest_phrasing(c, heard)])
+        else:
+            items = self._align(x, commands, self.phrasings or top_phrasings)
+        return self.combine(RawScores(np.arange(len(commands)), tuple(items), "sentence"), len(commands))

@@ -27,15 +27,33 @@ def get_model(mode: str = "full", likelihood: str = "phonetic") -> SIFToM:
 
 
 def make_instruction(
-    transcript: str | None = None,
-    nbest: Sequence[tuple[str, float] | dict[str, Any]] | None = None,
+    transcript: Any = None,
+    nbest: Any = None,
     audio: str | Path | None = None,
 ) -> Instruction | None:
-    """Build an Instruction from whichever of transcript / N-best / audio is given."""
+    """Build an Instruction from whichever of transcript / N-best / audio is given.
+
+    ``nbest`` may be a list of (text, score) pairs, ``{text, score}`` dicts or Hypothesis
+    objects, or anything a transcription returns (a ``Transcript``, or its ``to_json()``);
+    ``transcript`` may be a string or a ``Transcript``.
+    """
+    if hasattr(transcript, "nbest") and hasattr(transcript, "text"):  # a Transcript given as the transcript
+        transcript, nbest = None, transcript if nbest is None else nbest
+    if hasattr(nbest, "nbest") and hasattr(nbest, "text"):  # a Transcript
+        words = tuple((w.text, w.start, w.end) for w in getattr(nbest, "words", ()))
+        hyps_t = tuple(h for h in nbest.nbest if h.text) or ((Hypothesis(nbest.text, 0.0),) if nbest.text else ())
+        if not hyps_t and audio is None:
+            raise ObservationError("nothing was recognised in the recording (the transcript is empty); "
+                                   "record the instruction again or infer from the actions alone")
+        return Instruction(nbest=hyps_t, audio=Path(audio) if audio is not None else None, words=words)
+    if isinstance(nbest, dict) and "nbest" in nbest:  # Transcript.to_json()
+        nbest = nbest["nbest"] or ([{"text": nbest["text"], "score": 0.0}] if nbest.get("text") else [])
     hyps: list[Hypothesis] = []
     if nbest:
         for k, h in enumerate(nbest):
-            if isinstance(h, dict):
+            if isinstance(h, Hypothesis):
+                hyps.append(h)
+            elif isinstance(h, dict):
                 if "text" not in h:
                     raise ObservationError(f"nbest[{k}] needs a 'text' field, e.g. {{'text': 'pass me the cereal', 'score': -3.2}}")
                 hyps.append(Hypothesis(str(h["text"]), float(h.get("score", 0.0))))

@@ -72,15 +72,9 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
     nbest = _read_nbest(nbest_file) if nbest_file else None
     if audio is not None and not nbest and transcript is None:
-        world, verb = None, "deliver"
-        if scenario_id is not None:
-            from siftom.world.domains.base import get_scenario
-
-            world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
-        from siftom.inference.api import transcribe_for
-
-        tr = transcribe_for(audio, world, verb, engine)
-        nbest = [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
+        _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine,
+                     png, as_json)
+        return
     instruction = make_instruction(transcript, nbest, audio)
     if instruction is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
@@ -120,6 +114,35 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     print_posterior(post)
 
 
+def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine, png,
+                 as_json) -> None:
+    """``--audio``: one call to siftom.listen (VAD, recognition, likelihood, posterior)."""
+    from siftom.inference.listen import listen
+
+    actions = _read_actions(actions_file) if actions_file else None
+    if scenario_id is not None:
+        heard = listen(audio, scenario=scenario_id, actions=actions, mode=mode, likelihood=likelihood, engine=engine)
+    else:
+        from siftom.world.io import load_scene
+
+        scene = load_scene(scene_file, goal_space=goal_space, target=target)
+        heard = listen(audio, world=scene, actions=actions or [], mode=mode, likelihood=likelihood, engine=engine)
+    if png is not None and scenario_id is not None:
+        from siftom.world.domains.base import get_scenario
+        from siftom.world.render import render_scenario
+
+        render_scenario(get_scenario(scenario_id), png, posterior=heard.posterior)
+    if as_json:
+        click.echo(json.dumps(heard.to_json(), indent=2))
+        return
+    con = Console()
+    if not heard.speech:
+        con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
+                  "the actions alone")
+    print_posterior(heard.posterior, con)
+    con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command")
+
+
 def print_posterior(post, console: Console | None = None) -> None:
     """The readable table: top commands, goals and hypotheses with each term."""
     con = console or Console()
@@ -155,3 +178,6 @@ def register(root: click.Group) -> None:
     bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)
     bench.add_command(bench_planner_cmd)
+    from siftom.inference.latency import bench_latency_cmd
+
+    bench.add_command(bench_latency_cmd)

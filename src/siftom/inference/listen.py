@@ -14,6 +14,7 @@ recognition and the instruction likelihood only.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from collections import OrderedDict
@@ -164,7 +165,8 @@ def hear(x: np.ndarray, asr: Any, nbest: int = 10) -> tuple[Instruction | None, 
     timings["asr"] = time.perf_counter() - t1
     if not tr.text:
         return None, tr, vad, timings
-    return tr.to_instruction(samples=y), tr, vad, timings
+    instruction = dataclasses.replace(tr.to_instruction(samples=y), snr_db=vad.snr_db)
+    return instruction, tr, vad, timings
 
 
 def listen(

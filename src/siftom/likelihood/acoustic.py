@@ -110,6 +110,7 @@ class RawScores:
     keep: np.ndarray
     items: tuple[list[tuple[float, float]], ...]
     mode: str
+    phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when used
 
 
 class AcousticLikelihood:
@@ -121,6 +122,8 @@ class AcousticLikelihood:
             list is known).
         temperature: T in nats; must be > 0.
         aligner: a ForcedAligner to share (one is created lazily otherwise).
+        with_phonetic: multiply in the N-best phonetic likelihood (two views of one recording:
+            what the recogniser's lattice says and how well each key phrase fits the audio).
         mode: ``"key"`` (key phrase in the recogniser's object window; sentence fallback) or
             ``"sentence"`` (whole phrasings over the whole audio).
         prune: align only the commands that matter (module doc); needs an N-best list.
@@ -136,6 +139,7 @@ class AcousticLikelihood:
         aligner: object | None = None,
         name: str = "acoustic",
         mode: str = "key",
+        with_phonetic: bool = False,
         prune: bool = True,
         prune_mass: float = 0.995,
         max_candidates: int = 8,
@@ -152,6 +156,7 @@ class AcousticLikelihood:
         self.temperature = float(temperature)
         self.name = name
         self.mode = mode
+        self.with_phonetic = with_phonetic
         self.prune = prune
         self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
         self._aligner = aligner
@@ -177,12 +182,13 @@ class AcousticLikelihood:
         return np.asarray(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands), dtype=float)
 
     def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
-                   context: np.ndarray | None = None) -> np.ndarray:
+                   context: np.ndarray | None = None, phon: np.ndarray | None = None) -> np.ndarray:
         """Indices of the commands to align (all of them unless pruning applies)."""
         n = len(commands)
         if not self.prune or not instruction.nbest or n <= self.max_candidates:
             return np.arange(n)
-        phon = self._phonetic_lp(instruction, commands)
+        if phon is None:
+            phon = self._phonetic_lp(instruction, commands)
         q = phon + (np.asarray(context, dtype=float) if context is not None else 0.0)
         p = np.exp(q - logsumexp(q))
         order = np.argsort(-p, kind="stable")
@@ -207,6 +213,8 @@ class AcousticLikelihood:
         vals = np.array([logsumexp([sc / T + lp for sc, lp in items]) for items in raw.items])
         out = np.full(n, float(np.min(vals)))
         out[raw.keep] = vals
+        if self.with_phonetic and raw.phonetic is not None:
+            out = out + raw.phonetic
         return out
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
@@ -222,7 +230,9 @@ class AcousticLikelihood:
         from siftom.speech.audio import as_audio
 
         x = instruction.samples if instruction.samples is not None else as_audio(instruction.audio)  # type: ignore[arg-type]
-        keep = self.candidates(instruction, commands, context)
+        phon = self._phonetic_lp(instruction, commands) if instruction.nbest and (
+            self.with_phonetic or self.prune) else None
+        keep = self.candidates(instruction, commands, context, phon)
         kept = [commands[i] for i in keep]
         frame = None
         if self.mode == "key" and instruction.words:
@@ -241,7 +251,7 @@ class AcousticLikelihood:
                 items = self._align(x, kept, self.phrasings or top_phrasings)
             mode = "sentence"
         self.last_mode = mode
-        return RawScores(keep, tuple(items), mode)
+        return RawScores(keep, tuple(items), mode, phon if self.with_phonetic else None)
 
     def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
                items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> list[list[tuple[float, float]]]:

@@ -40,6 +40,8 @@ class Instruction:
     samples: np.ndarray | None = field(default=None, compare=False, repr=False)
     # 1-best word timings from the recogniser: (text, start s, end s) each
     words: tuple[tuple[str, float, float], ...] = field(default=(), compare=False, repr=False)
+    # speech-to-background ratio estimated by voice-activity detection (dB), when known
+    snr_db: float | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not self.nbest and self.audio is None and self.samples is None:

@@ -28,7 +28,7 @@ import numpy as np
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.errors import AudioError, ObservationError, unknown_name
-from siftom.inference.api import get_model, make_instruction
+from siftom.inference.api import get_model
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.likelihood.base import Instruction
 from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
@@ -279,32 +279,26 @@ class Runtime:
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
                     asr_nbest: int, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
-        """Transcribe an uploaded recording, then infer from its N-best list."""
-        self.check_likelihood(likelihood)
-        self.scenario(sid)  # an unknown id fails before decoding
-        x = self.decode_audio(data)
-        tr = self.transcribe(sid, x, asr_nbest)
-        nbest = [(h.text, h.score) for h in tr.nbest if h.text]
-        if likelihood == "acoustic" and mode != "action-only":
-            # the aligner reads a file: a private temporary one in the service's own folder
-            from siftom.speech.audio import write_wav
+        """Detect speech in an uploaded recording, recognise it and infer (siftom.listen's path).
 
-            tmp_dir = self.data_dir / "uploads"
-            tmp_dir.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile(suffix=".wav", dir=tmp_dir, delete=False) as f:
-                path = Path(f.name)
-            try:
-                write_wav(path, x)
-                instruction = make_instruction(nbest=nbest or None, audio=path)
-                body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
-            finally:
-                path.unlink(missing_ok=True)
+        Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
+        """
+        from siftom.inference.listen import NO_SPEECH, hear
+
+        self.check_likelihood(likelihood)
+        sc = self.scenario(sid)  # an unknown id fails before decoding
+        x = self.decode_audio(data)
+        eng = self._engine_for(sc)
+        with eng.lock:
+            instruction, tr, vad, _ = hear(x, eng.engine, asr_nbest)
+        if instruction is None:
+            body = self.infer(sid, None, "action-only", "phonetic", n_actions, None, top, policy)
         else:
-            instruction = make_instruction(nbest=nbest) if nbest else None
-            if instruction is None and mode == "speech-only":
-                raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
             body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
-        body["asr"] = tr.to_json()
+        body["asr"] = tr.to_json() if tr is not None else None
+        body["speech_heard"] = instruction is not None
+        body["message"] = "" if instruction is not None else NO_SPEECH
+        body["vad"] = vad.to_json()
         return body
 
     # ----- speech synthesis ----------------------------------------------------------------

@@ -148,6 +148,10 @@ class InferResponse(BaseModel):
     seconds: float
     nbest: list[NBestItem]
     asr: dict[str, Any] | None = None
+    # audio requests only: whether speech was detected ("no speech heard": the actions alone decide)
+    speech_heard: bool | None = None
+    message: str | None = None
+    vad: dict[str, Any] | None = None
     clarification: ClarificationOut
     plan: RobotPlanOut | None = None
 

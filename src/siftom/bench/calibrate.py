@@ -1,0 +1,141 @@
+"""Calibrate the acoustic likelihood's temperature on a dataset, and measure calibration.
+
+For every stimulus the audio goes through ``siftom.listen``'s path (VAD, recognition, key-phrase
+alignment) once; the raw alignment scores are kept and the full model's posterior is
+recomputed for each temperature T on a grid. T is chosen per SNR band by the negative
+log-likelihood of the gold command (a proper scoring rule: it is lowest when the posterior is
+neither over- nor under-confident), and the rule T(estimated SNR) is what the likelihood uses.
+Use a dataset built with another seed (and other voices and noise) than the one you report on.
+
+    siftom bench calibrate --dataset runs/kitchen-cal-seed1 [--json] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+GRID = (3.0, 5.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40.0, 55.0, 75.0, 100.0)
+
+
+def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = 5,
+            limit: int | None = None, combo: bool = False) -> list[dict[str, Any]]:
+    """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct)."""
+    from siftom.bench.acoustic_models import heard
+    from siftom.bench.dataset import load_dataset, scenario_for
+    from siftom.bench.evaluate import _engine, asr_vocabulary, is_correct
+    from siftom.inference.api import get_model
+    from siftom.inference.model import Observation
+
+    ds = load_dataset(dataset)
+    classes: set[str] = set()
+    verbs: set[str] = set()
+    for s in ds.stimuli:
+        sc = scenario_for(s)
+        classes.update(sc.world.classes)
+        verbs.add(sc.verb)
+    vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
+    asr = _engine(engine, vocab)
+    model = get_model(mode, "acoustic")
+    lk = model.likelihood
+    original = lk.raw_scores, lk.temperature
+    rows = []
+    try:
+        for s in ds.stimuli[:limit]:
+            sc = scenario_for(s)
+            instruction, vad = heard(ds.root / s.audio, asr, nbest)
+            if instruction is None:
+                continue
+            lk.raw_scores, lk.temperature = original
+            raw_cmds = _commands(model, sc)
+            raw = lk.raw_scores(instruction, raw_cmds, _context(model, sc))
+            lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the alignment for every T
+            per_t = {}
+            for T in GRID:
+                lk.temperature = T
+                post = model.infer(Observation.from_scenario(sc, instruction))
+                per_t[T] = (post.prob(s.gold_command), post.commands[0][1],
+                            is_correct(post.command, s.gold_command, sc.verb))
+            if combo:
+                lk.with_phonetic = True
+                raw2 = lk._phonetic_lp(instruction, raw_cmds)
+                raw = dataclasses.replace(raw, phonetic=raw2)
+                lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731
+                for T in GRID:
+                    lk.temperature = T
+                    post = model.infer(Observation.from_scenario(sc, instruction))
+                    per_t[-T] = (post.prob(s.gold_command), post.commands[0][1],
+                                 is_correct(post.command, s.gold_command, sc.verb))
+                lk.with_phonetic = False
+            rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
+                         "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
+    finally:
+        lk.raw_scores, lk.temperature = original
+    return rows
+
+
+def _commands(model: Any, sc: Any) -> list[Any]:
+    on = model.online(sc.world, sc.start, sc.goals, sc.verb)
+    return on.candidates()[4]
+
+
+def _context(model: Any, sc: Any) -> Any:
+    if not model.config.uses_actions:
+        return None
+    on = model.online(sc.world, sc.start, sc.goals, sc.verb)
+    for a in sc.actions:
+        on.observe(a)
+    gi, ci, rows, unk, cmds = on.candidates()
+    return on._context(gi, ci, rows, unk, len(cmds))
+
+
+def fit(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Best T per SNR band and overall by mean NLL of the gold command; accuracy and ECE there."""
+    groups: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        groups[r["snr"]].append(r)
+        groups["all"].append(r)
+    out: dict[str, Any] = {}
+    for g, rs in groups.items():
+        grid = [T for T in rs[0]["per_t"]]
+        nll = {T: float(np.mean([-np.log(max(r["per_t"][T][0], 1e-9)) for r in rs])) for T in grid}
+        best = min(nll, key=nll.get)  # type: ignore[arg-type]
+        out[g] = {"n": len(rs), "best_T": best, "nll": {str(k): round(v, 4) for k, v in nll.items()},
+                  "accuracy": round(float(np.mean([r["per_t"][best][2] for r in rs])), 4),
+                  "accuracy_by_T": {str(T): round(float(np.mean([r["per_t"][T][2] for r in rs])), 4) for T in grid},
+                  "ece_at_best": round(ece([r["per_t"][best][1] for r in rs], [r["per_t"][best][2] for r in rs]), 4),
+                  "snr_est_median": _median([r["snr_est"] for r in rs])}
+    return out
+
+
+def _median(v: list[float | None]) -> float | None:
+    x = [a for a in v if a is not None]
+    return round(float(np.median(x)), 1) if x else None
+
+
+def ece(probs: list[float], correct: list[bool], bins: int = 10) -> float:
+    """Expected calibration error: mean |accuracy - confidence| over equal-width bins, weighted."""
+    p = np.asarray(probs, dtype=float)
+    c = np.asarray(correct, dtype=float)
+    if len(p) == 0:
+        return float("nan")
+    idx = np.minimum((p * bins).astype(int), bins - 1)
+    total = 0.0
+    for b in range(bins):
+        m = idx == b
+        if m.any():
+            total += m.sum() / len(p) * abs(c[m].mean() - p[m].mean())
+    return float(total)
+
+
+def write(rows: list[dict[str, Any]], result: dict[str, Any], out: Path) -> None:
+    """calibration.json with the fit and each stimulus's record."""
+    out.mkdir(parents=True, exist_ok=True)
+    recs = [{**r, "per_t": {str(k): v for k, v in r["per_t"].items()}} for r in rows]
+    (out / "calibration.json").write_text(json.dumps({"fit": result, "rows": recs}, indent=1) + "\n",
+                                          encoding="utf-8")

@@ -1,0 +1,94 @@
+"""``siftom bench latency``: time from an audio file to the chosen command, per likelihood.
+
+Clips of 1-4 s (TTS voices, recorded or synthetic babble at 10 dB, fixed seeds) are written to
+WAV files; each is passed to ``siftom.listen`` as a path, so the time covers reading the file,
+voice-activity detection, recognition, the instruction likelihood and the posterior. Process
+start-up is excluded and the per-home set-up (recogniser, model, action term) is built by one
+warm-up call first, as a robot that lives in one home would. ``ratio_p50`` is the median over
+clips of seconds / clip length.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+SCENARIO = "kitchen-cereal-v0"
+CLIPS = (  # (text, voice): 1-4 s of speech
+    ("cereal please", "flite-slt"),
+    ("bring me the milk", "flite-rms"),
+    ("can you pass me the cereal", "flite-slt"),
+    ("i need the sugar", "flite-awb"),
+    ("could you grab me the coffee please", "flite-rms"),
+    ("can you bring me the bowl", "espeak-en-us+klatt"),
+    ("would you please hand me the oatmeal from the cabinet", "flite-slt"),
+    ("we still need some milk for the cereal so please get it", "flite-awb"),
+)
+LIKELIHOODS = ("phonetic", "acoustic")
+
+
+def make_clips(folder: Path, noise: str, snr: float, quick: bool = False) -> list[tuple[Path, float, str]]:
+    """Write the clips as WAVs; return (path, seconds, text)."""
+    from siftom.speech.audio import duration_s, write_wav
+    from siftom.speech.noise import get_noise, mix_at_snr
+    from siftom.speech.tts import synthesize
+
+    nz = get_noise(noise)
+    out = []
+    for k, (text, voice) in enumerate(CLIPS[:4] if quick else CLIPS):
+        x = mix_at_snr(synthesize(text, voice), nz, snr, k)
+        p = write_wav(folder / f"clip{k}.wav", x)
+        out.append((p, duration_s(x), text))
+    return out
+
+
+def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quick: bool = False) -> dict[str, Any]:
+    """Per likelihood: p50 seconds, ratio_p50 (and p90), chosen commands."""
+    import siftom
+
+    result: dict[str, Any] = {"scenario": SCENARIO, "noise": noise, "snr_db": snr, "repeats": repeats,
+                              "likelihoods": {}}
+    with tempfile.TemporaryDirectory(prefix="siftom-latency-") as tmp:
+        clips = make_clips(Path(tmp), noise, snr, quick)
+        result["clip_seconds"] = [round(d, 2) for _, d, _ in clips]
+        for lk in LIKELIHOODS:
+            siftom.listen(clips[0][0], scenario=SCENARIO, likelihood=lk)  # per-home set-up, cached
+            secs, ratios, chosen = [], [], []
+            for path, dur, _ in clips:
+                best = float("inf")
+                for _ in range(repeats):
+                    t0 = time.perf_counter()
+                    heard = siftom.listen(path, scenario=SCENARIO, likelihood=lk)
+                    best = min(best, time.perf_counter() - t0)
+                secs.append(best)
+                ratios.append(best / dur)
+                chosen.append(heard.command)
+            q = statistics.quantiles(ratios, n=10) if len(ratios) > 1 else ratios * 9
+            result["likelihoods"][lk] = {
+                "p50_s": round(statistics.median(secs), 4), "ratio_p50": round(statistics.median(ratios), 4),
+                "ratio_p90": round(q[-1], 4), "seconds": [round(s, 4) for s in secs], "commands": chosen}
+    return result
+
+
+@click.command("latency")
+@click.option("--noise", default="babble", show_default=True, help="noise spec (siftom say --noise)")
+@click.option("--snr", type=float, default=10.0, show_default=True)
+@click.option("--repeats", type=int, default=3, show_default=True, help="timed runs per clip (the fastest counts)")
+@click.option("--quick", is_flag=True, help="4 clips instead of 8")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json: bool) -> None:
+    """Time from an audio file (1-4 s) to the chosen command, per instruction likelihood."""
+    res = run_latency(noise, snr, max(1, repeats), quick)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}")
+    for lk, r in res["likelihoods"].items():
+        click.echo(f"{lk:9s} p50 {r['p50_s'] * 1000:.0f} ms  ratio_p50 {r['ratio_p50']:.3f}  "
+                   f"ratio_p90 {r['ratio_p90']:.3f}  commands {r['commands']}")

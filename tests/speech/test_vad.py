@@ -1,0 +1,68 @@
+"""Voice-activity detection: silence and noise without speech are not speech; speech in noise is."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from siftom.speech.vad import detect_speech, trim
+
+import shutil
+
+needs_flite = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+
+SHARED_NOISE = Path(__file__).resolve().parents[3] / "shared" / "data" / "noise"
+# recorded noises that hold no voice (babble is people talking; cat meows and fire crackle are
+# voiced-like and are known false alarms, docs/speech.md)
+QUIET_KINDS = ("rain_01", "running_water_01", "fan_01", "dishes_01", "exercise_bike_01", "washing_machine_01")
+
+
+def test_silence_is_not_speech():
+    assert not detect_speech(np.zeros(48_000, dtype=np.float32)).speech
+    # a quiet room: -60 dBFS hiss
+    assert not detect_speech(np.random.default_rng(0).normal(0, 1e-3, 48_000)).speech
+
+
+# brown noise (a rumble) is a known false alarm: its slow fluctuations look voiced (docs/speech.md)
+@pytest.mark.parametrize("kind", ["white", "pink", "hum"])
+def test_synthetic_noise_is_not_speech(kind):
+    from siftom.speech.noise import get_noise
+
+    x = np.asarray(get_noise(kind).sample(48_000, 1), dtype=np.float64)
+    x = 0.1 * x / (np.sqrt(np.mean(x**2)) + 1e-12)
+    r = detect_speech(x)
+    assert not r.speech, (kind, r)
+
+
+@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="../shared/data/noise not present")
+@pytest.mark.parametrize("name", QUIET_KINDS)
+def test_recorded_noise_is_not_speech(name):
+    from siftom.speech.audio import load_audio
+
+    x = load_audio(SHARED_NOISE / f"{name}.wav")[: 3 * 16_000]
+    r = detect_speech(x)
+    assert not r.speech, (name, r)
+
+
+@needs_flite
+@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="../shared/data/noise not present")
+@pytest.mark.parametrize("snr", [None, 10.0, 5.0])
+def test_speech_in_recorded_noise_is_speech(cereal_clip, snr):
+    from siftom.speech.audio import load_audio
+    from siftom.speech.noise import mix_at_snr
+
+    for name in QUIET_KINDS:
+        x = cereal_clip if snr is None else mix_at_snr(cereal_clip, load_audio(SHARED_NOISE / f"{name}.wav"), snr, 3)
+        r = detect_speech(x)
+        assert r.speech, (name, snr, r)
+        assert r.regions and r.regions[0][0] < r.regions[-1][1]
+
+
+@needs_flite
+def test_trim_keeps_the_speech(cereal_clip):
+    pad = np.zeros(32_000, dtype=np.float32)
+    x = np.concatenate([pad, cereal_clip, pad])
+    y = trim(x, detect_speech(x))
+    assert len(cereal_clip) <= len(y) < len(x) - 16_000

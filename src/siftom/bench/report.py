@@ -246,7 +246,13 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     summary = summarise(rows, seed=seed)
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     figs = render_figures(rows, summary, root) if figures else []
-    _write(root / "report.md", render_report(summary, run, figs))
+    from siftom.bench import reliability
+
+    rel = reliability.reliability(rows, list(summary["models"]))
+    summary["reliability"] = rel
+    _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
+    rel_fig = reliability.render(rel, root) if figures else None
+    _write(root / "report.md", render_report(summary, run, figs) + "\n" + reliability.section(rel, rel_fig))
     return summary
 
 

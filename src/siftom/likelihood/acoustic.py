@@ -42,7 +42,7 @@ from siftom.world.commands import RobotCommand
 
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 # calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
-DEFAULT_TEMPERATURE = 20.0
+DEFAULT_TEMPERATURE = 60.0
 
 
 def temperature_for_snr(snr_db: float | None) -> float:

@@ -12,7 +12,6 @@ Use a dataset built with another seed (and other voices and noise) than the one 
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from collections import defaultdict
 from pathlib import Path
@@ -44,6 +43,8 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     model = get_model(mode, "acoustic")
     lk = model.likelihood
     original = lk.raw_scores, lk.temperature
+    combo_default = lk.with_phonetic
+    lk.with_phonetic = False
     rows = []
     try:
         for s in ds.stimuli[:limit]:
@@ -63,10 +64,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
                             is_correct(post.command, s.gold_command, sc.verb))
             if combo:
                 lk.with_phonetic = True
-                raw2 = lk._phonetic_lp(instruction, raw_cmds)
-                raw = dataclasses.replace(raw, phonetic=raw2)
-                lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731
-                for T in GRID:
+                for T in GRID + (150.0, 200.0, 300.0):
                     lk.temperature = T
                     post = model.infer(Observation.from_scenario(sc, instruction))
                     per_t[-T] = (post.prob(s.gold_command), post.commands[0][1],
@@ -76,6 +74,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
                          "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
     finally:
         lk.raw_scores, lk.temperature = original
+        lk.with_phonetic = combo_default
     return rows
 
 
@@ -139,3 +138,29 @@ def write(rows: list[dict[str, Any]], result: dict[str, Any], out: Path) -> None
     recs = [{**r, "per_t": {str(k): v for k, v in r["per_t"].items()}} for r in rows]
     (out / "calibration.json").write_text(json.dumps({"fit": result, "rows": recs}, indent=1) + "\n",
                                           encoding="utf-8")
+
+
+def _cli():  # noqa: ANN202 - a click command, built lazily
+    import click
+
+    @click.command("calibrate")
+    @click.option("--dataset", required=True, type=click.Path(exists=True, file_okay=False),
+                  help="a dataset built with another seed than the one you report on")
+    @click.option("--out", default=None, type=click.Path(file_okay=False), help="write calibration.json here")
+    @click.option("--mode", type=click.Choice(["full", "speech-only"]), default="full", show_default=True)
+    @click.option("--limit", type=int, default=None, help="first N stimuli only")
+    @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+    def calibrate_cmd(dataset: str, out: str | None, mode: str, limit: int | None, as_json: bool) -> None:
+        """Fit the acoustic likelihood's temperature (NLL of the gold command per SNR)."""
+        rows = collect(dataset, mode=mode, limit=limit)
+        result = fit(rows)
+        if out:
+            write(rows, result, Path(out))
+        if as_json:
+            click.echo(json.dumps(result, indent=2))
+            return
+        for g, v in result.items():
+            click.echo(f"{g:8s} n={v['n']:4d}  best T={v['best_T']:5.1f} nats  accuracy {v['accuracy']:.3f}  "
+                       f"ECE {v['ece_at_best']:.3f}  NLL@T: " + ", ".join(f"{k}:{x:.3f}" for k, x in v["nll"].items()))
+
+    return calibrate_cmd

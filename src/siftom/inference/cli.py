@@ -181,3 +181,6 @@ def register(root: click.Group) -> None:
     from siftom.inference.latency import bench_latency_cmd
 
     bench.add_command(bench_latency_cmd)
+    from siftom.bench.calibrate import _cli as calibrate_cli
+
+    bench.add_command(calibrate_cli())

@@ -5,11 +5,11 @@ cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
     log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]
 
-where a_W is the audio from the word before the object (as the recogniser placed it) to the
-end, and s is the pocketsphinx forced-alignment score, in nats (siftom.speech.acoustic), of
+where a_W is the audio from the word before the object to the word after it (as the
+recogniser placed them), and s is the pocketsphinx forced-alignment score, in nats (siftom.speech.acoustic), of
 the words heard there with the heard object words (the 1-best words that belong to any
 command's key phrase) replaced by k: "can you pass me the serial please" is scored for
-cereal as "the cereal please" against the audio from "the" on. Every candidate explains the
+cereal as "the cereal please" against the audio of "the serial please". Every candidate explains the
 same frames with the same free words around its key phrase, so the scores compare, and the
 carrier, whatever words it has, is not a template from the phrasing grammar. When the 1-best
 holds no key word the scorer falls back to aligning each command's whole phrasing closest to
@@ -21,8 +21,9 @@ docs/likelihoods.md gives the calibration.
 likelihood times the context (the action term and command prior the model passes as
 ``context``); the smallest set holding ``prune_mass`` of that posterior (at most
 ``max_candidates``) plus the ``top_nbest`` best N-best matches is aligned. Every other command
-gets the lowest aligned score: it held almost no mass, and no aligned command is made more
-likely by the pruning than by the full scorer's evidence against it. Scores compare only across
+gets the lowest aligned value minus how much less likely the N-best makes it than the worst
+aligned command: it held almost no mass, the pruning never makes it more likely than an
+aligned command, and commands the N-best tells apart stay apart. Scores compare only across
 the commands of one call.
 """
 
@@ -42,7 +43,7 @@ from siftom.world.commands import RobotCommand
 
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 # calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
-DEFAULT_TEMPERATURE = 60.0
+DEFAULT_TEMPERATURE = 75.0
 
 
 def temperature_for_snr(snr_db: float | None) -> float:
@@ -75,32 +76,50 @@ def closest_phrasing(command: RobotCommand, heard: str) -> tuple[str, float]:
     return best[0], 0.0
 
 
-def key_phrases(command: RobotCommand) -> list[tuple[str, float]]:
-    """(content words, log prior) of a command: what distinguishes it from the others."""
+def key_phrases(command: RobotCommand, mass: float = 0.8, most: int = 2) -> list[tuple[str, float]]:
+    """(content words, log prior) of a command: what distinguishes it from the others.
+
+    Only the likeliest key phrases are kept (until ``mass`` of the prior, at most ``most``;
+    each costs one alignment), renormalised so that a class with many synonyms is not
+    penalised for the ones left out.
+    """
     from siftom.likelihood.lexicon import default_lexicon
     from siftom.likelihood.phrasing import content_prior
 
-    return [(c, lp) for c, lp in content_prior(command, default_lexicon()) if c.strip()]
+    items = sorted(((c, lp) for c, lp in content_prior(command, default_lexicon()) if c.strip()),
+                   key=lambda t: -t[1])
+    kept: list[tuple[str, float]] = []
+    total = 0.0
+    for c, lp in items:
+        kept.append((c, lp))
+        total += float(np.exp(lp))
+        if total >= mass or len(kept) >= most:
+            break
+    z = float(logsumexp([lp for _, lp in kept])) if kept else 0.0
+    return [(c, lp - z) for c, lp in kept]
 
 
 def heard_frame(words: Sequence[tuple[str, float, float]], key_words: set[str]
-                ) -> tuple[float, tuple[str, ...], tuple[str, ...]] | None:
+                ) -> tuple[float, float | None, tuple[str, ...], tuple[str, ...]] | None:
     """Where to put each command's key phrase in what was heard, or None when no key word was heard.
 
-    Returns (start time, words before, words after): the key phrase replaces the heard key
-    words (the first to the last 1-best word that belongs to any command's key phrase); the
-    word just before them and every word after them are kept as heard, and the audio before
-    that word is dropped. Free speech around the object costs every command the same.
+    Returns (start, end or None for the end of the audio, words before, words after): the key
+    phrase replaces the heard key words (the first to the last 1-best word that belongs to any
+    command's key phrase); the word just before and the word just after them are kept as
+    heard, and the audio outside those words is dropped. Free speech around the object costs
+    every command the same, and is mostly not aligned at all.
     """
     idx = [i for i, (w, _, _) in enumerate(words) if w in key_words]
     if not idx:
         return None
     i0, i1 = idx[0], idx[-1]
     j = max(0, i0 - 1)
-    start = words[j][1] if i0 > 0 else 0.0
+    start = max(0.0, words[j][1] - 0.05) if i0 > 0 else 0.0
     before = tuple(w for w, _, _ in words[j:i0])
-    after = tuple(w for w, _, _ in words[i1 + 1:])
-    return max(0.0, start - 0.05), before, after
+    after = tuple(w for w, _, _ in words[i1 + 1:i1 + 2])
+    # the audio after the next word holds other free words: stop at the one after that
+    end = words[i1 + 2][1] + 0.05 if i1 + 2 < len(words) else None
+    return start, end, before, after
 
 
 @dataclass(frozen=True)
@@ -110,7 +129,7 @@ class RawScores:
     keep: np.ndarray
     items: tuple[list[tuple[float, float]], ...]
     mode: str
-    phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when used
+    phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
 
 
 class AcousticLikelihood:
@@ -142,7 +161,7 @@ class AcousticLikelihood:
         with_phonetic: bool = False,
         prune: bool = True,
         prune_mass: float = 0.995,
-        max_candidates: int = 8,
+        max_candidates: int = 6,
         top_nbest: int = 3,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
@@ -211,7 +230,13 @@ class AcousticLikelihood:
             return np.zeros(0)
         T = self.temperature if temperature is None else temperature
         vals = np.array([logsumexp([sc / T + lp for sc, lp in items]) for items in raw.items])
-        out = np.full(n, float(np.min(vals)))
+        floor = float(np.min(vals))
+        out = np.full(n, floor)
+        if raw.phonetic is not None and len(raw.keep) < n:
+            # a pruned command is at most as likely as the worst aligned one, and less so by as much
+            # as the N-best says it is less likely than that one
+            ref = float(np.min(raw.phonetic[raw.keep]))
+            out = floor + np.minimum(raw.phonetic - ref, 0.0)
         out[raw.keep] = vals
         if self.with_phonetic and raw.phonetic is not None:
             out = out + raw.phonetic
@@ -239,8 +264,9 @@ class AcousticLikelihood:
             key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
             frame = heard_frame(instruction.words, key_words)
         if frame is not None:
-            start, before, after = frame
-            items = self._align(x[int(start * 16000):], kept,
+            start, end, before, after = frame
+            seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
+            items = self._align(seg, kept,
                                 lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
             mode = "key"
         else:
@@ -251,7 +277,7 @@ class AcousticLikelihood:
                 items = self._align(x, kept, self.phrasings or top_phrasings)
             mode = "sentence"
         self.last_mode = mode
-        return RawScores(keep, tuple(items), mode, phon if self.with_phonetic else None)
+        return RawScores(keep, tuple(items), mode, phon)
 
     def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
                items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> list[list[tuple[float, float]]]:

@@ -22,9 +22,10 @@ and on TTS speech mixed with them at 0-20 dB (tests/speech/test_vad.py, docs/spe
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from siftom.speech.audio import SAMPLE_RATE
 
@@ -54,6 +55,7 @@ class VadResult:
     regions: tuple[tuple[float, float], ...]
     duration_s: float
     snr_db: float | None
+    excess_db: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def to_json(self) -> dict[str, object]:
         """Plain dict for JSON output."""
@@ -78,8 +80,7 @@ def frame_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     freqs = np.fft.rfftfreq(2 * FRAME, 1.0 / SAMPLE_RATE)
     band = (freqs >= _BAND[0]) & (freqs <= _BAND[1])
     # smooth across frequency so that a bin's random fluctuation does not look like excess
-    k = np.ones(9) / 9.0
-    smooth = np.apply_along_axis(lambda r: np.convolve(r, k, "same"), 1, spec)
+    smooth = uniform_filter1d(spec, 9, axis=1, mode="constant")
     background = np.percentile(smooth, 10, axis=0)
     clean = np.maximum(smooth - OVERSUBTRACT * background[None, :], 0.0)
     clean[:, ~band] = 0.0
@@ -122,7 +123,7 @@ def detect_speech(x: np.ndarray, min_excess_db: float = 3.0, min_voicing: float 
         else:
             regions.append([a, b])
     snr = float(10.0 * np.log10(np.mean(10 ** (excess_db[is_speech] / 10.0)) + 1e-12))
-    return VadResult(True, speech_s, tuple((a, b) for a, b in regions), dur, snr)
+    return VadResult(True, speech_s, tuple((a, b) for a, b in regions), dur, snr, excess_db)
 
 
 def trim(x: np.ndarray, result: VadResult, pad_s: float = 0.3, floor_db: float = 10.0) -> np.ndarray:
@@ -130,7 +131,7 @@ def trim(x: np.ndarray, result: VadResult, pad_s: float = 0.3, floor_db: float =
     ``floor_db`` over the background (voiced or not, so that unvoiced word edges stay), plus ``pad_s``."""
     if not result.speech:
         return x
-    excess_db, _, _ = frame_features(x)
+    excess_db = result.excess_db if result.excess_db is not None else frame_features(x)[0]
     loud = np.flatnonzero(excess_db >= floor_db)
     if len(loud) == 0:
         return x

@@ -6,7 +6,9 @@ Models (names as in ``summary.json``):
 * ``speech-only``: SIFToM's instruction likelihood alone over the N-best list, uniform prior;
 * ``action-only``: SIFToM's goal inference from the observed actions alone (no speech);
 * ``siftom``: the full model, actions + N-best transcript;
-* ``siftom-oracle-text``: the full model given the reference transcript (an upper bound).
+* ``siftom-oracle-text``: the full model given the reference transcript (an upper bound);
+* on request (``--models ...,siftom-acoustic,speech-only-acoustic``): the same two models with
+  the acoustic likelihood on the audio, through ``siftom.listen``'s path (bench/acoustic_models.py).
 
 Per stimulus the chosen command is scored against the gold one (object class and count exact;
 class only for ``fetch`` domains), called a helpful error when wrong but its class is part of

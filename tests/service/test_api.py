@@ -201,6 +201,20 @@ def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(clien
     assert not uploads.exists() or not any(uploads.iterdir())
 
 
+@pytest.mark.parametrize("likelihood", ["phonetic", "acoustic"])
+def test_silence_upload_says_no_speech_and_uses_the_actions(client, likelihood):
+    buf = io.BytesIO()
+    sf.write(buf, np.zeros(32_000, dtype=np.float32), 16_000, format="WAV", subtype="PCM_16")
+    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": likelihood},
+                      files={"audio": ("silence.wav", buf.getvalue(), "audio/wav")})
+    body = res.json()
+    assert res.status_code == 200, body
+    assert body["speech_heard"] is False and body["message"] == "no speech heard"
+    assert body["mode"] == "action-only" and body["transcript"] == "" and body["nbest"] == []
+    ref = client.post("/v1/infer", json={"scenario": KITCHEN, "mode": "action-only"}).json()
+    assert body["command"] == ref["command"]
+
+
 def test_acoustic_likelihood_without_audio_is_a_clear_422(client):
     res = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the cereal",
                                           "likelihood": "acoustic"})

@@ -6,7 +6,7 @@ import json
 import os
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 
 import click
 
@@ -30,6 +30,34 @@ def _snrs(value: str) -> tuple[float, ...]:
 
 def _default_workers() -> int:
     return max(1, min(4, os.cpu_count() or 1))
+
+
+def _backend_options(f: Callable[..., None]) -> Callable[..., None]:
+    """--backend and --ray-address (bench/backends.py)."""
+    f = click.option("--ray-address", default=None,
+                     help="with --backend ray: 'auto' or HOST:PORT of a running cluster (default: start a local Ray)")(f)
+    return click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                        help="where the work runs: local processes, or Ray (pip install \"siftom[ray]\")")(f)
+
+
+@contextmanager
+def _backend(name: str, workers: int | None, address: str | None) -> Iterator[object]:
+    """The backend for a command; a signal-stopped run exits 128 + signal with how to resume."""
+    from siftom.bench.backends import make_backend
+    from siftom.bench.runlock import RunInterrupted, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            be = make_backend(name, workers or (None if name == "ray" else _default_workers()), address)
+            try:
+                yield be
+            finally:
+                be.shutdown()
+    except RunInterrupted as exc:
+        err = click.ClickException(f"stopped by {exc}; what was finished is saved: "
+                                   "run the same command again to resume")
+        err.exit_code = 128 + exc.signum
+        raise err from None
 
 
 @contextmanager
@@ -74,10 +102,12 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
-@click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, workers: int | None, as_json: bool) -> None:
+              noises: str | None, snr: str, seed: int, workers: int | None, backend: str, ray_address: str | None,
+              as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
 
@@ -85,8 +115,8 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
                         snrs=_snrs(snr), seed=seed)
     t0 = time.perf_counter()
-    with _bar("building", not as_json) as bar:
-        ds = build_dataset(opts, out, workers=workers or _default_workers(), progress=bar)
+    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
+        ds = build_dataset(opts, out, progress=bar, backend=be)
     secs = time.perf_counter() - t0
     if as_json:
         click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "seconds": round(secs, 1)}))
@@ -119,12 +149,13 @@ def check_cmd(folder: str) -> None:
               "(SIFTOM_LLM_BASE_URL + SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
-@click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             seed: int, overwrite: bool, as_json: bool) -> None:
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
     from siftom.bench.llm_baselines import configured_backend
@@ -135,9 +166,12 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
         click.echo("note: no LLM configured, so the LLM baselines are skipped (set SIFTOM_LLM_BASE_URL and "
                    "SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)", err=True)
     opts = EvalOptions(models=_csv(models) or default, engine=engine, nbest=nbest, seed=seed)
-    with _bar("evaluating", not as_json) as bar:
-        run = evaluate(dataset, out, opts, workers=workers or _default_workers(), overwrite=overwrite, progress=bar)
-    summary = write_report(out)
+    from siftom.bench.runlock import RunLock
+
+    with RunLock(out), _backend(backend, workers, ray_address) as be:
+        with _bar("evaluating", not as_json) as bar:
+            run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
+        summary = write_report(out)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
         return
@@ -153,8 +187,10 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
 def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
     """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl."""
     from siftom.bench.report import main_table, write_report
+    from siftom.bench.runlock import RunLock
 
-    summary = write_report(results, seed=seed)
+    with RunLock(results) if os.path.isdir(results) else nullcontext():
+        summary = write_report(results, seed=seed)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 

@@ -194,8 +194,34 @@ def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 
+@click.command("sweep")
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="sweep folder (resumes if it exists)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
+@click.option("--json", "as_json", is_flag=True, help="print sweep.json")
+def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_address: str | None, as_json: bool) -> None:
+    """Run the cross product of a sweep CONFIG.toml (datasets x evaluations); write table.md and sweep.png."""
+    from siftom.bench.sweep import load_config, markdown_table, plan, run_sweep, table_rows
+
+    n = len(plan(load_config(config), out))
+
+    def show(i: int, total: int, cell: object) -> None:
+        if not as_json and i < total:
+            click.echo(f"cell {i + 1}/{total}: {getattr(cell, 'values', '')}", err=True)
+
+    with _backend(backend, workers, ray_address) as be:
+        result = run_sweep(config, out, be, progress=show)
+    if as_json:
+        click.echo(json.dumps(result, indent=2, default=list))
+        return
+    click.echo(markdown_table(table_rows(result)))
+    click.echo(f"\n{n} cells; wrote {out}/sweep.json, table.md, table.csv and sweep.png")
+
+
 def register(root: click.Group) -> None:
-    """Add ``dataset``, ``eval`` and ``report`` to the root command."""
+    """Add ``dataset``, ``eval``, ``report`` and ``sweep`` to the root command."""
     root.add_command(dataset_group)
     root.add_command(eval_cmd)
     root.add_command(report_cmd)
+    root.add_command(sweep_cmd)

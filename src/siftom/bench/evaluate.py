@@ -410,8 +410,8 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine == "pocketsphinx-vocab" and pending and be.inline:
-        _engine(opts.engine, vocab)  # build the LM once, before the first stimulus
+    if opts.engine == "pocketsphinx-vocab" and pending and be.name == "local":
+        _engine(opts.engine, vocab)  # build the LM once, before pool workers fork and race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()
     for s in pending:

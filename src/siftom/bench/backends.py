@@ -119,6 +119,7 @@ class RayBackend:
                 # workers inherit this environment (PYTHONPATH included), so they import this siftom
                 ray.init(num_cpus=workers or os.cpu_count() or 1, **kw)
             else:
+                _probe(address)
                 try:
                     ray.init(address=address, **kw)
                 except ConnectionError as exc:
@@ -174,12 +175,31 @@ class RayBackend:
             self.started = False
 
 
+def _probe(address: str) -> None:
+    """Fail fast on an unreachable HOST:PORT (ray.init would retry for minutes)."""
+    import socket
+
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if address == "auto" or not sep or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host or "127.0.0.1", int(port)), timeout=5).close()
+    except OSError as exc:
+        raise DatasetError(f"cannot reach a Ray cluster at {address!r} ({exc.strerror or exc}); start one with "
+                           "'ray start --head' (it prints the address) or give --ray-address auto on a cluster node") from None
+
+
+def check_backend_args(name: str, address: str | None) -> None:
+    """Refuse flag combinations before anything is started or locked."""
+    if name not in BACKENDS:
+        raise unknown_name("backend", name, BACKENDS)
+    if address is not None and name != "ray":
+        raise DatasetError("--ray-address needs --backend ray")
+
+
 def make_backend(name: str = "local", workers: int | None = None, address: str | None = None) -> Any:
     """A backend by name; ``address`` applies to ``ray`` only (None: start a local instance)."""
+    check_backend_args(name, address)
     if name == "local":
-        if address is not None:
-            raise DatasetError("--ray-address needs --backend ray")
         return LocalBackend(workers or 1)
-    if name == "ray":
-        return RayBackend(address, workers)
-    raise unknown_name("backend", name, BACKENDS)
+    return RayBackend(address, workers)

@@ -43,20 +43,24 @@ def _backend_options(f: Callable[..., None]) -> Callable[..., None]:
 @contextmanager
 def _backend(name: str, workers: int | None, address: str | None) -> Iterator[object]:
     """The backend for a command; a signal-stopped run exits 128 + signal with how to resume."""
+    import signal
+
     from siftom.bench.backends import make_backend
-    from siftom.bench.runlock import RunInterrupted, stop_on_signals
+    from siftom.bench.runlock import interrupting_signal, stop_on_signals
 
     try:
         with stop_on_signals():
             be = make_backend(name, workers or (None if name == "ray" else _default_workers()), address)
-            try:
-                yield be
-            finally:
-                be.shutdown()
-    except RunInterrupted as exc:
-        err = click.ClickException(f"stopped by {exc}; what was finished is saved: "
+            with stop_on_signals():  # again: ray.init replaces the SIGTERM handler
+                try:
+                    yield be
+                finally:
+                    be.shutdown()
+    except KeyboardInterrupt as exc:
+        signum = interrupting_signal(exc)
+        err = click.ClickException(f"stopped by {signal.Signals(signum).name}; what was finished is saved: "
                                    "run the same command again to resume")
-        err.exit_code = 128 + exc.signum
+        err.exit_code = 128 + signum
         raise err from None
 
 
@@ -166,8 +170,10 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
         click.echo("note: no LLM configured, so the LLM baselines are skipped (set SIFTOM_LLM_BASE_URL and "
                    "SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)", err=True)
     opts = EvalOptions(models=_csv(models) or default, engine=engine, nbest=nbest, seed=seed)
+    from siftom.bench.backends import check_backend_args
     from siftom.bench.runlock import RunLock
 
+    check_backend_args(backend, ray_address)
     with RunLock(out), _backend(backend, workers, ray_address) as be:
         with _bar("evaluating", not as_json) as bar:
             run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)

@@ -178,6 +178,15 @@ class RunLock:
             os.close(fd)
 
 
+_RECEIVED = [0]
+
+
+def interrupting_signal(exc: BaseException) -> int:
+    """The signal behind a KeyboardInterrupt: its own, or the last one caught (some libraries,
+    Ray among them, re-raise a plain KeyboardInterrupt from inside a blocking call)."""
+    return getattr(exc, "signum", 0) or _RECEIVED[0] or signal.SIGINT
+
+
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[None]:
     """Raise RunInterrupted in the main thread on SIGINT or SIGTERM; restore the handlers after.
@@ -192,6 +201,7 @@ def stop_on_signals() -> Iterator[None]:
 
     def handler(signum: int, frame: Any) -> None:
         nonlocal stopping
+        _RECEIVED[0] = signum
         if stopping:
             return
         stopping = True

@@ -22,7 +22,7 @@ from siftom.bench.dataset import BuildOptions, build_dataset, load_dataset
 from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate, load_results
 from siftom.bench.report import write_report
 from siftom.bench.runlock import LOCK, RunInterrupted, RunLock, RunLockedError
-from siftom.errors import DatasetError
+from siftom.errors import DatasetError, UnknownNameError
 
 pytestmark = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
 
@@ -193,3 +193,16 @@ def test_a_signal_stops_siftom_eval_within_5_s_and_the_folder_resumes(
     assert (out / RESULTS).read_text().count("\n") == total
     assert (out / RESULTS).read_bytes() == (ref / RESULTS).read_bytes()
     assert (out / "summary.json").read_bytes() == (ref / "summary.json").read_bytes()
+
+
+def test_backend_flags_are_checked_before_anything_starts(tiny: Path, tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    from siftom.bench.backends import make_backend
+    from siftom.cli import main
+
+    out = tmp_path / "r"
+    assert main(["eval", "--dataset", str(tiny), "--out", str(out), "--ray-address", "auto"]) == 2
+    assert "--ray-address needs --backend ray" in capsys.readouterr().err
+    assert not out.exists()
+    with pytest.raises(UnknownNameError, match="unknown backend .dask."):
+        make_backend("dask")

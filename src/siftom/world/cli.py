@@ -117,7 +117,7 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
     """List registered scenario ids with their domain and story."""
     from siftom.world.domains.base import domains, get_scenario, scenario_domain, scenario_ids
 
-    known = [d.id for d in domains()]
+    known = [d.name for d in domains()]
     if domain is not None and domain not in known:
         from siftom.errors import unknown_name
 
@@ -129,7 +129,7 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
         rows.append({"id": sid, "domain": sc.domain, "goal": sc.goal.name, "command": str(sc.command),
                      "num_goals": len(sc.goals), "num_actions": len(sc.actions), "description": sc.description})
     if as_json:
-        click.echo(json.dumps({"domains": [{"id": d.id, "description": d.description} for d in domains()],
+        click.echo(json.dumps({"domains": [{"id": d.name, "description": d.summary} for d in domains()],
                                "scenarios": rows}, indent=2))
         return
     table = Table(title="siftom scenarios")

@@ -17,12 +17,13 @@ type (N in 2..4), as in the paper: 252 goals per scenario.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 
 import numpy as np
 
 from siftom.agents.human import simulate_human
 from siftom.world.commands import RobotCommand
-from siftom.world.domains.base import DomainSpec, Scenario, register_domain, register_scenario
+from siftom.world.domains.base import Scenario
 from siftom.world.model import NOTHING, Goal, Item, Place, State, World
 
 DOMAIN_ID = "household-table-v0"
@@ -111,9 +112,6 @@ class Household:
     def fixed(self) -> list[str]:
         return [f"{DOMAIN_ID}/{i}" for i in range(N_FIXED)]
 
-
-register_domain(DomainSpec(DOMAIN_ID, "set the dining table in a 4-room apartment (paper, simulated experiment)",
-                           "siftom.world.domains.household:Household"))
-for _i in range(N_FIXED):
-    register_scenario(f"{DOMAIN_ID}/{_i}", DOMAIN_ID,
-                      lambda i=_i: Household().generate(i, sid=f"{DOMAIN_ID}/{i}"))
+    def scenarios(self) -> dict[str, Callable[[], Scenario]]:
+        """The registered scenarios: the fixed ones, by id."""
+        return {sid: (lambda i=i, sid=sid: self.generate(i, sid=sid)) for i, sid in enumerate(self.fixed())}

@@ -17,6 +17,7 @@ items, one of each on the kitchen counter).
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from functools import cache
 from importlib import resources
 
@@ -24,7 +25,7 @@ import numpy as np
 
 from siftom.agents.human import simulate_human
 from siftom.world.commands import RobotCommand
-from siftom.world.domains.base import DomainSpec, Scenario, register_domain, register_scenario
+from siftom.world.domains.base import Scenario
 from siftom.world.model import NOTHING, Action, Goal, Item, Place, State, World
 
 DOMAIN_ID = "kitchen-v0"
@@ -105,6 +106,13 @@ class Kitchen:
     def fixed(self) -> list[str]:
         return [f"{DOMAIN_ID}/{i}" for i in range(N_FIXED)] + ["kitchen-cereal-v0"]
 
+    def scenarios(self) -> dict[str, Callable[[], Scenario]]:
+        """The registered scenarios: the generated fixed ones and the Figure 2 story."""
+        out: dict[str, Callable[[], Scenario]] = {
+            f"{DOMAIN_ID}/{i}": (lambda i=i: self.generate(i, sid=f"{DOMAIN_ID}/{i}")) for i in range(N_FIXED)}
+        out["kitchen-cereal-v0"] = kitchen_cereal
+        return out
+
 
 def kitchen_cereal() -> Scenario:
     """The paper's Figure 2 story: milk and a bowl taken; cereal, sugar, oatmeal in storage."""
@@ -128,10 +136,3 @@ def kitchen_cereal() -> Scenario:
         command=RobotCommand("fetch", "cereal", 1), actions=acts, verb="fetch",
         description="the human has taken milk and a bowl; cereal, sugar and oatmeal are in storage",
     )
-
-
-register_domain(DomainSpec(DOMAIN_ID, "gather a recipe's items from a kitchen and a storage room (paper, robot experiment)",
-                           "siftom.world.domains.kitchen:Kitchen"))
-for _i in range(N_FIXED):
-    register_scenario(f"{DOMAIN_ID}/{_i}", DOMAIN_ID, lambda i=_i: Kitchen().generate(i, sid=f"{DOMAIN_ID}/{i}"))
-register_scenario("kitchen-cereal-v0", DOMAIN_ID, kitchen_cereal)

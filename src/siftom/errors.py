@@ -33,6 +33,10 @@ class ObservationError(SiftomError, ValueError):
     """An observation (scene, actions, instruction) is invalid."""
 
 
+class OptionsError(SiftomError, ValueError):
+    """An option (a parameter of a model, planner or run) is out of its range."""
+
+
 class AudioError(SiftomError, ValueError):
     """An audio file cannot be read or is unusable."""
 

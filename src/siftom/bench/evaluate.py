@@ -170,7 +170,7 @@ def is_helpful(command: str, goal_counts: dict[str, Any]) -> bool:
 
 
 def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
-    from siftom.likelihood.base import Hypothesis, Instruction
+    from siftom.observation import Hypothesis, Instruction
 
     hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
     return Instruction(nbest=hyps) if hyps else None
@@ -197,7 +197,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
     from siftom.bench.literal import literal_command
     from siftom.inference.api import get_model
     from siftom.inference.model import Observation
-    from siftom.likelihood.base import Instruction
+    from siftom.observation import Instruction
 
     opts = task.options
     root = Path(task.root)

@@ -50,8 +50,8 @@ def _random_goals(world, n: int, seed: int = 0):
 def run_inference_bench(repeats: int = 30) -> dict:
     """Time full inference, incremental updates and scaling with the number of goals."""
     from siftom.inference.model import ModelConfig, Observation, SIFToM
-    from siftom.likelihood.base import Instruction
     from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.observation import Instruction
     from siftom.world.domains.base import get_scenario
 
     sc = get_scenario("kitchen-cereal-v0")

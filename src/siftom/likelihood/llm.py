@@ -26,9 +26,9 @@ import numpy as np
 
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
-from siftom.likelihood.base import Instruction
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonetic import logsumexp, normalize_text
+from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 HEADER = (

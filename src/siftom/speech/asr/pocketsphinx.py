@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import SiftomError
-from siftom.likelihood.base import Hypothesis
+from siftom.observation import Hypothesis
 from siftom.speech.asr.base import Transcript, Word, normalise_text
 from siftom.speech.audio import FRAME_RATE, SAMPLE_RATE, as_audio, to_pcm16
 

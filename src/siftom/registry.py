@@ -191,7 +191,7 @@ def registries() -> Mapping[str, Registry]:
 
 # Modules whose import defines the built-in registries.
 _DEFINERS = (
-    "siftom.world.domains.base",
+    "siftom.scenarios.base",
     "siftom.speech.tts",
 )
 

@@ -6,7 +6,7 @@ import pytest
 
 from siftom.bench import llm_baselines as lb
 from siftom.errors import BackendUnavailableError
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 
 class WordMatchScorer:

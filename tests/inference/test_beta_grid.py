@@ -9,7 +9,7 @@ from hypothesis.extra.numpy import arrays
 import siftom.world.domains.kitchen  # noqa: F401
 from siftom.inference.model import ModelConfig, SIFToM
 from siftom.planning.policy import BoltzmannPolicy
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 
 def _online(betas):

@@ -14,7 +14,7 @@ from siftom.inference.api import infer_scenario, make_instruction
 from siftom.inference.model import UNKNOWN, ModelConfig, Observation, SIFToM
 from siftom.likelihood.base import Instruction
 from siftom.planning.astar import plan_for_goal
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 from siftom.world.model import (
     HUMAN,
     NOTHING,

@@ -58,7 +58,7 @@ def infer_scenario(
     n_actions: int | None = None,
 ) -> Posterior:
     """Run inference on a registered scenario with its observed actions (or the first ``n_actions``)."""
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     if n_actions is not None and not 0 <= n_actions <= len(sc.actions):
@@ -75,7 +75,7 @@ def infer_actions(
     likelihood: str = "phonetic",
 ) -> Posterior:
     """Inference on a registered scenario's start state with the caller's own action strings."""
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     states = [sc.start]

@@ -74,7 +74,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if audio is not None and not nbest and transcript is None:
         world, verb = None, "deliver"
         if scenario_id is not None:
-            from siftom.world.domains.base import get_scenario
+            from siftom.scenarios.base import get_scenario
 
             world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
         from siftom.inference.api import transcribe_for
@@ -87,7 +87,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     model = get_model(mode, likelihood)
     sc = None
     if scenario_id is not None:
-        from siftom.world.domains.base import get_scenario
+        from siftom.scenarios.base import get_scenario
 
         sc = get_scenario(scenario_id)
         if actions_file is not None:

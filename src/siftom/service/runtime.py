@@ -31,7 +31,7 @@ from siftom.errors import AudioError, ObservationError, unknown_name
 from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
-from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
+from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")

@@ -115,7 +115,7 @@ def scenarios() -> None:
 @click.option("--domain", default=None, help="Only this domain (e.g. kitchen-v0).")
 def scenarios_list(as_json: bool, domain: str | None) -> None:
     """List registered scenario ids with their domain and story."""
-    from siftom.world.domains.base import domains, get_scenario, scenario_domain, scenario_ids
+    from siftom.scenarios.base import domains, get_scenario, scenario_domain, scenario_ids
 
     known = [d.name for d in domains()]
     if domain is not None and domain not in known:
@@ -147,7 +147,7 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
 @click.option("--no-path", is_flag=True, help="Do not draw the human's trajectory on the map.")
 def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool) -> None:
     """Show one scenario: places, objects, the goal and the human's observed actions."""
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     info = sc.summary()

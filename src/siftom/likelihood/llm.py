@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from siftom.backends.config import BACKENDS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
 from siftom.likelihood.base import Instruction
@@ -49,8 +50,6 @@ FEW_SHOT: tuple[tuple[str, str], ...] = (
     ("deliver(robot, table, knives, 1)", "i need a knife"),
 )
 
-BACKENDS = ("llama", "openai")
-
 
 def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> str:
     """The command as the prompt writes it: ``pass(robot, human, cereal)``,
@@ -68,17 +67,34 @@ def build_prefix(examples: Sequence[tuple[str, str]] = FEW_SHOT, header: str = H
     return header + "".join(f"Command: {c}\nHeard: {u}\n\n" for c, u in examples)
 
 
-def make_backend(backend: str, **kwargs: object) -> TextScorer:
-    """Construct a scorer by name: "llama" (in-process GGUF) or "openai" (HTTP endpoint)."""
-    if backend == "llama":
+_CONFIG_KEYS = ("base_url", "model", "api_key", "timeout_s", "max_retries", "cache_dir")
+
+
+def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> TextScorer:
+    """A scorer for a backend name ("llama": in-process GGUF, "openai": HTTP endpoint), an
+    :class:`LLMConfig`, or None (the environment's configuration, :meth:`LLMConfig.from_env`).
+
+    Keyword arguments override the configuration (``base_url``, ``model``, ``api_key``,
+    ``timeout_s``, ``max_retries``, ``cache_dir``) or go to the backend (``model_path``,
+    ``n_ctx``, ``n_threads``, ``batch_size`` ...). ``cache_dir=False`` turns the cache off.
+    """
+    if isinstance(backend, str) and backend not in BACKENDS:
+        raise unknown_name("LLM backend", backend, BACKENDS)
+    cfg_kw = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
+    if "timeout" in kwargs:
+        cfg_kw["timeout_s"] = kwargs.pop("timeout")
+    if isinstance(backend, LLMConfig):
+        config = backend.with_overrides(**cfg_kw)
+    else:
+        config = LLMConfig.from_env(backend=backend, **cfg_kw)
+    if config.backend == "llama":
         from siftom.backends.llama_cpp import LlamaCppScorer
 
-        return LlamaCppScorer(**kwargs)  # type: ignore[arg-type]
-    if backend == "openai":
-        from siftom.backends.openai_compat import OpenAICompletionsScorer
+        kwargs.pop("cache_dir", None)
+        return LlamaCppScorer(config=config, **kwargs)  # type: ignore[arg-type]
+    from siftom.backends.openai_compat import OpenAIClient
 
-        return OpenAICompletionsScorer(**kwargs)  # type: ignore[arg-type]
-    raise unknown_name("LLM backend", backend, BACKENDS)
+    return OpenAIClient(config, **kwargs)  # type: ignore[arg-type]
 
 
 class LLMLikelihood:
@@ -93,7 +109,9 @@ class LLMLikelihood:
     sentence probabilities, which are much sharper than its calibration warrants.
 
     Args:
-        backend: "llama" (default), "openai", or a :class:`TextScorer` instance.
+        backend: "llama", "openai", an :class:`LLMConfig`, a :class:`TextScorer` instance, or
+            None (default): the configuration in ``SIFTOM_LLM_*`` (SmolLM2 in process when
+            nothing is set).
         lexicon: names used to describe commands.
         examples: few-shot (command, heard) pairs; default :data:`FEW_SHOT`.
         nbest_limit: how many hypotheses to score (each costs one LM call per command).
@@ -109,7 +127,7 @@ class LLMLikelihood:
 
     def __init__(
         self,
-        backend: str | TextScorer = "llama",
+        backend: str | LLMConfig | TextScorer | None = None,
         *,
         lexicon: Lexicon | None = None,
         examples: Sequence[tuple[str, str]] = FEW_SHOT,
@@ -124,7 +142,8 @@ class LLMLikelihood:
             if not (np.isfinite(v) and v > 0):
                 raise ObservationError(f"{label} must be a positive number, got {v!r}")
         self.scorer: TextScorer = (
-            make_backend(backend, **backend_kwargs) if isinstance(backend, str) else backend
+            make_backend(backend, **backend_kwargs)
+            if backend is None or isinstance(backend, str | LLMConfig) else backend
         )
         self.lexicon = lexicon or default_lexicon()
         self.prefix = build_prefix(examples)

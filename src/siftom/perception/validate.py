@@ -11,7 +11,7 @@ from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
-from siftom.errors import ObservationError, PerceptionError
+from siftom.errors import ObservationError, PerceptionError, UnknownNameError
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check
 
 
@@ -22,7 +22,7 @@ def check_actions(world: World, state: State, texts: Sequence[str]) -> tuple[lis
     for k, text in enumerate(texts):
         try:
             a = world.parse_action(text, s)
-        except ObservationError as exc:
+        except (ObservationError, UnknownNameError) as exc:
             raise PerceptionError(f"action {k + 1} {text!r}: {exc}") from None
         if a.agent != HUMAN:
             raise PerceptionError(f"action {k + 1} {text!r}: report only the person's actions (agent 'human'); "

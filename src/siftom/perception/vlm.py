@@ -135,9 +135,10 @@ class VisionModel:
                 check_schema(answer, schema)
                 value = check(answer)
             except PerceptionError as second:
+                why = f"{second}" if str(second) == str(first) else f"first: {first}; after being told: {second}"
                 raise PerceptionError(
-                    f"{stage}: the model's answer was rejected twice. First: {first}. After being told: {second}. "
-                    f"Try a stronger vision model ({ENV_VLM_MODEL}) or clearer frames; see docs/perception.md"
+                    f"{stage}: the model's answer was rejected twice ({why}). Try a stronger vision model "
+                    f"({ENV_VLM_MODEL}) or clearer frames; see docs/perception.md"
                 ) from None
         if self.cache is not None:
             self.cache.put(key, answer)

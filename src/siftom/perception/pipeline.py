@@ -61,18 +61,36 @@ class PerceptionResult:
                 "num_objects": len(self.world.get("items", [])), "num_goals": len(self.world.get("goals", []))}
 
 
+def known_world(world: dict[str, Any]) -> dict[str, Any]:
+    """World JSON (``places``, ``items``, ...) from a given world: siftom world JSON or a VirtualHome graph."""
+    if not isinstance(world, dict):
+        raise PerceptionError("a world must be a JSON object (siftom world JSON or a VirtualHome graph)")
+    if "nodes" in world and "edges" in world:
+        from siftom.errors import SceneGraphError
+        from siftom.world.scenegraph import SceneGraph
+
+        try:
+            return scene_to_world(SceneGraph.from_json(world)).world
+        except SceneGraphError as exc:
+            raise PerceptionError(f"the given world is not a valid scene graph: {exc}") from None
+    partial = dict(world)
+    _load(partial)
+    return partial
+
+
 def _load(partial: dict[str, Any]) -> LoadedScene:
     """World and state from world JSON that may lack target and goals (filled in later)."""
     items = partial.get("items") or []
-    if not items:
-        raise PerceptionError("the scene has no movable objects; a goal needs objects to gather")
+    if not isinstance(items, list) or not items or not isinstance(items[0], dict):
+        raise PerceptionError("the world has no movable objects; a goal needs objects to gather")
     places = partial.get("places") or []
-    stub = {"target": partial.get("target") or (places[0]["name"] if places else ""),
-            "goals": [{"name": "_", "counts": {items[0]["class"]: 1}}]}
+    first = places[0].get("name", "") if isinstance(places, list) and places and isinstance(places[0], dict) else ""
+    stub = {"target": partial.get("target") or first,
+            "goals": [{"name": "_", "counts": {str(items[0].get("class")): 1}}]}
     try:
         return scene_from_json({**partial, **stub})
-    except ObservationError as exc:
-        raise PerceptionError(f"the perceived world is not valid: {exc}") from None
+    except (ObservationError, KeyError, TypeError, ValueError) as exc:
+        raise PerceptionError(f"the world is not valid: {exc}") from None
 
 
 def perceive(
@@ -100,6 +118,8 @@ def perceive(
     """
     if not frames:
         raise PerceptionError("give at least one frame")
+    if goal_space is None and world is not None and isinstance(world.get("goal_space"), str):
+        goal_space = world["goal_space"]  # a world that names its library keeps it
     library_names = library_classes(goal_space)  # also checks the name before any request
     vlm = model or VisionModel()
     graph = None
@@ -108,12 +128,8 @@ def perceive(
         perceived = vlm.ask("scene (frame 1)", prompt, frames[:1], "scene_graph", parse_scene)
         partial = perceived.world
         graph = perceived.graph.to_json()
-    elif "nodes" in world and "edges" in world:
-        from siftom.world.scenegraph import SceneGraph
-
-        partial = scene_to_world(SceneGraph.from_json(world)).world
     else:
-        partial = dict(world)
+        partial = known_world(world)
     scene = _load(partial)
     w, s = scene.world, scene.start
     actions: list[str] = []
@@ -139,7 +155,7 @@ def perceive(
         from siftom.errors import unknown_name
 
         raise PerceptionError(f"target: {unknown_name('place', where, [p.name for p in w.places])}")
-    given = list((world or {}).get("goals") or [])
+    given = list((world or {}).get("goals") or []) if world is not None and "nodes" not in world else []
     goals = merge_goals(proposed, merge_goals(given, library))
     if not goals:
         raise PerceptionError("no goal: the model proposed none and no goal library fits these objects; "

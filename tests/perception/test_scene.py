@@ -1,0 +1,84 @@
+"""Scene graph -> world JSON, goal checks and the library merge, against independent references."""
+
+from __future__ import annotations
+
+import pytest
+
+from helpers import three_room_house
+from siftom.errors import PerceptionError
+from siftom.perception.scene import graph_from_world, parse_scene
+from siftom.perception.validate import check_goals, library_goals, merge_goals
+from siftom.world.domains.base import get_scenario
+from siftom.world.io import scene_from_json
+
+
+@pytest.mark.parametrize("sid", ["kitchen-cereal-v0", "household-table-v0/3"])
+def test_a_perfect_graph_gives_back_the_scenario(sid):
+    sc = get_scenario(sid)
+    world = parse_scene(graph_from_world(sc.world, sc.start)).world
+    ref = sc.summary()  # the scenario's own description, an independent path
+    assert [(p["name"], p["kind"], p["room"], p["pos"], p["closable"]) for p in world["places"]] == \
+        [(p["name"], p["kind"], p["room"], p["pos"], p["closable"]) for p in ref["places"]]
+    assert sorted((i["name"], i["class"], i["at"]) for i in world["items"]) == \
+        sorted((o["name"], o["class"], o["at"]) for o in ref["objects"])
+    assert world["agents"] == ref["agents"]
+    assert sorted(world["open"]) == sorted(p["name"] for p in ref["places"] if p["open"])
+    # same walking costs within a room (a scene graph has no doors, so rooms are linked straight through)
+    loaded = scene_from_json({**world, "target": ref["target"], "goals": [{"name": "g", "counts": {sc.goal.counts[0][0]: 1}}]})
+    for a, pa in enumerate(sc.world.places):
+        for b, pb in enumerate(sc.world.places):
+            if pa.room == pb.room:
+                assert loaded.world.dist[a, b] == sc.world.dist[a, b]
+
+def test_names_classes_and_open_states():
+    g = {"nodes": [
+        {"id": 1, "class_name": "Kitchen", "category": "Rooms"},
+        {"id": 10, "class_name": "kitchen counter", "properties": ["SURFACES"]},
+        {"id": 11, "class_name": "fridge", "properties": ["CONTAINERS", "CAN_OPEN"], "states": ["OPEN"]},
+        {"id": 20, "class_name": "cutleryfork", "properties": ["GRABBABLE"]},
+        {"id": 21, "class_name": "cutleryfork", "properties": ["GRABBABLE"]},
+        {"id": 22, "class_name": "milk", "properties": ["GRABBABLE"]},
+        {"id": 90, "class_name": "character"}],
+        "edges": [{"from_id": 10, "relation_type": "INSIDE", "to_id": 1},
+                  {"from_id": 11, "relation_type": "INSIDE", "to_id": 1},
+                  {"from_id": 20, "relation_type": "ON", "to_id": 10},
+                  {"from_id": 21, "relation_type": "ON", "to_id": 20},  # stacked on the other fork
+                  {"from_id": 22, "relation_type": "INSIDE", "to_id": 11},
+                  {"from_id": 90, "relation_type": "CLOSE", "to_id": 11}]}
+    w = parse_scene(g).world
+    assert [p["name"] for p in w["places"]] == ["kitchen_counter", "fridge"]
+    assert w["items"] == [{"name": "fork_1", "class": "fork", "at": "kitchen_counter"},
+                          {"name": "fork_2", "class": "fork", "at": "kitchen_counter"},
+                          {"name": "milk", "class": "milk", "at": "fridge"}]
+    assert w["open"] == ["fridge"] and w["agents"] == {"human": "fridge", "robot": "fridge"}
+    no_person = {**g, "nodes": g["nodes"][:-1], "edges": g["edges"][:-1]}
+    with pytest.raises(PerceptionError, match="no person"):
+        parse_scene(no_person)
+    no_room = {"nodes": [n for n in g["nodes"] if n["id"] != 1], "edges": [e for e in g["edges"] if e["to_id"] != 1]}
+    with pytest.raises(PerceptionError, match="no room"):
+        parse_scene(no_room)
+
+
+def test_goals_are_checked_and_merged_with_the_library():
+    world, _ = three_room_house()
+    target, goals = check_goals(world, {"target": "table", "goals": [
+        {"name": "forks", "counts": [{"class": "fork", "count": 2}]},
+        {"name": "meal", "counts": [{"class": "plate", "count": 1}, {"class": "fork", "count": 1}]}]})
+    assert target == "table" and goals[1] == {"name": "meal", "counts": {"plate": 1, "fork": 1}}
+    with pytest.raises(PerceptionError, match="lists 'fork' twice"):
+        check_goals(world, {"target": "table", "goals": [{"name": "f", "counts": [{"class": "fork", "count": 1},
+                                                                                {"class": "fork", "count": 1}]}]})
+    library = [{"name": "forks", "counts": {"plate": 1}}, {"name": "two_forks", "counts": {"fork": 2}}]
+    merged = merge_goals(goals, library)
+    assert merged == library + [{"name": "meal", "counts": {"plate": 1, "fork": 1}}]  # same counts = same goal
+    assert merge_goals([{"name": "forks", "counts": {"cup": 1}}], library)[-1]["name"] == "forks_proposed"
+
+
+def test_library_goals_are_only_the_reachable_ones():
+    sc = get_scenario("kitchen-cereal-v0")
+    lib = library_goals(sc.world, "kitchen-v0")
+    assert len(lib) == len(sc.goals)  # every recipe is reachable in the full kitchen
+    world, _ = three_room_house()
+    assert library_goals(world, "kitchen-v0") == []  # no recipe can be made from forks, a plate and a cup
+    with pytest.raises(Exception, match="kitchen-v0"):
+        library_goals(world, "kitchen-v1")

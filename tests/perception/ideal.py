@@ -41,8 +41,8 @@ def actions_answer(a: int, b: int) -> dict[str, Any]:
 GOALS = {"target": "kitchen_counter", "goals": [
     {"name": "breakfast_cereal", "counts": [{"class": "cereal", "count": 1}, {"class": "milk", "count": 1},
                                             {"class": "bowl", "count": 1}]},
-    {"name": "cereal_with_banana", "counts": [{"class": "cereal", "count": 1}, {"class": "milk", "count": 1},
-                                              {"class": "bowl", "count": 1}, {"class": "banana", "count": 1}]},
+    {"name": "cereal_for_two", "counts": [{"class": "cereal", "count": 1}, {"class": "milk", "count": 1},
+                                          {"class": "bowl", "count": 2}]},  # not in the recipe library
 ]}
 
 

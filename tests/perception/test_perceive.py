@@ -27,7 +27,8 @@ def test_perceive_then_infer_chain(vlm_env, frames, tmp_path, capsys):
     assert sorted(it["name"] for it in w["items"]) == sorted(it.name for it in sc.world.items)
     assert w["target"] == "kitchen_counter" and w["verb"] == "fetch"
     names = [g["name"] for g in w["goals"]]
-    assert "breakfast_cereal" in names and "cereal_with_banana" in names  # library + the new proposal
+    assert "breakfast_cereal" in names and "cereal_for_two" in names  # library + the new proposal
+    assert len(names) == len(sc.goals) + 1 == len(set(names))
     capsys.readouterr()
     rc = main(["infer", "--scene", str(world), "--actions", str(acts), "--transcript", "can you pass me the silver",
                "--json"])

@@ -111,3 +111,31 @@ def test_no_endpoint_configured_says_what_to_set(monkeypatch, tmp_path):
     with pytest.raises(BackendUnavailableError, match="SIFTOM_LLM_BASE_URL"):
         VisionModel()
 
+
+
+def test_actions_alone_for_a_known_world(vlm_env, frames):
+    """What a session with a known world needs: frames -> checked actions and the state after them."""
+    from siftom.perception import perceive_actions
+
+    vlm_env.on("chat/completions", handler(frames))
+    sc = get_scenario(SCENARIO)
+    acts, state = perceive_actions(sc.world, sc.states()[5], [Frame.from_path(f) for f in frames[1:]], first=2)
+    assert acts == [sc.world.format_action(a) for a in sc.actions[5:]]  # frames 5 -> 10
+    assert state == sc.now
+
+
+def test_cli_with_a_world_file_and_the_graph_out(vlm_env, frames, tmp_path, capsys):
+    vlm_env.on("chat/completions", handler(frames))
+    graph = tmp_path / "graph.json"
+    assert main(["perceive", str(frames[0]), "--goal-space", "kitchen-v0", "--out", str(tmp_path / "w0.json"),
+                 "--actions-out", str(tmp_path / "a0.txt"), "--graph-out", str(graph)]) == 0
+    assert len(json.loads(graph.read_text())["nodes"]) == len(scene_answer(0)["nodes"])
+    n = len(vlm_env.requests)
+    capsys.readouterr()
+    # the world just written is the known world of the next call: only the actions are asked
+    assert main(["perceive", *map(str, frames), "--world", str(tmp_path / "w0.json"), "--no-goals",
+                 "--out", str(tmp_path / "w.json"), "--actions-out", str(tmp_path / "a.txt"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [schema_name(r) for r in vlm_env.requests[n:]] == ["actions", "actions"]
+    assert out["world"]["goals"] == json.loads((tmp_path / "w0.json").read_text())["goals"]
+    assert len(out["actions"]) == 10

@@ -5,7 +5,7 @@ returns siftom world JSON plus an action log that ``siftom infer --scene --actio
 """
 
 from siftom.perception.frames import Frame
-from siftom.perception.pipeline import PerceptionResult, perceive
+from siftom.perception.pipeline import PerceptionResult, perceive, perceive_actions
 from siftom.perception.vlm import VisionModel
 
-__all__ = ["Frame", "PerceptionResult", "VisionModel", "perceive"]
+__all__ = ["Frame", "PerceptionResult", "VisionModel", "perceive", "perceive_actions"]

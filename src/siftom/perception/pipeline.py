@@ -30,6 +30,7 @@ from siftom.perception.validate import (
 )
 from siftom.perception.vlm import VisionModel
 from siftom.world.io import LoadedScene, scene_from_json
+from siftom.world.model import State, World
 
 
 @dataclass(frozen=True)
@@ -93,6 +94,29 @@ def _load(partial: dict[str, Any]) -> LoadedScene:
         raise PerceptionError(f"the world is not valid: {exc}") from None
 
 
+def perceive_actions(world: World, state: State, frames: Sequence[Frame], model: VisionModel | None = None,
+                     first: int = 1) -> tuple[list[str], State]:
+    """The person's actions between consecutive frames, checked in order from ``state``.
+
+    Returns the action strings (``World.parse_action`` syntax) and the state after them. For a
+    robot that already knows its world (a session), this is the whole of perception.
+    ``first`` numbers the frames in messages (``actions (frames 3 -> 4)``).
+    """
+    vlm = model or VisionModel()
+    actions: list[str] = []
+    s = state
+    for k in range(1, len(frames)):
+        prompt = prompts.actions_prompt(world, s)
+
+        def check(answer: Any, before: State = s) -> tuple[list[str], State]:
+            return answer["actions"], check_actions(world, before, answer["actions"])[1]
+
+        stage = f"actions (frames {first + k - 1} -> {first + k})"
+        texts, s = vlm.ask(stage, prompt, (frames[k - 1], frames[k]), "actions", check)
+        actions.extend(texts)
+    return actions, s
+
+
 def perceive(
     frames: Sequence[Frame],
     *,
@@ -132,16 +156,7 @@ def perceive(
         partial = known_world(world)
     scene = _load(partial)
     w, s = scene.world, scene.start
-    actions: list[str] = []
-    for k in range(1, len(frames)):
-        prompt = prompts.actions_prompt(w, s)
-        pair = (frames[k - 1], frames[k])
-
-        def check(answer: Any, state: Any = s) -> Any:
-            return answer["actions"], check_actions(w, state, answer["actions"])[1]
-
-        texts, s = vlm.ask(f"actions (frames {k} -> {k + 1})", prompt, pair, "actions", check)
-        actions.extend(texts)
+    actions, s = perceive_actions(w, s, frames, vlm)
     library = library_goals(w, goal_space)
     proposed: list[dict[str, Any]] = []
     where = target or (world or {}).get("target")

@@ -139,3 +139,16 @@ def test_cli_with_a_world_file_and_the_graph_out(vlm_env, frames, tmp_path, caps
     assert [schema_name(r) for r in vlm_env.requests[n:]] == ["actions", "actions"]
     assert out["world"]["goals"] == json.loads((tmp_path / "w0.json").read_text())["goals"]
     assert len(out["actions"]) == 10
+
+
+def test_a_cached_answer_that_no_longer_checks_is_asked_again(vlm_env, frames, tmp_path):
+    vlm_env.on("chat/completions", handler(frames))
+    fr = [Frame.from_path(f) for f in frames]
+    perceive(fr, goal_space="kitchen-v0")
+    cached = list((tmp_path / "cache" / "perception").glob("*.json"))
+    assert len(cached) == 4
+    for path in cached:
+        if "actions" in json.loads(path.read_text()):
+            path.write_text(json.dumps({"actions": ["fly(human, moon)"]}))
+    again = perceive(fr, goal_space="kitchen-v0")
+    assert again.requests == 2 and again.cache_hits == 2 and len(again.actions) == 10

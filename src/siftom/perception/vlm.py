@@ -104,7 +104,13 @@ class VisionModel:
             client = OpenAIClient(config, use_cache=False)
         self.client = client
         self.model: str = client.model
-        folder = client.config.resolved_cache_dir / "perception"
+        config = getattr(client, "config", None)
+        if config is not None:
+            folder = config.resolved_cache_dir / "perception"
+        else:
+            from siftom.backends.config import cache_root
+
+            folder = cache_root() / "perception"
         self.cache = AnswerCache(folder) if use_cache else None
         self.max_tokens = max_tokens
         self.requests = 0
@@ -116,8 +122,13 @@ class VisionModel:
         if self.cache is not None:
             hit = self.cache.get(key)
             if hit is not None:
-                self.cache_hits += 1
-                return check(hit)
+                try:
+                    value = check(hit)
+                except PerceptionError:  # accepted by an older siftom, not by this one: ask again
+                    pass
+                else:
+                    self.cache_hits += 1
+                    return value
         parts: list[dict[str, Any]] = [{"type": "text", "text": prompt}]
         parts += [{"type": "image_url", "image_url": {"url": f.data_url()}} for f in frames]
         messages: list[dict[str, Any]] = [{"role": "system", "content": SYSTEM}, {"role": "user", "content": parts}]

@@ -82,3 +82,12 @@ def test_library_goals_are_only_the_reachable_ones():
     assert library_goals(world, "kitchen-v0") == []  # no recipe can be made from forks, a plate and a cup
     with pytest.raises(Exception, match="kitchen-v0"):
         library_goals(world, "kitchen-v1")
+
+
+def test_scenario_frames_are_distinct_pictures_and_steps_are_checked(frames, tmp_path, capsys):
+    from siftom.cli import main
+
+    data = [f.read_bytes() for f in frames]
+    assert all(d.startswith(b"\x89PNG") for d in data) and len(set(data)) == len(data)
+    assert main(["scenarios", "show", "kitchen-cereal-v0", "--step", "11", "--png", str(tmp_path / "x.png")]) == 2
+    assert "step must be between 0 and 10" in capsys.readouterr().err

@@ -7,14 +7,15 @@ silver" for ``pass(robot, human, cereal)``. Here the prompt ends with the candid
 the model scores the heard utterance as its continuation:
 
     <header>
-    Command: pass(robot, human, cereal)
-    Heard: pass me the silver
+    Command: pass(robot, human, stapler)
+    Heard: could you pass me the staple her
     ...
     Command: <candidate>
     Heard:| <utterance>\\n          <- only these tokens are scored
 
 The header and examples are a prefix shared by every candidate, so an in-process model
-evaluates them once (``siftom.backends.llama_cpp``).
+evaluates them once (``siftom.backends.llama_cpp``). The examples use objects no benchmark
+scenario has (the paper's own example would leak the answer to its Figure 2 story).
 """
 
 from __future__ import annotations
@@ -33,23 +34,27 @@ from siftom.likelihood.phonetic import logsumexp, normalize_text
 from siftom.world.commands import RobotCommand
 
 HEADER = (
-    "A person asks a household robot for help. A speech recogniser transcribed each request, "
+    "A person asks a helper robot for objects. A speech recogniser transcribed each request, "
     "so some words are misheard. Each example gives the robot command the person meant and "
     "the noisy transcript that was heard.\n\n"
 )
 
-# (command the person meant, what the recogniser heard); corrupted as real ASR does.
+# (command the person meant, what the recogniser heard), corrupted as real ASR does: sound-alike
+# words, numbers heard as "to"/"for"/"tree", dropped or split words, indirect phrasings.
+# The objects (a workshop, an office, a garden) are deliberately ones that no built-in scenario
+# uses, and no utterance contains a benchmark word, so a result on a benchmark scenario -- the
+# paper's Figure 2 story in particular ("pass me the silver" for the cereal) -- is not copied from
+# the prompt. tests/likelihood/test_prompt_contamination.py enforces this.
 FEW_SHOT: tuple[tuple[str, str], ...] = (
-    ("pass(robot, human, cereal)", "pass me the silver"),
-    ("deliver(robot, table, forks, 3)", "bring me tree forks"),
-    ("pass(robot, human, milk)", "can you pass me the mail"),
-    ("deliver(robot, table, wine glasses, 2)", "we still need two wine classes"),
-    ("pass(robot, human, flour)", "could you grab the flower please"),
-    ("deliver(robot, table, plates, 4)", "get me the rest of the plates"),
-    ("pass(robot, human, bacon)", "pass me the beta"),
-    ("deliver(robot, table, knives, 1)", "i need a knife"),
+    ("pass(robot, human, stapler)", "could you pass me the staple her"),
+    ("deliver(robot, table, screwdrivers, 3)", "i need tree crew drivers"),
+    ("pass(robot, human, towel)", "can you hand me the tower"),
+    ("deliver(robot, table, candles, 2)", "we still need to handles"),
+    ("pass(robot, human, scissors)", "grab the sisters please"),
+    ("deliver(robot, table, notebooks, 4)", "get me for note books"),
+    ("pass(robot, human, ladder)", "pass me the latter"),
+    ("deliver(robot, table, hammers, 1)", "i need a hammock"),
 )
-
 
 def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> str:
     """The command as the prompt writes it: ``pass(robot, human, cereal)``,

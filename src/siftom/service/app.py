@@ -126,6 +126,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         return {
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
+            "llm": rt.llm_status(),
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
                        "request_timeout_s": settings.request_timeout_s},

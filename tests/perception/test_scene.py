@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import pytest
 
 from helpers import three_room_house
@@ -91,3 +94,24 @@ def test_scenario_frames_are_distinct_pictures_and_steps_are_checked(frames, tmp
     assert all(d.startswith(b"\x89PNG") for d in data) and len(set(data)) == len(data)
     assert main(["scenarios", "show", "kitchen-cereal-v0", "--step", "11", "--png", str(tmp_path / "x.png")]) == 2
     assert "step must be between 0 and 10" in capsys.readouterr().err
+
+
+VIRTUALHOME = Path(__file__).parents[2].parent / "shared" / "data" / "virtualhome"
+
+
+@pytest.mark.skipif(not (VIRTUALHOME / "apartment_graph_2.json").exists(), reason="needs ../shared/data/virtualhome")
+def test_a_real_apartment_is_a_known_world():
+    from siftom.perception.pipeline import known_world
+
+    graph = json.loads((VIRTUALHOME / "apartment_graph_2.json").read_text())
+    world = known_world(graph)  # 339 nodes: only furniture that holds objects or agents becomes a place
+    assert len(world["places"]) <= 62 and len(world["items"]) > 50
+    # the character has no edges; it stands at the furniture nearest to its position
+    char = next(n for n in graph["nodes"] if n["class_name"] == "character")
+    nearest = min(world["places"], key=lambda p: (p["pos"][0] - char["bounding_box"]["center"][0]) ** 2
+                  + (p["pos"][1] - char["bounding_box"]["center"][2]) ** 2)
+    assert world["agents"]["human"] == nearest["name"]
+    loaded = scene_from_json({**world, "target": nearest["name"], "goals": [{"name": "g", "counts": {"apple": 1}}]})
+    assert len(loaded.world.items) == len(world["items"])
+    with pytest.raises(PerceptionError, match=r"and \d+ more"):  # a perceived scene must place every object
+        parse_scene(graph)

@@ -71,7 +71,7 @@ def known_world(world: dict[str, Any]) -> dict[str, Any]:
         from siftom.world.scenegraph import SceneGraph
 
         try:
-            return scene_to_world(SceneGraph.from_json(world)).world
+            return scene_to_world(SceneGraph.from_json(world), strict=False).world
         except SceneGraphError as exc:
             raise PerceptionError(f"the given world is not a valid scene graph: {exc}") from None
     partial = dict(world)

@@ -58,8 +58,13 @@ def parse_scene(answer: Any) -> PerceivedScene:
     return scene_to_world(graph)
 
 
-def scene_to_world(graph: SceneGraph) -> PerceivedScene:
-    """Rooms -> room names, surfaces/containers -> places, grabbable objects -> items, agents."""
+def scene_to_world(graph: SceneGraph, strict: bool = True) -> PerceivedScene:
+    """Rooms -> room names, surfaces/containers -> places, grabbable objects -> items, agents.
+
+    ``strict`` (a perceived scene): an object on no furniture is an error sent back to the
+    model. Otherwise (a given VirtualHome graph, where chairs and towel racks stand in rooms)
+    such objects are left out, as ``siftom infer --scene`` does.
+    """
     view = graph.symbolic()
     if not view.rooms:
         raise PerceptionError("the scene graph has no room; add a node with category \"Rooms\" (e.g. "
@@ -81,12 +86,20 @@ def scene_to_world(graph: SceneGraph) -> PerceivedScene:
             why = ("is held in the first frame; siftom's world starts with empty hands, so start from a frame "
                    "where it lies somewhere" if held else
                    "is not ON or INSIDE any furniture; add the edge to the surface or container it is on or in")
-            problems.append(f"object {graph.node(nid).label} {why}")
+            if strict:
+                problems.append(f"object {graph.node(nid).label} {why}")
             continue
         items.append(nid)
         item_parent[nid] = parent
     place_ids = sorted(({*view.surfaces} | {c.id for c in view.containers} | set(item_parent.values()))
                        - agent_ids - set(items))
+    if len(place_ids) > MAX_PLACES:  # a whole apartment: keep the furniture that matters to fetching
+        used = set(item_parent.values())
+        for classes in (HUMAN_CLASSES, ROBOT_CLASSES):
+            at = _agent_place(graph, classes, set(place_ids))
+            if at is not None:
+                used.add(at)
+        place_ids = sorted(used)
     if len(place_ids) > MAX_PLACES:
         raise PerceptionError(f"the scene has {len(place_ids)} surfaces and containers; at most {MAX_PLACES} "
                               "are supported, list only the furniture that holds objects or where people stand")
@@ -95,7 +108,8 @@ def scene_to_world(graph: SceneGraph) -> PerceivedScene:
         if view.room_of(pid) is None:
             problems.append(f"furniture {graph.node(pid).label} is in no room; add an INSIDE edge to its room")
     if problems:
-        raise PerceptionError("invalid scene: " + "; ".join(problems))
+        more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
+        raise PerceptionError("invalid scene: " + "; ".join(problems[:5]) + more)
     names = _names(graph, place_ids + items)
     places = []
     for pid in place_ids:
@@ -105,13 +119,14 @@ def scene_to_world(graph: SceneGraph) -> PerceivedScene:
         places.append({"name": names[pid], "kind": "container" if closable else "surface",
                        "room": room_name[view.room_of(pid)], "pos": [round(pos[0], 3), round(pos[2], 3)],
                        "closable": closable})
-    agents = {}
-    for role, classes in (("human", HUMAN_CLASSES), ("robot", ROBOT_CLASSES)):
-        at = _agent_place(graph, classes, set(place_ids))
-        if at is None and role == "human":
-            raise PerceptionError("invalid scene: no person; add a node with class_name \"character\" and a CLOSE "
-                                  "edge from it to the furniture the person stands at")
-        agents[role] = names[at] if at is not None else names[_agent_place(graph, HUMAN_CLASSES, set(place_ids))]
+    human = _agent_place(graph, HUMAN_CLASSES, set(place_ids))
+    if human is None and strict:
+        raise PerceptionError("invalid scene: no person; add a node with class_name \"character\" and a CLOSE "
+                              "edge from it to the furniture the person stands at")
+    if human is None:  # a given graph without a character (apartment_graph.json): the first place
+        human = place_ids[0]
+    robot = _agent_place(graph, ROBOT_CLASSES, set(place_ids))
+    agents = {"human": names[human], "robot": names[robot if robot is not None else human]}
     world = {
         "places": places,
         "items": [{"name": names[i], "class": clean_class(graph.node(i).class_name), "at": names[item_parent[i]]}
@@ -146,13 +161,20 @@ def _names(graph: SceneGraph, ids: list[int]) -> dict[int, str]:
 
 
 def _agent_place(graph: SceneGraph, classes: tuple[str, ...], places: set[int]) -> int | None:
-    """The furniture the agent node is CLOSE to (or ON/INSIDE), lowest id first."""
+    """The furniture the agent is CLOSE to (or ON/INSIDE), lowest id first; else the nearest one."""
     for node in graph.nodes:
         if clean_class(node.class_name) in classes:
             near = sorted(e.to_id for e in graph.edges_from(node.id)
                           if e.relation_type in (Relation.CLOSE, Relation.ON, Relation.INSIDE) and e.to_id in places)
             if near:
                 return near[0]
+            here = node.position
+            if here is None:
+                continue
+            placed = [(p, graph.node(p).position) for p in sorted(places)]
+            dist = [((x[0] - here[0]) ** 2 + (x[2] - here[2]) ** 2, p) for p, x in placed if x is not None]
+            if dist:
+                return min(dist)[1]
     return None
 
 

@@ -124,16 +124,18 @@ def test_actions_alone_for_a_known_world(vlm_env, frames):
     assert state == sc.now
 
 
-def test_cli_with_a_world_file_and_the_graph_out(vlm_env, frames, tmp_path, capsys):
+def test_cli_with_a_world_file_and_the_graph_out(vlm_env, frames, tmp_path, capsys, monkeypatch):
     vlm_env.on("chat/completions", handler(frames))
+    monkeypatch.setenv("SIFTOM_LLM_BASE_URL", "http://127.0.0.1:9/v1")  # the flag wins
     graph = tmp_path / "graph.json"
-    assert main(["perceive", str(frames[0]), "--goal-space", "kitchen-v0", "--out", str(tmp_path / "w0.json"),
+    assert main(["perceive", str(frames[0]), "--llm-base-url", vlm_env.url, "--goal-space", "kitchen-v0", "--out", str(tmp_path / "w0.json"),
                  "--actions-out", str(tmp_path / "a0.txt"), "--graph-out", str(graph)]) == 0
     assert len(json.loads(graph.read_text())["nodes"]) == len(scene_answer(0)["nodes"])
     n = len(vlm_env.requests)
     capsys.readouterr()
     # the world just written is the known world of the next call: only the actions are asked
     assert main(["perceive", *map(str, frames), "--world", str(tmp_path / "w0.json"), "--no-goals",
+                 "--llm-base-url", vlm_env.url,
                  "--out", str(tmp_path / "w.json"), "--actions-out", str(tmp_path / "a.txt"), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert [schema_name(r) for r in vlm_env.requests[n:]] == ["actions", "actions"]

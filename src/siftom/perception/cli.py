@@ -21,10 +21,12 @@ import click
 @click.option("--target", default=None, help="The place goals refer to (default: the model proposes it).")
 @click.option("--no-goals", is_flag=True, help="Do not ask the model for goals (needs --goal-space or goals in --world).")
 @click.option("--model", default=None, help="Vision model name (default $SIFTOM_VLM_MODEL, else $SIFTOM_LLM_MODEL).")
+@click.option("--llm-base-url", default=None,
+              help="OpenAI-compatible API root of the vision model, e.g. http://127.0.0.1:8080/v1 [env SIFTOM_LLM_BASE_URL].")
 @click.option("--no-cache", is_flag=True, help="Ask the model even when an answer is cached.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, target, no_goals, model, no_cache,
-                 as_json) -> None:
+def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, target, no_goals, model, llm_base_url,
+                 no_cache, as_json) -> None:
     """Turn camera FRAMES (in time order) into a world and the person's actions with a vision model."""
     from siftom.errors import PerceptionError
     from siftom.perception import Frame, VisionModel, perceive
@@ -39,7 +41,7 @@ def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, ta
         if not isinstance(world, dict):
             raise PerceptionError(f"{world_file}: a world must be a JSON object")
     result = perceive(images, world=world, goal_space=goal_space, target=target, propose_goals=not no_goals,
-                      model=VisionModel(model=model, use_cache=not no_cache))
+                      model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result.world, indent=1) + "\n", encoding="utf-8")
     actions_out.parent.mkdir(parents=True, exist_ok=True)

@@ -115,3 +115,35 @@ def test_a_real_apartment_is_a_known_world():
     assert len(loaded.world.items) == len(world["items"])
     with pytest.raises(PerceptionError, match=r"and \d+ more"):  # a perceived scene must place every object
         parse_scene(graph)
+
+
+def test_the_world_does_not_depend_on_how_the_model_writes_the_graph():
+    """Shuffled nodes, other ids, VirtualHome class spellings, extra nodes and edges: same world."""
+    import random
+
+    sc = get_scenario("kitchen-cereal-v0")
+    g = graph_from_world(sc.world, sc.start)
+    rng = random.Random(3)
+    ids = [n["id"] for n in g["nodes"]]
+    new = dict(zip(ids, rng.sample(range(5000, 9000), len(ids)), strict=True))
+    for n in g["nodes"]:
+        n["id"] = new[n["id"]]
+        if n["class_name"] == "bowl":
+            n["class_name"] = "dishbowl"  # VirtualHome's name, mapped to siftom's class
+        elif n["class_name"] == "kitchen_counter":
+            n["class_name"] = "Kitchen Counter"
+    for e in g["edges"]:
+        e["from_id"], e["to_id"] = new[e["from_id"]], new[e["to_id"]]
+    wall = {"id": 1, "class_name": "wall", "category": "Walls", "properties": [], "states": [],
+            "bounding_box": {"center": [0, 1, 0], "size": [5, 2, 0.1]}}
+    kitchen = next(n["id"] for n in g["nodes"] if n["class_name"] == "kitchen")
+    g["nodes"].append(wall)
+    g["edges"] += [{"from_id": 1, "relation_type": "INSIDE", "to_id": kitchen},
+                   {"from_id": new[9000], "relation_type": "FACING", "to_id": 1}]
+    rng.shuffle(g["nodes"])
+    rng.shuffle(g["edges"])
+    world = parse_scene(g).world
+    ref = sc.summary()
+    assert sorted((i["class"], i["at"]) for i in world["items"]) == sorted((o["class"], o["at"]) for o in ref["objects"])
+    assert sorted(p["name"] for p in world["places"]) == sorted(p["name"] for p in ref["places"])
+    assert world["agents"] == ref["agents"]

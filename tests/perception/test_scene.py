@@ -147,3 +147,20 @@ def test_the_world_does_not_depend_on_how_the_model_writes_the_graph():
     assert sorted((i["class"], i["at"]) for i in world["items"]) == sorted((o["class"], o["at"]) for o in ref["objects"])
     assert sorted(p["name"] for p in world["places"]) == sorted(p["name"] for p in ref["places"])
     assert world["agents"] == ref["agents"]
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"agents": 3}, "the world is not valid"),
+    ({"items": []}, "no movable objects"),
+    ({"goals": [{"name": "g", "counts": ["fork"]}]}, "goals must be a list like"),
+    ({"goals": {"fork": 2}}, "goals must be a list like"),
+    ({"nodes": [{"id": "x"}], "edges": []}, "not a valid scene graph"),
+])
+def test_a_given_world_is_checked_before_any_request(bad, words):
+    from siftom.perception.pipeline import known_world
+
+    good = {"places": [{"name": "table", "kind": "surface", "room": "r", "pos": [0, 0]}],
+            "items": [{"name": "fork_1", "class": "fork", "at": "table"}], "target": "table"}
+    assert known_world(good)["items"] == good["items"]
+    with pytest.raises(PerceptionError, match=words):
+        known_world({**good, **bad})

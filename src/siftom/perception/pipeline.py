@@ -76,6 +76,12 @@ def known_world(world: dict[str, Any]) -> dict[str, Any]:
             raise PerceptionError(f"the given world is not a valid scene graph: {exc}") from None
     partial = dict(world)
     _load(partial)
+    goals = partial.get("goals", [])
+    if not isinstance(goals, list) or not all(
+            isinstance(g, dict) and isinstance(g.get("name", ""), str) and isinstance(g.get("counts"), dict) and g["counts"]
+            and all(isinstance(c, str) and isinstance(n, int) and not isinstance(n, bool) and n >= 1
+                    for c, n in g["counts"].items()) for g in goals):
+        raise PerceptionError('the world\'s goals must be a list like [{"name": "forks", "counts": {"fork": 2}}]')
     return partial
 
 
@@ -90,7 +96,8 @@ def _load(partial: dict[str, Any]) -> LoadedScene:
             "goals": [{"name": "_", "counts": {str(items[0].get("class")): 1}}]}
     try:
         return scene_from_json({**partial, **stub})
-    except (ObservationError, KeyError, TypeError, ValueError) as exc:
+    except (ObservationError, KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        # siftom's world reader expects well-formed JSON; a client's malformed world is a 422, not a crash
         raise PerceptionError(f"the world is not valid: {exc}") from None
 
 
@@ -170,7 +177,7 @@ def perceive(
         from siftom.errors import unknown_name
 
         raise PerceptionError(f"target: {unknown_name('place', where, [p.name for p in w.places])}")
-    given = list((world or {}).get("goals") or []) if world is not None and "nodes" not in world else []
+    given = [{"name": str(g.get("name", f"goal{k}")), "counts": g["counts"]} for k, g in enumerate(partial.get("goals", []))]
     goals = merge_goals(proposed, merge_goals(given, library))
     if not goals:
         raise PerceptionError("no goal: the model proposed none and no goal library fits these objects; "

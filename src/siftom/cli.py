@@ -21,6 +21,7 @@ _AREAS = (
     "siftom.speech.cli",
     "siftom.bench.cli",
     "siftom.service.cli",
+    "siftom.perception.cli",
     "siftom.demo",
 )
 

@@ -62,3 +62,7 @@ def missing_extra(extra: str, package: str) -> BackendUnavailableError:
     return BackendUnavailableError(
         f"{package} is not installed; install it with: pip install \"siftom[{extra}]\""
     )
+
+
+class PerceptionError(SiftomError):
+    """A vision-language model's answer could not be turned into a valid world or action log."""

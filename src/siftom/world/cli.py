@@ -145,7 +145,9 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
 @click.option("--png", "png", type=click.Path(path_type=Path), default=None, help="Write a top-down map here.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--no-path", is_flag=True, help="Do not draw the human's trajectory on the map.")
-def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool) -> None:
+@click.option("--step", type=int, default=None,
+              help="Draw the state after this many observed actions (a camera frame; default: all).")
+def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool, step: int | None) -> None:
     """Show one scenario: places, objects, the goal and the human's observed actions."""
     from siftom.scenarios.base import get_scenario
 
@@ -154,7 +156,7 @@ def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: b
     if png is not None:
         from siftom.world.render import render_scenario
 
-        render_scenario(sc, png, show_path=not no_path)
+        render_scenario(sc, png, show_path=not no_path, step=step)
         info["png"] = str(png)
     if as_json:
         click.echo(json.dumps(info, indent=2))

@@ -21,6 +21,7 @@ _AREAS = (
     "siftom.speech.cli",
     "siftom.bench.cli",
     "siftom.service.cli",
+    "siftom.perception.cli",
     "siftom.demo",
 )
 
@@ -32,14 +33,10 @@ def root() -> None:
 
 
 def _register_all() -> None:
+    # An area that fails to import is a broken install: fail loudly rather than hide its
+    # commands. Areas import optional extras lazily, inside their commands.
     for name in _AREAS:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:  # an area not built yet, or an optional extra
-            if exc.name and exc.name.startswith("siftom"):
-                continue
-            raise
-        module.register(root)
+        importlib.import_module(name).register(root)
 
 
 _register_all()

@@ -31,8 +31,8 @@ def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, se
     from siftom.inference.api import get_model, make_instruction, transcribe_for
     from siftom.inference.cli import print_posterior
     from siftom.inference.model import Observation
+    from siftom.scenarios.base import get_scenario
     from siftom.speech import get_noise, mix_at_snr, synthesize, write_wav
-    from siftom.world.domains.base import get_scenario
     from siftom.world.render import render_scenario
 
     con = Console()

@@ -154,8 +154,8 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
         def score(self, prefix, items):
             return [0.0 if "fork" in t else -3.0 for _c, t in items]
 
-    monkeypatch.setattr(lb, "_CHOOSERS", {m: lb.LLMChooser(Prefers(), m == "llm-ablated-siftom")
-                                          for m in lb.LLM_MODELS})
+    choosers = {m: lb.LLMChooser(Prefers(), m == "llm-ablated-siftom") for m in lb.LLM_MODELS}
+    monkeypatch.setattr(lb, "chooser", lambda m, config=None: choosers[m])
     evaluate(tiny, tmp_path / "llm", EvalOptions(models=("siftom", *lb.LLM_MODELS)), workers=1)
     write_report(tmp_path / "llm")
     rows = load_results(tmp_path / "llm")

@@ -15,7 +15,7 @@ from siftom.bench.evaluate import EvalOptions, is_correct, is_helpful
 from siftom.bench.literal import literal_command, parse_literal
 from siftom.bench.metrics import bootstrap_ci, summarise_model
 from siftom.errors import DatasetError, UnknownNameError
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 HOUSE = ("bowl", "fork", "knife", "mug", "plate", "spoon", "waterglass", "wineglass")
 

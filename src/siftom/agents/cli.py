@@ -15,7 +15,7 @@ import click
 def simulate_cmd(scenario_id: str, command: str, as_json: bool) -> None:
     """Simulate the human alone and with the robot executing COMMAND; print the speedup."""
     from siftom.agents.team import simulate_scenario
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     res = simulate_scenario(sc, sc.parse_command(command))

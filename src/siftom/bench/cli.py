@@ -10,6 +10,7 @@ from contextlib import contextmanager, nullcontext
 
 import click
 
+from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import DatasetError
 
 
@@ -149,8 +150,8 @@ def check_cmd(folder: str) -> None:
 @click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
 @click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
-              "siftom-oracle-text, plus llm-end-to-end,llm-ablated-siftom when an LLM is configured "
-              "(SIFTOM_LLM_BASE_URL + SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)")
+              "siftom-oracle-text, plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
+              "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
@@ -158,18 +159,23 @@ def check_cmd(folder: str) -> None:
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
+@llm_options
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool) -> None:
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool,
+             llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
+    from siftom.backends.config import llm_configured
     from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
-    from siftom.bench.llm_baselines import configured_backend
     from siftom.bench.report import main_table, write_report
 
-    default = MODELS + (OPTIONAL_MODELS if configured_backend() else ())
-    if configured_backend() is None and not as_json and not models:
-        click.echo("note: no LLM configured, so the LLM baselines are skipped (set SIFTOM_LLM_BASE_URL and "
-                   "SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)", err=True)
-    opts = EvalOptions(models=_csv(models) or default, engine=engine, nbest=nbest, seed=seed)
+    configured = llm_configured() or flags_given(llm_backend, llm_base_url, llm_model)
+    default = MODELS + (OPTIONAL_MODELS if configured else ())
+    if not configured and not as_json and not models:
+        click.echo("note: no LLM configured, so the LLM models are skipped (set SIFTOM_LLM_BASE_URL and "
+                   "SIFTOM_LLM_MODEL, SIFTOM_LLM_BACKEND=llama, or the --llm-* flags; docs/llm.md)", err=True)
+    chosen = _csv(models) or default
+    llm = llm_config(llm_backend, llm_base_url, llm_model) if set(chosen) & set(OPTIONAL_MODELS) else None
+    opts = EvalOptions(models=chosen, engine=engine, nbest=nbest, seed=seed, llm=llm)
     from siftom.bench.backends import check_backend_args
     from siftom.bench.runlock import RunLock
 

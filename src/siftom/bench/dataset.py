@@ -283,7 +283,7 @@ def load_dataset(folder: str | Path, check_audio: bool = True) -> Dataset:
 
 def select_scenarios(domain: str, n: int) -> list[tuple[str, int | None]]:
     """The first ``n`` scenarios of a domain as (id, seed): registered ones, then generated."""
-    from siftom.world.domains.base import get_domain
+    from siftom.scenarios.base import get_domain
 
     fixed = list(get_domain(domain).fixed())
     out: list[tuple[str, int | None]] = [(sid, None) for sid in fixed[:n]]
@@ -302,7 +302,7 @@ _SCENARIOS: dict[tuple[str, int | None], Any] = {}
 
 def resolve_scenario(sid: str, domain: str, seed: int | None) -> Any:
     """The Scenario for a manifest's (scenario, domain, scenario_seed); cached per process."""
-    from siftom.world.domains.base import get_domain, get_scenario
+    from siftom.scenarios.base import get_domain, get_scenario
 
     key = (sid, seed)
     if key not in _SCENARIOS:
@@ -522,7 +522,7 @@ def build_dataset(
 
 
 def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int], None] | None) -> Dataset:
-    from siftom.world.domains.base import get_domain
+    from siftom.scenarios.base import get_domain
 
     get_domain(opts.domain)  # unknown domain: UnknownNameError with suggestions
     spec_path = root / SPEC

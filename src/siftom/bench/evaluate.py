@@ -6,7 +6,9 @@ Models (names as in ``summary.json``):
 * ``speech-only``: SIFToM's instruction likelihood alone over the N-best list, uniform prior;
 * ``action-only``: SIFToM's goal inference from the observed actions alone (no speech);
 * ``siftom``: the full model, actions + N-best transcript;
-* ``siftom-oracle-text``: the full model given the reference transcript (an upper bound).
+* ``siftom-oracle-text``: the full model given the reference transcript (an upper bound);
+* ``siftom-llm``: the full model with the paper's LLM instruction likelihood (``likelihood/llm.py``);
+  with ``llm-end-to-end`` and ``llm-ablated-siftom`` it runs only when an LLM is configured.
 
 Per stimulus the chosen command is scored against the gold one (object class and count exact;
 class only for ``fetch`` domains), called a helpful error when wrong but its class is part of
@@ -46,7 +48,8 @@ from siftom.errors import DatasetError, SiftomError, unknown_name
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
 # run only when a language model is configured (siftom.bench.llm_baselines)
-OPTIONAL_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
+OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
+LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
@@ -67,6 +70,7 @@ class EvalOptions:
         nbest: ASR hypotheses kept for the N-best models.
         likelihood: SIFToM's instruction likelihood (``phonetic``).
         seed: seed of the bootstrap.
+        llm: the language model of the LLM models (default: ``SIFTOM_LLM_*``).
     """
 
     models: tuple[str, ...] = MODELS
@@ -74,6 +78,7 @@ class EvalOptions:
     nbest: int = 5
     likelihood: str = "phonetic"
     seed: int = 0
+    llm: Any = None  # siftom.backends.config.LLMConfig
 
     def __post_init__(self) -> None:
         if not self.models:
@@ -90,8 +95,11 @@ class EvalOptions:
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict (stored in run.json)."""
-        return {"models": list(self.models), "engine": self.engine, "nbest": self.nbest,
-                "likelihood": self.likelihood}
+        out = {"models": list(self.models), "engine": self.engine, "nbest": self.nbest,
+               "likelihood": self.likelihood}
+        if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
+            out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model")}
+        return out
 
 
 @dataclass
@@ -180,7 +188,7 @@ def is_helpful(command: str, goal_counts: dict[str, Any]) -> bool:
 
 
 def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
-    from siftom.likelihood.base import Hypothesis, Instruction
+    from siftom.observation import Hypothesis, Instruction
 
     hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
     return Instruction(nbest=hyps) if hyps else None
@@ -207,7 +215,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
     from siftom.bench.literal import literal_command
     from siftom.inference.api import get_model
     from siftom.inference.model import Observation
-    from siftom.likelihood.base import Instruction
+    from siftom.observation import Instruction
 
     opts = task.options
     root = Path(task.root)
@@ -237,12 +245,12 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
-            elif m in OPTIONAL_MODELS:
+            elif m in LLM_BASELINES:
                 from siftom.bench.llm_baselines import chooser, command_space
 
                 mk = (skey, m, tr["text"])
                 if mk not in memo:
-                    c_, p_ = chooser(m).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
+                    c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
             else:
@@ -260,7 +268,8 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 elif mode == "speech-only" and heard is None:
                     command, prob = "none", 1.0  # nothing was heard: the robot does nothing
                 else:
-                    post = get_model(mode, opts.likelihood).infer(Observation.from_scenario(sc, heard))
+                    lk = "llm" if m == "siftom-llm" else opts.likelihood
+                    post = get_model(mode, lk, opts.llm).infer(Observation.from_scenario(sc, heard))
                     command, prob = post.command, float(post.commands[0][1])
                 memo[mk] = (command, prob, 0.0)
             team = _simulate(skey, sc, command)

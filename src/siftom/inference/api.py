@@ -11,18 +11,41 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
 from siftom.inference.model import ModelConfig, Observation, Posterior, SIFToM
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
 
+LikelihoodArg = str | InstructionLikelihood
+
+
+def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: LLMConfig | None = None) -> SIFToM:
+    """A model for a mode ("full", "speech-only", "action-only") and an instruction likelihood.
+
+    ``likelihood`` is a registered name (cached models) or a likelihood object (used as is).
+    For "llm", ``llm`` says which language model (default: :meth:`LLMConfig.from_env`, read at
+    each call, so the ``SIFTOM_LLM_*`` variables in force are the ones used).
+    """
+    if not isinstance(likelihood, str):
+        if not isinstance(likelihood, InstructionLikelihood):
+            raise ObservationError(
+                f"likelihood must be a name ('phonetic', 'llm', 'acoustic') or an object with "
+                f"log_prob(instruction, commands), got {type(likelihood).__name__}"
+            )
+        cfg = ModelConfig(mode=mode)
+        return SIFToM(cfg, likelihood if cfg.uses_speech else None)
+    llm = (llm if llm is not None else LLMConfig.from_env()) if likelihood == "llm" else None
+    return _cached_model(mode, likelihood, llm)
+
 
 @lru_cache(maxsize=8)
-def get_model(mode: str = "full", likelihood: str = "phonetic") -> SIFToM:
-    """A cached model for a mode ("full", "speech-only", "action-only") and likelihood name."""
+def _cached_model(mode: str, likelihood: str, llm: LLMConfig | None) -> SIFToM:
     from siftom.likelihood.registry import get_likelihood
 
     cfg = ModelConfig(mode=mode)
-    lk: InstructionLikelihood | None = get_likelihood(likelihood) if cfg.uses_speech else None
+    lk: InstructionLikelihood | None = None
+    if cfg.uses_speech:
+        lk = get_likelihood(likelihood, backend=llm) if llm is not None else get_likelihood(likelihood)
     return SIFToM(cfg, lk)
 
 
@@ -54,17 +77,22 @@ def infer_scenario(
     scenario_id: str,
     instruction: Instruction | None,
     mode: str = "full",
-    likelihood: str = "phonetic",
+    likelihood: LikelihoodArg = "phonetic",
     n_actions: int | None = None,
+    llm: LLMConfig | None = None,
 ) -> Posterior:
-    """Run inference on a registered scenario with its observed actions (or the first ``n_actions``)."""
-    from siftom.world.domains.base import get_scenario
+    """Run inference on a registered scenario with its observed actions (or the first ``n_actions``).
+
+    ``likelihood`` is a name or a likelihood object; ``llm`` configures the "llm" likelihood
+    (default: the ``SIFTOM_LLM_*`` environment).
+    """
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     if n_actions is not None and not 0 <= n_actions <= len(sc.actions):
         raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {scenario_id}")
     obs = Observation.from_scenario(sc, instruction, n_actions)
-    return get_model(mode, likelihood).infer(obs)
+    return get_model(mode, likelihood, llm).infer(obs)
 
 
 def infer_actions(
@@ -72,10 +100,11 @@ def infer_actions(
     actions: Sequence[str],
     instruction: Instruction | None,
     mode: str = "full",
-    likelihood: str = "phonetic",
+    likelihood: LikelihoodArg = "phonetic",
+    llm: LLMConfig | None = None,
 ) -> Posterior:
     """Inference on a registered scenario's start state with the caller's own action strings."""
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     states = [sc.start]
@@ -92,7 +121,7 @@ def infer_actions(
             raise ObservationError(f"actions[{k}] {text!r} is impossible here: {why}")
         states.append(apply(states[-1], a))
     obs = Observation(sc.world, sc.start, tuple(acts), sc.goals, sc.verb, instruction)
-    return get_model(mode, likelihood).infer(obs)
+    return get_model(mode, likelihood, llm).infer(obs)
 
 
 def vocabulary_for(world: Any, verb: str, max_count: int = 4) -> list[str]:

@@ -50,9 +50,9 @@ def _random_goals(world, n: int, seed: int = 0):
 def run_inference_bench(repeats: int = 30) -> dict:
     """Time full inference, incremental updates and scaling with the number of goals."""
     from siftom.inference.model import ModelConfig, Observation, SIFToM
-    from siftom.likelihood.base import Instruction
     from siftom.likelihood.phonetic import PhoneticLikelihood
-    from siftom.world.domains.base import get_scenario
+    from siftom.observation import Instruction
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario("kitchen-cereal-v0")
     lk = PhoneticLikelihood()
@@ -115,7 +115,7 @@ def run_planner_bench(repeats: int = 20) -> dict:
     """A* throughput and the time of the Q* table of a kitchen scenario (all goals x steps)."""
     from siftom.planning.astar import plan_for_goal
     from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
     from siftom.world.model import HUMAN, legal_actions
 
     sc = get_scenario("kitchen-cereal-v0")

@@ -9,6 +9,7 @@ import click
 from rich.console import Console
 from rich.table import Table
 
+from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
 
 
@@ -62,11 +63,21 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--engine", default="pocketsphinx", help="ASR engine for --audio.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
-              likelihood, engine, png, as_json) -> None:
-    """Infer the goal and the robot command from what the human did and said."""
+              likelihood, engine, png, as_json, llm_backend, llm_base_url, llm_model) -> None:
+    """Infer the goal and the robot command from what the human did and said.
+
+    With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
+    """
     from siftom.inference.api import get_model, make_instruction
     from siftom.inference.model import Observation
+
+    llm = None
+    if likelihood == "llm":
+        llm = llm_config(llm_backend, llm_base_url, llm_model)
+    elif flags_given(llm_backend, llm_base_url, llm_model):
+        click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood})", err=True)
 
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
@@ -74,7 +85,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if audio is not None and not nbest and transcript is None:
         world, verb = None, "deliver"
         if scenario_id is not None:
-            from siftom.world.domains.base import get_scenario
+            from siftom.scenarios.base import get_scenario
 
             world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
         from siftom.inference.api import transcribe_for
@@ -84,16 +95,16 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     instruction = make_instruction(transcript, nbest, audio)
     if instruction is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
-    model = get_model(mode, likelihood)
+    model = get_model(mode, likelihood, llm)
     sc = None
     if scenario_id is not None:
-        from siftom.world.domains.base import get_scenario
+        from siftom.scenarios.base import get_scenario
 
         sc = get_scenario(scenario_id)
         if actions_file is not None:
             from siftom.inference.api import infer_actions
 
-            post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood)
+            post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood, llm)
         else:
             post = model.infer(Observation.from_scenario(sc, instruction))
     else:

@@ -5,6 +5,7 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/infer``: JSON (transcript, N-best or actions alone) or multipart with an audio
   file -> the posterior, what was heard, the clarifying decision and the robot's plan.
 * ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
+* ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
 
@@ -125,6 +126,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         return {
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
+            "llm": rt.llm_status(),
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
                        "request_timeout_s": settings.request_timeout_s},
@@ -242,6 +244,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         wav = await run_cpu(rt.say, req.text, req.voice, req.rate, req.noise, req.snr, req.seed)
         return Response(wav, media_type="audio/wav",
                         headers={"Content-Disposition": 'inline; filename="say.wav"'})
+
+    from siftom.service.perceive import install as install_perceive
+
+    install_perceive(app, folder)  # POST /v1/perceive (camera frames through a vision model)
 
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:

@@ -6,6 +6,7 @@ import json
 
 import click
 
+from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
 
 
@@ -22,15 +23,24 @@ def _need_serve_extra() -> None:
 @click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True, help="TCP port")
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,
               help="the service's own folder (map cache); default: a fresh temporary folder")
-def serve_cmd(host: str, port: int, data_dir: str | None) -> None:
-    """Serve the HTTP API and the web page (open http://HOST:PORT/)."""
+@llm_options
+def serve_cmd(host: str, port: int, data_dir: str | None, llm_backend: str | None, llm_base_url: str | None,
+              llm_model: str | None) -> None:
+    """Serve the HTTP API and the web page (open http://HOST:PORT/).
+
+    The "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
+    """
     _need_serve_extra()
     import uvicorn
 
     from siftom.service.app import create_app
+    from siftom.service.runtime import ServiceSettings
 
+    settings = None
+    if flags_given(llm_backend, llm_base_url, llm_model):
+        settings = ServiceSettings(llm=llm_config(llm_backend, llm_base_url, llm_model))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    uvicorn.run(create_app(data_dir), host=host, port=port, log_level="info")
+    uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
 
 
 @click.command("serve")

@@ -27,11 +27,12 @@ import numpy as np
 
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
-from siftom.errors import AudioError, ObservationError, unknown_name
+from siftom.backends.config import LLMConfig
+from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
 from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
-from siftom.likelihood.base import Instruction
-from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
+from siftom.observation import Instruction
+from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -42,12 +43,27 @@ T = TypeVar("T")
 SERVICE_LIKELIHOODS = ("phonetic", "acoustic", "llm")
 
 
-def available_likelihoods() -> tuple[str, ...]:
-    """phonetic and acoustic always; llm when its in-process backend (llama-cpp-python) is installed."""
+def available_likelihoods(llm: LLMConfig | None = None) -> tuple[str, ...]:
+    """phonetic and acoustic always; llm when an endpoint is configured (``llm`` or the
+    ``SIFTOM_LLM_*`` environment) or the in-process backend (llama-cpp-python) is installed."""
     import importlib.util
 
     base = ("phonetic", "acoustic")
-    return base + ("llm",) if importlib.util.find_spec("llama_cpp") is not None else base
+    if llm is None:
+        llm, _ = service_llm_config()
+    if llm is not None and llm.backend == "openai":
+        return base + ("llm",)
+    if (llm is not None and llm.backend == "llama") and importlib.util.find_spec("llama_cpp") is not None:
+        return base + ("llm",)
+    return base
+
+
+def service_llm_config() -> tuple[LLMConfig | None, str]:
+    """The environment's LLM configuration, or (None, why) when it is invalid."""
+    try:
+        return LLMConfig.from_env(), ""
+    except SiftomError as exc:
+        return None, str(exc)
 
 
 @dataclass(frozen=True)
@@ -61,7 +77,9 @@ class ServiceSettings:
         request_timeout_s: a request still working after this long is answered 503.
         workers: how many requests do CPU work at once (the rest wait, within the timeout).
         likelihoods: instruction likelihoods offered (a subset of SERVICE_LIKELIHOODS; default:
-            those whose backend is installed).
+            those whose backend is installed or configured).
+        llm: the language model of the "llm" likelihood (default: ``SIFTOM_LLM_*``, see
+            docs/llm.md; an invalid environment leaves it None and ``/healthz`` says why).
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
     """
@@ -70,11 +88,20 @@ class ServiceSettings:
     max_audio_seconds: float = 30.0
     request_timeout_s: float = 20.0
     workers: int = 4
-    likelihoods: tuple[str, ...] = field(default_factory=lambda: available_likelihoods())
+    likelihoods: tuple[str, ...] | None = None
     cache_size: int = 256
     plan_max_time: float = 0.3
+    llm: LLMConfig | None = None
+    llm_error: str = ""
 
     def __post_init__(self) -> None:
+        if self.llm is None and not self.llm_error:
+            cfg, why = service_llm_config()
+            object.__setattr__(self, "llm", cfg)
+            object.__setattr__(self, "llm_error", why)
+        if self.likelihoods is None:
+            object.__setattr__(self, "likelihoods", available_likelihoods(self.llm) if self.llm is not None
+                               else ("phonetic", "acoustic"))
         if self.max_body_bytes < 1024:
             raise ObservationError(f"max_body_bytes must be >= 1024, got {self.max_body_bytes}")
         if not 0 < self.max_audio_seconds <= 600:
@@ -173,6 +200,17 @@ class Runtime:
     def scenario_ids() -> list[str]:
         return scenario_ids()
 
+    def llm_status(self) -> dict[str, Any]:
+        """What /healthz says about the language model (never the API key)."""
+        cfg = self.settings.llm
+        out: dict[str, Any] = {"offered": "llm" in (self.settings.likelihoods or ())}
+        if cfg is not None:
+            out.update(cfg.public())
+            out["summary"] = cfg.describe()
+        if self.settings.llm_error:
+            out["error"] = self.settings.llm_error
+        return out
+
     def check_likelihood(self, name: str) -> None:
         if name not in self.settings.likelihoods:
             # a request field, not a path: 422 (ObservationError), with the valid names
@@ -188,7 +226,7 @@ class Runtime:
         sc = self.scenario(sid)
 
         def make() -> OnlineInference:
-            model = get_model(mode, likelihood)
+            model = get_model(mode, likelihood, self.settings.llm)
             on = model.online(sc.world, sc.start, sc.goals, sc.verb)
             for a in sc.actions[:n]:
                 on.observe(a)
@@ -205,7 +243,7 @@ class Runtime:
             if actions is not None:
                 from siftom.inference.api import infer_actions
 
-                return infer_actions(sid, actions, instruction, mode, likelihood)
+                return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
             n = len(sc.actions) if n_actions is None else n_actions
             if not 0 <= n <= len(sc.actions):
                 raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")

@@ -115,9 +115,9 @@ def scenarios() -> None:
 @click.option("--domain", default=None, help="Only this domain (e.g. kitchen-v0).")
 def scenarios_list(as_json: bool, domain: str | None) -> None:
     """List registered scenario ids with their domain and story."""
-    from siftom.world.domains.base import domains, get_scenario, scenario_domain, scenario_ids
+    from siftom.scenarios.base import domains, get_scenario, scenario_domain, scenario_ids
 
-    known = [d.id for d in domains()]
+    known = [d.name for d in domains()]
     if domain is not None and domain not in known:
         from siftom.errors import unknown_name
 
@@ -129,7 +129,7 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
         rows.append({"id": sid, "domain": sc.domain, "goal": sc.goal.name, "command": str(sc.command),
                      "num_goals": len(sc.goals), "num_actions": len(sc.actions), "description": sc.description})
     if as_json:
-        click.echo(json.dumps({"domains": [{"id": d.id, "description": d.description} for d in domains()],
+        click.echo(json.dumps({"domains": [{"id": d.name, "description": d.summary} for d in domains()],
                                "scenarios": rows}, indent=2))
         return
     table = Table(title="siftom scenarios")
@@ -145,16 +145,18 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
 @click.option("--png", "png", type=click.Path(path_type=Path), default=None, help="Write a top-down map here.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--no-path", is_flag=True, help="Do not draw the human's trajectory on the map.")
-def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool) -> None:
+@click.option("--step", type=int, default=None,
+              help="Draw the state after this many observed actions (a camera frame; default: all).")
+def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: bool, step: int | None) -> None:
     """Show one scenario: places, objects, the goal and the human's observed actions."""
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     info = sc.summary()
     if png is not None:
         from siftom.world.render import render_scenario
 
-        render_scenario(sc, png, show_path=not no_path)
+        render_scenario(sc, png, show_path=not no_path, step=step)
         info["png"] = str(png)
     if as_json:
         click.echo(json.dumps(info, indent=2))

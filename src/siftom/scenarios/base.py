@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from siftom.errors import CommandParseError, unknown_name
+from siftom.registry import Entry, Registry
 from siftom.world.commands import VALID_FORMS, RobotCommand
 from siftom.world.model import AGENT_NAMES, Action, Goal, State, World, apply
 
@@ -101,52 +101,44 @@ class Scenario:
         }
 
 
-@dataclass(frozen=True)
-class DomainSpec:
-    """A registered domain: id, docstring-level description and how to make scenarios."""
+DOMAINS = Registry("domain")
+DOMAINS.register("household-table-v0", "siftom.scenarios.household:Household",
+                 summary="set the dining table in a 4-room apartment (paper, simulated experiment)")
+DOMAINS.register("kitchen-v0", "siftom.scenarios.kitchen:Kitchen",
+                 summary="gather a recipe's items from a kitchen and a storage room (paper, robot experiment)")
 
-    id: str
-    description: str
-    entry_point: str  # "module:attr" of a class with generate(seed) and fixed() methods
-
-    def load(self) -> Any:
-        module, attr = self.entry_point.split(":")
-        return getattr(importlib.import_module(module), attr)()
-
-
-_DOMAINS: dict[str, DomainSpec] = {}
+# scenario id -> (domain id, factory); filled from every domain's ``scenarios()`` on first use
 _SCENARIOS: dict[str, tuple[str, Callable[[], Scenario]]] = {}
-
-
-def register_domain(spec: DomainSpec) -> None:
-    _DOMAINS[spec.id] = spec
+_LOADED: set[str] = set()
 
 
 def register_scenario(sid: str, domain: str, factory: Callable[[], Scenario]) -> None:
+    """Register one more scenario (a user's own) under a registered domain."""
+    DOMAINS.spec(domain)
     _SCENARIOS[sid] = (domain, factory)
 
 
-def _ensure_builtin() -> None:
-    # importing registers them; always import both, whichever module was imported first
-    from siftom.world.domains import household, kitchen  # noqa: F401
+def _scenarios() -> dict[str, tuple[str, Callable[[], Scenario]]]:
+    for name in DOMAINS.names():
+        if name not in _LOADED:
+            _LOADED.add(name)
+            for sid, factory in get_domain(name).scenarios().items():
+                _SCENARIOS.setdefault(sid, (name, factory))
+    return _SCENARIOS
 
 
-def domains() -> Sequence[DomainSpec]:
-    _ensure_builtin()
-    return [(_DOMAINS[k]) for k in sorted(_DOMAINS)]
+def domains() -> Sequence[Entry]:
+    """The registered domains (entries with ``name`` and ``summary``), sorted by id."""
+    return [DOMAINS.spec(n) for n in sorted(DOMAINS.names())]
 
 
 def get_domain(domain_id: str) -> Any:
-    """The domain object (with ``generate(seed)`` and ``fixed()``) for an id."""
-    _ensure_builtin()
-    if domain_id not in _DOMAINS:
-        raise unknown_name("domain", domain_id, _DOMAINS)
-    return _DOMAINS[domain_id].load()
+    """The domain object (with ``generate(seed)``, ``fixed()`` and ``scenarios()``) for an id."""
+    return DOMAINS.make(domain_id)
 
 
 def scenario_ids() -> list[str]:
-    _ensure_builtin()
-    return sorted(_SCENARIOS, key=_natural)
+    return sorted(_scenarios(), key=_natural)
 
 
 def _natural(s: str) -> tuple:
@@ -160,16 +152,16 @@ _CACHE: dict[str, Scenario] = {}
 
 def get_scenario(sid: str) -> Scenario:
     """A registered scenario by id, e.g. ``kitchen-cereal-v0`` or ``household-table-v0/3``."""
-    _ensure_builtin()
-    if sid not in _SCENARIOS:
-        raise unknown_name("scenario", sid, _SCENARIOS)
+    scenarios = _scenarios()
+    if sid not in scenarios:
+        raise unknown_name("scenario", sid, scenarios)
     if sid not in _CACHE:
-        _CACHE[sid] = _SCENARIOS[sid][1]()
+        _CACHE[sid] = scenarios[sid][1]()
     return _CACHE[sid]
 
 
 def scenario_domain(sid: str) -> str:
-    _ensure_builtin()
-    if sid not in _SCENARIOS:
-        raise unknown_name("scenario", sid, _SCENARIOS)
-    return _SCENARIOS[sid][0]
+    scenarios = _scenarios()
+    if sid not in scenarios:
+        raise unknown_name("scenario", sid, scenarios)
+    return scenarios[sid][0]

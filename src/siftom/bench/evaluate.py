@@ -376,20 +376,13 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
             old = json.loads(run_path.read_text(encoding="utf-8"))
         except json.JSONDecodeError:
             old = {}
-    if old and not overwrite:
-        mismatch = [k for k in ("dataset_fingerprint", "options") if old.get(k) != run_info[k]]
-        if mismatch and (root / RESULTS).is_file():
-            raise DatasetError(
-                f"{root} holds results of another run (different {' and '.join(mismatch)}); "
-                "use another --out folder or pass --overwrite to start over"
-            )
     if overwrite:
         for name in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS):
             (root / name).unlink(missing_ok=True)
     t0 = time.perf_counter()
     old_rows = _read_jsonl(root / RESULTS, repair=True)
     check_unique(old_rows, root / RESULTS)
-    for n, r in enumerate(old_rows, 1):
+    for n, r in enumerate(old_rows, 1):  # every row says how it was made: another run's rows are refused
         differs = provenance_mismatch(r.get("provenance"), prov)
         if differs:
             raise DatasetError(

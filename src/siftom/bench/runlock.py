@@ -74,12 +74,14 @@ def _describe(owner: dict[str, Any] | None) -> str:
             f"({owner.get('command', '?')})")
 
 
-_HELD: dict[str, tuple[int, int]] = {}  # resolved folder -> (fd, depth): re-entrant in a process
+# (resolved folder, thread) -> (fd, depth): re-entrant within a thread; another thread of the
+# same process opens its own descriptor, and flock refuses it like another process
+_HELD: dict[tuple[str, int], tuple[int, int]] = {}
 _HELD_MUTEX = threading.Lock()
 
 
 class RunLock:
-    """Exclusive ownership of a results folder, re-entrant within one process.
+    """Exclusive ownership of a results folder, re-entrant within one thread.
 
     Use as a context manager; ``took_over`` holds the record of a stale lock that was taken over.
 
@@ -91,7 +93,7 @@ class RunLock:
         self.folder = Path(folder)
         self.path = self.folder / LOCK
         self.took_over: dict[str, Any] | None = None
-        self._key = ""
+        self._key: tuple[str, int] = ("", 0)
 
     def __enter__(self) -> RunLock:
         self.acquire()
@@ -103,7 +105,7 @@ class RunLock:
     def acquire(self) -> None:
         """Take the folder, or raise RunLockedError naming its owner."""
         self.folder.mkdir(parents=True, exist_ok=True)
-        self._key = str(self.folder.resolve())
+        self._key = (str(self.folder.resolve()), threading.get_ident())
         with _HELD_MUTEX:
             if self._key in _HELD:
                 fd, depth = _HELD[self._key]

@@ -534,6 +534,8 @@ def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int
                 "use another --out folder or delete this one"
             )
     (root / AUDIO_DIR).mkdir(parents=True, exist_ok=True)
+    for tmp in (root / AUDIO_DIR).glob("*.tmp.wav"):  # left by a stopped worker; we hold the lock
+        tmp.unlink()
     t0 = time.perf_counter()
     units = plan_units(opts)
     spec = {"format_version": FORMAT_VERSION, "options": opts.to_json(),

@@ -202,8 +202,8 @@ class _Task:
 
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
+    from siftom.api import get_model
     from siftom.bench.literal import literal_command
-    from siftom.inference.api import get_model
     from siftom.inference.model import Observation
     from siftom.observation import Instruction
 

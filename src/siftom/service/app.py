@@ -31,9 +31,9 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.datastructures import UploadFile
 
+from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
-from siftom.inference.api import make_instruction
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,

@@ -25,11 +25,11 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from siftom.api import get_model, make_instruction
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.backends.config import LLMConfig
 from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
-from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
@@ -148,7 +148,7 @@ class _Engine:
 
 def scenario_vocabulary(scenario: Scenario) -> list[str]:
     """Every phrasing of every command of the scenario: the ASR's language model."""
-    from siftom.inference.api import vocabulary_for
+    from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
 
@@ -241,7 +241,7 @@ class Runtime:
         sc = self.scenario(sid)
         with self._model_lock(mode, likelihood):
             if actions is not None:
-                from siftom.inference.api import infer_actions
+                from siftom.api import infer_actions
 
                 return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
             n = len(sc.actions) if n_actions is None else n_actions

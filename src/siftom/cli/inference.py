@@ -70,7 +70,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
 
     With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
     """
-    from siftom.inference.api import get_model, make_instruction
+    from siftom.api import get_model, make_instruction
     from siftom.inference.model import Observation
 
     llm = None
@@ -88,7 +88,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
             from siftom.scenarios.base import get_scenario
 
             world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
-        from siftom.inference.api import transcribe_for
+        from siftom.api import transcribe_for
 
         tr = transcribe_for(audio, world, verb, engine)
         nbest = [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
@@ -102,7 +102,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
 
         sc = get_scenario(scenario_id)
         if actions_file is not None:
-            from siftom.inference.api import infer_actions
+            from siftom.api import infer_actions
 
             post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood, llm)
         else:
@@ -161,7 +161,7 @@ def print_posterior(post, console: Console | None = None) -> None:
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.inference.bench import bench_inference_cmd, bench_planner_cmd
+    from siftom.bench.speed import bench_inference_cmd, bench_planner_cmd
 
     bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)

@@ -35,6 +35,10 @@ from siftom.world.model import State, World
 # human stops working to listen and answer (about two of the world's unit actions), and the
 # robot waits for the answer before it moves. docs/decisions.md.
 DEFAULT_ASK_COST = 2.0
+# Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
+# Lagrange multiplier of a budget of questions per trial, chosen on a development set of
+# another seed (docs/decisions.md; `siftom bench ask-penalty`).
+DEFAULT_QUESTION_PENALTY = 0.0
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
 
@@ -185,11 +189,19 @@ class AskOrActRule:
     """Ask the best question when its EVI exceeds ``ask_cost`` steps; otherwise expected benefit."""
 
     ask_cost: float = DEFAULT_ASK_COST
+    penalty: float = DEFAULT_QUESTION_PENALTY
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
-        if not (self.ask_cost >= 0 and np.isfinite(self.ask_cost)):
-            raise ObservationError(f"ask_cost must be a non-negative number of steps, got {self.ask_cost}")
+        for k in ("ask_cost", "penalty"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
+                raise ObservationError(f"{k} must be a non-negative number of steps, got {v!r}")
+
+    @property
+    def threshold(self) -> float:
+        """EVI (steps) a question must beat: its time plus the interruption penalty."""
+        return self.ask_cost + self.penalty
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
@@ -198,14 +210,14 @@ class AskOrActRule:
         p = 0.0 if a == NONE else post.prob(a)
         qs = question_values(tv, post)
         top = _top(tv.actions, eb)
-        if qs and qs[0][0] > self.ask_cost:
+        if qs and qs[0][0] > self.threshold:
             evi, opts = qs[0]
             q = f"Did you mean {describe_command(opts[0])} or {describe_command(opts[1])}?"
             return Decision(self.name, "ask", a, p, float(eb[best]), q, opts, evi, self.ask_cost,
-                            f"asking is worth {evi:.1f} steps > its cost {self.ask_cost:g}", top)
+                            f"asking is worth {evi:.1f} steps > its cost {self.threshold:g}", top)
         evi = qs[0][0] if qs else 0.0
         return Decision(self.name, a, a, p, float(eb[best]), "", (), evi, self.ask_cost,
-                        f"acting: the best question is worth {evi:.1f} steps <= its cost {self.ask_cost:g}; "
+                        f"acting: the best question is worth {evi:.1f} steps <= its cost {self.threshold:g}; "
                         + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
 
 

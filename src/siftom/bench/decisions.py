@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
@@ -21,7 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from siftom.assist.decide import DEFAULT_ASK_COST, Situation, decide, with_answer
+from siftom.assist.decide import (
+    DEFAULT_ASK_COST,
+    DEFAULT_QUESTION_PENALTY,
+    Situation,
+    decide,
+    with_answer,
+)
 
 DECISION_MODELS = {"siftom-eb": "expected-benefit", "siftom-ask": "ask-or-act"}
 FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
@@ -88,6 +95,7 @@ def run_decision_model(
     dataset_root: str,
     transcribe: Callable[[np.ndarray], Any],
     ask_cost: float = DEFAULT_ASK_COST,
+    penalty: float | None = None,
 ) -> dict[str, Any]:
     """Decide for one stimulus; returns command, prob and what was asked and heard.
 
@@ -99,20 +107,26 @@ def run_decision_model(
         likelihood: the instruction likelihood's name (it also scores the answer).
         dataset_root: the dataset folder (for its noise folder).
         transcribe: audio samples -> transcript with ``nbest`` (the evaluator's ASR engine).
-        ask_cost: steps one question costs the team.
+        ask_cost: steps one question costs the team (added to L_team).
+        penalty: the interruption penalty in steps (default: ``$SIFTOM_QUESTION_PENALTY``, for
+            tuning runs on a development set, else :data:`DEFAULT_QUESTION_PENALTY`).
     """
     from siftom.bench.evaluate import is_correct
     from siftom.inference.api import get_model
     from siftom.inference.model import Observation
 
+    if penalty is None:
+        penalty = float(os.environ.get("SIFTOM_QUESTION_PENALTY", DEFAULT_QUESTION_PENALTY))
     sift = get_model("full", likelihood)
     posterior = sift.infer(Observation.from_scenario(scenario, instruction))
     where = Situation.from_scenario(scenario)
     rule = DECISION_MODELS[model]
-    opts = {"ask_cost": ask_cost} if rule == "ask-or-act" else {}
+    opts = {"ask_cost": ask_cost, "penalty": penalty} if rule == "ask-or-act" else {}
     d = decide(posterior, where, rule, **opts)
     out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
                            "expected_benefit": round(d.expected_benefit, 3)}
+    if rule == "ask-or-act":
+        out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty})
     if not d.ask:
         return out
     text = answer_text(stimulus.gold_command, stimulus.id)

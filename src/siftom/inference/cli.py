@@ -174,3 +174,6 @@ def register(root: click.Group) -> None:
     bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)
     bench.add_command(bench_planner_cmd)
+    from siftom.assist.bench import bench_decide_cmd
+
+    bench.add_command(bench_decide_cmd)

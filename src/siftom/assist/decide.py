@@ -38,7 +38,7 @@ DEFAULT_ASK_COST = 2.0
 # Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
 # Lagrange multiplier of a budget of questions per trial, chosen on a development set of
 # another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 0.0
+DEFAULT_QUESTION_PENALTY = 10.0
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
 

@@ -146,3 +146,26 @@ def test_malformed_dataset_raises_dataset_error(tmp_path: Path, content: str | N
 def test_missing_folder_says_how_to_build(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match="siftom dataset build"):
         load_dataset(tmp_path / "nope")
+
+
+def test_summary_counts_questions_confident_errors_and_missing_speedups() -> None:
+    def trial(command: str, prob: float, correct: bool, speedup: float | None, **kw) -> dict:
+        return {"command": command, "prob": prob, "correct": correct, "helpful": False, "speedup": speedup, **kw}
+
+    trials = [
+        trial("deliver(fork,3)", 0.9, False, -0.1, asked=True),  # confident and wrong
+        trial("deliver(fork,2)", 0.95, True, 0.3, asked=True),
+        trial("deliver(fork,2)", 0.5, False, 0.1, asked=False),  # wrong but not confident
+        trial("none", 0.99, False, 0.0, asked=False),  # doing nothing is never confident-wrong
+        trial("deliver(cup,1)", 0.2, False, None, asked=False,
+              speedup_error="no plan for 1 cup (node_limit); the scenario may be unsolvable"),
+    ]
+    s = summarise_model(trials).to_json()
+    assert s["questions_per_trial"] == pytest.approx(2 / 5)
+    assert s["accuracy_after_answer"] == pytest.approx(1 / 2)
+    assert s["confident_wrong_share"] == pytest.approx(1 / 5)
+    assert s["no_speedup"] == 1 and s["n_speedup"] == 4
+    assert s["no_speedup_reasons"] == {"planner budget exhausted (node_limit)": 1}
+    assert s["neg_speedup_share"] == pytest.approx(1 / 4)
+    plain = summarise_model([{k: v for k, v in t.items() if k != "asked"} for t in trials]).to_json()
+    assert plain["accuracy_after_answer"] is None and plain["questions_per_trial"] == 0

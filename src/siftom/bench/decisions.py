@@ -123,8 +123,10 @@ def run_decision_model(
     rule = DECISION_MODELS[model]
     opts = {"ask_cost": ask_cost, "penalty": penalty} if rule == "ask-or-act" else {}
     d = decide(posterior, where, rule, **opts)
+    # what the robot believes was asked for (the MAP command), next to what it does
     out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
-                           "expected_benefit": round(d.expected_benefit, 3)}
+                           "expected_benefit": round(d.expected_benefit, 3), "map_command": posterior.command,
+                           "map_correct": is_correct(posterior.command, stimulus.gold_command, scenario.verb)}
     if rule == "ask-or-act":
         out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty})
     if not d.ask:
@@ -142,7 +144,8 @@ def run_decision_model(
     out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
                 "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": text, "answer_heard": hyps[0].text if hyps else "",
+                "answer": text, "answer_heard": hyps[0].text if hyps else "", "map_command": post2.command,
+                "map_correct": is_correct(post2.command, stimulus.gold_command, scenario.verb),
                 "expected_benefit": round(d2.expected_benefit, 3)})
     return out
 

@@ -5,6 +5,8 @@
 * speedup: mean over trials of ``L_single / L_team - 1`` (agents/team.py);
 * negative-speedup share: trials where the robot made the team slower than the human alone;
 * helpful-error share: among wrong trials, those whose class is part of the human's goal;
+* MAP accuracy (decision-rule models): the share of trials whose most probable command (after
+  the answer, when the robot asked) is right, whatever the robot chose to execute;
 * questions per trial (models that may ask, bench/decisions.py), and accuracy after the
   answer: among the trials where the robot asked, the share whose final command is right;
 * confident-wrong share: trials where the robot acted on a command it gave probability
@@ -70,6 +72,7 @@ class ModelSummary:
     confident_wrong_share: float = float("nan")
     accuracy_after_answer: float | None = None
     no_speedup_reasons: tuple[tuple[str, int], ...] = ()
+    map_accuracy: float | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The documented summary.json entry (rounded to 4 decimals)."""
@@ -84,6 +87,7 @@ class ModelSummary:
             "accuracy_after_answer": None if self.accuracy_after_answer is None else r(self.accuracy_after_answer),
             "no_speedup": self.n - self.n_speedup,
             "no_speedup_reasons": dict(self.no_speedup_reasons),
+            "map_accuracy": None if self.map_accuracy is None else r(self.map_accuracy),
         }
 
 
@@ -123,6 +127,8 @@ def summarise_model(trials: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: 
         accuracy_after_answer=(float(np.mean([bool(t["correct"]) for t in asked])) if asked
                                else (None if not any("asked" in t for t in trials) else float("nan"))),
         no_speedup_reasons=tuple(sorted(reasons.items())),
+        map_accuracy=(float(np.mean([bool(t["map_correct"]) for t in trials]))
+                      if trials and all("map_correct" in t for t in trials) else None),
     )
 
 

@@ -96,13 +96,13 @@ def main_table(summary: dict[str, Any]) -> str:
 
 def decision_table(summary: dict[str, Any]) -> str:
     """Questions, confident errors and trials without a speedup, one row per model."""
-    lines = ["| model | questions / trial | accuracy after the answer | confident wrong (P >= 0.8) "
-             "| no speedup (why) |", "|---|---|---|---|---|"]
+    lines = ["| model | questions / trial | accuracy after the answer | MAP accuracy | confident wrong (P >= 0.8) "
+             "| no speedup (why) |", "|---|---|---|---|---|---|"]
     for m, s in summary["models"].items():
         acc = s.get("accuracy_after_answer")
         why = "; ".join(f"{k}: {v}" for k, v in (s.get("no_speedup_reasons") or {}).items())
         q = s.get("questions_per_trial")
-        lines.append(f"| {m} | {'–' if q is None else f'{q:.3f}'} | {_pct(acc)} "
+        lines.append(f"| {m} | {'–' if q is None else f'{q:.3f}'} | {_pct(acc)} | {_pct(s.get('map_accuracy'))} "
                      f"| {_pct(s.get('confident_wrong_share'))} | {s.get('no_speedup', 0)}"
                      + (f" ({why})" if why else "") + " |")
     return "\n".join(lines)
@@ -237,7 +237,8 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
     parts += ["## Decisions and questions", "",
               "Questions: trials where the robot asked before acting (the answer is spoken and recognised "
               "like the instruction; the exchange costs the team steps). Confident wrong: the robot acted on "
-              "a command it gave probability >= 0.8 and was wrong. No speedup: trials whose team simulation "
+              "a command it gave probability >= 0.8 and was wrong. MAP accuracy (decision-rule models): the most "
+              "probable command after the answer is right, whatever the robot executed. No speedup: trials whose team simulation "
               "ran out of planning budget; they are left out of the speedup mean and the negative share.", "",
               decision_table(summary), ""]
     if FIG_ASK in names:

@@ -169,3 +169,18 @@ def test_summary_counts_questions_confident_errors_and_missing_speedups() -> Non
     assert s["neg_speedup_share"] == pytest.approx(1 / 4)
     plain = summarise_model([{k: v for k, v in t.items() if k != "asked"} for t in trials]).to_json()
     assert plain["accuracy_after_answer"] is None and plain["questions_per_trial"] == 0
+
+
+def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
+    from siftom.bench.decisions import penalty_curve
+
+    def row(evi: float, ask_ok: bool, eb_ok: bool) -> dict:
+        return {"models": {
+            "siftom-ask": {"asked": True, "evi": evi, "ask_cost": 2.0, "penalty": 0.0, "correct": ask_ok, "speedup": 0.2},
+            "siftom-eb": {"correct": eb_ok, "speedup": -0.1}}}
+
+    rows = [row(3.0, True, False), row(9.0, True, False), row(20.0, False, True)]
+    c = {p["penalty"]: p for p in penalty_curve(rows, [0.0, 5.0, 30.0])}
+    assert [c[x]["questions_per_trial"] for x in (0.0, 5.0, 30.0)] == pytest.approx([1.0, 2 / 3, 0.0])
+    assert c[5.0]["accuracy"] == pytest.approx(1 / 3)  # asks on 9 and 20: right, wrong; acts on 3: wrong
+    assert c[30.0]["neg_speedup_share"] == 1.0

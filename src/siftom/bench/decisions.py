@@ -20,6 +20,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import click
 import numpy as np
 
 from siftom.assist.decide import (
@@ -158,3 +159,54 @@ def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, An
         out["l_team"] = l_team
         out["speedup"] = round(team["l_single"] / l_team - 1.0, 6) if l_team > 0 else 0.0
     return out
+
+
+def penalty_curve(rows: list[dict[str, Any]], penalties: Any) -> list[dict[str, float]]:
+    """Questions, accuracy and speedup of ``siftom-ask`` at each interruption penalty.
+
+    ``rows`` come from a tuning run with the penalty at 0 (``SIFTOM_QUESTION_PENALTY=0``) and
+    both ``siftom-eb`` and ``siftom-ask``: a trial asks at penalty ``x`` iff its EVI exceeds
+    ``ask_cost + x``; then its outcome is the asking model's, otherwise the expected-benefit one's.
+    """
+    out = []
+    for x in penalties:
+        res = []
+        for r in rows:
+            a, e = r["models"]["siftom-ask"], r["models"]["siftom-eb"]
+            if a.get("penalty", 0.0) != 0.0:
+                raise ValueError("tune on a run made with SIFTOM_QUESTION_PENALTY=0")
+            res.append((True, a) if a.get("asked") and a["evi"] > a["ask_cost"] + x else (False, e))
+        sp = np.array([t["speedup"] for _, t in res if t.get("speedup") is not None], dtype=float)
+        out.append({"penalty": float(x), "questions_per_trial": float(np.mean([q for q, _ in res])),
+                    "accuracy": float(np.mean([t["correct"] for _, t in res])),
+                    "speedup": float(sp.mean()) if len(sp) else float("nan"),
+                    "neg_speedup_share": float((sp < -1e-9).mean()) if len(sp) else float("nan")})
+    return out
+
+
+@click.command("ask-penalty")
+@click.argument("results", nargs=-1, required=True, type=click.Path(file_okay=False))
+@click.option("--budget", type=float, default=0.3, show_default=True, help="questions per trial allowed")
+@click.option("--json", "as_json", is_flag=True, help="print JSON")
+def ask_penalty_cmd(results: tuple[str, ...], budget: float, as_json: bool) -> None:
+    """Choose the interruption penalty from development runs made with SIFTOM_QUESTION_PENALTY=0.
+
+    The smallest penalty (steps, on a 0.5 grid) whose questions per trial stay within BUDGET
+    on every RESULTS folder: the Lagrange multiplier of the question budget.
+    """
+    from siftom.bench.evaluate import load_results
+
+    grid = np.arange(0.0, 40.01, 0.5)
+    curves = {r: penalty_curve(load_results(r), grid) for r in results}
+    ok = [x for k, x in enumerate(grid) if all(c[k]["questions_per_trial"] <= budget for c in curves.values())]
+    chosen = float(ok[0]) if ok else None
+    if as_json:
+        click.echo(json.dumps({"budget": budget, "penalty": chosen, "curves": curves}, indent=2))
+        return
+    for r, c in curves.items():
+        click.echo(r)
+        for row in c[::4]:
+            click.echo(f"  penalty {row['penalty']:5.1f}: {row['questions_per_trial']:.3f} questions/trial, "
+                       f"accuracy {100 * row['accuracy']:.1f} %, speedup {row['speedup']:+.3f}, "
+                       f"negative {100 * row['neg_speedup_share']:.1f} %")
+    click.echo(f"smallest penalty within {budget} questions per trial on every set: {chosen}")

@@ -177,3 +177,6 @@ def register(root: click.Group) -> None:
     from siftom.assist.bench import bench_decide_cmd
 
     bench.add_command(bench_decide_cmd)
+    from siftom.bench.decisions import ask_penalty_cmd
+
+    bench.add_command(ask_penalty_cmd)

@@ -27,8 +27,9 @@ import numpy as np
 
 from siftom.assist.clarify import describe_command
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
-from siftom.errors import ObservationError, unknown_name
+from siftom.errors import ObservationError
 from siftom.inference.model import JointPosterior, Posterior, logsumexp
+from siftom.registry import Registry
 from siftom.world.model import State, World
 
 # One spoken exchange (the robot asks, the human answers) costs the team this many steps: the
@@ -221,20 +222,20 @@ class AskOrActRule:
                         + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
 
 
-RULES: dict[str, Callable[..., DecisionRule]] = {
-    "map": MapRule,
-    "expected-benefit": ExpectedBenefitRule,
-    "ask-or-act": AskOrActRule,
-}
+RULES = Registry("decision rule", default="map")
+RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
+RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
+               summary="execute the command (or nothing) that saves the team the most steps in expectation")
+RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
+               summary="ask the best question when it is worth more than its cost, else expected-benefit",
+               attrs={"options": ("ask_cost", "penalty")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:
-    """Build the decision rule registered as ``name`` (``map``, ``expected-benefit``, ``ask-or-act``)."""
-    if name not in RULES:
-        raise unknown_name("decision rule", name, RULES)
-    if name == "ask-or-act":
-        return RULES[name](**options)
-    return RULES[name]()
+    """Build the decision rule registered as ``name``; options a rule does not take are ignored."""
+    entry = RULES.spec(name)
+    takes = entry.attrs.get("options", ())
+    return entry.make(**{k: v for k, v in options.items() if k in takes})
 
 
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:

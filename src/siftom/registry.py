@@ -193,6 +193,7 @@ def registries() -> Mapping[str, Registry]:
 _DEFINERS = (
     "siftom.scenarios.base",
     "siftom.speech.tts",
+    "siftom.assist.decide",
 )
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siftom.inference.api import infer_scenario, make_instruction
+from siftom.api import infer_scenario, make_instruction
 from support.fake_openai import Reply, chat_answer, echo_logprobs
 
 HEARD = "can you pass me the silver"

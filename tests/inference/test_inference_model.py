@@ -9,8 +9,8 @@ from scipy.special import logsumexp
 # register both built-in domains whatever was imported first (tests/world/test_domains.py, xfail)
 import siftom.world.domains.household  # noqa: F401
 import siftom.world.domains.kitchen  # noqa: F401
+from siftom.api import infer_scenario, make_instruction
 from siftom.errors import ObservationError
-from siftom.inference.api import infer_scenario, make_instruction
 from siftom.inference.model import UNKNOWN, ModelConfig, Observation, SIFToM
 from siftom.likelihood.base import Instruction
 from siftom.planning.astar import plan_for_goal

@@ -48,7 +48,7 @@ def test_real_model_recovers_the_cereal_story(tmp_path):
     truth_objects = Counter((it.cls, sc.world.places[sc.start.item_at[k]].name) for k, it in enumerate(sc.world.items))
     seen_objects = Counter((it["class"], it["at"]) for it in res.world["items"])
     truth_actions = [sc.world.format_action(a) for a in sc.actions[: steps[-1]]][steps[0]:]
-    from siftom.inference.api import get_model, make_instruction
+    from siftom.api import get_model, make_instruction
     from siftom.inference.model import Observation
     from siftom.world.io import scene_from_json
     from siftom.world.model import apply

@@ -34,7 +34,7 @@ def test_perceive_then_infer_over_http(client, vlm_env, frames):
     assert len(body["actions"]) == 10 and body["num_objects"] == 45 and body["requests"] == 4
     assert body["world"]["target"] == "kitchen_counter"
     # the same world and actions feed the library's inference unchanged
-    from siftom.inference.api import get_model, make_instruction
+    from siftom.api import get_model, make_instruction
     from siftom.inference.model import Observation
     from siftom.world.io import scene_from_json
 

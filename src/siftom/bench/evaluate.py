@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from siftom.bench.dataset import Dataset, Stimulus, load_dataset, scenario_for
+from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
 from siftom.bench.results_io import (
     TIMINGS,
     AtomicAppender,
@@ -46,7 +47,7 @@ from siftom.bench.results_io import (
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.errors import DatasetError, SiftomError, unknown_name
 
-MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
+MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text", "siftom-eb", "siftom-ask")
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
@@ -212,8 +213,8 @@ class _Task:
 
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
+    from siftom.api import get_model
     from siftom.bench.literal import literal_command
-    from siftom.inference.api import get_model
     from siftom.inference.model import Observation
     from siftom.observation import Instruction
 
@@ -242,6 +243,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
         for m in opts.models:
             t0 = time.perf_counter()
             prob = float("nan")
+            extra: dict[str, Any] = {}
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
@@ -253,6 +255,10 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
+            elif m in DECISION_MODELS:  # decision rules and questions: bench/decisions.py
+                extra = run_decision_model(m, s, sc, instr, opts.likelihood, task.root,
+                                           lambda x: _engine(opts.engine, task.vocabulary).transcribe(x, nbest=opts.nbest))
+                command, prob = extra.pop("command"), float(extra.pop("prob"))
             else:
                 mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")
                 if m == "siftom-oracle-text":
@@ -282,6 +288,10 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 "speedup": None if team["speedup"] is None else round(team["speedup"], 6),
                 "seconds": round(time.perf_counter() - t0, 4),
             }
+            if extra:
+                models[m].update(decision_fields(extra, team))
+            if team.get("error"):  # no speedup: say why (summary.json counts these)
+                models[m]["speedup_error"] = team["error"]
         gold = _simulate(skey, sc, s.gold_command)
         row = {
             "id": s.id, "scenario": s.scenario, "speaker": s.speaker, "voice": s.voice,

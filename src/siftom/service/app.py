@@ -31,9 +31,9 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.datastructures import UploadFile
 
+from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
-from siftom.inference.api import make_instruction
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,
@@ -199,7 +199,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
                 nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
                 ins = make_instruction(transcript=req.transcript, nbest=nbest)
                 return rt.infer(req.scenario, ins, req.mode, req.likelihood, req.n_actions, req.actions,
-                                req.top, policy)
+                                req.top, policy, req.decide)
 
             return JSONResponse(await run_cpu(work))
         if media == "multipart/form-data":
@@ -233,7 +233,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             await form.close()
         policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
         return await run_cpu(rt.infer_audio, opts.scenario, data, opts.mode, opts.likelihood, opts.n_actions,
-                             opts.asr_nbest, opts.top, policy)
+                             opts.asr_nbest, opts.top, policy, opts.decide)
 
     # ----- speech ----------------------------------------------------------------------------
     @app.post("/v1/say", tags=["speech"], response_class=Response,

@@ -25,11 +25,11 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from siftom.api import get_model, make_instruction
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.backends.config import LLMConfig
 from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
-from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
@@ -148,7 +148,7 @@ class _Engine:
 
 def scenario_vocabulary(scenario: Scenario) -> list[str]:
     """Every phrasing of every command of the scenario: the ASR's language model."""
-    from siftom.inference.api import vocabulary_for
+    from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
 
@@ -241,7 +241,7 @@ class Runtime:
         sc = self.scenario(sid)
         with self._model_lock(mode, likelihood):
             if actions is not None:
-                from siftom.inference.api import infer_actions
+                from siftom.api import infer_actions
 
                 return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
             n = len(sc.actions) if n_actions is None else n_actions
@@ -264,12 +264,18 @@ class Runtime:
             (sid, n, str(cmd)), lambda: robot_plan(sc, state, cmd, max_time=self.settings.plan_max_time))
 
     def infer(self, sid: str, instruction: Instruction | None, mode: str, likelihood: str,
-              n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+              n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy,
+              decide: str = "map") -> dict[str, Any]:
         """The response body of ``POST /v1/infer``."""
         post = self.posterior(sid, instruction, mode, likelihood, n_actions, actions, top)
         body: dict[str, Any] = {"scenario": sid, **post.to_json(top=top)}
         body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
         body["clarification"] = clarify(post.commands, policy).to_json()
+        if post.joint is not None and post.joint.state is not None:
+            from siftom.assist.decide import Situation, get_rule
+
+            sc = self.scenario(sid)
+            body["decision"] = get_rule(decide)(post, Situation(sc.world, post.joint.state, sc.target)).to_json()
         plan = self.plan(sid, n_actions, actions, post.command)
         body["plan"] = plan.to_json() if plan is not None else None
         return body
@@ -316,7 +322,7 @@ class Runtime:
             return eng.engine.transcribe(audio, nbest=nbest)
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
-                    asr_nbest: int, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+                    asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
         """Transcribe an uploaded recording, then infer from its N-best list."""
         self.check_likelihood(likelihood)
         self.scenario(sid)  # an unknown id fails before decoding
@@ -334,14 +340,14 @@ class Runtime:
             try:
                 write_wav(path, x)
                 instruction = make_instruction(nbest=nbest or None, audio=path)
-                body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+                body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy, decide)
             finally:
                 path.unlink(missing_ok=True)
         else:
             instruction = make_instruction(nbest=nbest) if nbest else None
             if instruction is None and mode == "speech-only":
                 raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
-            body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+            body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy, decide)
         body["asr"] = tr.to_json()
         return body
 

@@ -116,7 +116,7 @@ def voices_cmd(as_json: bool) -> None:
 def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, ...],
                   voices: tuple[str, ...], noises: tuple[str, ...]) -> None:
     """WER and real-time factor per engine x voice x noise x SNR on a fixed instruction set."""
-    from siftom.speech import bench as b
+    from siftom.bench import speech as b
 
     res = b.run_asr_bench(
         engines=engines or b.ENGINES,
@@ -165,7 +165,7 @@ def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, 
 @click.option("--noise", default="babble", show_default=True, help="noise spec used with --snr")
 def bench_acoustic_cmd(as_json: bool, out_dir: str, quick: bool, snr: float | None, noise: str) -> None:
     """Accuracy of ranking the true phrasing first among swapped-object candidates, and cost."""
-    from siftom.speech import bench as b
+    from siftom.bench import speech as b
 
     res = b.run_acoustic_bench(
         voices=b.ACOUSTIC_VOICES[:2] if quick else b.ACOUSTIC_VOICES,

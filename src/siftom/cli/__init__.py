@@ -15,14 +15,14 @@ from siftom.errors import SiftomError
 
 # Modules that contribute subcommands, in the order shown by --help.
 _AREAS = (
-    "siftom.world.cli",
-    "siftom.agents.cli",
-    "siftom.inference.cli",
-    "siftom.speech.cli",
-    "siftom.bench.cli",
-    "siftom.service.cli",
-    "siftom.perception.cli",
-    "siftom.demo",
+    "siftom.cli.world",
+    "siftom.cli.agents",
+    "siftom.cli.inference",
+    "siftom.cli.speech",
+    "siftom.cli.bench",
+    "siftom.cli.service",
+    "siftom.cli.perception",
+    "siftom.cli.demo",
 )
 
 

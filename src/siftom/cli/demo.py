@@ -28,8 +28,8 @@ from rich.console import Console
 def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, seed: int, likelihood: str,
              out_dir: Path) -> None:
     """Speak, add noise, transcribe, infer: the whole SIFToM chain on one scenario."""
-    from siftom.inference.api import get_model, make_instruction, transcribe_for
-    from siftom.inference.cli import print_posterior
+    from siftom.api import get_model, make_instruction, transcribe_for
+    from siftom.cli.inference import print_posterior
     from siftom.inference.model import Observation
     from siftom.scenarios.base import get_scenario
     from siftom.speech import get_noise, mix_at_snr, synthesize, write_wav

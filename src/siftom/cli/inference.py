@@ -62,17 +62,21 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--likelihood", default="phonetic", help="phonetic (default), llm or acoustic.")
 @click.option("--engine", default="pocketsphinx", help="ASR engine for --audio.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
+@click.option("--decide", "rule", default="map", show_default=True,
+              help="Decision rule: map | expected-benefit | ask-or-act (docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
-              likelihood, engine, png, as_json, llm_backend, llm_base_url, llm_model) -> None:
+              likelihood, engine, png, rule, as_json, llm_backend, llm_base_url, llm_model) -> None:
     """Infer the goal and the robot command from what the human did and said.
 
     With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
     """
-    from siftom.inference.api import get_model, make_instruction
+    from siftom.api import get_model, make_instruction
+    from siftom.assist.decide import get_rule
     from siftom.inference.model import Observation
 
+    decision_rule = get_rule(rule)  # an unknown name fails before any work
     llm = None
     if likelihood == "llm":
         llm = llm_config(llm_backend, llm_base_url, llm_model)
@@ -88,7 +92,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
             from siftom.scenarios.base import get_scenario
 
             world, verb = get_scenario(scenario_id).world, get_scenario(scenario_id).verb
-        from siftom.inference.api import transcribe_for
+        from siftom.api import transcribe_for
 
         tr = transcribe_for(audio, world, verb, engine)
         nbest = [{"text": h.text, "score": h.score} for h in tr.nbest] or [{"text": tr.text, "score": 0.0}]
@@ -102,7 +106,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
 
         sc = get_scenario(scenario_id)
         if actions_file is not None:
-            from siftom.inference.api import infer_actions
+            from siftom.api import infer_actions
 
             post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood, llm)
         else:
@@ -121,14 +125,28 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
             acts.append(a)
             s = apply(s, a)
         post = model.infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb, instruction))
+    decision = None
+    if post.joint is not None and post.joint.state is not None:
+        from siftom.assist.decide import Situation
+
+        world = sc.world if sc is not None else scene.world
+        target = sc.target if sc is not None else scene.goals[0].target
+        decision = decision_rule(post, Situation(world, post.joint.state, target))
     if png is not None and sc is not None:
         from siftom.world.render import render_scenario
 
         render_scenario(sc, png, posterior=post)
     if as_json:
-        click.echo(json.dumps(post.to_json(), indent=2))
+        body = post.to_json()
+        if decision is not None:
+            body["decision"] = decision.to_json()
+        click.echo(json.dumps(body, indent=2))
         return
     print_posterior(post)
+    if decision is not None and rule != "map":
+        Console().print(f"[bold]decision ({rule}):[/bold] "
+                        + (f'ask "{decision.question}"' if decision.ask else decision.action)
+                        + f" — {decision.reason}")
 
 
 def print_posterior(post, console: Console | None = None) -> None:
@@ -161,8 +179,14 @@ def print_posterior(post, console: Console | None = None) -> None:
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.inference.bench import bench_inference_cmd, bench_planner_cmd
+    from siftom.bench.speed import bench_inference_cmd, bench_planner_cmd
 
     bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)
     bench.add_command(bench_planner_cmd)
+    from siftom.bench.decide_speed import bench_decide_cmd
+
+    bench.add_command(bench_decide_cmd)
+    from siftom.bench.decisions import ask_penalty_cmd
+
+    bench.add_command(ask_penalty_cmd)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import signal
 from pathlib import Path
 
 import pytest
@@ -58,12 +60,25 @@ def test_bad_configs_say_what_to_fix(tmp_path: Path, text: str, message: str) ->
 
 @pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
 def test_sweep_runs_every_cell_and_resumes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from siftom.bench.backends import LocalBackend
+    from siftom.bench.runlock import RunInterrupted
+    from siftom.bench.sweep import run_sweep
     from siftom.cli import main
 
     cfg = _write(tmp_path, CONFIG.replace("seeds = [0, 1]", "seeds = [0]"))
     out = tmp_path / "out"
-    assert main(["sweep", str(cfg), "--out", str(out), "--workers", "1", "--json"]) == 0
+
+    def terminate_at_second_cell(i: int, total: int, cell: object) -> None:
+        if i == 1:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(RunInterrupted):
+        run_sweep(cfg, out, LocalBackend(1), progress=terminate_at_second_cell)
+    assert not (out / "table.md").exists()
+    assert main(["sweep", str(cfg), "--out", str(out), "--workers", "1", "--json"]) == 0  # resumes
     result = json.loads(capsys.readouterr().out)
+    history = [json.loads((Path(c["results"]) / "run.json").read_text())["history"] for c in result["cells"]]
+    assert [[h["evaluated"] for h in hs] for hs in history] == [[2, 0], [2]]  # the first cell was not redone
     assert [c["values"] for c in result["cells"]] == [{"seeds": 0, "nbest": 1}, {"seeds": 0, "nbest": 5}]
     for c in result["cells"]:
         assert set(c["models"]) == {"literal-asr", "siftom"} and c["n_stimuli"] == 2

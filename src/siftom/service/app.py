@@ -7,6 +7,8 @@ Endpoints (docs/service.md has examples):
 * ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+* ``/v1/sessions``: a robot's own world, streamed actions, instructions
+  (:mod:`siftom.service.session_api`).
 
 CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
 stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
@@ -243,6 +245,11 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         return Response(wav, media_type="audio/wav",
                         headers={"Content-Disposition": 'inline; filename="say.wav"'})
 
+    # ----- sessions --------------------------------------------------------------------------
+    from siftom.service.session_api import install_sessions, session_schemas
+
+    install_sessions(app, rt, run_cpu)
+
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:
         if app.openapi_schema:
@@ -256,6 +263,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
         form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
         comps["AudioInferForm"] = form
+        comps.update(session_schemas(settings.likelihoods))
         app.openapi_schema = schema
         return schema
 

@@ -31,6 +31,7 @@ from siftom.errors import AudioError, ObservationError, unknown_name
 from siftom.inference.api import get_model, make_instruction
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.likelihood.base import Instruction
+from siftom.service.sessions import SessionLimits
 from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
@@ -64,6 +65,7 @@ class ServiceSettings:
             those whose backend is installed).
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
+        sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -73,6 +75,7 @@ class ServiceSettings:
     likelihoods: tuple[str, ...] = field(default_factory=lambda: available_likelihoods())
     cache_size: int = 256
     plan_max_time: float = 0.3
+    sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
 
     def __post_init__(self) -> None:
         if self.max_body_bytes < 1024:

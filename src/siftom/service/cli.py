@@ -21,16 +21,35 @@ def _need_serve_extra() -> None:
 @click.option("--host", default="127.0.0.1", show_default=True, help="interface to listen on")
 @click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True, help="TCP port")
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,
-              help="the service's own folder (map cache); default: a fresh temporary folder")
-def serve_cmd(host: str, port: int, data_dir: str | None) -> None:
+              help="the service's own folder (map cache, sessions.sqlite3); give the same folder after a "
+                   "restart to continue the sessions; default: a fresh temporary folder")
+@click.option("--max-sessions", type=click.IntRange(1, 1_000_000), default=1000, show_default=True,
+              help="sessions stored at once (429 above)")
+@click.option("--session-idle", type=click.FloatRange(1, 365 * 86400), default=86400.0, show_default=True,
+              help="seconds without a change after which a session is deleted")
+@click.option("--max-world-bytes", type=click.IntRange(1024, 64 * 2**20), default=2**20, show_default=True,
+              help="largest world JSON in POST /v1/sessions (413 above)")
+@click.option("--max-world-items", type=click.IntRange(1, 10_000), default=200, show_default=True,
+              help="most objects a session's world may hold (422 above)")
+@click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
+              help="most actions one session may observe (422 above)")
+def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, session_idle: float,
+              max_world_bytes: int, max_world_items: int, max_session_actions: int) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/)."""
     _need_serve_extra()
     import uvicorn
 
     from siftom.service.app import create_app
+    from siftom.service.runtime import ServiceSettings
+    from siftom.service.sessions import SessionLimits
 
+    limits = SessionLimits(max_sessions=max_sessions, idle_s=session_idle, max_world_bytes=max_world_bytes,
+                           max_world_items=max_world_items, max_actions=max_session_actions)
+    # a world of max_world_bytes must fit in a request body
+    settings = ServiceSettings(sessions=limits, max_body_bytes=max(ServiceSettings().max_body_bytes,
+                                                                   max_world_bytes + 4096))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    uvicorn.run(create_app(data_dir), host=host, port=port, log_level="info")
+    uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
 
 
 @click.command("serve")

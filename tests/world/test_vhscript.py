@@ -38,7 +38,7 @@ def test_script_lines_of_a_recorded_scenario_give_its_actions(sid):
     assert acts == list(sc.actions)
     assert end == sc.now
     # both formats mixed in one list
-    mixed = [sc.world.format_action(a) if k % 2 else line for k, (a, line) in enumerate(zip(sc.actions, lines))]
+    mixed = [sc.world.format_action(a) if k % 2 else line for k, (a, line) in enumerate(zip(sc.actions, lines, strict=True))]
     assert parse_actions(sc.world, sc.start, mixed)[0] == list(sc.actions)
 
 

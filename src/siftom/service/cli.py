@@ -61,9 +61,21 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
               help="unmeasured requests first (fill the caches)")
 @click.option("--url", default=None, help="an already running server; default: start one on loopback")
 @click.option("--json", "as_json", is_flag=True, help="print the result as JSON")
-def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool) -> None:
-    """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles."""
+@click.option("--sessions", type=click.IntRange(1, 1000), default=None,
+              help="load-test the session API instead: this many sessions at once, each streaming "
+                   "--actions actions and one instruction")
+@click.option("--actions", "n_actions", type=click.IntRange(1, 12), default=10, show_default=True,
+              help="with --sessions: actions streamed per session, one request each")
+@click.option("--interval", type=click.FloatRange(0, 10), default=0.0, show_default=True,
+              help="with --sessions: seconds between one session's requests (0: back to back)")
+def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool, sessions: int | None,
+                    n_actions: int, interval: float) -> None:
+    """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles
+    (--sessions: the session API)."""
     _need_serve_extra()
+    if sessions is not None:
+        _bench_sessions(sessions, n_actions, interval, url, as_json)
+        return
     from siftom.service.loadtest import run_load_test
 
     res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url)
@@ -74,6 +86,22 @@ def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_j
     click.echo(f"{res.ok}/{res.requests} ok, concurrency {res.concurrency}, {res.seconds:.2f} s: "
                f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
                f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} >= 50 req/s, p99 < 200 ms)")
+
+
+def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | None, as_json: bool) -> None:
+    from siftom.service.session_load import run_session_load
+
+    res = run_session_load(sessions=sessions, actions=n_actions, interval=interval, url=url)
+    if as_json:
+        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
+        return
+    verdict = "meets" if res.meets() else "MISSES"
+    click.echo(f"{res.sessions} sessions x ({res.actions_per_session} actions + 1 instruction), interval "
+               f"{res.interval_s:g} s: {res.requests - res.errors}/{res.requests} ok, {res.lost} lost, "
+               f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
+               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} p99 < 200 ms, nothing lost); "
+               f"creating a session: p50 {res.create_p50_ms:.1f} ms, max {res.create_max_ms:.1f} ms; server CPU "
+               f"{res.server_cpu_ms_per_request} ms per streamed request")
 
 
 def register(root: click.Group) -> None:

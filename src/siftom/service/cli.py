@@ -66,8 +66,9 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
                    "--actions actions and one instruction")
 @click.option("--actions", "n_actions", type=click.IntRange(1, 12), default=10, show_default=True,
               help="with --sessions: actions streamed per session, one request each")
-@click.option("--interval", type=click.FloatRange(0, 10), default=0.0, show_default=True,
-              help="with --sessions: seconds between one session's requests (0: back to back)")
+@click.option("--interval", type=click.FloatRange(0, 10), default=1.0, show_default=True,
+              help="with --sessions: seconds between one session's requests (a person acts about once a "
+                   "second; 0: back to back, all sessions in flight at once)")
 def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool, sessions: int | None,
                     n_actions: int, interval: float) -> None:
     """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles

@@ -4,8 +4,11 @@
 built-in household scenarios that have at least ``actions`` recorded actions, exported as world
 JSON), then every session, concurrently, streams its scenario's first ``actions`` actions one
 request at a time (odd sessions as VirtualHome script lines, even ones in siftom's form) and
-sends one instruction. ``interval`` seconds pass between a session's requests (0: as fast as
-the server answers, the harshest case; a robot sees a person act about once a second).
+sends one instruction. ``interval`` seconds pass between a session's requests (default 1 s: a
+person acts about once a second, and a robot reports each action as it sees it); sessions start
+at seeded random offsets within the first interval, as robots are not synchronised. With
+``interval=0`` every session sends back to back, all 50 in flight at once: the harshest case,
+which measures queueing rather than the service (latency ~ sessions x CPU per request).
 Afterwards every session is read back: an action or an answer missing there counts as lost.
 Creation is measured apart from the streamed requests.
 
@@ -143,8 +146,8 @@ def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]
             proc.kill()
 
 
-async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: float, pid: int | None = None
-               ) -> tuple[list[float], list[float], int, int, float, float | None]:
+async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: float, pid: int | None = None,
+               seed: int = 0) -> tuple[list[float], list[float], int, int, float, float | None]:
     import httpx
 
     n = len(work)
@@ -161,12 +164,15 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
         errors = sum(1 for sid, _t in made if sid is None)
         answers: dict[str, str] = {}
 
-        async def stream(sid: str, w: dict[str, Any]) -> None:
+        offsets = np.random.default_rng(seed).uniform(0.0, interval, size=len(work))
+
+        async def stream(sid: str, w: dict[str, Any], offset: float) -> None:
             nonlocal errors
             reqs = [("actions", {"actions": [line]}) for line in w["actions"]]
             reqs.append(("instruction", {"transcript": w["transcript"]}))
-            for path, body in reqs:
-                if interval:
+            await asyncio.sleep(offset)
+            for k, (path, body) in enumerate(reqs):
+                if interval and k:
                     await asyncio.sleep(interval)
                 t0 = time.perf_counter()
                 try:
@@ -181,7 +187,8 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
 
         t0 = time.perf_counter()
         cpu0 = _cpu_seconds(pid)
-        await asyncio.gather(*(stream(sid, w) for (sid, _t), w in zip(made, work, strict=True) if sid))
+        await asyncio.gather(*(stream(sid, w, off) for (sid, _t), w, off in zip(made, work, offsets, strict=True)
+                               if sid))
         secs = time.perf_counter() - t0
         cpu1 = _cpu_seconds(pid)
         cpu = (cpu1 - cpu0) / max(len(lat), 1) * 1000.0 if cpu0 is not None and cpu1 is not None else None
@@ -196,18 +203,19 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
         return lat, create_lat, errors, lost, secs, cpu
 
 
-def run_session_load(sessions: int = 50, actions: int = 10, interval: float = 0.0, url: str | None = None,
-                     timeout: float = 60.0, warmup: bool = True, _pid: int | None = None) -> SessionLoadResult:
+def run_session_load(sessions: int = 50, actions: int = 10, interval: float = 1.0, url: str | None = None,
+                     timeout: float = 60.0, warmup: bool = True, seed: int = 0,
+                     _pid: int | None = None) -> SessionLoadResult:
     """Run the session load test (see module doc); None ``url`` starts ``siftom serve`` on loopback."""
     if sessions < 1 or actions < 1 or interval < 0:
         raise SiftomError("sessions and actions must be >= 1 and interval >= 0")
     if url is None:
         with serve_in_process() as (base, pid):
-            return run_session_load(sessions, actions, interval, base, timeout, warmup, pid)
+            return run_session_load(sessions, actions, interval, base, timeout, warmup, seed, pid)
     work = workload(sessions, actions)
     if warmup:  # load the likelihood's lexicon and the planner once, unmeasured
         asyncio.run(_run(url, work[:1], 0.0, timeout))
-    lat, create_lat, errors, lost, secs, cpu = asyncio.run(_run(url, work, interval, timeout, _pid))
+    lat, create_lat, errors, lost, secs, cpu = asyncio.run(_run(url, work, interval, timeout, _pid, seed))
     ms = np.asarray(lat or [0.0]) * 1000.0
     cms = np.asarray(create_lat) * 1000.0
     p50, p90, p99 = (float(np.percentile(ms, q)) for q in (50, 90, 99))

@@ -184,3 +184,46 @@ def test_virtualhome_scene_graph_session_with_script_lines(folder):
     assert view["actions"][-1] == "put(human, cutleryfork.1006, kitchentable.130)"
     r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "could you bring me two wine glasses"})
     assert r.status_code == 200 and r.json()["command"] == "deliver(wineglass,2)"
+
+
+def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS})
+    wav = c.post("/v1/say", json={"text": "can you get me the tomato"})
+    if wav.status_code != 200:
+        pytest.skip(f"no TTS voice: {wav.text[:200]}")
+    r = c.post(f"/v1/sessions/{sid}/instruction", data={"asr_nbest": "3"},
+               files={"audio": ("say.wav", wav.content, "audio/wav")})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
+    assert body["command"] == "fetch(tomato)"
+    r = c.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("x.wav", b"not audio", "audio/wav")})
+    assert r.status_code == 422 and "send WAV, FLAC or OGG" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/instruction", content=b"hi", headers={"content-type": "text/plain"})
+    assert r.status_code == 415
+
+
+def test_infer_endpoint_takes_virtualhome_lines_too(folder):
+    from siftom.world.domains.base import get_scenario
+
+    c = _client(folder)
+    sc = get_scenario("kitchen-cereal-v0")
+    siftom_form = [sc.world.format_action(a) for a in sc.actions[:4]]
+    vh = []
+    for a in sc.actions[:4]:
+        if a.kind == "walk":
+            vh.append(f"[Walk] <{sc.world.places[a.place].name}> (1)")
+        elif a.kind in ("open", "close"):
+            vh.append(f"[{a.kind.title()}] <{sc.world.places[a.place].name}> (1)")
+        elif a.kind == "grab":
+            vh.append(f"[Grab] <{sc.world.items[a.obj].name}> (1)")
+        else:
+            vh.append(f"[PutBack] <{sc.world.items[a.obj].name}> (1) <{sc.world.places[a.place].name}> (1)")
+    body = {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"}
+    a = c.post("/v1/infer", json={**body, "actions": siftom_form}).json()
+    b = c.post("/v1/infer", json={**body, "actions": vh}).json()
+    assert a["commands"] == b["commands"] and a["n_actions"] == b["n_actions"] == 4
+    r = c.post("/v1/infer", json={**body, "actions": ["[Cut] <sugar> (1)"]})
+    assert r.status_code == 422 and "no counterpart" in r.json()["detail"]

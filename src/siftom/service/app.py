@@ -16,6 +16,7 @@ stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from collections.abc import Callable
@@ -129,7 +130,8 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
-                       "request_timeout_s": settings.request_timeout_s},
+                       "request_timeout_s": settings.request_timeout_s,
+                       "sessions": dataclasses.asdict(settings.sessions)},
         }
 
     # ----- scenarios -------------------------------------------------------------------------

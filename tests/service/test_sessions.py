@@ -106,6 +106,7 @@ def test_actions_are_all_or_none_and_errors_name_the_fix(folder):
     assert r.status_code == 422 and "exactly one of 'transcript' or 'nbest'" in r.json()["detail"]
     r = c.post("/v1/sessions/nope/actions", json={"actions": ["walk(human, fridge)"]})
     assert r.status_code == 404 and "POST /v1/sessions" in r.json()["detail"]
+    assert c.get(f"/v1/sessions/{sid}").status_code == 404  # and the live copy is gone too
 
 
 @pytest.mark.parametrize("world, words", [
@@ -227,3 +228,14 @@ def test_infer_endpoint_takes_virtualhome_lines_too(folder):
     assert a["commands"] == b["commands"] and a["n_actions"] == b["n_actions"] == 4
     r = c.post("/v1/infer", json={**body, "actions": ["[Cut] <sugar> (1)"]})
     assert r.status_code == 422 and "no counterpart" in r.json()["detail"]
+
+
+def test_actions_for_a_session_deleted_meanwhile_are_a_404_not_a_crash(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    mgr = c.app.state.sessions
+    mgr.get(sid)  # live in memory ...
+    mgr.store.delete(sid)  # ... while another request deletes it from the store
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["walk(human, fridge)"]})
+    assert r.status_code == 404 and "POST /v1/sessions" in r.json()["detail"]
+    assert c.get(f"/v1/sessions/{sid}").status_code == 404  # and the live copy is gone too

@@ -188,14 +188,16 @@ class SessionManager:
                 self._live.move_to_end(sid)
                 return sess
             gate = self._loading.setdefault(sid, threading.Lock())
-        with gate:  # one thread rebuilds a given session; the others wait for it
+        try:
+            with gate:  # one thread rebuilds a given session; the others wait for it
+                with self._lock:
+                    sess = self._live.get(sid)
+                if sess is None:
+                    sess = self._rebuild(sid)
+                    self._remember(sess)
+        finally:
             with self._lock:
-                sess = self._live.get(sid)
-            if sess is None:
-                sess = self._rebuild(sid)
-                self._remember(sess)
-        with self._lock:
-            self._loading.pop(sid, None)
+                self._loading.pop(sid, None)
         return sess
 
     def _rebuild(self, sid: str) -> Session:
@@ -245,7 +247,13 @@ class SessionManager:
                                    "(--max-session-actions); start a new session for a new task")
         texts = [sess.scene.world.format_action(a) for a in acts]
         if texts:
-            self.store.append(sess.id, len(sess.actions), texts, source)  # durable before the reply
+            try:
+                self.store.append(sess.id, len(sess.actions), texts, source)  # durable before the reply
+            except ProblemError as exc:
+                if exc.status == 404:  # deleted or expired meanwhile: forget the live copy too
+                    with self._lock:
+                        self._live.pop(sess.id, None)
+                raise
         for a in acts:
             sess.online.observe(a)
         sess.actions.extend(texts)

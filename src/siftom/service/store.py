@@ -86,6 +86,16 @@ class SessionStore:
                                      [(sid, first_seq + k, t, source) for k, t in enumerate(texts)])
                 self._db.execute("UPDATE sessions SET updated = ? WHERE id = ?", (now, sid))
                 self._db.execute("COMMIT")
+            except sqlite3.IntegrityError:
+                self._db.execute("ROLLBACK")
+                gone = self._db.execute("SELECT 1 FROM sessions WHERE id = ?", (sid,)).fetchone() is None
+                from siftom.service.problems import ProblemError
+
+                if gone:
+                    raise ProblemError(404, "unknown-session", f"session {sid!r} was deleted or expired "
+                                       "meanwhile; create a new one with POST /v1/sessions") from None
+                raise ProblemError(409, "conflict", f"session {sid!r} was changed by another request at the "
+                                   "same time; GET it and send the actions again") from None
             except BaseException:
                 self._db.execute("ROLLBACK")
                 raise

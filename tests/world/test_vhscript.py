@@ -75,7 +75,7 @@ def test_unmappable_script_lines_say_why(line, words):
     assert words in str(exc.value)
 
 
-def test_class_no_goal_mentions_gets_a_warning_naming_near_classes():
+def test_class_no_goal_mentions_gets_a_warning_naming_near_classes(tmp_path):
     world = json.loads((SALAD / "world.json").read_text())
     world["items"].append({"name": "tomatoes_1", "class": "tomatoes", "at": "fridge"})
     scene = scene_from_json(world)
@@ -83,6 +83,15 @@ def test_class_no_goal_mentions_gets_a_warning_naming_near_classes():
     assert len(warns) == 1 and "'tomatoes'" in warns[0] and "nearest goal-library classes: tomato" in warns[0]
     assert unmentioned_class_warnings(scene_from_json(json.loads((SALAD / "world.json").read_text())).world,
                                       scene.goals) == []
+    from siftom.cli import root
+
+    path = tmp_path / "world.json"
+    path.write_text(json.dumps(world))
+    args = ["infer", "--scene", str(path), "--transcript", "the tomato please"]
+    res = CliRunner().invoke(root, [*args, "--json"], catch_exceptions=False)
+    assert json.loads(res.output)["warnings"] == warns  # --json: a field, stdout stays JSON
+    res = CliRunner().invoke(root, args, catch_exceptions=False)
+    assert f"warning: {warns[0]}" in res.output
 
 
 def test_the_salad_example_runs_and_actions_beat_the_misheard_word():

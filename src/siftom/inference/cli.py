@@ -33,18 +33,17 @@ def _read_actions(path: Path) -> list[str]:
     return data
 
 
-def _warn_unmentioned(path: Path, scene, goal_space: str | None) -> None:  # noqa: ANN001
-    """Print a warning for each object class no goal mentions (naming the nearest library classes)."""
+def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
+    """Warnings for object classes no goal mentions (each naming the nearest library classes)."""
     from siftom.world.io import scene_warnings
 
     try:
         obj = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return
+        return []
     if goal_space and isinstance(obj, dict) and "goals" not in obj:
         obj = {**obj, "goal_space": goal_space}
-    for w in scene_warnings(obj, scene):
-        click.echo(f"warning: {w}", err=True)
+    return scene_warnings(obj, scene)
 
 
 def _read_nbest(path: Path) -> list[dict]:
@@ -101,6 +100,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
     model = get_model(mode, likelihood)
     sc = None
+    warnings: list[str] = []
     if scenario_id is not None:
         from siftom.world.domains.base import get_scenario
 
@@ -116,15 +116,22 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         from siftom.world.vhscript import parse_actions
 
         scene = load_scene(scene_file, goal_space=goal_space, target=target)
-        _warn_unmentioned(scene_file, scene, goal_space)
-        acts, _ = parse_actions(scene.world, scene.start, _read_actions(actions_file) if actions_file else [])
+        warnings = _unmentioned(scene_file, scene, goal_space)
+        if not as_json:  # with --json they are a field of the output
+            for w in warnings:
+                click.echo(f"warning: {w}", err=True)
+        acts, _ = parse_actions(scene.world, scene.start, _read_actions(actions_file) if actions_file else [],
+                                first=1, label="action {k}")
         post = model.infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb, instruction))
     if png is not None and sc is not None:
         from siftom.world.render import render_scenario
 
         render_scenario(sc, png, posterior=post)
     if as_json:
-        click.echo(json.dumps(post.to_json(), indent=2))
+        out = post.to_json()
+        if scene_file is not None:
+            out["warnings"] = warnings
+        click.echo(json.dumps(out, indent=2))
         return
     print_posterior(post)
 

@@ -164,17 +164,19 @@ def vh_line_to_actions(world: World, state: State, line: str) -> list[Action]:
                            f"supported: {', '.join(f'[{s}]' for s in SUPPORTED)}")
 
 
-def parse_actions(world: World, start: State, lines: Sequence[str], first: int = 0) -> tuple[list[Action], State]:
+def parse_actions(world: World, start: State, lines: Sequence[str], first: int = 0,
+                  label: str = "actions[{k}]") -> tuple[list[Action], State]:
     """Parse and check the human's actions (either format, mixed freely) from ``start``.
 
     Returns the siftom actions and the state after them. Raises ObservationError naming the
-    line (counted from ``first``) that cannot be read, mapped or done, and why.
+    line (``label`` with k counted from ``first``: ``actions[0]`` for an API list, ``action 1``
+    for a file) that cannot be read, mapped or done, and why.
     """
     acts: list[Action] = []
     s = start
     for k, text in enumerate(lines, start=first):
         if not isinstance(text, str) or not text.strip():
-            raise ObservationError(f"actions[{k}] must be a non-empty string like 'walk(human, fridge)' "
+            raise ObservationError(f"{label.format(k=k)} must be a non-empty string like 'walk(human, fridge)' "
                                    "or '[Walk] <fridge> (165)'")
         if is_vh_line(text):
             step = vh_line_to_actions(world, s, text)
@@ -182,15 +184,15 @@ def parse_actions(world: World, start: State, lines: Sequence[str], first: int =
             try:
                 a = world.parse_action(text, s)
             except UnknownNameError as exc:  # a name in the line, not a missing resource
-                raise ObservationError(f"actions[{k}] {text!r}: {exc}") from None
+                raise ObservationError(f"{label.format(k=k)} {text!r}: {exc}") from None
             if a.agent != HUMAN:
-                raise ObservationError(f"actions[{k}] {text!r}: only the human's actions are observed; "
+                raise ObservationError(f"{label.format(k=k)} {text!r}: only the human's actions are observed; "
                                        "write human as the first argument")
             step = [a]
         for a in step:
             why = check(world, s, a)
             if why is not None:
-                raise ObservationError(f"actions[{k}] {text!r} is impossible here: {why}")
+                raise ObservationError(f"{label.format(k=k)} {text!r} is impossible here: {why}")
             acts.append(a)
             s = apply(s, a)
     return acts, s

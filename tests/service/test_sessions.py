@@ -281,3 +281,15 @@ def test_concurrent_robots_get_the_answers_they_would_get_alone(folder):
         alone.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS[: 3 + k]})
         body = alone.post(f"/v1/sessions/{sid}/instruction", json={"transcript": heard[k % 3]}).json()
         assert together[k] == body["command"]
+
+
+def test_session_load_test_counts_requests_and_checks_nothing_was_lost(folder):
+    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.session_load import run_session_load
+
+    app = create_app(folder)
+    with serve_in_thread(app) as url:
+        res = run_session_load(sessions=3, actions=2, interval=0.0, url=url, warmup=False)
+    assert res.requests == 3 * (2 + 1) and res.errors == 0 and res.lost == 0
+    assert res.p50_ms <= res.p99_ms <= res.max_ms
+    assert app.state.sessions.store.count() == 0  # it cleans up after itself

@@ -101,6 +101,8 @@ def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | N
                f"{res.interval_s:g} s: {res.requests - res.errors}/{res.requests} ok, {res.lost} lost, "
                f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
                f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} p99 < 200 ms, nothing lost); "
+               f"p99 actions {res.actions_p99_ms:.1f} ms, instructions p50 {res.instruction_p50_ms:.1f} ms, "
+               f"p99 {res.instruction_p99_ms:.1f} ms; "
                f"creating a session: p50 {res.create_p50_ms:.1f} ms, max {res.create_max_ms:.1f} ms; server CPU "
                f"{res.server_cpu_ms_per_request} ms per streamed request")
 

@@ -51,6 +51,9 @@ class SessionLoadResult:
     p90_ms: float
     p99_ms: float
     max_ms: float
+    actions_p99_ms: float
+    instruction_p50_ms: float
+    instruction_p99_ms: float
     create_p50_ms: float
     create_max_ms: float
     server_cpu_ms_per_request: float | None
@@ -160,7 +163,7 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
 
         made = await asyncio.gather(*(create(w) for w in work))
         create_lat = [t for _sid, t in made]
-        lat: list[float] = []
+        lat: list[tuple[str, float]] = []
         errors = sum(1 for sid, _t in made if sid is None)
         answers: dict[str, str] = {}
 
@@ -182,7 +185,7 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
                         answers[sid] = r.json()["command"]
                 except httpx.HTTPError:
                     ok = False
-                lat.append(time.perf_counter() - t0)
+                lat.append((path, time.perf_counter() - t0))
                 errors += not ok
 
         t0 = time.perf_counter()
@@ -216,10 +219,14 @@ def run_session_load(sessions: int = 50, actions: int = 10, interval: float = 1.
     if warmup:  # load the likelihood's lexicon and the planner once, unmeasured
         asyncio.run(_run(url, work[:1], 0.0, timeout))
     lat, create_lat, errors, lost, secs, cpu = asyncio.run(_run(url, work, interval, timeout, _pid, seed))
-    ms = np.asarray(lat or [0.0]) * 1000.0
+    ms = np.asarray([t for _p, t in lat] or [0.0]) * 1000.0
+    act = np.asarray([t for p, t in lat if p == "actions"] or [0.0]) * 1000.0
+    ins = np.asarray([t for p, t in lat if p == "instruction"] or [0.0]) * 1000.0
     cms = np.asarray(create_lat) * 1000.0
     p50, p90, p99 = (float(np.percentile(ms, q)) for q in (50, 90, 99))
     return SessionLoadResult(sessions, actions, interval, len(lat), errors, lost, round(secs, 3),
                              round(len(lat) / secs, 1) if secs else 0.0, round(p50, 1), round(p90, 1),
-                             round(p99, 1), round(float(ms.max()), 1), round(float(np.percentile(cms, 50)), 1),
+                             round(p99, 1), round(float(ms.max()), 1), round(float(np.percentile(act, 99)), 1),
+                             round(float(np.percentile(ins, 50)), 1), round(float(np.percentile(ins, 99)), 1),
+                             round(float(np.percentile(cms, 50)), 1),
                              round(float(cms.max()), 1), round(cpu, 2) if cpu is not None else None, url)

@@ -293,3 +293,15 @@ def test_session_load_test_counts_requests_and_checks_nothing_was_lost(folder):
     assert res.requests == 3 * (2 + 1) and res.errors == 0 and res.lost == 0
     assert res.p50_ms <= res.p99_ms <= res.max_ms
     assert app.state.sessions.store.count() == 0  # it cleans up after itself
+
+
+@pytest.mark.parametrize("mode, want", [("speech-only", {"fetch(potato)"}),  # the words alone: misheard
+                                        ("action-only", {"fetch(tomato)", "fetch(bowl)"})])  # what the salad lacks
+def test_ablation_sessions(folder, mode, want):
+    c = _client(folder)
+    r = c.post("/v1/sessions", json={"world": SALAD, "mode": mode})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS}).status_code == 200
+    body = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the potato"}).json()
+    assert body["mode"] == mode and body["command"] in want

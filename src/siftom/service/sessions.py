@@ -301,7 +301,13 @@ class SessionManager:
         """The session's state as JSON (the same before and after a restart)."""
         with sess.lock:
             w, s = sess.scene.world, sess.online.state
-            belief = sess.online.posterior(None, top=BELIEF_TOP)
+            if sess.options["mode"] == "speech-only":  # no action term: nothing to believe before words
+                goals_b: list[dict[str, Any]] = []
+                cmds_b: list[dict[str, Any]] = []
+            else:
+                belief = sess.online.posterior(None, top=BELIEF_TOP)
+                goals_b = [{"goal": g, "prob": p} for g, p in belief.goals[:BELIEF_TOP]]
+                cmds_b = [{"command": c, "prob": p} for c, p in belief.commands[:BELIEF_TOP]]
             items: dict[str, list[str]] = {}
             for i, loc in enumerate(s.item_at):
                 if loc != HELD:
@@ -324,8 +330,7 @@ class SessionManager:
                     "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
                     "items": items,
                 },
-                "belief": {"goals": [{"goal": g, "prob": p} for g, p in belief.goals[:BELIEF_TOP]],
-                           "commands": [{"command": c, "prob": p} for c, p in belief.commands[:BELIEF_TOP]]},
+                "belief": {"goals": goals_b, "commands": cmds_b},
                 "last_instruction": sess.last,
                 "warnings": list(sess.warnings),
             }

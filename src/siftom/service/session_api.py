@@ -172,8 +172,8 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
                 from siftom.errors import AudioError
 
                 raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
-            return mgr.instruct(session_id, make_instruction(nbest=nbest), opts.top, ClarifyPolicy(),
-                                asr=tr.to_json())
+            return mgr.instruct(session_id, make_instruction(nbest=nbest), opts.top,
+                                ClarifyPolicy(opts.threshold, opts.cost), asr=tr.to_json())
 
         return await run_cpu(work)
 

@@ -6,6 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, StringConstraints, model_validator
 
+from siftom.assist.clarify import DEFAULT_COST, DEFAULT_THRESHOLD
 from siftom.service.schemas import (
     MAX_NBEST,
     MAX_TEXT_CHARS,
@@ -93,6 +94,8 @@ class AudioInstructionFields(Strict):
 
     asr_nbest: int = Field(default=5, ge=1, le=10)
     top: int = Field(default=10, ge=1, le=100)
+    threshold: float = Field(default=DEFAULT_THRESHOLD, ge=0.0, le=1.0, description="clarify.threshold")
+    cost: float = Field(default=DEFAULT_COST, ge=0.0, le=1.0, description="clarify.cost")
 
 
 AUDIO_INSTRUCTION_SCHEMA: dict[str, Any] = {
@@ -104,6 +107,8 @@ AUDIO_INSTRUCTION_SCHEMA: dict[str, Any] = {
         "audio": {"type": "string", "format": "binary", "description": "the recording"},
         "asr_nbest": {"type": "integer", "minimum": 1, "maximum": 10, "default": 5},
         "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
+        "threshold": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_THRESHOLD},
+        "cost": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_COST},
     },
     "additionalProperties": False,
 }

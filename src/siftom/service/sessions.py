@@ -86,6 +86,7 @@ class Session:
     warnings: list[str]
     last: dict[str, Any] | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
+    belief: tuple[int, dict[str, Any]] | None = None  # (n_actions, belief) of the last view
 
 
 def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
@@ -297,17 +298,22 @@ class SessionManager:
             return None
 
     # ----- views -------------------------------------------------------------------------------
+    @staticmethod
+    def _belief(sess: Session) -> dict[str, Any]:
+        """The top goals and commands from the actions alone (none before words in speech-only mode)."""
+        if sess.options["mode"] == "speech-only":
+            return {"goals": [], "commands": []}
+        post = sess.online.posterior(None, top=BELIEF_TOP)
+        return {"goals": [{"goal": g, "prob": p} for g, p in post.goals[:BELIEF_TOP]],
+                "commands": [{"command": c, "prob": p} for c, p in post.commands[:BELIEF_TOP]]}
+
     def view(self, sess: Session) -> dict[str, Any]:
         """The session's state as JSON (the same before and after a restart)."""
         with sess.lock:
             w, s = sess.scene.world, sess.online.state
-            if sess.options["mode"] == "speech-only":  # no action term: nothing to believe before words
-                goals_b: list[dict[str, Any]] = []
-                cmds_b: list[dict[str, Any]] = []
-            else:
-                belief = sess.online.posterior(None, top=BELIEF_TOP)
-                goals_b = [{"goal": g, "prob": p} for g, p in belief.goals[:BELIEF_TOP]]
-                cmds_b = [{"command": c, "prob": p} for c, p in belief.commands[:BELIEF_TOP]]
+            if sess.belief is None or sess.belief[0] != len(sess.actions):
+                sess.belief = (len(sess.actions), self._belief(sess))
+            belief = sess.belief[1]
             items: dict[str, list[str]] = {}
             for i, loc in enumerate(s.item_at):
                 if loc != HELD:
@@ -330,7 +336,7 @@ class SessionManager:
                     "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
                     "items": items,
                 },
-                "belief": {"goals": goals_b, "commands": cmds_b},
+                "belief": belief,
                 "last_instruction": sess.last,
                 "warnings": list(sess.warnings),
             }

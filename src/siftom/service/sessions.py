@@ -33,7 +33,7 @@ from siftom.service.problems import ProblemError
 from siftom.service.store import SessionStore
 from siftom.world.io import (
     LoadedScene,
-    _goals,
+    feasible_goals,
     goal_library,
     scene_from_json,
     unmentioned_class_warnings,
@@ -112,7 +112,7 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
             lib_spec = obj
         if spec.get("goals"):
             lib_spec = {"goals": spec["goals"]}
-            scene = replace(scene, goals=_goals(lib_spec, scene.world, scene.goals[0].target))
+            scene = replace(scene, goals=feasible_goals(lib_spec, scene.world, scene.goals[0].target))
     except SiftomError:
         raise
     except (TypeError, ValueError, KeyError, AttributeError, IndexError, OverflowError) as exc:

@@ -105,7 +105,7 @@ def scene_from_json(obj: Any) -> LoadedScene:
         open_mask |= 1 << place_of(name, "open")
     target = place_of(_need(obj, "target", "world"), "target")
     start = State((human, robot), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = _goals(obj, world, target)
+    goals = feasible_goals(obj, world, target)
     verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
     return LoadedScene(world, start, goals, verb)
 
@@ -137,7 +137,8 @@ def goal_library(obj: dict, target: int) -> list[Goal]:
     return [Goal(g.name, target, g.counts) for g in goal_space(target)]
 
 
-def _goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
+def feasible_goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
+    """The goals of the library ``obj`` names that the world's objects can satisfy (none: an error)."""
     classes = set(world.classes)
     goals = goal_library(obj, target)
     feasible = []
@@ -280,5 +281,5 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             open_mask |= 1 << i
     t = pidx[tnode]
     start = State((t, t), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = _goals({"goal_space": goal_space}, world, t)
+    goals = feasible_goals({"goal_space": goal_space}, world, t)
     return LoadedScene(world, start, goals, "fetch" if goal_space == "kitchen-v0" else "deliver")

@@ -108,11 +108,9 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
         req = ActionsRequest.model_validate_json(await request.body())
 
         def work() -> dict[str, Any]:
-            sess = mgr.get(session_id)
-            before = len(sess.actions)
-            mgr.append(session_id, list(req.actions))
-            view = mgr.view(sess)
-            return {"id": session_id, "added": view["actions"][before:], "n_actions": view["n_actions"],
+            added = mgr.append(session_id, list(req.actions))
+            view = mgr.view(mgr.get(session_id))
+            return {"id": session_id, "added": added, "n_actions": view["n_actions"],
                     "state": view["state"], "belief": view["belief"]}
 
         return JSONResponse(await run_cpu(work))

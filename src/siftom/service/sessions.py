@@ -221,8 +221,9 @@ class SessionManager:
             raise ProblemError(404, "unknown-session", f"no session {sid!r}; nothing to delete")
 
     # ----- actions -----------------------------------------------------------------------------
-    def append(self, sid: str, lines: list[str], source: str = "actions") -> Session:
-        """Parse, check and add action lines (siftom or VirtualHome format), all or none."""
+    def append(self, sid: str, lines: list[str], source: str = "actions") -> list[str]:
+        """Parse, check and add action lines (siftom or VirtualHome format), all or none; returns
+        the actions added, in siftom's form (a script line may stand for none, one or two)."""
         from siftom.world.vhscript import parse_actions
 
         sess = self.get(sid)
@@ -230,8 +231,9 @@ class SessionManager:
             acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
             return self._add(sess, acts, source)
 
-    def append_actions(self, sid: str, actions: list[Action], source: str) -> Session:
-        """Add already-built human actions (another producer, e.g. perception), all or none."""
+    def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
+        """Add already-built human actions (another producer, e.g. perception), all or none;
+        returns them in siftom's form."""
         sess = self.get(sid)
         with sess.lock:
             s = sess.online.state
@@ -242,7 +244,7 @@ class SessionManager:
                 s = apply(s, a)
             return self._add(sess, actions, source)
 
-    def _add(self, sess: Session, acts: list[Action], source: str) -> Session:
+    def _add(self, sess: Session, acts: list[Action], source: str) -> list[str]:
         if len(sess.actions) + len(acts) > self.limits.max_actions:
             raise ObservationError(f"a session may observe at most {self.limits.max_actions} actions "
                                    "(--max-session-actions); start a new session for a new task")
@@ -258,7 +260,7 @@ class SessionManager:
         for a in acts:
             sess.online.observe(a)
         sess.actions.extend(texts)
-        return sess
+        return texts
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int, policy: ClarifyPolicy,

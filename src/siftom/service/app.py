@@ -257,6 +257,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     from siftom.service.session_api import install_sessions, session_schemas
 
     install_sessions(app, rt, run_cpu)
+    from siftom.service.perceive import install_session_frames
+
+    install_session_frames(app, folder)  # POST /v1/sessions/{id}/frames (actions read from camera frames)
 
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:

@@ -123,6 +123,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     @app.get("/healthz", tags=["meta"])
     async def healthz() -> dict[str, Any]:
         """Liveness, version and what this server offers."""
+        from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices
 
@@ -130,6 +131,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
             "llm": rt.llm_status(),
+            "plugins": {kind: reg.describe() for kind, reg in load_all().items()},
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
                        "request_timeout_s": settings.request_timeout_s,

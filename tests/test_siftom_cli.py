@@ -124,6 +124,17 @@ def test_infer_on_a_user_world_with_actions(cli, tmp_path):
     assert {g["goal"] for g in out["goals"]} >= {"two forks and two plates", "two forks"}
 
 
+@pytest.mark.parametrize("rule", ["expected-benefit", "ask-or-act"])
+def test_infer_decides_on_a_user_world(cli, tmp_path, rule):
+    scene = tmp_path / "world.json"
+    scene.write_text(json.dumps(WORLD))
+    out = json.loads(cli("infer", "--scene", str(scene), "--transcript", "bring me two forks", "--decide", rule,
+                         "--json"))
+    d = out["decision"]
+    assert d["rule"] == rule and d["action"] in ("deliver(fork,2)", "deliver(fork,1)", "ask")
+    assert d["benefits"][0]["expected_benefit"] > 0
+
+
 def test_infer_on_a_user_world_refuses_an_impossible_action(tmp_path, capsys):
     scene = tmp_path / "world.json"
     scene.write_text(json.dumps(WORLD))

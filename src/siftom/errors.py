@@ -33,6 +33,10 @@ class ObservationError(SiftomError, ValueError):
     """An observation (scene, actions, instruction) is invalid."""
 
 
+class OptionsError(SiftomError, ValueError):
+    """An option (a parameter of a model, planner or run) is out of its range."""
+
+
 class AudioError(SiftomError, ValueError):
     """An audio file cannot be read or is unusable."""
 
@@ -58,3 +62,7 @@ def missing_extra(extra: str, package: str) -> BackendUnavailableError:
     return BackendUnavailableError(
         f"{package} is not installed; install it with: pip install \"siftom[{extra}]\""
     )
+
+
+class PerceptionError(SiftomError):
+    """A vision-language model's answer could not be turned into a valid world or action log."""

@@ -9,8 +9,8 @@ from helpers import three_room_house
 from siftom.agents.team import simulate_scenario, simulate_team
 from siftom.errors import CommandParseError
 from siftom.planning.astar import plan_for_goal
+from siftom.scenarios.base import get_scenario
 from siftom.world.commands import RobotCommand
-from siftom.world.domains.base import get_scenario
 from siftom.world.model import Goal
 
 

@@ -56,8 +56,10 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
     for name in ("results.jsonl", "summary.json", "report.md", "accuracy_speedup.png", "speedup_hist.png"):
         assert (tiny_results / name).is_file(), name
     summary = json.loads((tiny_results / "summary.json").read_text())
-    assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text"}
+    assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text",
+                                      "siftom-eb", "siftom-ask"}
     for m in summary["models"].values():
+        assert {"questions_per_trial", "confident_wrong_share", "no_speedup", "no_speedup_reasons"} <= set(m)
         assert set(m) >= SUMMARY_KEYS
         assert m["n"] == 4
         lo, hi = m["accuracy_ci"]
@@ -70,6 +72,30 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
         assert row["models"]["siftom-oracle-text"]["helpful"] or row["models"]["siftom-oracle-text"]["correct"]
     r = rows[0]["models"]["siftom"]
     assert {"command", "correct", "helpful", "l_single", "l_team", "remedy_steps", "speedup"} <= set(r)
+
+
+def test_asking_model_speaks_the_answer_and_pays_for_the_question(tiny: Path, tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("SIFTOM_QUESTION_PENALTY", "0")  # ask whenever a question is worth 2 steps
+    evaluate(tiny, tmp_path / "ask", EvalOptions(models=("siftom-eb", "siftom-ask")))
+    rows = load_results(tmp_path / "ask")
+    asked = [r for r in rows if r["models"]["siftom-ask"]["asked"]]
+    assert asked, "a tiny household set always has an unsaid count worth asking about"
+    for r in asked:
+        a = r["models"]["siftom-ask"]
+        assert a["question"].startswith("Did you mean") and a["answer"] and a["evi"] > a["ask_cost"]
+        # the question's time is on the team's clock
+        assert a["l_team"] == pytest.approx(r["models"]["siftom-eb"]["l_team"] + a["ask_cost"]) or \
+            a["command"] != r["models"]["siftom-eb"]["command"]
+        assert a["speedup"] == pytest.approx(a["l_single"] / a["l_team"] - 1, abs=1e-6)
+    summary = write_report(tmp_path / "ask", figures=False)
+    assert summary["models"]["siftom-ask"]["questions_per_trial"] == pytest.approx(len(asked) / len(rows))
+    assert summary["models"]["siftom-ask"]["accuracy_after_answer"] is not None
+    # deterministic: the same answers are heard again
+    evaluate(tiny, tmp_path / "ask2", EvalOptions(models=("siftom-eb", "siftom-ask")))
+    again = {r["id"]: r["models"]["siftom-ask"] for r in load_results(tmp_path / "ask2")}
+    for r in rows:
+        assert again[r["id"]] == r["models"]["siftom-ask"]  # timings are in timings.jsonl
 
 
 def test_same_seed_same_summary(tiny: Path, tiny_results: Path, tmp_path: Path) -> None:
@@ -154,8 +180,8 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
         def score(self, prefix, items):
             return [0.0 if "fork" in t else -3.0 for _c, t in items]
 
-    monkeypatch.setattr(lb, "_CHOOSERS", {m: lb.LLMChooser(Prefers(), m == "llm-ablated-siftom")
-                                          for m in lb.LLM_MODELS})
+    choosers = {m: lb.LLMChooser(Prefers(), m == "llm-ablated-siftom") for m in lb.LLM_MODELS}
+    monkeypatch.setattr(lb, "chooser", lambda m, config=None: choosers[m])
     evaluate(tiny, tmp_path / "llm", EvalOptions(models=("siftom", *lb.LLM_MODELS)), workers=1)
     write_report(tmp_path / "llm")
     rows = load_results(tmp_path / "llm")

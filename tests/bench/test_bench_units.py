@@ -15,7 +15,7 @@ from siftom.bench.evaluate import EvalOptions, is_correct, is_helpful
 from siftom.bench.literal import literal_command, parse_literal
 from siftom.bench.metrics import bootstrap_ci, summarise_model
 from siftom.errors import DatasetError, UnknownNameError
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 HOUSE = ("bowl", "fork", "knife", "mug", "plate", "spoon", "waterglass", "wineglass")
 
@@ -146,3 +146,41 @@ def test_malformed_dataset_raises_dataset_error(tmp_path: Path, content: str | N
 def test_missing_folder_says_how_to_build(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match="siftom dataset build"):
         load_dataset(tmp_path / "nope")
+
+
+def test_summary_counts_questions_confident_errors_and_missing_speedups() -> None:
+    def trial(command: str, prob: float, correct: bool, speedup: float | None, **kw) -> dict:
+        return {"command": command, "prob": prob, "correct": correct, "helpful": False, "speedup": speedup, **kw}
+
+    trials = [
+        trial("deliver(fork,3)", 0.9, False, -0.1, asked=True),  # confident and wrong
+        trial("deliver(fork,2)", 0.95, True, 0.3, asked=True),
+        trial("deliver(fork,2)", 0.5, False, 0.1, asked=False),  # wrong but not confident
+        trial("none", 0.99, False, 0.0, asked=False),  # doing nothing is never confident-wrong
+        trial("deliver(cup,1)", 0.2, False, None, asked=False,
+              speedup_error="no plan for 1 cup (node_limit); the scenario may be unsolvable"),
+    ]
+    s = summarise_model(trials).to_json()
+    assert s["questions_per_trial"] == pytest.approx(2 / 5)
+    assert s["accuracy_after_answer"] == pytest.approx(1 / 2)
+    assert s["confident_wrong_share"] == pytest.approx(1 / 5)
+    assert s["no_speedup"] == 1 and s["n_speedup"] == 4
+    assert s["no_speedup_reasons"] == {"planner budget exhausted (node_limit)": 1}
+    assert s["neg_speedup_share"] == pytest.approx(1 / 4)
+    plain = summarise_model([{k: v for k, v in t.items() if k != "asked"} for t in trials]).to_json()
+    assert plain["accuracy_after_answer"] is None and plain["questions_per_trial"] == 0
+
+
+def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
+    from siftom.bench.decisions import penalty_curve
+
+    def row(evi: float, ask_ok: bool, eb_ok: bool) -> dict:
+        return {"models": {
+            "siftom-ask": {"asked": True, "evi": evi, "ask_cost": 2.0, "penalty": 0.0, "correct": ask_ok, "speedup": 0.2},
+            "siftom-eb": {"correct": eb_ok, "speedup": -0.1}}}
+
+    rows = [row(3.0, True, False), row(9.0, True, False), row(20.0, False, True)]
+    c = {p["penalty"]: p for p in penalty_curve(rows, [0.0, 5.0, 30.0])}
+    assert [c[x]["questions_per_trial"] for x in (0.0, 5.0, 30.0)] == pytest.approx([1.0, 2 / 3, 0.0])
+    assert c[5.0]["accuracy"] == pytest.approx(1 / 3)  # asks on 9 and 20: right, wrong; acts on 3: wrong
+    assert c[30.0]["neg_speedup_share"] == 1.0

@@ -6,7 +6,7 @@ import pytest
 
 from siftom.bench import llm_baselines as lb
 from siftom.errors import BackendUnavailableError
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 
 class WordMatchScorer:
@@ -48,8 +48,8 @@ def test_command_space_covers_counts_for_deliver_and_one_per_item_for_fetch():
 
 
 def test_without_a_configured_backend_the_error_says_how_to_configure_one(monkeypatch):
-    monkeypatch.delenv("SIFTOM_LLM_BASE_URL", raising=False)
-    monkeypatch.delenv("SIFTOM_LLM", raising=False)
+    for var in ("SIFTOM_LLM_BASE_URL", "SIFTOM_LLM", "SIFTOM_LLM_BACKEND"):
+        monkeypatch.delenv(var, raising=False)
     monkeypatch.setattr(lb, "_CHOOSERS", {})
     assert lb.configured_backend() is None
     with pytest.raises(BackendUnavailableError, match="SIFTOM_LLM_BASE_URL"):

@@ -9,12 +9,12 @@ from scipy.special import logsumexp
 # register both built-in domains whatever was imported first (tests/world/test_domains.py, xfail)
 import siftom.world.domains.household  # noqa: F401
 import siftom.world.domains.kitchen  # noqa: F401
+from siftom.api import infer_scenario, make_instruction
 from siftom.errors import ObservationError
-from siftom.inference.api import infer_scenario, make_instruction
 from siftom.inference.model import UNKNOWN, ModelConfig, Observation, SIFToM
 from siftom.likelihood.base import Instruction
 from siftom.planning.astar import plan_for_goal
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 from siftom.world.model import (
     HUMAN,
     NOTHING,
@@ -27,6 +27,7 @@ from siftom.world.model import (
     World,
     apply,
     cost,
+    legal_actions,
 )
 
 
@@ -330,3 +331,78 @@ def test_posterior_json_shape_and_normalisation():
     import json
 
     json.dumps(out)
+
+
+# ----------------------------------------------------------------------------- online vs an independent reference
+def _reference_posterior(world, start, actions, goals, cfg, heard):
+    """Eq. 1-3 by brute force: uniform-cost-search values, a direct Boltzmann per beta, and the
+    priors as docs/inference.md states them. Shares no code with the model's inference path."""
+    classes = sorted({c for g in goals for c, _ in g.counts} | {it.cls for it in world.items})
+
+    def value(s, counts):  # inf when the human alone cannot finish (e.g. the robot holds it)
+        if not counts:
+            return 0.0
+        res = plan_for_goal(world, s, Goal("g", TABLE, counts), use_heuristic=False, prune=False)
+        return res.cost if res.solved else math.inf
+    states = [start]
+    for a in actions:
+        states.append(apply(states[-1], a))
+    now = states[-1]
+
+    def done(cls):
+        on = sum(1 for i, it in enumerate(world.items) if it.cls == cls and now.item_at[i] == TABLE)
+        held = now.held[HUMAN]
+        return on + (1 if held != NOTHING and world.items[held].cls == cls else 0)
+
+    def action_loglik(part):
+        # beta is one unknown constant of the person: the whole trajectory under each beta,
+        # then the uniform mixture over the grid
+        per_beta = np.zeros(len(cfg.betas))
+        for s, a in zip(states, actions, strict=False):
+            acts = list(legal_actions(world, s, HUMAN))
+            Q = np.array([cost(world, s, b) + value(apply(s, b), part) for b in acts])
+            k = acts.index(a)
+            per_beta += [math.log((1 - cfg.epsilon) * math.exp(-beta * Q[k]) / np.exp(-beta * Q).sum()
+                                  + cfg.epsilon / len(acts)) for beta in cfg.betas]
+        return logsumexp(per_beta) - math.log(len(cfg.betas))
+
+    log_joint = {}
+    for g in goals:
+        parts = [(c, n - done(c)) for c, n in g.counts if n - done(c) >= 1]
+        human = {c: tuple((c2, n2) for c2, n2 in g.counts if c2 != c) for c, _ in parts}
+        saved = {c: value(now, g.counts) - value(now, human[c]) for c, _ in parts}
+        z = logsumexp([cfg.help_kappa * saved[c] for c, _ in parts])
+        for c, left in parts:
+            prior = (math.log(1 - cfg.unknown_prior) - math.log(len(goals))
+                     + cfg.help_kappa * saved[c] - z)
+            cmd = f"deliver({c},{left})"
+            log_joint[(g.name, cmd)] = prior + action_loglik(human[c]) + heard.get(cmd, -10.0)
+    unknown_cmds = [f"deliver({c},1)" for c in classes]
+    uniform_actions = sum(-math.log(len(list(legal_actions(world, s, HUMAN))))
+                          for s in states[:-1])
+    for cmd in unknown_cmds:
+        log_joint[(UNKNOWN, cmd)] = (math.log(cfg.unknown_prior) - math.log(len(unknown_cmds))
+                                     + uniform_actions + heard.get(cmd, -10.0))
+    z = logsumexp(list(log_joint.values()))
+    commands = {}
+    for (_g, cmd), v in log_joint.items():
+        commands[cmd] = commands.get(cmd, 0.0) + math.exp(v - z)
+    return commands
+
+
+def test_online_updates_match_an_independent_reference_at_every_step():
+    world, start, goals = tiny()
+    cfg = ModelConfig(betas=(0.5, 1.0, 3.0), epsilon=0.05, unknown_prior=0.05, help_kappa=0.2)
+    heard = {"deliver(cup,1)": -2.0, "deliver(fork,1)": -1.0, "deliver(plate,1)": -1.2}
+    fork = 0
+    path = (Action("walk", HUMAN, place=F), Action("grab", HUMAN, obj=fork, place=F),
+            Action("walk", HUMAN, place=TABLE), Action("put", HUMAN, obj=fork, place=TABLE))
+    online = SIFToM(cfg, FixedLikelihood(heard)).online(world, start, goals, "deliver")
+    for k in range(len(path) + 1):
+        if k:
+            online.observe(path[k - 1])
+        got = dict(online.posterior(Instruction.from_text("x")).commands)
+        want = _reference_posterior(world, start, path[:k], goals, cfg, heard)
+        assert got.keys() == want.keys(), k
+        for cmd, p in want.items():
+            assert got[cmd] == pytest.approx(p, abs=1e-9), (k, cmd)

@@ -41,7 +41,7 @@ def cereal_wav(tmp_path_factory):
 
 @pytest.mark.parametrize("which", ["silence_wav", "noise_wav"])
 def test_no_speech_gives_the_action_only_posterior(which, request):
-    from siftom.inference.api import infer_scenario
+    from siftom.api import infer_scenario
 
     heard = siftom.listen(request.getfixturevalue(which), scenario=SCENARIO, likelihood="acoustic")
     assert not heard.speech and heard.message == "no speech heard"
@@ -64,8 +64,8 @@ def test_listen_hears_the_command(cereal_wav, likelihood):
 
 @needs_flite
 def test_transcription_is_accepted_as_an_nbest_list(cereal_wav):
-    from siftom.inference.api import make_instruction, transcribe_for
-    from siftom.world.domains.base import get_scenario
+    from siftom.api import make_instruction, transcribe_for
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(SCENARIO)
     tr = transcribe_for(cereal_wav, sc.world, sc.verb)
@@ -99,7 +99,7 @@ def test_pruned_and_full_acoustic_scorers_choose_the_same_command(tmp_path):
     from siftom.likelihood.acoustic import AcousticLikelihood
     from siftom.speech.noise import get_noise, mix_at_snr
     from siftom.speech.tts import synthesize
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(SCENARIO)
     asr = engine_for(sc.world, sc.verb)

@@ -121,7 +121,8 @@ def test_prompt_follows_the_paper():
     assert describe_command(RobotCommand("fetch", "cereal")) == "pass(robot, human, cereal)"
     assert describe_command(RobotCommand("deliver", "wineglass", 3)) == "deliver(robot, table, wine glasses, 3)"
     prefix = build_prefix()
-    assert "Command: pass(robot, human, cereal)\nHeard: pass me the silver\n" in prefix
+    assert "Command: pass(robot, human, stapler)\nHeard: could you pass me the staple her\n" in prefix
+    assert prefix.count("Command: ") == 8 and prefix.endswith("\n\n")
 
 
 def test_score_cache_round_trip(tmp_path):

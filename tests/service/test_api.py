@@ -127,6 +127,29 @@ def test_flat_posterior_gives_a_question(client):
     assert body["clarification"]["ask"] and body["clarification"]["question"].startswith("Did you mean")
 
 
+@pytest.mark.parametrize("rule", ["map", "expected-benefit", "ask-or-act"])
+def test_infer_with_a_decision_rule(client, rule):
+    body = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the sugar",
+                                          "decide": rule}).json()
+    d = body["decision"]
+    assert d["rule"] == rule and d["action"] in ("fetch(sugar)", "ask")
+    assert d["benefits"] and d["benefits"][0]["expected_benefit"] >= 0
+
+
+def test_unknown_decision_rule_is_422(client):
+    r = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "x", "decide": "expected_benefit"})
+    assert r.status_code == 422 and "decide" in r.text
+
+
+def test_decision_rule_names_match_the_registry():
+    from typing import get_args
+
+    from siftom.assist.decide import RULES
+    from siftom.service.schemas import DecisionRuleName
+
+    assert set(get_args(DecisionRuleName)) == set(RULES)
+
+
 def test_infer_custom_actions(client):
     sc = client.get(f"/v1/scenarios/{KITCHEN}").json()
     r = client.post("/v1/infer", json={"scenario": KITCHEN, "actions": sc["actions"][:3], "transcript": "the cereal"})

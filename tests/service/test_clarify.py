@@ -7,7 +7,7 @@ import pytest
 from siftom.assist.clarify import ClarifyPolicy, clarify, describe_command, expected_value_of_asking
 from siftom.assist.route import robot_plan
 from siftom.errors import ObservationError
-from siftom.world.domains.base import get_scenario
+from siftom.scenarios.base import get_scenario
 
 
 def test_flat_posterior_asks_between_the_top_two():

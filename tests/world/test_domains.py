@@ -10,7 +10,7 @@ import pytest
 import siftom.world.domains.household  # noqa: F401
 import siftom.world.domains.kitchen  # noqa: F401
 from siftom.errors import CommandParseError, UnknownNameError
-from siftom.world.domains.base import (
+from siftom.scenarios.base import (
     domains,
     get_domain,
     get_scenario,
@@ -22,15 +22,15 @@ from siftom.world.model import HELD, apply, check
 
 
 def test_both_domains_are_registered():
-    ids = [d.id for d in domains()]
+    ids = [d.name for d in domains()]
     assert ids == ["household-table-v0", "kitchen-v0"]
-    assert all(d.description for d in domains())
+    assert all(d.summary for d in domains())
 
 
 def test_registry_lists_both_domains_whatever_was_imported_first():
     code = ("from siftom.world.domains.kitchen import library\n"
-            "from siftom.world.domains.base import domains\n"
-            "print(','.join(d.id for d in domains()))")
+            "from siftom.scenarios.base import domains\n"
+            "print(','.join(d.name for d in domains()))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "household-table-v0,kitchen-v0"
 

@@ -8,7 +8,6 @@ prefix lets an in-process model evaluate it once; a remote endpoint simply conca
 from __future__ import annotations
 
 import hashlib
-import os
 import sqlite3
 import threading
 from collections.abc import Sequence
@@ -28,9 +27,10 @@ class TextScorer(Protocol):
 
 
 def default_cache_dir() -> Path:
-    """``$SIFTOM_CACHE_DIR`` or ``~/.cache/siftom``."""
-    env = os.environ.get("SIFTOM_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "siftom"
+    """``$SIFTOM_CACHE_DIR`` or ``~/.cache/siftom`` (:func:`siftom.backends.config.cache_root`)."""
+    from siftom.backends.config import cache_root
+
+    return cache_root()
 
 
 class ScoreCache:
@@ -76,3 +76,30 @@ class ScoreCache:
         """Close the database."""
         with self._lock:
             self._db.close()
+
+
+class ResponseCache:
+    """A persistent map from a request (hashed) to the endpoint's JSON answer, in SQLite."""
+
+    def __init__(self, path: Path) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.path = path
+        self._lock = threading.Lock()
+        self._db = sqlite3.connect(str(path), check_same_thread=False, timeout=30)
+        with self._lock, self._db:
+            self._db.execute("CREATE TABLE IF NOT EXISTS responses (key TEXT PRIMARY KEY, body TEXT)")
+
+    def get(self, key: str) -> str | None:
+        """The stored answer, or None."""
+        with self._lock:
+            row = self._db.execute("SELECT body FROM responses WHERE key = ?", (key,)).fetchone()
+        return None if row is None else str(row[0])
+
+    def put(self, key: str, body: str) -> None:
+        """Store an answer (replacing any present)."""
+        with self._lock, self._db:
+            self._db.execute("INSERT OR REPLACE INTO responses VALUES (?, ?)", (key, body))
+
+    def __len__(self) -> int:
+        with self._lock:
+            return int(self._db.execute("SELECT COUNT(*) FROM responses").fetchone()[0])

@@ -31,7 +31,7 @@ def heard(audio: Path, engine: Any, nbest: int) -> tuple[Any, Any]:
 
 def acoustic_choice(model: str, scenario: Any, audio: Path, engine: Any, nbest: int) -> tuple[str, float]:
     """The chosen command and its posterior probability under an acoustic model."""
-    from siftom.inference.api import get_model
+    from siftom.api import get_model
     from siftom.inference.model import Observation
 
     instruction, _ = heard(audio, engine, nbest)

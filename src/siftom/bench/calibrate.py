@@ -28,7 +28,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     from siftom.bench.acoustic_models import heard
     from siftom.bench.dataset import load_dataset, scenario_for
     from siftom.bench.evaluate import _engine, asr_vocabulary, is_correct
-    from siftom.inference.api import get_model
+    from siftom.api import get_model
     from siftom.inference.model import Observation
 
     ds = load_dataset(dataset)

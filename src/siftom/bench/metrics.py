@@ -5,6 +5,14 @@
 * speedup: mean over trials of ``L_single / L_team - 1`` (agents/team.py);
 * negative-speedup share: trials where the robot made the team slower than the human alone;
 * helpful-error share: among wrong trials, those whose class is part of the human's goal;
+* MAP accuracy (decision-rule models): the share of trials whose most probable command (after
+  the answer, when the robot asked) is right, whatever the robot chose to execute;
+* questions per trial (models that may ask, bench/decisions.py), and accuracy after the
+  answer: among the trials where the robot asked, the share whose final command is right;
+* confident-wrong share: trials where the robot acted on a command it gave probability
+  >= 0.8 and was wrong (doing nothing is never confident-wrong);
+* no-speedup trials: a trial whose team simulation ran out of planning budget has no speedup
+  and is left out of the speedup mean and the negative share; they are counted, with the reason;
 * 95 % confidence intervals by the percentile bootstrap over trials (1,000 resamples, seeded).
 """
 
@@ -19,6 +27,7 @@ import numpy as np
 
 N_BOOT = 1000
 LEVEL = 0.95
+CONFIDENT = 0.8  # a command given at least this probability is a confident one
 
 
 def bootstrap_ci(
@@ -59,6 +68,11 @@ class ModelSummary:
     wrong: int
     no_action: int
     n_speedup: int = 0
+    questions_per_trial: float = 0.0
+    confident_wrong_share: float = float("nan")
+    accuracy_after_answer: float | None = None
+    no_speedup_reasons: tuple[tuple[str, int], ...] = ()
+    map_accuracy: float | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The documented summary.json entry (rounded to 4 decimals)."""
@@ -68,6 +82,12 @@ class ModelSummary:
             "speedup": r(self.speedup), "speedup_ci": [r(self.speedup_ci[0]), r(self.speedup_ci[1])],
             "neg_speedup_share": r(self.neg_speedup_share), "helpful_error_share": r(self.helpful_error_share),
             "n": self.n, "wrong": self.wrong, "no_action": self.no_action, "n_speedup": self.n_speedup,
+            "questions_per_trial": r(self.questions_per_trial),
+            "confident_wrong_share": r(self.confident_wrong_share),
+            "accuracy_after_answer": None if self.accuracy_after_answer is None else r(self.accuracy_after_answer),
+            "no_speedup": self.n - self.n_speedup,
+            "no_speedup_reasons": dict(self.no_speedup_reasons),
+            "map_accuracy": None if self.map_accuracy is None else r(self.map_accuracy),
         }
 
 
@@ -83,6 +103,14 @@ def summarise_model(trials: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: 
     helpful = np.array([bool(t["helpful"]) for t in trials])
     wrong = correct == 0
     n_wrong = int(wrong.sum())
+    asked = [t for t in trials if t.get("asked")]
+    prob = np.array([float(t.get("prob", float("nan"))) for t in trials], dtype=np.float64)
+    acted = np.array([t["command"] != "none" for t in trials])
+    confident = acted & (np.nan_to_num(prob, nan=0.0) >= CONFIDENT)
+    reasons: dict[str, int] = defaultdict(int)
+    for t in trials:
+        if t.get("speedup") is None:
+            reasons[_reason(t.get("speedup_error"))] += 1
     return ModelSummary(
         accuracy=float(correct.mean()) if len(trials) else float("nan"),
         accuracy_ci=bootstrap_ci(correct, n_boot, seed),
@@ -94,7 +122,25 @@ def summarise_model(trials: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: 
         wrong=n_wrong,
         no_action=sum(1 for t in trials if t["command"] == "none"),
         n_speedup=len(speed),
+        questions_per_trial=len(asked) / len(trials) if len(trials) else float("nan"),
+        confident_wrong_share=float((confident & wrong).mean()) if len(trials) else float("nan"),
+        accuracy_after_answer=(float(np.mean([bool(t["correct"]) for t in asked])) if asked
+                               else (None if not any("asked" in t for t in trials) else float("nan"))),
+        no_speedup_reasons=tuple(sorted(reasons.items())),
+        map_accuracy=(float(np.mean([bool(t["map_correct"]) for t in trials]))
+                      if trials and all("map_correct" in t for t in trials) else None),
     )
+
+
+def _reason(error: str | None) -> str:
+    """A short reason for a missing speedup (the planner's status when it says one)."""
+    if not error:
+        return "team simulation failed (reason not recorded)"
+    if "node_limit" in error or "time_limit" in error:
+        return "planner budget exhausted (" + ("node_limit" if "node_limit" in error else "time_limit") + ")"
+    if "unsolvable" in error:
+        return "no plan exists (unsolvable)"
+    return error
 
 
 def group_key(row: Mapping[str, Any], by: str) -> str:

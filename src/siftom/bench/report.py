@@ -24,6 +24,7 @@ REPORT = "report.md"
 FIG_MAIN = "accuracy_speedup.png"
 FIG_HIST = "speedup_hist.png"
 FIG_SNR = "accuracy_by_snr.png"
+FIG_ASK = "speedup_vs_questions.png"
 BREAKDOWNS = ("noise", "snr", "voice")
 # The paper's numbers (Simulated Experiment, Results) for comparison in the report.
 PAPER = {
@@ -90,6 +91,20 @@ def main_table(summary: dict[str, Any]) -> str:
         lines.append(f"| {m} | {_pct(s['accuracy'])} {_ci(s['accuracy_ci'])} | {sp} {_ci(s['speedup_ci'], False)} "
                      f"| {_pct(s['neg_speedup_share'])} | {_pct(s['helpful_error_share'])} ({s['wrong']} wrong) "
                      f"| {s['n']} |")
+    return "\n".join(lines)
+
+
+def decision_table(summary: dict[str, Any]) -> str:
+    """Questions, confident errors and trials without a speedup, one row per model."""
+    lines = ["| model | questions / trial | accuracy after the answer | MAP accuracy | confident wrong (P >= 0.8) "
+             "| no speedup (why) |", "|---|---|---|---|---|---|"]
+    for m, s in summary["models"].items():
+        acc = s.get("accuracy_after_answer")
+        why = "; ".join(f"{k}: {v}" for k, v in (s.get("no_speedup_reasons") or {}).items())
+        q = s.get("questions_per_trial")
+        lines.append(f"| {m} | {'–' if q is None else f'{q:.3f}'} | {_pct(acc)} | {_pct(s.get('map_accuracy'))} "
+                     f"| {_pct(s.get('confident_wrong_share'))} | {s.get('no_speedup', 0)}"
+                     + (f" ({why})" if why else "") + " |")
     return "\n".join(lines)
 
 
@@ -160,6 +175,22 @@ def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out:
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
+    fig, ax = plt.subplots(figsize=(5.2, 3.6))
+    for k, m in enumerate(models):
+        q, sp, ci = S[m].get("questions_per_trial"), S[m]["speedup"], S[m]["speedup_ci"]
+        if q is None or sp is None:
+            continue
+        lo, hi = (sp if c is None else c for c in ci)
+        ax.errorbar([q], [sp], yerr=[[sp - lo], [hi - sp]], fmt="o", color=colors[k], capsize=4, label=m)
+    ax.set_xlabel("questions per trial")
+    ax.set_ylabel("mean speedup")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(out / FIG_ASK)
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
     bd = summary["breakdowns"]["snr"]
     labels = list(bd)
     if len(labels) > 1:
@@ -203,6 +234,15 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
         parts += [f"![accuracy and speedup]({FIG_MAIN})", ""]
     if FIG_HIST in names:
         parts += [f"![speedup histograms]({FIG_HIST})", ""]
+    parts += ["## Decisions and questions", "",
+              "Questions: trials where the robot asked before acting (the answer is spoken and recognised "
+              "like the instruction; the exchange costs the team steps). Confident wrong: the robot acted on "
+              "a command it gave probability >= 0.8 and was wrong. MAP accuracy (decision-rule models): the most "
+              "probable command after the answer is right, whatever the robot executed. No speedup: trials whose team simulation "
+              "ran out of planning budget; they are left out of the speedup mean and the negative share.", "",
+              decision_table(summary), ""]
+    if FIG_ASK in names:
+        parts += [f"![speedup vs questions asked]({FIG_ASK})", ""]
     wer = summary.get("asr_wer", {})
     parts += ["## ASR word error rate (1-best against the reference)", "",
               f"All stimuli: {_pct(wer.get('all'))}.", "",

@@ -27,7 +27,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.inference.model import OnlineInference, Posterior
-from siftom.likelihood.base import Instruction
+from siftom.observation import Instruction
 
 NO_SPEECH = "no speech heard"
 
@@ -112,7 +112,7 @@ _LOCK = threading.Lock()  # decoders and likelihood caches hold one utterance at
 
 def _scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
            verb: str | None) -> _Scene:
-    from siftom.world.domains.base import get_scenario
+    from siftom.scenarios.base import get_scenario
     from siftom.world.model import apply, check
 
     if (scenario is None) == (world is None):
@@ -141,7 +141,7 @@ def _scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any,
 
 def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
     """A cached recogniser; pocketsphinx is biased to the world's command phrasings."""
-    from siftom.inference.api import vocabulary_for
+    from siftom.api import vocabulary_for
     from siftom.speech.asr.base import get_engine
 
     if engine != "pocketsphinx":
@@ -201,7 +201,7 @@ def listen(
         Heard: the posterior, whether speech was heard, the transcript and timings. Without
         speech the posterior is the actions-alone one and ``message`` is "no speech heard".
     """
-    from siftom.inference.api import get_model
+    from siftom.api import get_model
     from siftom.speech.audio import as_audio
 
     t0 = time.perf_counter()

@@ -127,6 +127,23 @@ class Hypothesis:
     log_instruction: float
 
 
+@dataclass(frozen=True, eq=False)
+class JointPosterior:
+    """Every (goal, command) hypothesis with its probability, as arrays (for decision rules).
+
+    ``goal_idx[i]`` indexes ``goals`` (``len(goals)`` is the unknown goal), ``cmd_idx[i]``
+    indexes ``commands``; ``log_joint[i]`` is the unnormalised log probability, so another
+    factor that depends on the command alone (a second utterance) can be added exactly.
+    """
+
+    goals: tuple[Goal, ...]
+    commands: tuple[RobotCommand, ...]
+    goal_idx: np.ndarray
+    cmd_idx: np.ndarray
+    log_joint: np.ndarray
+    state: State | None = None
+
+
 @dataclass(frozen=True)
 class Posterior:
     """The result of inference. ``to_json`` gives the documented JSON shape."""
@@ -140,6 +157,7 @@ class Posterior:
     n_actions: int
     seconds: float
     transcript: str = ""
+    joint: JointPosterior | None = field(default=None, repr=False, compare=False)
 
     def prob(self, command: str) -> float:
         return dict(self.commands).get(command, 0.0)
@@ -345,6 +363,8 @@ class OnlineInference:
             likelihood=getattr(self.model.likelihood, "name", "none") if instruction is not None else "none",
             n_actions=self.n_actions, seconds=time.perf_counter() - t0,
             transcript=instruction.text if instruction is not None else "",
+            joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
+                                 self.state),
         )
 
     def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,

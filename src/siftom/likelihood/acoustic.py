@@ -38,7 +38,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from siftom.errors import ObservationError, SiftomError
-from siftom.likelihood.base import Instruction
+from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]

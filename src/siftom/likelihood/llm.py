@@ -7,14 +7,15 @@ silver" for ``pass(robot, human, cereal)``. Here the prompt ends with the candid
 the model scores the heard utterance as its continuation:
 
     <header>
-    Command: pass(robot, human, cereal)
-    Heard: pass me the silver
+    Command: pass(robot, human, stapler)
+    Heard: could you pass me the staple her
     ...
     Command: <candidate>
     Heard:| <utterance>\\n          <- only these tokens are scored
 
 The header and examples are a prefix shared by every candidate, so an in-process model
-evaluates them once (``siftom.backends.llama_cpp``).
+evaluates them once (``siftom.backends.llama_cpp``). The examples use objects no benchmark
+scenario has (the paper's own example would leak the answer to its Figure 2 story).
 """
 
 from __future__ import annotations
@@ -24,33 +25,36 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from siftom.backends.config import BACKENDS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
-from siftom.likelihood.base import Instruction
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonetic import logsumexp, normalize_text
+from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 HEADER = (
-    "A person asks a household robot for help. A speech recogniser transcribed each request, "
+    "A person asks a helper robot for objects. A speech recogniser transcribed each request, "
     "so some words are misheard. Each example gives the robot command the person meant and "
     "the noisy transcript that was heard.\n\n"
 )
 
-# (command the person meant, what the recogniser heard); corrupted as real ASR does.
+# (command the person meant, what the recogniser heard), corrupted as real ASR does: sound-alike
+# words, numbers heard as "to"/"for"/"tree", dropped or split words, indirect phrasings.
+# The objects (a workshop, an office, a garden) are deliberately ones that no built-in scenario
+# uses, and no utterance contains a benchmark word, so a result on a benchmark scenario -- the
+# paper's Figure 2 story in particular ("pass me the silver" for the cereal) -- is not copied from
+# the prompt. tests/likelihood/test_prompt_contamination.py enforces this.
 FEW_SHOT: tuple[tuple[str, str], ...] = (
-    ("pass(robot, human, cereal)", "pass me the silver"),
-    ("deliver(robot, table, forks, 3)", "bring me tree forks"),
-    ("pass(robot, human, milk)", "can you pass me the mail"),
-    ("deliver(robot, table, wine glasses, 2)", "we still need two wine classes"),
-    ("pass(robot, human, flour)", "could you grab the flower please"),
-    ("deliver(robot, table, plates, 4)", "get me the rest of the plates"),
-    ("pass(robot, human, bacon)", "pass me the beta"),
-    ("deliver(robot, table, knives, 1)", "i need a knife"),
+    ("pass(robot, human, stapler)", "could you pass me the staple her"),
+    ("deliver(robot, table, screwdrivers, 3)", "i need tree crew drivers"),
+    ("pass(robot, human, towel)", "can you hand me the tower"),
+    ("deliver(robot, table, candles, 2)", "we still need to handles"),
+    ("pass(robot, human, scissors)", "grab the sisters please"),
+    ("deliver(robot, table, notebooks, 4)", "get me for note books"),
+    ("pass(robot, human, ladder)", "pass me the latter"),
+    ("deliver(robot, table, hammers, 1)", "i need a hammock"),
 )
-
-BACKENDS = ("llama", "openai")
-
 
 def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> str:
     """The command as the prompt writes it: ``pass(robot, human, cereal)``,
@@ -68,17 +72,34 @@ def build_prefix(examples: Sequence[tuple[str, str]] = FEW_SHOT, header: str = H
     return header + "".join(f"Command: {c}\nHeard: {u}\n\n" for c, u in examples)
 
 
-def make_backend(backend: str, **kwargs: object) -> TextScorer:
-    """Construct a scorer by name: "llama" (in-process GGUF) or "openai" (HTTP endpoint)."""
-    if backend == "llama":
+_CONFIG_KEYS = ("base_url", "model", "api_key", "timeout_s", "max_retries", "cache_dir")
+
+
+def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> TextScorer:
+    """A scorer for a backend name ("llama": in-process GGUF, "openai": HTTP endpoint), an
+    :class:`LLMConfig`, or None (the environment's configuration, :meth:`LLMConfig.from_env`).
+
+    Keyword arguments override the configuration (``base_url``, ``model``, ``api_key``,
+    ``timeout_s``, ``max_retries``, ``cache_dir``) or go to the backend (``model_path``,
+    ``n_ctx``, ``n_threads``, ``batch_size`` ...). ``cache_dir=False`` turns the cache off.
+    """
+    if isinstance(backend, str) and backend not in BACKENDS:
+        raise unknown_name("LLM backend", backend, BACKENDS)
+    cfg_kw = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
+    if "timeout" in kwargs:
+        cfg_kw["timeout_s"] = kwargs.pop("timeout")
+    if isinstance(backend, LLMConfig):
+        config = backend.with_overrides(**cfg_kw)
+    else:
+        config = LLMConfig.from_env(backend=backend, **cfg_kw)
+    if config.backend == "llama":
         from siftom.backends.llama_cpp import LlamaCppScorer
 
-        return LlamaCppScorer(**kwargs)  # type: ignore[arg-type]
-    if backend == "openai":
-        from siftom.backends.openai_compat import OpenAICompletionsScorer
+        kwargs.pop("cache_dir", None)
+        return LlamaCppScorer(config=config, **kwargs)  # type: ignore[arg-type]
+    from siftom.backends.openai_compat import OpenAIClient
 
-        return OpenAICompletionsScorer(**kwargs)  # type: ignore[arg-type]
-    raise unknown_name("LLM backend", backend, BACKENDS)
+    return OpenAIClient(config, **kwargs)  # type: ignore[arg-type]
 
 
 class LLMLikelihood:
@@ -93,7 +114,9 @@ class LLMLikelihood:
     sentence probabilities, which are much sharper than its calibration warrants.
 
     Args:
-        backend: "llama" (default), "openai", or a :class:`TextScorer` instance.
+        backend: "llama", "openai", an :class:`LLMConfig`, a :class:`TextScorer` instance, or
+            None (default): the configuration in ``SIFTOM_LLM_*`` (SmolLM2 in process when
+            nothing is set).
         lexicon: names used to describe commands.
         examples: few-shot (command, heard) pairs; default :data:`FEW_SHOT`.
         nbest_limit: how many hypotheses to score (each costs one LM call per command).
@@ -109,7 +132,7 @@ class LLMLikelihood:
 
     def __init__(
         self,
-        backend: str | TextScorer = "llama",
+        backend: str | LLMConfig | TextScorer | None = None,
         *,
         lexicon: Lexicon | None = None,
         examples: Sequence[tuple[str, str]] = FEW_SHOT,
@@ -124,7 +147,8 @@ class LLMLikelihood:
             if not (np.isfinite(v) and v > 0):
                 raise ObservationError(f"{label} must be a positive number, got {v!r}")
         self.scorer: TextScorer = (
-            make_backend(backend, **backend_kwargs) if isinstance(backend, str) else backend
+            make_backend(backend, **backend_kwargs)
+            if backend is None or isinstance(backend, str | LLMConfig) else backend
         )
         self.lexicon = lexicon or default_lexicon()
         self.prefix = build_prefix(examples)

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import ObservationError
-from siftom.likelihood.base import Instruction
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phrasing import FILLER_WORDS, content_prior, number_word
+from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 VOWELS = ("AA", "AE", "AH", "AO", "AW", "AY", "EH", "ER", "EY", "IH", "IY", "OW", "OY", "UH", "UW")

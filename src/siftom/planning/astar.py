@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
+from siftom.errors import unknown_name
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, cost, legal_actions
 
 
@@ -187,7 +188,7 @@ def plan_for_goal(
         return len(forced) + (1 if rest else 0)
 
     if heuristic not in ("admissible", "fast"):
-        raise ValueError(f"heuristic must be 'admissible' or 'fast', got {heuristic!r}")
+        raise unknown_name("heuristic", heuristic, ("admissible", "fast"))
     fast = heuristic == "fast"
 
     def h(s: State) -> float:

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from siftom.errors import ObservationError
 from siftom.planning import _kernel
 from siftom.world.model import HELD, NOTHING, Action, Goal, State, World, apply, cost
 
@@ -43,7 +44,9 @@ def goal_matrix(world: World, goals: Sequence[Goal]) -> np.ndarray:
     for g, goal in enumerate(goals):
         for c, n in goal.counts:
             if c not in col:
-                raise KeyError(f"goal {goal.name!r} needs class {c!r}, which this world has no object of")
+                raise ObservationError(
+                    f"goal {goal.name!r} needs class {c!r}, which this world has no object of; "
+                    f"add such an object to the world or drop the goal (classes here: {', '.join(world.classes)})")
             out[g, col[c]] = n
     return out
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
+from siftom.errors import OptionsError
+
 
 @dataclass(frozen=True)
 class BoltzmannPolicy:
@@ -22,9 +24,9 @@ class BoltzmannPolicy:
 
     def __post_init__(self) -> None:
         if not (self.beta >= 0 and np.isfinite(self.beta)):
-            raise ValueError(f"beta must be a finite number >= 0, got {self.beta}")
+            raise OptionsError(f"beta must be a finite number >= 0 (0: uniform), got {self.beta}")
         if not 0 <= self.epsilon < 1:
-            raise ValueError(f"epsilon must be in [0, 1), got {self.epsilon}")
+            raise OptionsError(f"epsilon must be in [0, 1) (e.g. 0.01), got {self.epsilon}")
 
     def log_probs(self, Q: np.ndarray) -> np.ndarray:
         """Log-probabilities over actions (axis 0) for each column of ``Q`` (actions x goals)."""

@@ -5,8 +5,11 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/infer``: JSON (transcript, N-best or actions alone) or multipart with an audio
   file -> the posterior, what was heard, the clarifying decision and the robot's plan.
 * ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
+* ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+* ``/v1/sessions``: a robot's own world, streamed actions, instructions
+  (:mod:`siftom.service.session_api`).
 
 CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
 stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
@@ -14,6 +17,7 @@ stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from collections.abc import Callable
@@ -30,9 +34,9 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.datastructures import UploadFile
 
+from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
-from siftom.inference.api import make_instruction
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,
@@ -119,15 +123,19 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     @app.get("/healthz", tags=["meta"])
     async def healthz() -> dict[str, Any]:
         """Liveness, version and what this server offers."""
+        from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices
 
         return {
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
+            "llm": rt.llm_status(),
+            "plugins": {kind: reg.describe() for kind, reg in load_all().items()},
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
-                       "request_timeout_s": settings.request_timeout_s},
+                       "request_timeout_s": settings.request_timeout_s,
+                       "sessions": dataclasses.asdict(settings.sessions)},
         }
 
     # ----- scenarios -------------------------------------------------------------------------
@@ -197,7 +205,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
                 nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
                 ins = make_instruction(transcript=req.transcript, nbest=nbest)
                 return rt.infer(req.scenario, ins, req.mode, req.likelihood, req.n_actions, req.actions,
-                                req.top, policy)
+                                req.top, policy, req.decide)
 
             return JSONResponse(await run_cpu(work))
         if media == "multipart/form-data":
@@ -231,7 +239,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             await form.close()
         policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
         return await run_cpu(rt.infer_audio, opts.scenario, data, opts.mode, opts.likelihood, opts.n_actions,
-                             opts.asr_nbest, opts.top, policy)
+                             opts.asr_nbest, opts.top, policy, opts.decide)
 
     # ----- speech ----------------------------------------------------------------------------
     @app.post("/v1/say", tags=["speech"], response_class=Response,
@@ -242,6 +250,18 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         wav = await run_cpu(rt.say, req.text, req.voice, req.rate, req.noise, req.snr, req.seed)
         return Response(wav, media_type="audio/wav",
                         headers={"Content-Disposition": 'inline; filename="say.wav"'})
+
+    from siftom.service.perceive import install as install_perceive
+
+    install_perceive(app, folder)  # POST /v1/perceive (camera frames through a vision model)
+
+    # ----- sessions --------------------------------------------------------------------------
+    from siftom.service.session_api import install_sessions, session_schemas
+
+    install_sessions(app, rt, run_cpu)
+    from siftom.service.perceive import install_session_frames
+
+    install_session_frames(app, folder)  # POST /v1/sessions/{id}/frames (actions read from camera frames)
 
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:
@@ -256,6 +276,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
         form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
         comps["AudioInferForm"] = form
+        comps.update(session_schemas(settings.likelihoods))
         app.openapi_schema = schema
         return schema
 

@@ -25,13 +25,15 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from siftom.api import get_model, make_instruction
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
-from siftom.errors import AudioError, ObservationError, unknown_name
-from siftom.inference.api import get_model
+from siftom.backends.config import LLMConfig
+from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
 from siftom.inference.model import OnlineInference, Posterior
-from siftom.likelihood.base import Instruction
-from siftom.world.domains.base import Scenario, get_scenario, scenario_ids
+from siftom.observation import Instruction
+from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
+from siftom.service.sessions import SessionLimits
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -42,12 +44,27 @@ T = TypeVar("T")
 SERVICE_LIKELIHOODS = ("phonetic", "acoustic", "llm")
 
 
-def available_likelihoods() -> tuple[str, ...]:
-    """phonetic and acoustic always; llm when its in-process backend (llama-cpp-python) is installed."""
+def available_likelihoods(llm: LLMConfig | None = None) -> tuple[str, ...]:
+    """phonetic and acoustic always; llm when an endpoint is configured (``llm`` or the
+    ``SIFTOM_LLM_*`` environment) or the in-process backend (llama-cpp-python) is installed."""
     import importlib.util
 
     base = ("phonetic", "acoustic")
-    return base + ("llm",) if importlib.util.find_spec("llama_cpp") is not None else base
+    if llm is None:
+        llm, _ = service_llm_config()
+    if llm is not None and llm.backend == "openai":
+        return base + ("llm",)
+    if (llm is not None and llm.backend == "llama") and importlib.util.find_spec("llama_cpp") is not None:
+        return base + ("llm",)
+    return base
+
+
+def service_llm_config() -> tuple[LLMConfig | None, str]:
+    """The environment's LLM configuration, or (None, why) when it is invalid."""
+    try:
+        return LLMConfig.from_env(), ""
+    except SiftomError as exc:
+        return None, str(exc)
 
 
 @dataclass(frozen=True)
@@ -61,20 +78,33 @@ class ServiceSettings:
         request_timeout_s: a request still working after this long is answered 503.
         workers: how many requests do CPU work at once (the rest wait, within the timeout).
         likelihoods: instruction likelihoods offered (a subset of SERVICE_LIKELIHOODS; default:
-            those whose backend is installed).
+            those whose backend is installed or configured).
+        llm: the language model of the "llm" likelihood (default: ``SIFTOM_LLM_*``, see
+            docs/llm.md; an invalid environment leaves it None and ``/healthz`` says why).
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
+        sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
     max_audio_seconds: float = 30.0
     request_timeout_s: float = 20.0
     workers: int = 4
-    likelihoods: tuple[str, ...] = field(default_factory=lambda: available_likelihoods())
+    likelihoods: tuple[str, ...] | None = None
     cache_size: int = 256
     plan_max_time: float = 0.3
+    llm: LLMConfig | None = None
+    llm_error: str = ""
+    sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
 
     def __post_init__(self) -> None:
+        if self.llm is None and not self.llm_error:
+            cfg, why = service_llm_config()
+            object.__setattr__(self, "llm", cfg)
+            object.__setattr__(self, "llm_error", why)
+        if self.likelihoods is None:
+            object.__setattr__(self, "likelihoods", available_likelihoods(self.llm) if self.llm is not None
+                               else ("phonetic", "acoustic"))
         if self.max_body_bytes < 1024:
             raise ObservationError(f"max_body_bytes must be >= 1024, got {self.max_body_bytes}")
         if not 0 < self.max_audio_seconds <= 600:
@@ -121,7 +151,7 @@ class _Engine:
 
 def scenario_vocabulary(scenario: Scenario) -> list[str]:
     """Every phrasing of every command of the scenario: the ASR's language model."""
-    from siftom.inference.api import vocabulary_for
+    from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
 
@@ -173,6 +203,17 @@ class Runtime:
     def scenario_ids() -> list[str]:
         return scenario_ids()
 
+    def llm_status(self) -> dict[str, Any]:
+        """What /healthz says about the language model (never the API key)."""
+        cfg = self.settings.llm
+        out: dict[str, Any] = {"offered": "llm" in (self.settings.likelihoods or ())}
+        if cfg is not None:
+            out.update(cfg.public())
+            out["summary"] = cfg.describe()
+        if self.settings.llm_error:
+            out["error"] = self.settings.llm_error
+        return out
+
     def check_likelihood(self, name: str) -> None:
         if name not in self.settings.likelihoods:
             # a request field, not a path: 422 (ObservationError), with the valid names
@@ -188,7 +229,7 @@ class Runtime:
         sc = self.scenario(sid)
 
         def make() -> OnlineInference:
-            model = get_model(mode, likelihood)
+            model = get_model(mode, likelihood, self.settings.llm)
             on = model.online(sc.world, sc.start, sc.goals, sc.verb)
             for a in sc.actions[:n]:
                 on.observe(a)
@@ -203,9 +244,9 @@ class Runtime:
         sc = self.scenario(sid)
         with self._model_lock(mode, likelihood):
             if actions is not None:
-                from siftom.inference.api import infer_actions
+                from siftom.api import infer_actions
 
-                return infer_actions(sid, actions, instruction, mode, likelihood)
+                return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
             n = len(sc.actions) if n_actions is None else n_actions
             if not 0 <= n <= len(sc.actions):
                 raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
@@ -226,12 +267,18 @@ class Runtime:
             (sid, n, str(cmd)), lambda: robot_plan(sc, state, cmd, max_time=self.settings.plan_max_time))
 
     def infer(self, sid: str, instruction: Instruction | None, mode: str, likelihood: str,
-              n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+              n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy,
+              decide: str = "map") -> dict[str, Any]:
         """The response body of ``POST /v1/infer``."""
         post = self.posterior(sid, instruction, mode, likelihood, n_actions, actions, top)
         body: dict[str, Any] = {"scenario": sid, **post.to_json(top=top)}
         body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
         body["clarification"] = clarify(post.commands, policy).to_json()
+        if post.joint is not None and post.joint.state is not None:
+            from siftom.assist.decide import Situation, get_rule
+
+            sc = self.scenario(sid)
+            body["decision"] = get_rule(decide)(post, Situation(sc.world, post.joint.state, sc.target)).to_json()
         plan = self.plan(sid, n_actions, actions, post.command)
         body["plan"] = plan.to_json() if plan is not None else None
         return body
@@ -278,7 +325,7 @@ class Runtime:
             return eng.engine.transcribe(audio, nbest=nbest)
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
-                    asr_nbest: int, top: int, policy: ClarifyPolicy) -> dict[str, Any]:
+                    asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
         """Detect speech in an uploaded recording, recognise it and infer (siftom.listen's path).
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
@@ -292,9 +339,9 @@ class Runtime:
         with eng.lock:
             instruction, tr, vad, _ = hear(x, eng.engine, asr_nbest)
         if instruction is None:
-            body = self.infer(sid, None, "action-only", "phonetic", n_actions, None, top, policy)
+            body = self.infer(sid, None, "action-only", "phonetic", n_actions, None, top, policy, decide)
         else:
-            body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy)
+            body = self.infer(sid, instruction, mode, likelihood, n_actions, None, top, policy, decide)
         body["asr"] = tr.to_json() if tr is not None else None
         body["speech_heard"] = instruction is not None
         body["message"] = "" if instruction is not None else NO_SPEECH

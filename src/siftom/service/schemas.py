@@ -18,6 +18,7 @@ MAX_SCENARIO_ID = 200
 MAX_SAY_CHARS = 300  # about 20 s of speech at the default rate
 
 Mode = Literal["full", "speech-only", "action-only"]  # == inference.model.MODES (tested)
+DecisionRuleName = Literal["map", "expected-benefit", "ask-or-act"]  # == assist.decide.RULES (tested)
 NoiseKind = Literal["white", "pink", "brown", "babble", "hum"]
 VoiceName = Literal[tuple(VOICES)]  # type: ignore[valid-type]
 
@@ -54,6 +55,8 @@ class InferOptions(Strict):
                                   description="use only the first n observed actions (default: all)")
     top: int = Field(default=10, ge=1, le=100, description="how many commands, goals and hypotheses to return")
     clarify: ClarifyOptions = Field(default_factory=ClarifyOptions)
+    decide: DecisionRuleName = Field(default="map", description="decision rule for the 'decision' field "
+                                     "(docs/decisions.md): map, expected-benefit or ask-or-act")
 
 
 class InferRequest(InferOptions):
@@ -153,6 +156,7 @@ class InferResponse(BaseModel):
     message: str | None = None
     vad: dict[str, Any] | None = None
     clarification: ClarificationOut
+    decision: dict[str, Any] | None = None
     plan: RobotPlanOut | None = None
 
 
@@ -170,6 +174,7 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
         "n_actions": {"type": "integer", "minimum": 0, "maximum": MAX_ACTIONS},
         "asr_nbest": {"type": "integer", "minimum": 1, "maximum": 10, "default": 5},
         "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
+        "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act"], "default": "map"},
     },
     "additionalProperties": False,
 }

@@ -2,7 +2,8 @@
 
 Voices are registered by name: ``flite-slt``, ``espeak-en-us+klatt``, ``espeak-es`` (a Spanish
 voice reading English, standing in for a non-native speaker, as in the paper's data) ...
-``list_voices()`` gives them all. Measured with pocketsphinx (FINDINGS.md): flite voices and
+``list_voices()`` gives them all. Measured with pocketsphinx (`siftom bench asr --voices …`,
+WER per voice in docs/speech.md): flite voices and
 espeak's ``+klatt`` variants are recognised well; espeak's default and accented voices badly.
 """
 
@@ -17,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import soundfile as sf
 
-from siftom.errors import BackendUnavailableError, SiftomError, unknown_name
+from siftom.errors import BackendUnavailableError, SiftomError
+from siftom.registry import Registry
 from siftom.speech.audio import to_mono16k
 
 _TIMEOUT_S = 60.0
@@ -51,7 +53,7 @@ class Voice:
         return asdict(self)
 
 
-def _voices() -> dict[str, Voice]:
+def _builtin_voices() -> list[Voice]:
     v: list[Voice] = [
         Voice("flite-slt", "flite", "slt", "native", "f", "flite CMU ARCTIC slt, US English"),
         Voice("flite-rms", "flite", "rms", "native", "m", "flite CMU ARCTIC rms, US English"),
@@ -76,26 +78,34 @@ def _voices() -> dict[str, Voice]:
             Voice(f"espeak-{code}+klatt", "espeak-ng", f"{code}+klatt", code, "m",
                   f"espeak-ng {lang} voice reading English, Klatt synthesiser")
         )
-    return {x.name: x for x in v}
+    return v
 
 
-VOICES: dict[str, Voice] = _voices()
 DEFAULT_VOICE = "flite-slt"
+VOICES = Registry("voice", default=DEFAULT_VOICE)
+
+
+def register_voice(voice: Voice) -> None:
+    """Register a voice: its TTS program must be on the PATH to use it."""
+    VOICES.register(voice.name, "siftom.speech.tts:Voice", summary=voice.description,
+                    binaries=(voice.engine,), attrs={"voice": voice})
+
+
+for _v in _builtin_voices():
+    register_voice(_v)
 
 
 def list_voices(available_only: bool = False) -> list[Voice]:
-    """All registered voices, or only those whose engine is installed."""
-    return [v for v in VOICES.values() if not available_only or engine_available(v.engine)]
+    """All registered voices (in registration order), or only those whose engine is installed."""
+    entries = VOICES.entries().values()
+    return [e.attrs["voice"] for e in entries if not available_only or e.missing() is None]
 
 
 def get_voice(name: str | Voice) -> Voice:
     """Look a voice up by name; raise UnknownNameError with close matches."""
     if isinstance(name, Voice):
         return name
-    try:
-        return VOICES[name]
-    except KeyError:
-        raise unknown_name("voice", name, VOICES) from None
+    return VOICES.spec(name).attrs["voice"]
 
 
 def engine_available(engine: str) -> bool:

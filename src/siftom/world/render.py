@@ -29,16 +29,25 @@ def _room_boxes(scenario: Any) -> dict[str, tuple[float, float, float, float]]:
 
 
 def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, command: str | None = None,
-                    title: str | None = None, show_path: bool = True) -> Path:
+                    title: str | None = None, show_path: bool = True, step: int | None = None) -> Path:
     """Draw ``scenario`` (state when the human spoke) to a PNG; optionally a posterior bar chart.
 
     Args:
         posterior: a Posterior; its top commands are drawn beside the map.
         command: a command to highlight (objects of its class are ringed).
         show_path: draw the human's observed walking trajectory.
+        step: draw the state after this many observed actions (default: all of them), e.g.
+            the frames a camera would have seen (``siftom scenarios show ID --step K``); object
+            lists are then wrapped instead of shortened, so every object can be read.
     """
     w = scenario.world
     states = scenario.states()
+    if step is not None:
+        if not 0 <= step < len(states):
+            from siftom.errors import ObservationError
+
+            raise ObservationError(f"step must be between 0 and {len(states) - 1} for {scenario.id}, got {step}")
+        states = states[: step + 1]
     now = states[-1]
     ncols = 2 if posterior is not None else 1
     fig, axes = plt.subplots(1, ncols, figsize=(11 if ncols == 2 else 7.5, 6),
@@ -71,7 +80,11 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
         for it in items:
             counts[w.items[it].cls] += 1
         label = ", ".join(f"{n}×{c}" if n > 1 else c for c, n in sorted(counts.items()))
-        if len(label) > 42:
+        if step is not None:  # a camera frame: every object must stay readable
+            import textwrap
+
+            label = "\n".join(textwrap.wrap(label, 44))
+        elif len(label) > 42:
             label = label[:40] + "…"
         if label:
             ring = hl_cls is not None and hl_cls in counts
@@ -86,6 +99,9 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
         ax.plot([x + 0.75], [y + dy], "o", ms=11, color=colour, zorder=5)
         ax.text(x + 0.75, y + dy, "H" if agent == HUMAN else "R", color="white", ha="center", va="center",
                 fontsize=7, weight="bold", zorder=6)
+        if now.held[agent] >= 0:
+            ax.text(x + 1.0, y + dy, f"holds {w.items[now.held[agent]].cls}", color=colour, va="center",
+                    fontsize=6.5, zorder=6)
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.axis("off")

@@ -16,7 +16,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from siftom.errors import unknown_name
-from siftom.likelihood.base import Hypothesis, Instruction
+from siftom.observation import Hypothesis, Instruction
 
 
 @dataclass(frozen=True)

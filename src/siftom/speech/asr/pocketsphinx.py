@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import SiftomError
-from siftom.likelihood.base import Hypothesis
+from siftom.observation import Hypothesis
 from siftom.speech.asr.base import Transcript, Word, normalise_text
 from siftom.speech.audio import FRAME_RATE, SAMPLE_RATE, as_audio, to_pcm16
 
@@ -73,11 +73,10 @@ def cmudict() -> dict[str, tuple[tuple[str, ...], ...]]:
 
 
 def cache_dir() -> Path:
-    """Where generated LMs and dictionaries are kept (``$SIFTOM_CACHE`` or ~/.cache/siftom)."""
-    base = os.environ.get("SIFTOM_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "siftom"
-    )
-    p = Path(base) / "pocketsphinx"
+    """Where generated LMs and dictionaries are kept (``$SIFTOM_CACHE_DIR``/pocketsphinx)."""
+    from siftom.backends.config import cache_root
+
+    p = cache_root() / "pocketsphinx"
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError:

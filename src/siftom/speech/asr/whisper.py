@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import AudioError, BackendUnavailableError, SiftomError, missing_extra
-from siftom.likelihood.base import Hypothesis
+from siftom.observation import Hypothesis
 from siftom.speech.asr.base import Transcript, Word, normalise_text
 from siftom.speech.audio import SAMPLE_RATE, as_audio
 

@@ -18,12 +18,7 @@ from __future__ import annotations
 
 import itertools
 
-import numpy as np
-
-from siftom.agents.human import simulate_human
-from siftom.world.commands import RobotCommand
-from siftom.world.domains.base import DomainSpec, Scenario, register_domain, register_scenario
-from siftom.world.model import NOTHING, Goal, Item, Place, State, World
+from siftom.world.model import Goal, Place, World
 
 DOMAIN_ID = "household-table-v0"
 TYPES = ("plate", "fork", "knife", "spoon", "wineglass", "waterglass", "mug", "bowl")
@@ -69,51 +64,3 @@ def goal_space(target: int = 0) -> tuple[Goal, ...]:
             for n in (2, 3, 4):
                 goals.append(Goal(f"{n}x {'+'.join(combo)}", target, tuple((c, n) for c in combo)))
     return tuple(goals)
-
-
-class Household:
-    """Scenario generator for ``household-table-v0``."""
-
-    id = DOMAIN_ID
-    verb = "deliver"
-
-    def generate(self, seed: int, sid: str | None = None) -> Scenario:
-        """A random scenario; the same seed gives the same scenario."""
-        rng = np.random.default_rng([7001, seed])
-        pidx = {p.name: i for i, p in enumerate(PLACES)}
-        items, item_at = [], []
-        for t in TYPES:
-            n = int(rng.integers(4, 7))
-            spots = rng.choice(len(STORAGE[t]), size=2, replace=False)
-            for k in range(n):
-                items.append(Item(f"{t}_{k + 1}", t))
-                item_at.append(pidx[STORAGE[t][int(spots[k % 2 if rng.random() < 0.8 else 0])]])
-        world = World(PLACES, tuple(items), _DIST)
-        goals = goal_space(pidx["dining_table"])
-        true = int(rng.integers(len(goals)))
-        goal = goals[true]
-        # the robot is asked for the type the human is least likely to fetch first: a random one
-        cls, n = goal.counts[int(rng.integers(len(goal.counts)))]
-        open_mask = (1 << pidx["dishwasher"]) if rng.random() < 0.3 else 0
-        start_places = ("kitchen_counter", "dining_table", "coffee_table", "kitchen_shelf")
-        start = State((pidx[start_places[int(rng.integers(len(start_places)))]], pidx["coffee_table"]),
-                      (NOTHING, NOTHING), tuple(item_at), open_mask)
-        k = int(rng.integers(6, 13))
-        traj = simulate_human(world, start, goal.minus(cls, n), k, beta=3.0, seed=rng)
-        return Scenario(
-            id=sid or f"{DOMAIN_ID}/seed{seed}", domain=DOMAIN_ID, world=world, start=start,
-            goals=goals, true_goal=true, command=RobotCommand("deliver", cls, n), actions=traj.actions,
-            verb="deliver",
-            description=f"set the table with {goal.describe()}; the human asks the robot for the {cls}s",
-            meta={"seed": seed},
-        )
-
-    def fixed(self) -> list[str]:
-        return [f"{DOMAIN_ID}/{i}" for i in range(N_FIXED)]
-
-
-register_domain(DomainSpec(DOMAIN_ID, "set the dining table in a 4-room apartment (paper, simulated experiment)",
-                           "siftom.world.domains.household:Household"))
-for _i in range(N_FIXED):
-    register_scenario(f"{DOMAIN_ID}/{_i}", DOMAIN_ID,
-                      lambda i=_i: Household().generate(i, sid=f"{DOMAIN_ID}/{i}"))

@@ -20,12 +20,7 @@ import json
 from functools import cache
 from importlib import resources
 
-import numpy as np
-
-from siftom.agents.human import simulate_human
-from siftom.world.commands import RobotCommand
-from siftom.world.domains.base import DomainSpec, Scenario, register_domain, register_scenario
-from siftom.world.model import NOTHING, Action, Goal, Item, Place, State, World
+from siftom.world.model import Goal, Item, Place, World
 
 DOMAIN_ID = "kitchen-v0"
 N_FIXED = 10
@@ -72,66 +67,3 @@ def _world(storage: set[str]) -> tuple[World, tuple[int, ...]]:
                 place = "fridge" if cls in COLD else ("kitchen_shelf" if len(cls) % 2 else "kitchen_cabinet")
             item_at.append(pidx[place])
     return World(PLACES, tuple(items), _DIST), tuple(item_at)
-
-
-class Kitchen:
-    """Scenario generator for ``kitchen-v0``."""
-
-    id = DOMAIN_ID
-    verb = "fetch"
-
-    def generate(self, seed: int, sid: str | None = None) -> Scenario:
-        rng = np.random.default_rng([7002, seed])
-        foods = sorted(c for c, v in library()["items"].items() if v["kind"] == "food")
-        storage = {f for f in foods if rng.random() < 0.5}
-        world, item_at = _world(storage)
-        goals = goal_space(0)
-        candidates = [g for g, goal in enumerate(goals) if any(c in storage for c, _ in goal.counts)]
-        true = int(candidates[int(rng.integers(len(candidates)))])
-        goal = goals[true]
-        in_storage = [c for c, _ in goal.counts if c in storage]
-        cls = in_storage[int(rng.integers(len(in_storage)))]
-        start = State((0, 4), (NOTHING, NOTHING), item_at, 0)
-        # enough actions to gather the kitchen part; fewer when that part is small
-        k = int(rng.integers(4, 11))
-        traj = simulate_human(world, start, goal.minus(cls, 1), k, beta=3.0, seed=rng)
-        return Scenario(
-            id=sid or f"{DOMAIN_ID}/seed{seed}", domain=DOMAIN_ID, world=world, start=start, goals=goals,
-            true_goal=true, command=RobotCommand("fetch", cls, 1), actions=traj.actions, verb="fetch",
-            description=f"make {goal.name.replace('_', ' ')}; the human asks the robot for the {cls.replace('_', ' ')}",
-            meta={"seed": seed},
-        )
-
-    def fixed(self) -> list[str]:
-        return [f"{DOMAIN_ID}/{i}" for i in range(N_FIXED)] + ["kitchen-cereal-v0"]
-
-
-def kitchen_cereal() -> Scenario:
-    """The paper's Figure 2 story: milk and a bowl taken; cereal, sugar, oatmeal in storage."""
-    storage = {"cereal", "sugar", "oatmeal", "honey", "chocolate", "banana", "flour", "coffee", "tea", "syrup",
-               "jam", "rice", "salt", "bread", "pasta", "tortilla", "apple", "yogurt", "orange_juice"}
-    world, item_at = _world(storage)
-    goals = goal_space(0)
-    true = [g.name for g in goals].index("breakfast_cereal")
-    start = State((0, 4), (NOTHING, NOTHING), item_at, 0)
-    p, i = world.place, world.item
-    H = 0
-    acts = (
-        Action("walk", H, place=p("fridge")), Action("open", H, place=p("fridge")),
-        Action("grab", H, obj=i("milk"), place=p("fridge")), Action("walk", H, place=p("kitchen_counter")),
-        Action("put", H, obj=i("milk"), place=p("kitchen_counter")), Action("walk", H, place=p("kitchen_cabinet")),
-        Action("open", H, place=p("kitchen_cabinet")), Action("grab", H, obj=i("bowl_1"), place=p("kitchen_cabinet")),
-        Action("walk", H, place=p("kitchen_counter")), Action("put", H, obj=i("bowl_1"), place=p("kitchen_counter")),
-    )
-    return Scenario(
-        id="kitchen-cereal-v0", domain=DOMAIN_ID, world=world, start=start, goals=goals, true_goal=true,
-        command=RobotCommand("fetch", "cereal", 1), actions=acts, verb="fetch",
-        description="the human has taken milk and a bowl; cereal, sugar and oatmeal are in storage",
-    )
-
-
-register_domain(DomainSpec(DOMAIN_ID, "gather a recipe's items from a kitchen and a storage room (paper, robot experiment)",
-                           "siftom.world.domains.kitchen:Kitchen"))
-for _i in range(N_FIXED):
-    register_scenario(f"{DOMAIN_ID}/{_i}", DOMAIN_ID, lambda i=_i: Kitchen().generate(i, sid=f"{DOMAIN_ID}/{i}"))
-register_scenario("kitchen-cereal-v0", DOMAIN_ID, kitchen_cereal)

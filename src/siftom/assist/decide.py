@@ -1,0 +1,272 @@
+"""Decision rules: what the robot does with a posterior (docs/decisions.md gives the reasons).
+
+* ``map``: execute the command with the highest posterior marginal (the Bayes choice for
+  the accuracy metric, which scores the command).
+* ``expected-benefit``: execute the action, any command of the domain or doing nothing, with
+  the highest expected reduction of the team's completion time,
+  ``argmax_a E_{g, pi_r | obs}[L_single(g) - L_team(g, a)]``, the team terms counted as the
+  team simulation counts them (assist/teamvalue.py).
+* ``ask-or-act``: ask the question "Did you mean A or B?" with the highest expected value of
+  information (EVI, in steps) when it exceeds the question's cost in steps, otherwise act by
+  ``expected-benefit``. For a question whose answer reveals which cell of a partition of the
+  commands the human meant (A, B, or something else),
+
+      EVI = sum_cells max_a E[benefit(a) ; cell] - max_a E[benefit(a)].
+
+Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from itertools import combinations
+from typing import Any
+
+import numpy as np
+
+from siftom.assist.clarify import describe_command
+from siftom.assist.teamvalue import NONE, TeamValues, team_values
+from siftom.errors import ObservationError
+from siftom.inference.model import JointPosterior, Posterior, logsumexp
+from siftom.registry import Registry
+from siftom.world.model import State, World
+
+# One spoken exchange (the robot asks, the human answers) costs the team this many steps: the
+# human stops working to listen and answer (about two of the world's unit actions), and the
+# robot waits for the answer before it moves. docs/decisions.md.
+DEFAULT_ASK_COST = 2.0
+# Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
+# Lagrange multiplier of a budget of questions per trial, chosen on a development set of
+# another seed (docs/decisions.md; `siftom bench ask-penalty`).
+DEFAULT_QUESTION_PENALTY = 10.0
+# pair questions are drawn from the most probable commands
+QUESTION_POOL = 4
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the robot does.
+
+    Attributes:
+        rule: the rule's name.
+        action: the command to execute, ``none`` (do nothing) or ``ask``.
+        command: the command it executes when it does not ask (or before the answer).
+        prob: posterior probability of ``command`` (0 for ``none``).
+        expected_benefit: expected steps saved by ``command`` (nan for ``map`` without values).
+        question: the spoken question when ``action == 'ask'``, else ''.
+        options: the commands the question contrasts.
+        evi: expected value of information of the question, in steps (0 when none asked).
+        ask_cost: the cost of asking, in steps.
+        reason: one line saying why.
+        benefits: the best few actions with their expected benefit, best first.
+    """
+
+    rule: str
+    action: str
+    command: str
+    prob: float
+    expected_benefit: float
+    question: str = ""
+    options: tuple[str, ...] = ()
+    evi: float = 0.0
+    ask_cost: float = DEFAULT_ASK_COST
+    reason: str = ""
+    benefits: tuple[tuple[str, float], ...] = field(default=(), compare=False)
+
+    @property
+    def ask(self) -> bool:
+        return self.action == "ask"
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain dict for JSON output."""
+        eb = self.expected_benefit
+        return {"rule": self.rule, "action": self.action, "command": self.command, "prob": self.prob,
+                "expected_benefit": None if not np.isfinite(eb) else round(eb, 4), "question": self.question,
+                "options": list(self.options), "evi": round(self.evi, 4), "ask_cost": self.ask_cost,
+                "reason": self.reason,
+                "benefits": [{"action": a, "expected_benefit": round(b, 4)} for a, b in self.benefits]}
+
+
+@dataclass(frozen=True)
+class Situation:
+    """Where the decision is taken: the world, the state when the human spoke, the target."""
+
+    world: World
+    state: State
+    target: int
+
+    @classmethod
+    def from_scenario(cls, scenario: Any, n_actions: int | None = None) -> Situation:
+        states = scenario.states()
+        return cls(scenario.world, states[-1] if n_actions is None else states[n_actions], scenario.target)
+
+
+DecisionRule = Callable[[Posterior, Situation], Decision]
+
+
+def _joint(post: Posterior) -> JointPosterior:
+    if post.joint is None:
+        raise ObservationError("this posterior carries no hypotheses; decision rules other than 'map' need one "
+                               "from SIFToM.infer (siftom.inference)")
+    return post.joint
+
+
+def _values(post: Posterior, where: Situation) -> TeamValues:
+    return team_values(_joint(post), where.world, where.target, where.state)
+
+
+def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str, float], ...]:
+    order = np.argsort(-eb, kind="stable")[:k]
+    return tuple((actions[i], float(eb[i])) for i in order)
+
+
+def _best(tv: TeamValues) -> tuple[int, np.ndarray]:
+    eb = tv.expected()
+    # ties (e.g. several commands worth exactly nothing) go to doing nothing, then to the list order
+    best = int(np.argmax(eb))
+    if eb[-1] >= eb[best] - 1e-9:
+        best = len(eb) - 1
+    return best, eb
+
+
+class MapRule:
+    """Execute the command with the highest posterior marginal."""
+
+    name = "map"
+
+    def __call__(self, post: Posterior, where: Situation | None = None) -> Decision:
+        eb = float("nan")
+        benefits: tuple[tuple[str, float], ...] = ()
+        if where is not None and post.joint is not None:
+            tv = _values(post, where)
+            e = tv.expected()
+            if post.command in tv.actions:
+                eb = float(e[tv.actions.index(post.command)])
+            benefits = _top(tv.actions, e)
+        p = float(post.commands[0][1]) if post.commands else 0.0
+        return Decision(self.name, post.command, post.command, p, eb,
+                        reason=f"most probable command: P = {p:.2f}", benefits=benefits)
+
+
+class ExpectedBenefitRule:
+    """Execute the action (a command or nothing) that saves the team the most steps in expectation."""
+
+    name = "expected-benefit"
+
+    def __call__(self, post: Posterior, where: Situation) -> Decision:
+        tv = _values(post, where)
+        best, eb = _best(tv)
+        a = tv.actions[best]
+        p = 0.0 if a == NONE else post.prob(a)
+        why = (f"no command is expected to save time (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
+               f"{eb[:-1].max():+.1f} steps)" if a == NONE and len(eb) > 1 else
+               f"expected to save {eb[best]:.1f} steps (P = {p:.2f})")
+        return Decision(self.name, a, a, p, float(eb[best]), reason=why, benefits=_top(tv.actions, eb))
+
+
+def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL) -> list[tuple[float, tuple[str, str]]]:
+    """EVI (steps) of "Did you mean A or B?" for every pair among the ``pool`` most probable commands.
+
+    The answer reveals whether the human meant A, B or something else (a truthful answer);
+    the robot then acts by expected benefit within that cell.
+    """
+    cands = [c for c, _p in post.commands[:pool] if c in tv.actions]
+    w = tv.prob[:, None] * tv.benefit  # (rows, actions)
+    v0 = float(w.sum(axis=0).max())
+    row_cmd = np.array([tv.actions[i] for i in tv.row_cmd]) if len(tv.row_cmd) else np.array([], dtype=str)
+    out = []
+    for a, b in combinations(cands, 2):
+        in_a, in_b = row_cmd == a, row_cmd == b
+        rest = ~(in_a | in_b)
+        v = sum(float(w[m].sum(axis=0).max()) if m.any() else 0.0 for m in (in_a, in_b, rest))
+        out.append((v - v0, (a, b)))
+    out.sort(key=lambda t: -t[0])
+    return out
+
+
+@dataclass(frozen=True)
+class AskOrActRule:
+    """Ask the best question when its EVI exceeds ``ask_cost`` steps; otherwise expected benefit."""
+
+    ask_cost: float = DEFAULT_ASK_COST
+    penalty: float = DEFAULT_QUESTION_PENALTY
+    name: str = "ask-or-act"
+
+    def __post_init__(self) -> None:
+        for k in ("ask_cost", "penalty"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
+                raise ObservationError(f"{k} must be a non-negative number of steps, got {v!r}")
+
+    @property
+    def threshold(self) -> float:
+        """EVI (steps) a question must beat: its time plus the interruption penalty."""
+        return self.ask_cost + self.penalty
+
+    def __call__(self, post: Posterior, where: Situation) -> Decision:
+        tv = _values(post, where)
+        best, eb = _best(tv)
+        a = tv.actions[best]
+        p = 0.0 if a == NONE else post.prob(a)
+        qs = question_values(tv, post)
+        top = _top(tv.actions, eb)
+        if qs and qs[0][0] > self.threshold:
+            evi, opts = qs[0]
+            q = f"Did you mean {describe_command(opts[0])} or {describe_command(opts[1])}?"
+            return Decision(self.name, "ask", a, p, float(eb[best]), q, opts, evi, self.ask_cost,
+                            f"asking is worth {evi:.1f} steps > its cost {self.threshold:g}", top)
+        evi = qs[0][0] if qs else 0.0
+        return Decision(self.name, a, a, p, float(eb[best]), "", (), evi, self.ask_cost,
+                        f"acting: the best question is worth {evi:.1f} steps <= its cost {self.threshold:g}; "
+                        + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
+
+
+RULES = Registry("decision rule", default="map")
+RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
+RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
+               summary="execute the command (or nothing) that saves the team the most steps in expectation")
+RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
+               summary="ask the best question when it is worth more than its cost, else expected-benefit",
+               attrs={"options": ("ask_cost", "penalty")})
+
+
+def get_rule(name: str, **options: Any) -> DecisionRule:
+    """Build the decision rule registered as ``name``; options a rule does not take are ignored."""
+    entry = RULES.spec(name)
+    takes = entry.attrs.get("options", ())
+    return entry.make(**{k: v for k, v in options.items() if k in takes})
+
+
+def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
+    """Apply the named decision rule."""
+    return get_rule(rule, **options)(post, where)
+
+
+def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcript: str = "") -> Posterior:
+    """The posterior after a second utterance (the answer): ``log_lik`` per ``post.joint.commands``.
+
+    The answer depends on the command alone, so adding its log-likelihood to every hypothesis
+    and renormalising is the exact Bayesian update.
+    """
+    j = _joint(post)
+    ll = np.asarray(log_lik, dtype=np.float64)
+    if ll.shape != (len(j.commands),) or not np.all(np.isfinite(ll)):
+        raise ObservationError("the answer's likelihood must give one finite score per command")
+    lj = j.log_joint + ll[j.cmd_idx]
+    p = np.exp(lj - logsumexp(lj))
+    cm = np.bincount(j.cmd_idx, weights=p, minlength=len(j.commands))
+    ng = len(j.goals) + 1
+    gm = np.bincount(j.goal_idx, weights=p, minlength=ng)
+    names = [g.name for g in j.goals] + ["unknown"]
+    corder = np.lexsort((np.arange(len(cm)), -cm))
+    corder = corder[cm[corder] > 0]
+    gorder = np.argsort(-gm, kind="stable")
+    gorder = gorder[gm[gorder] > 0]
+    commands = tuple((str(j.commands[k]), float(cm[k])) for k in corder)
+    goals = tuple((names[k], float(gm[k])) for k in gorder)
+    from dataclasses import replace
+
+    return replace(post, command=commands[0][0], commands=commands, goals=goals, hypotheses=(),
+                   transcript=(post.transcript + " | " + transcript).strip(" |"),
+                   joint=JointPosterior(j.goals, j.commands, j.goal_idx, j.cmd_idx, lj, j.state))

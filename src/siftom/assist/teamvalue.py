@@ -1,0 +1,213 @@
+"""What each robot action is worth to the team, under every hypothesis, from cost-to-go tables.
+
+The team simulation (agents/team.py, docs/team-simulation.md) scores a robot command ``a``
+for a true goal ``g`` as ``L_team = prefix + max(H, R) + remedy``; the human alone takes
+``L_single = prefix + V_h(now; g)``. Here the same terms come from the cost-to-go tables
+(planning/costtogo.py) instead of A*, vectorised over hypotheses and actions, so a decision
+costs about as much as the inference that produced the posterior:
+
+* ``R(a)``: the robot's cost-to-go for "``n`` objects of class ``c`` more on the target"
+  (``n`` = the command's count, at most what is available), from where the robot stands;
+* ``useful(g, a) = min(n, what g still needs of c)`` (objects in the human's hands count as
+  handled), ``wrong = n - useful``;
+* ``H(g, a)``: the human's cost-to-go for ``g`` minus the useful part, with the objects the
+  robot takes out of play (the robot takes the ``n`` with the cheapest round trips, the
+  choice the cost-to-go makes; the simulation takes those on its A* plan);
+* ``remedy = wrong * (2 + 2 d(target, nearest other open surface))``, exactly as simulated.
+
+The benefit of ``a`` under ``g`` is ``L_single - L_team = V_h(now; g) - max(H, R) - remedy``
+(steps saved; negative when the robot slows the team down); doing nothing is worth 0.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+from siftom.inference.model import JointPosterior
+from siftom.planning.costtogo import ClassTables, CostToGo, SparseGoals
+from siftom.world.commands import RobotCommand
+from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, State, World
+
+NONE = "none"
+# hypotheses kept for the decision: the most probable ones up to this mass (at most MAX_ROWS)
+KEEP_MASS = 0.9999
+MAX_ROWS = 256
+
+_CTG: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _ctg(world: World, target: int, kmax: int, agent: int) -> CostToGo:
+    per = _CTG.setdefault(world, {})
+    key = (target, kmax, agent)
+    if key not in per:
+        per[key] = CostToGo(world, target, kmax, agent=agent)
+    return per[key]
+
+
+def aside_distance(world: World, target: int) -> int:
+    """d(target, nearest other open surface): the walk to clear a wrong object (as simulated)."""
+    surfaces = [i for i, p in enumerate(world.places) if p.kind != "room" and i != target and not p.closable]
+    return min((int(world.dist[target, i]) for i in surfaces), default=1)
+
+
+@dataclass(frozen=True, eq=False)
+class TeamValues:
+    """Benefits (steps saved) of every action under every kept hypothesis.
+
+    Attributes:
+        actions: the actions, commands of the domain then ``none`` (last).
+        prob: probability of each kept hypothesis row (renormalised to sum to 1).
+        row_cmd: the command index (into ``actions``) each row says the human asked for.
+        benefit: shape (rows, actions): ``L_single - L_team`` in steps.
+        kept_mass: posterior mass of the kept rows before renormalising.
+    """
+
+    actions: tuple[str, ...]
+    prob: np.ndarray
+    row_cmd: np.ndarray
+    benefit: np.ndarray
+    kept_mass: float
+
+    def expected(self) -> np.ndarray:
+        """Expected benefit of each action."""
+        return self.prob @ self.benefit
+
+
+def _keep_rows(joint: JointPosterior) -> tuple[np.ndarray, np.ndarray, float]:
+    lj = joint.log_joint
+    p = np.exp(lj - lj.max())
+    p /= p.sum()
+    order = np.argsort(-p, kind="stable")
+    cum = np.cumsum(p[order])
+    n = int(min(np.searchsorted(cum, KEEP_MASS) + 1, MAX_ROWS, len(order)))
+    rows = order[:n]
+    kept = float(cum[n - 1])
+    return rows, p[rows] / p[rows].sum(), kept
+
+
+def team_values(joint: JointPosterior, world: World, target: int, state: State | None = None) -> TeamValues:
+    """Benefit of every command of the domain (and of doing nothing) under each hypothesis.
+
+    Args:
+        joint: the posterior's hypotheses (``Posterior.joint``).
+        world: the world the posterior is about.
+        target: the place goal objects go to.
+        state: the state when the human spoke (default: the posterior's).
+    """
+    s = state if state is not None else joint.state
+    if s is None:
+        raise ValueError("team_values needs the state when the human spoke")
+    C = len(world.classes)
+    col = {c: k for k, c in enumerate(world.classes)}
+    rows, prob, kept = _keep_rows(joint)
+    # what is on the target and in the human's hands, per class
+    on_t = np.zeros(C, dtype=np.int64)
+    avail = np.zeros(C, dtype=np.int64)
+    for i, loc in enumerate(s.item_at):
+        k = int(world.item_class_idx[i])
+        if loc == target:
+            on_t[k] += 1
+        elif loc != HELD:
+            avail[k] += 1
+    held_h = np.zeros(C, dtype=np.int64)
+    if s.held[HUMAN] != NOTHING:
+        held_h[int(world.item_class_idx[s.held[HUMAN]])] = 1
+    # a goal vector per row: a known goal's counts, or (unknown goal) exactly the command asked for
+    G = len(joint.goals)
+    gmat = np.zeros((G + 1, C), dtype=np.int64)
+    for g, goal in enumerate(joint.goals):
+        for c, n in goal.counts:
+            gmat[g, col[c]] = n
+    cmds = joint.commands
+    cmd_cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
+    cmd_n = np.array([c.count for c in cmds], dtype=np.int64)
+    g_of, c_of = joint.goal_idx[rows], joint.cmd_idx[rows]
+    N = gmat[g_of].copy()
+    unk = np.flatnonzero(g_of == G)
+    if len(unk):
+        k = cmd_cls[c_of[unk]]
+        N[unk] = 0
+        N[unk, k] = on_t[k] + held_h[k] + cmd_n[c_of[unk]]
+    uniq, u_of = np.unique(N, axis=0, return_inverse=True)
+    u_of = u_of.reshape(-1)
+    kmax = max(4, int(uniq.max()) if uniq.size else 4, int(cmd_n.max()) if len(cmd_n) else 4)
+    ctg_h = _ctg(world, target, kmax, HUMAN)
+    ctg_r = _ctg(world, target, kmax, ROBOT)
+    tabs = ctg_h.tables(s)
+    at_h, hold_h = s.agent_at[HUMAN], s.held[HUMAN]
+    sp = SparseGoals.from_dense(uniq)
+    v_single = ctg_h.values(tabs, sp, at_h, hold_h)
+    # distinct robot deliveries (class, effective count)
+    n_eff = np.minimum(cmd_n, avail[cmd_cls])
+    deliveries: dict[tuple[int, int], int] = {}
+    act_col = np.empty(len(cmds), dtype=np.int64)
+    for a in range(len(cmds)):
+        key = (int(cmd_cls[a]), int(n_eff[a]))
+        act_col[a] = deliveries.setdefault(key, len(deliveries))
+    D = list(deliveries)
+    U = len(uniq)
+    need = np.maximum(uniq - on_t[None, :] - held_h[None, :], 0)  # (U, C)
+    rem_steps = 2 + 2 * aside_distance(world, target)
+    ben = np.zeros((U, len(D)))
+    live = [j for j, (_c, n) in enumerate(D) if n > 0]
+    if live:
+        # robot: one batched call over the distinct deliveries
+        R_goals = np.zeros((len(live), C), dtype=np.int64)
+        for r, j in enumerate(live):
+            c, n = D[j]
+            R_goals[r, c] = on_t[c] + n
+        tabs_r = ctg_r.tables(s)
+        R = ctg_r.values(tabs_r, R_goals, s.agent_at[ROBOT], s.held[ROBOT])
+        # human: the goal minus the useful part, with the robot's objects out of play; the
+        # reserved rows of the changed class are appended to the tables (as successor_values does)
+        extra = []
+        idx_parts, cnt_parts, held_parts = [], [], []
+        hc = int(world.item_class_idx[hold_h]) if hold_h != NOTHING else -1
+        useful_all = np.zeros((len(live), U), dtype=np.int64)
+        for r, j in enumerate(live):
+            c, n = D[j]
+            taken = _taken(world, s, ctg_h, target, c, n)
+            item_at = tuple(HELD if i in taken else loc for i, loc in enumerate(s.item_at))
+            extra.append(ctg_h._class_rows(c, item_at, s.open_mask))
+            useful = np.minimum(n, need[:, c])
+            useful_all[r] = useful
+            hit = (sp.idx == c) & (sp.cnt > 0)
+            idx_parts.append(np.where(sp.idx == c, C + r, sp.idx))
+            cnt_parts.append(sp.cnt - hit * useful[:, None])
+            held_parts.append(np.full(U, C + r if hc == c else hc, dtype=np.int64))
+        big = ClassTables(
+            np.concatenate([tabs.cum] + [e[4] for e in extra]),
+            np.concatenate([tabs.opens] + [e[5] for e in extra]),
+            np.concatenate([tabs.delta] + [e[6] for e in extra]),
+            np.concatenate([tabs.at_target, np.array([e[3] for e in extra], dtype=np.int64)]),
+        )
+        H = ctg_h._values(big, np.concatenate(idx_parts), np.concatenate(cnt_parts), np.array([at_h]),
+                          np.concatenate(held_parts))[0].reshape(len(live), U)
+        n_live = np.array([D[j][1] for j in live])[:, None]
+        wrong = n_live - useful_all
+        l_team = np.maximum(H, R[:, None]) + wrong * rem_steps
+        ben[:, live] = (v_single[None, :] - l_team).T
+    benefit = np.concatenate([ben[u_of][:, act_col], np.zeros((len(rows), 1))], axis=1)
+    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept)
+
+
+def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int) -> set[int]:
+    """The ``n`` objects of class ``c`` the robot fetches: the cheapest round trips (as tabulated)."""
+    cands = [i for i in np.flatnonzero(world.item_class_idx == c).tolist()
+             if s.item_at[i] not in (HELD, target)]
+    dT = world.dist[:, target]
+
+    def closed(i: int) -> bool:
+        loc = s.item_at[i]
+        return bool(world.places[loc].closable and not s.is_open(loc))
+
+    cands.sort(key=lambda i: (int(dT[s.item_at[i]]), closed(i), i))
+    return set(cands[:n])
+
+
+def command_of(action: str) -> RobotCommand | None:
+    """The RobotCommand of an action string (``none``: None)."""
+    return None if action == NONE else RobotCommand.parse(action)

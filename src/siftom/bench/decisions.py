@@ -1,0 +1,212 @@
+"""Decision-rule models in the benchmark: ``siftom-eb`` (expected benefit) and ``siftom-ask``.
+
+``siftom-ask`` may ask the clarifying question of assist/decide.py. The simulated human
+answers truthfully: it says the command it wants (its robot part, the gold command) in a
+direct phrasing with the count, in the stimulus's voice (TTS with the speaker's rate and
+pitch), mixed with the stimulus's noise type at its SNR; the evaluator's ASR engine
+transcribes it and the instruction likelihood scores it, so a question can fail. Every random
+choice (phrasing, noise excerpt) is seeded from the stimulus id, so runs are deterministic.
+The robot then acts by expected benefit on the updated posterior; the exchange costs the team
+``ask_cost`` steps (added to L_team).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from siftom.assist.decide import (
+    DEFAULT_ASK_COST,
+    DEFAULT_QUESTION_PENALTY,
+    Situation,
+    decide,
+    with_answer,
+)
+
+DECISION_MODELS = {"siftom-eb": "expected-benefit", "siftom-ask": "ask-or-act"}
+FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
+
+
+def _seed(stimulus_id: str, *extra: int) -> list[int]:
+    return [int(hashlib.sha1(stimulus_id.encode()).hexdigest()[:8], 16), *extra]
+
+
+def answer_text(command: str, stimulus_id: str) -> str:
+    """What the human says when asked: the command it wants, directly and with the count."""
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.likelihood.phrasing import number_word, phrasing_details
+    from siftom.world.commands import RobotCommand
+
+    cmd = RobotCommand.parse(command)
+    lex = default_lexicon()
+    name = lex.entry(cmd.obj_class).names[0]
+    word = name.plural if cmd.count > 1 else name.singular
+    ph = [p for p in phrasing_details(cmd, lex) if p.style == "direct" and not p.category and word in p.text.split()
+          and (cmd.count == 1 or number_word(cmd.count) in p.text.split())]
+    if not ph:  # every command has a direct phrasing with its canonical name; be safe anyway
+        return f"{number_word(cmd.count)} {word}" if cmd.count > 1 else f"the {word}"
+    w = np.exp([p.log_prior for p in ph])
+    rng = np.random.default_rng(_seed(stimulus_id, 11))
+    return ph[int(rng.choice(len(ph), p=w / w.sum()))].text
+
+
+@lru_cache(maxsize=16)
+def _noise_dir(dataset_root: str) -> str | None:
+    spec = Path(dataset_root) / "dataset.json"
+    if not spec.is_file():
+        return None
+    nd = json.loads(spec.read_text(encoding="utf-8")).get("options", {}).get("noise_dir")
+    if not nd:
+        return None
+    for base in (Path.cwd(), Path(dataset_root)):
+        p = Path(nd) if Path(nd).is_absolute() else base / nd
+        if p.is_dir():
+            return str(p)
+    return None
+
+
+def answer_audio(stimulus: Any, text: str, dataset_root: str) -> np.ndarray:
+    """The answer as the stimulus's speaker would say it, in the stimulus's noise at its SNR."""
+    from siftom.speech.noise import FolderNoise, get_noise, mix_at_snr
+    from siftom.speech.tts import VOICES, synthesize
+
+    voice = stimulus.voice if stimulus.voice in VOICES else FALLBACK_VOICE
+    x = synthesize(text, voice, rate=stimulus.rate, pitch=stimulus.pitch)
+    if stimulus.noise is None or stimulus.snr_db is None:
+        return x
+    nd = _noise_dir(dataset_root)
+    source = FolderNoise(nd, categories=(stimulus.noise,)) if nd else get_noise(stimulus.noise)
+    return mix_at_snr(x, source, float(stimulus.snr_db), np.random.default_rng(_seed(stimulus.id, 12)))
+
+
+def run_decision_model(
+    model: str,
+    stimulus: Any,
+    scenario: Any,
+    instruction: Any,
+    likelihood: str,
+    dataset_root: str,
+    transcribe: Callable[[np.ndarray], Any],
+    ask_cost: float = DEFAULT_ASK_COST,
+    penalty: float | None = None,
+) -> dict[str, Any]:
+    """Decide for one stimulus; returns command, prob and what was asked and heard.
+
+    Args:
+        model: ``siftom-eb`` or ``siftom-ask``.
+        stimulus: the dataset stimulus.
+        scenario: its scenario.
+        instruction: what was heard (the N-best list), or None.
+        likelihood: the instruction likelihood's name (it also scores the answer).
+        dataset_root: the dataset folder (for its noise folder).
+        transcribe: audio samples -> transcript with ``nbest`` (the evaluator's ASR engine).
+        ask_cost: steps one question costs the team (added to L_team).
+        penalty: the interruption penalty in steps (default: ``$SIFTOM_QUESTION_PENALTY``, for
+            tuning runs on a development set, else :data:`DEFAULT_QUESTION_PENALTY`).
+    """
+    from siftom.api import get_model
+    from siftom.bench.evaluate import is_correct
+    from siftom.inference.model import Observation
+
+    if penalty is None:
+        penalty = float(os.environ.get("SIFTOM_QUESTION_PENALTY", DEFAULT_QUESTION_PENALTY))
+    sift = get_model("full", likelihood)
+    posterior = sift.infer(Observation.from_scenario(scenario, instruction))
+    where = Situation.from_scenario(scenario)
+    rule = DECISION_MODELS[model]
+    opts = {"ask_cost": ask_cost, "penalty": penalty} if rule == "ask-or-act" else {}
+    d = decide(posterior, where, rule, **opts)
+    # what the robot believes was asked for (the MAP command), next to what it does
+    out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
+                           "expected_benefit": round(d.expected_benefit, 3), "map_command": posterior.command,
+                           "map_correct": is_correct(posterior.command, stimulus.gold_command, scenario.verb)}
+    if rule == "ask-or-act":
+        out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty})
+    if not d.ask:
+        return out
+    text = answer_text(stimulus.gold_command, stimulus.id)
+    from siftom.observation import Hypothesis, Instruction
+
+    tr = transcribe(answer_audio(stimulus, text, dataset_root))
+    hyps = tuple(Hypothesis(h.text, float(h.score)) for h in tr.nbest if h.text.strip())
+    post2 = posterior
+    if hyps and sift.likelihood is not None:
+        ll = np.asarray(sift.likelihood.log_prob(Instruction(nbest=hyps), posterior.joint.commands))
+        post2 = with_answer(posterior, ll * sift.config.speech_weight, hyps[0].text)
+    d2 = decide(post2, where, "expected-benefit")
+    out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
+                "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
+                "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
+                "answer": text, "answer_heard": hyps[0].text if hyps else "", "map_command": post2.command,
+                "map_correct": is_correct(post2.command, stimulus.gold_command, scenario.verb),
+                "expected_benefit": round(d2.expected_benefit, 3)})
+    return out
+
+
+def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:
+    """Fields a decision model adds to its results entry; a question's cost is added to L_team."""
+    out = dict(extra)
+    if extra.get("asked") and team.get("l_team") is not None:
+        l_team = team["l_team"] + float(extra.get("ask_cost", DEFAULT_ASK_COST))
+        out["l_team"] = l_team
+        out["speedup"] = round(team["l_single"] / l_team - 1.0, 6) if l_team > 0 else 0.0
+    return out
+
+
+def penalty_curve(rows: list[dict[str, Any]], penalties: Any) -> list[dict[str, float]]:
+    """Questions, accuracy and speedup of ``siftom-ask`` at each interruption penalty.
+
+    ``rows`` come from a tuning run with the penalty at 0 (``SIFTOM_QUESTION_PENALTY=0``) and
+    both ``siftom-eb`` and ``siftom-ask``: a trial asks at penalty ``x`` iff its EVI exceeds
+    ``ask_cost + x``; then its outcome is the asking model's, otherwise the expected-benefit one's.
+    """
+    out = []
+    for x in penalties:
+        res = []
+        for r in rows:
+            a, e = r["models"]["siftom-ask"], r["models"]["siftom-eb"]
+            if a.get("penalty", 0.0) != 0.0:
+                raise ValueError("tune on a run made with SIFTOM_QUESTION_PENALTY=0")
+            res.append((True, a) if a.get("asked") and a["evi"] > a["ask_cost"] + x else (False, e))
+        sp = np.array([t["speedup"] for _, t in res if t.get("speedup") is not None], dtype=float)
+        out.append({"penalty": float(x), "questions_per_trial": float(np.mean([q for q, _ in res])),
+                    "accuracy": float(np.mean([t["correct"] for _, t in res])),
+                    "speedup": float(sp.mean()) if len(sp) else float("nan"),
+                    "neg_speedup_share": float((sp < -1e-9).mean()) if len(sp) else float("nan")})
+    return out
+
+
+@click.command("ask-penalty")
+@click.argument("results", nargs=-1, required=True, type=click.Path(file_okay=False))
+@click.option("--budget", type=float, default=0.3, show_default=True, help="questions per trial allowed")
+@click.option("--json", "as_json", is_flag=True, help="print JSON")
+def ask_penalty_cmd(results: tuple[str, ...], budget: float, as_json: bool) -> None:
+    """Choose the interruption penalty from development runs made with SIFTOM_QUESTION_PENALTY=0.
+
+    The smallest penalty (steps, on a 0.5 grid) whose questions per trial stay within BUDGET
+    on every RESULTS folder: the Lagrange multiplier of the question budget.
+    """
+    from siftom.bench.evaluate import load_results
+
+    grid = np.arange(0.0, 40.01, 0.5)
+    curves = {r: penalty_curve(load_results(r), grid) for r in results}
+    ok = [x for k, x in enumerate(grid) if all(c[k]["questions_per_trial"] <= budget for c in curves.values())]
+    chosen = float(ok[0]) if ok else None
+    if as_json:
+        click.echo(json.dumps({"budget": budget, "penalty": chosen, "curves": curves}, indent=2))
+        return
+    for r, c in curves.items():
+        click.echo(r)
+        for row in c[::4]:
+            click.echo(f"  penalty {row['penalty']:5.1f}: {row['questions_per_trial']:.3f} questions/trial, "
+                       f"accuracy {100 * row['accuracy']:.1f} %, speedup {row['speedup']:+.3f}, "
+                       f"negative {100 * row['neg_speedup_share']:.1f} %")
+    click.echo(f"smallest penalty within {budget} questions per trial on every set: {chosen}")

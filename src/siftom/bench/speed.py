@@ -1,0 +1,195 @@
+"""Speed benchmarks of the hot paths: ``siftom bench inference`` and ``siftom bench planner``.
+
+Numbers are wall-clock on one process (numpy may use more threads; set OMP_NUM_THREADS=1 for
+one core). Every timed call starts from scratch unless it says "update".
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+
+import click
+import numpy as np
+
+NBEST_SILVER = [
+    ("can you pass me the silver", -2.0), ("can you pass me the cereal", -2.6), ("can you pass me the sugar", -3.1),
+    ("can you pass me the seller", -3.3), ("can you pass me this silver", -3.6), ("can you pass me the salary", -3.9),
+    ("could you pass me the silver", -4.0), ("can you pass me the so", -4.4), ("can you pass me to silver", -4.6),
+    ("can you pass me the cellar", -4.9),
+]
+
+
+def _p50(fn: Callable[[], object], n: int) -> tuple[float, list[float]]:
+    ts = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        ts.append((time.perf_counter() - t0) * 1000.0)
+    return float(np.median(ts)), ts
+
+
+def _random_goals(world, n: int, seed: int = 0):
+    from siftom.world.model import Goal
+
+    rng = np.random.default_rng(seed)
+    classes = list(world.classes)
+    out, seen = [], set()
+    while len(out) < n:
+        k = int(rng.integers(3, 6))
+        items = tuple(sorted(rng.choice(classes, size=k, replace=False).tolist()))
+        if items in seen:
+            continue
+        seen.add(items)
+        out.append(Goal(f"g{len(out)}", 0, tuple((c, 1) for c in items)))
+    return tuple(out)
+
+
+def run_inference_bench(repeats: int = 30) -> dict:
+    """Time full inference, incremental updates and scaling with the number of goals."""
+    from siftom.inference.model import ModelConfig, Observation, SIFToM
+    from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.observation import Instruction
+    from siftom.scenarios.base import get_scenario
+
+    sc = get_scenario("kitchen-cereal-v0")
+    lk = PhoneticLikelihood()
+    model = SIFToM(ModelConfig(), lk)
+    instr = Instruction.from_nbest(NBEST_SILVER)
+    obs = Observation.from_scenario(sc, instr)
+    post = model.infer(obs)  # warm-up: dictionaries, phrasing tables
+
+    ctg = model.online(sc.world, sc.start, sc.goals, sc.verb).ctg
+
+    def full() -> None:
+        lk._dist.clear()  # a new instruction each time: no cached phonetic distances
+        lk._heard_cache.clear()
+        ctg.clear_state_cache()  # and no tables cached for these states
+        model.infer(obs)
+
+    p50, _ = _p50(full, repeats)
+
+    # incremental: one more observed action on an inference that has seen the others
+    def update_once() -> float:
+        online = model.online(sc.world, sc.start, sc.goals, sc.verb)
+        for a in sc.actions[:-1]:
+            online.observe(a)
+        t0 = time.perf_counter()
+        online.observe(sc.actions[-1])
+        return (time.perf_counter() - t0) * 1000.0
+
+    upd = [update_once() for _ in range(repeats)]
+    online = model.online(sc.world, sc.start, sc.goals, sc.verb)
+    for a in sc.actions:
+        online.observe(a)
+    post_p50, _ = _p50(lambda: online.posterior(instr), repeats)
+
+    scaling = []
+    for n in (10, 100, 1000, 10000):
+        goals = _random_goals(sc.world, n)
+        goals = tuple(g for g in goals)
+        o = Observation(sc.world, sc.start, sc.actions, goals, "fetch", instr)
+        model.infer(o)
+        reps = max(3, min(repeats, 3000 // n))
+        t, _ = _p50(lambda o=o: model.infer(o), reps)
+        scaling.append({"goals": n, "p50_ms": t})
+    return {
+        "scenario": sc.id,
+        "num_items": len(sc.world.items),
+        "num_classes": len(sc.world.classes),
+        "num_goals": len(sc.goals),
+        "num_actions": len(sc.actions),
+        "nbest": len(NBEST_SILVER),
+        "command": post.command,
+        "p50_ms": p50,
+        "update_p50_ms": float(np.median(upd)),
+        "posterior_p50_ms": post_p50,
+        "scaling": scaling,
+        "threads": os.environ.get("OMP_NUM_THREADS", "default"),
+    }
+
+
+def run_planner_bench(repeats: int = 20) -> dict:
+    """A* throughput and the time of the Q* table of a kitchen scenario (all goals x steps)."""
+    from siftom.planning.astar import plan_for_goal
+    from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
+    from siftom.scenarios.base import get_scenario
+    from siftom.world.model import HUMAN, legal_actions
+
+    sc = get_scenario("kitchen-cereal-v0")
+    states = sc.states()
+    N = goal_matrix(sc.world, sc.goals)
+    sp = SparseGoals.from_dense(N)
+
+    def table() -> int:
+        ctg = CostToGo(sc.world, sc.target, int(N.max()))
+        tabs = ctg.tables(states[0])
+        n = 0
+        for t, a in enumerate(sc.actions):
+            s = states[t]
+            acts = list(legal_actions(sc.world, s, HUMAN))
+            Q = successor_values(ctg, s, tabs, acts, sp)
+            n += Q.size
+            from siftom.inference.model import _changed_classes
+
+            tabs = ctg.retable(tabs, states[t + 1], _changed_classes(sc.world, s, a))
+        return n
+
+    n_q = table()
+    q_p50, _ = _p50(table, repeats)
+    # A*: household scenarios, human alone from the speaking state
+    expanded, secs = 0, 0.0
+    for i in range(6):
+        hs = get_scenario(f"household-table-v0/{i}")
+        res = plan_for_goal(hs.world, hs.now, hs.goal)
+        expanded += res.nodes_expanded
+        secs += res.seconds
+    ctg = CostToGo(sc.world, sc.target, int(N.max()))
+    return {
+        "scenario": sc.id,
+        "num_goals": len(sc.goals),
+        "num_actions": len(sc.actions),
+        "q_values": n_q,
+        "q_table_p50_ms": q_p50,
+        "v_per_second": n_q / (q_p50 / 1000.0),
+        "astar_nodes_expanded": expanded,
+        "astar_nodes_per_second": expanded / secs if secs else 0.0,
+        "single_goal_value_ms": _p50(lambda: ctg.value(sc.now, sc.goal), repeats)[0],
+    }
+
+
+@click.command("inference")
+@click.option("--json", "as_json", is_flag=True)
+@click.option("--repeats", default=30, show_default=True)
+def bench_inference_cmd(as_json: bool, repeats: int) -> None:
+    """Inference speed: full p50, incremental update p50, scaling with goals (kitchen-v0)."""
+    res = run_inference_bench(repeats)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"{res['scenario']}: {res['num_items']} objects, {res['num_goals']} goals, "
+               f"{res['num_actions']} actions, {res['nbest']}-best -> {res['command']}")
+    click.echo(f"  full inference p50      {res['p50_ms']:.2f} ms")
+    click.echo(f"  one-action update p50   {res['update_p50_ms']:.2f} ms")
+    click.echo(f"  posterior only p50      {res['posterior_p50_ms']:.2f} ms")
+    for row in res["scaling"]:
+        click.echo(f"  {row['goals']:>6} goals            {row['p50_ms']:.2f} ms")
+
+
+@click.command("planner")
+@click.option("--json", "as_json", is_flag=True)
+@click.option("--repeats", default=20, show_default=True)
+def bench_planner_cmd(as_json: bool, repeats: int) -> None:
+    """Planner speed: Q* table for all goals x observed steps, A* nodes per second."""
+    res = run_planner_bench(repeats)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"{res['scenario']}: Q* for {res['num_goals']} goals x {res['num_actions']} steps x every action "
+               f"= {res['q_values']} values in {res['q_table_p50_ms']:.2f} ms (p50) "
+               f"= {res['v_per_second']:.3g} values/s")
+    click.echo(f"  A*: {res['astar_nodes_per_second']:.0f} nodes expanded per second "
+               f"({res['astar_nodes_expanded']} nodes on 6 household scenarios)")
+    click.echo(f"  one V*(s; g) with table build: {res['single_goal_value_ms']:.3f} ms")

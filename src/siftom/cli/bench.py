@@ -1,0 +1,240 @@
+"""Benchmark subcommands: ``dataset build``, ``dataset check``, ``eval``, ``report``."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
+
+import click
+
+from siftom.backends.cli_options import flags_given, llm_config, llm_options
+from siftom.errors import DatasetError
+
+
+def _csv(value: str | None) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    return tuple(v.strip() for v in value.split(",") if v.strip())
+
+
+def _snrs(value: str) -> tuple[float, ...]:
+    if value.strip().lower() in ("", "none"):
+        return ()
+    try:
+        return tuple(float(v) for v in _csv(value))
+    except ValueError:
+        raise DatasetError(f"--snr must be comma-separated numbers of dB, e.g. 20,10,5; got {value!r}") from None
+
+
+def _default_workers() -> int:
+    return max(1, min(4, os.cpu_count() or 1))
+
+
+def _backend_options(f: Callable[..., None]) -> Callable[..., None]:
+    """--backend and --ray-address (bench/backends.py)."""
+    f = click.option("--ray-address", default=None,
+                     help="with --backend ray: 'auto' or HOST:PORT of a running cluster (default: start a local Ray)")(f)
+    return click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                        help="where the work runs: local processes, or Ray (pip install \"siftom[ray]\")")(f)
+
+
+@contextmanager
+def _backend(name: str, workers: int | None, address: str | None) -> Iterator[object]:
+    """The backend for a command; a signal-stopped run exits 128 + signal with how to resume."""
+    import signal
+
+    from siftom.bench.backends import make_backend
+    from siftom.bench.runlock import interrupting_signal, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            be = make_backend(name, workers or (None if name == "ray" else _default_workers()), address)
+            with stop_on_signals():  # again: ray.init replaces the SIGTERM handler
+                try:
+                    yield be
+                finally:
+                    be.shutdown()
+    except KeyboardInterrupt as exc:
+        signum = interrupting_signal(exc)
+        err = click.ClickException(f"stopped by {signal.Signals(signum).name}; what was finished is saved: "
+                                   "run the same command again to resume")
+        err.exit_code = 128 + signum
+        raise err from None
+
+
+@contextmanager
+def _bar(label: str, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
+    """A rich progress bar on stderr, updated with (done, total)."""
+    if not enabled:
+        yield lambda done, total: None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TimeRemainingColumn(), console=Console(stderr=True), transient=False) as p:
+        task = p.add_task(label, total=None)
+
+        def update(done: int, total: int) -> None:
+            p.update(task, completed=done, total=total)
+
+        yield update
+
+
+@click.group("dataset")
+def dataset_group() -> None:
+    """Build and check UnclearInstruct-style benchmark datasets."""
+
+
+@dataset_group.command("build")
+@click.option("--domain", default="household-table-v0", show_default=True, help="household-table-v0 | kitchen-v0")
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="dataset folder to write")
+@click.option("--scenarios", type=int, default=26, show_default=True, help="scenarios (registered first, then generated)")
+@click.option("--speakers", type=int, default=5, show_default=True, help="speakers per scenario")
+@click.option("--voices", default=None, help="comma-separated voices (siftom voices); default: 2 flite + 3 espeak Klatt")
+@click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
+              help="folder of noise WAVs named CATEGORY_NN.wav; default: synthetic noise")
+@click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
+@click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
+@click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
+@click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
+def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
+              noises: str | None, snr: str, seed: int, workers: int | None, backend: str, ray_address: str | None,
+              as_json: bool) -> None:
+    """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
+    from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
+
+    opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
+                        voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
+                        snrs=_snrs(snr), seed=seed)
+    t0 = time.perf_counter()
+    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
+        ds = build_dataset(opts, out, progress=bar, backend=be)
+    secs = time.perf_counter() - t0
+    if as_json:
+        click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "seconds": round(secs, 1)}))
+    else:
+        click.echo(f"wrote {len(ds.stimuli)} stimuli to {ds.root} in {secs:.0f} s "
+                   f"(manifest.jsonl, audio/, README.md)")
+
+
+@dataset_group.command("check")
+@click.argument("folder", type=click.Path(file_okay=False))
+def check_cmd(folder: str) -> None:
+    """Check a dataset folder (manifest keys, audio files, scenarios) without evaluating it."""
+    from collections import Counter
+
+    from siftom.bench.dataset import load_dataset, scenario_for
+
+    ds = load_dataset(folder)
+    for s in ds.stimuli:
+        scenario_for(s)
+    conds = Counter(s.condition.split("@")[0] for s in ds.stimuli)
+    click.echo(f"ok: {len(ds.stimuli)} stimuli, {len({s.scenario for s in ds.stimuli})} scenarios, "
+               f"{len({s.speaker for s in ds.stimuli})} speakers; " + ", ".join(f"{k} {v}" for k, v in sorted(conds.items())))
+
+
+@click.command("eval")
+@click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
+@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
+              "siftom-oracle-text, plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
+              "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic, "
+              "speech-only-acoustic (the audio itself, key-phrase alignment)")
+@click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
+@click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
+@click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
+@click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
+@click.option("--json", "as_json", is_flag=True, help="print summary.json")
+@llm_options
+def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool,
+             llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
+    """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
+    from siftom.backends.config import llm_configured
+    from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
+    from siftom.bench.report import main_table, write_report
+
+    configured = llm_configured() or flags_given(llm_backend, llm_base_url, llm_model)
+    default = MODELS + (OPTIONAL_MODELS if configured else ())
+    if not configured and not as_json and not models:
+        click.echo("note: no LLM configured, so the LLM models are skipped (set SIFTOM_LLM_BASE_URL and "
+                   "SIFTOM_LLM_MODEL, SIFTOM_LLM_BACKEND=llama, or the --llm-* flags; docs/llm.md)", err=True)
+    chosen = _csv(models) or default
+    llm = llm_config(llm_backend, llm_base_url, llm_model) if set(chosen) & set(OPTIONAL_MODELS) else None
+    opts = EvalOptions(models=chosen, engine=engine, nbest=nbest, seed=seed, llm=llm)
+    from siftom.bench.backends import check_backend_args
+    from siftom.bench.runlock import RunLock
+
+    check_backend_args(backend, ray_address)
+    with RunLock(out), _backend(backend, workers, ray_address) as be:
+        with _bar("evaluating", not as_json) as bar:
+            run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
+        summary = write_report(out)
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    click.echo(main_table(summary))
+    click.echo(f"\n{run.evaluated} stimuli evaluated, {run.resumed} resumed, in {run.seconds:.0f} s; "
+               f"wrote {out}/results.jsonl, summary.json, report.md and figures")
+
+
+@click.command("report")
+@click.argument("results", type=click.Path(file_okay=False))
+@click.option("--seed", type=int, default=None, help="bootstrap seed (default: the run's)")
+@click.option("--json", "as_json", is_flag=True, help="print summary.json")
+def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
+    """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl."""
+    from siftom.bench.report import main_table, write_report
+    from siftom.bench.runlock import RunLock
+
+    with RunLock(results) if os.path.isdir(results) else nullcontext():
+        summary = write_report(results, seed=seed)
+    click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
+
+
+@click.command("sweep")
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="sweep folder (resumes if it exists)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
+@click.option("--json", "as_json", is_flag=True, help="print sweep.json")
+def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_address: str | None, as_json: bool) -> None:
+    """Run the cross product of a sweep CONFIG.toml (datasets x evaluations); write table.md and sweep.png."""
+    from siftom.bench.sweep import load_config, markdown_table, plan, run_sweep, table_rows
+
+    n = len(plan(load_config(config), out))
+
+    def show(i: int, total: int, cell: object) -> None:
+        if not as_json and i < total:
+            click.echo(f"cell {i + 1}/{total}: {getattr(cell, 'values', '')}", err=True)
+
+    with _backend(backend, workers, ray_address) as be:
+        result = run_sweep(config, out, be, progress=show)
+    if as_json:
+        click.echo(json.dumps(result, indent=2, default=list))
+        return
+    click.echo(markdown_table(table_rows(result)))
+    click.echo(f"\n{n} cells; wrote {out}/sweep.json, table.md, table.csv and sweep.png")
+
+
+def register(root: click.Group) -> None:
+    """Add ``dataset``, ``eval``, ``report`` and ``sweep`` to the root command."""
+    root.add_command(dataset_group)
+    root.add_command(eval_cmd)
+    root.add_command(report_cmd)
+    root.add_command(sweep_cmd)

@@ -1,0 +1,63 @@
+"""``siftom perceive FRAME... --out world.json --actions-out actions.txt``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+
+@click.command("perceive")
+@click.argument("frames", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--world", "world_file", type=click.Path(path_type=Path), default=None,
+              help="The known world at the first frame (world JSON or VirtualHome graph): only actions and goals are asked for.")
+@click.option("--out", "out", type=click.Path(path_type=Path), required=True, help="Write the world JSON here.")
+@click.option("--actions-out", type=click.Path(path_type=Path), required=True,
+              help="Write the person's actions here, one per line.")
+@click.option("--graph-out", type=click.Path(path_type=Path), default=None,
+              help="Also write the scene graph seen in the first frame (VirtualHome JSON).")
+@click.option("--goal-space", default=None, help="Merge a goal library: household-table-v0 or kitchen-v0.")
+@click.option("--target", default=None, help="The place goals refer to (default: the model proposes it).")
+@click.option("--no-goals", is_flag=True, help="Do not ask the model for goals (needs --goal-space or goals in --world).")
+@click.option("--model", default=None, help="Vision model name (default $SIFTOM_VLM_MODEL, else $SIFTOM_LLM_MODEL).")
+@click.option("--llm-base-url", default=None,
+              help="OpenAI-compatible API root of the vision model, e.g. http://127.0.0.1:8080/v1 [env SIFTOM_LLM_BASE_URL].")
+@click.option("--no-cache", is_flag=True, help="Ask the model even when an answer is cached.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, target, no_goals, model, llm_base_url,
+                 no_cache, as_json) -> None:
+    """Turn camera FRAMES (in time order) into a world and the person's actions with a vision model."""
+    from siftom.errors import PerceptionError
+    from siftom.perception import Frame, VisionModel, perceive
+
+    images = [Frame.from_path(f) for f in frames]
+    world = None
+    if world_file is not None:
+        try:
+            world = json.loads(Path(world_file).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise PerceptionError(f"{world_file}: cannot read a world JSON ({exc})") from None
+        if not isinstance(world, dict):
+            raise PerceptionError(f"{world_file}: a world must be a JSON object")
+    result = perceive(images, world=world, goal_space=goal_space, target=target, propose_goals=not no_goals,
+                      model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result.world, indent=1) + "\n", encoding="utf-8")
+    actions_out.parent.mkdir(parents=True, exist_ok=True)
+    actions_out.write_text("".join(a + "\n" for a in result.actions), encoding="utf-8")
+    if graph_out is not None and result.graph is not None:
+        graph_out.write_text(json.dumps(result.graph, indent=1) + "\n", encoding="utf-8")
+    if as_json:
+        click.echo(json.dumps(result.to_json(), indent=2))
+        return
+    w = result.world
+    click.echo(f"{len(images)} frames -> {len(w['places'])} places, {len(w['items'])} objects, "
+               f"{len(result.actions)} actions, {len(w['goals'])} goals ({len(result.proposed_goals)} proposed) "
+               f"on {result.target}; {result.requests} model requests, {result.cache_hits} cached")
+    click.echo(f"world: {out}   actions: {actions_out}")
+    click.echo(f"next: siftom infer --scene {out} --actions {actions_out} --transcript \"...\"")
+
+
+def register(root: click.Group) -> None:
+    root.add_command(perceive_cmd)

@@ -97,9 +97,9 @@ def test_pruned_and_full_acoustic_scorers_choose_the_same_command(tmp_path):
     from siftom.inference.listen import engine_for, hear
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.acoustic import AcousticLikelihood
+    from siftom.scenarios.base import get_scenario
     from siftom.speech.noise import get_noise, mix_at_snr
     from siftom.speech.tts import synthesize
-    from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(SCENARIO)
     asr = engine_for(sc.world, sc.verb)

@@ -25,10 +25,10 @@ GRID = (3.0, 5.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40.0, 55.0, 75.0, 100.0)
 def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = 5,
             limit: int | None = None, combo: bool = False) -> list[dict[str, Any]]:
     """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct)."""
+    from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.dataset import load_dataset, scenario_for
     from siftom.bench.evaluate import _engine, asr_vocabulary, is_correct
-    from siftom.api import get_model
     from siftom.inference.model import Observation
 
     ds = load_dataset(dataset)

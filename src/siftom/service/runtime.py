@@ -25,7 +25,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from siftom.api import get_model, make_instruction
+from siftom.api import get_model
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.backends.config import LLMConfig

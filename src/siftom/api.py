@@ -6,14 +6,18 @@ the human's actions in ``Predicate(agent, object, location)`` form, and what was
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
-from siftom.inference.model import ModelConfig, Observation, Posterior, SIFToM
+from siftom.inference.listen import ENGINES, LOCK, NO_SPEECH, ONLINE, Heard, hear, resolve_scene  # noqa: F401
+from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
 
 LikelihoodArg = str | InstructionLikelihood
@@ -148,3 +152,74 @@ def transcribe_for(audio: str | Path, world: Any = None, verb: str = "fetch", en
     if engine == "pocketsphinx" and world is not None:
         options["vocabulary"] = vocabulary_for(world, verb)
     return get_engine(engine, **options).transcribe(audio, nbest=nbest)
+
+
+# ----- audio in, posterior out (siftom.inference.listen has the parts) ---------------------------
+
+def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
+    """A cached recogniser; pocketsphinx is biased to the world's command phrasings."""
+    from siftom.speech.asr.base import get_engine
+
+    if engine != "pocketsphinx":
+        return ENGINES.get((engine,), lambda: get_engine(engine))
+    vocab = tuple(sorted(vocabulary_for(world, verb)))
+    return ENGINES.get((engine, hash(vocab)), lambda: get_engine("pocketsphinx", vocabulary=list(vocab)))
+
+
+def listen(
+    audio: str | Path | np.ndarray,
+    scenario: Any = None,
+    world: Any = None,
+    actions: Sequence[Any] | None = None,
+    *,
+    start: Any = None,
+    goals: Sequence[Any] | None = None,
+    verb: str | None = None,
+    mode: str = "full",
+    likelihood: str = "phonetic",
+    engine: str = "pocketsphinx",
+    nbest: int = 10,
+    top: int = 10,
+) -> Heard:
+    """Infer the robot command from a recording of the instruction and the human's actions.
+
+    Args:
+        audio: a file path (WAV, FLAC, ...) or 16 kHz mono samples.
+        scenario: a registered scenario id or a Scenario (its actions are used unless
+            ``actions`` is given).
+        world: instead of ``scenario``: a loaded scene (``siftom.world.io.load_scene``) or a
+            World with ``start`` and ``goals``.
+        actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
+        mode: ``full``, ``speech-only`` or ``action-only``.
+        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
+        engine: the ASR engine.
+
+    Returns:
+        Heard: the posterior, whether speech was heard, the transcript and timings. Without
+        speech the posterior is the actions-alone one and ``message`` is "no speech heard".
+    """
+    from siftom.speech.audio import as_audio
+
+    t0 = time.perf_counter()
+    sc = resolve_scene(scenario, world, actions, start, goals, verb)
+    x = as_audio(audio)
+    t_load = time.perf_counter() - t0
+    with LOCK:
+        asr = engine_for(sc.world, sc.verb, engine)
+        instruction, tr, vad, timings = hear(x, asr, nbest)
+        t1 = time.perf_counter()
+        if instruction is None:
+            use_mode, use_lik = "action-only", "phonetic"
+        else:
+            use_mode, use_lik = mode, likelihood
+
+        def make() -> OnlineInference:
+            on = get_model(use_mode, use_lik).online(sc.world, sc.start, sc.goals, sc.verb)
+            for a in sc.actions:
+                on.observe(a)
+            return on
+
+        online = ONLINE.get((sc.key, use_mode, use_lik), make)
+        post = online.posterior(instruction, top=top)
+    timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
+    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings)

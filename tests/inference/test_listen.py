@@ -1,4 +1,4 @@
-"""siftom.listen: audio in, posterior out; no speech -> the actions alone; pruned = full scorer."""
+"""siftom.api.listen: audio in, posterior out; no speech -> the actions alone; pruned = full scorer."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 import pytest
 
-import siftom
+from siftom.api import listen
 from siftom.speech.audio import write_wav
 
 needs_flite = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
@@ -43,7 +43,7 @@ def cereal_wav(tmp_path_factory):
 def test_no_speech_gives_the_action_only_posterior(which, request):
     from siftom.api import infer_scenario
 
-    heard = siftom.listen(request.getfixturevalue(which), scenario=SCENARIO, likelihood="acoustic")
+    heard = listen(request.getfixturevalue(which), scenario=SCENARIO, likelihood="acoustic")
     assert not heard.speech and heard.message == "no speech heard"
     assert heard.transcript is None and heard.posterior.transcript == ""
     ref = infer_scenario(SCENARIO, None, mode="action-only")
@@ -56,7 +56,7 @@ def test_no_speech_gives_the_action_only_posterior(which, request):
 @needs_flite
 @pytest.mark.parametrize("likelihood", ["phonetic", "acoustic"])
 def test_listen_hears_the_command(cereal_wav, likelihood):
-    heard = siftom.listen(cereal_wav, scenario=SCENARIO, likelihood=likelihood)
+    heard = listen(cereal_wav, scenario=SCENARIO, likelihood=likelihood)
     assert heard.speech and heard.command == "fetch(cereal)"
     assert heard.posterior.likelihood == likelihood
     assert set(heard.timings) >= {"load", "vad", "asr", "infer"}
@@ -94,7 +94,8 @@ def test_cli_says_no_speech_was_heard(silence_wav):
 def test_pruned_and_full_acoustic_scorers_choose_the_same_command(tmp_path):
     """On recordings of several voices, objects and noise levels the pruned scorer picks what the
     full one (every command aligned) picks."""
-    from siftom.inference.listen import engine_for, hear
+    from siftom.api import engine_for
+    from siftom.inference.listen import hear
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.acoustic import AcousticLikelihood
     from siftom.scenarios.base import get_scenario

@@ -1,11 +1,11 @@
-"""The evaluator's acoustic models: the path of ``siftom.listen`` on each stimulus.
+"""The evaluator's acoustic models: the path of ``siftom.api.listen`` on each stimulus.
 
 * ``siftom-acoustic``: voice-activity detection, recognition of the speech (N-best and word
   times), then the full model with the acoustic (key-phrase alignment) likelihood;
 * ``speech-only-acoustic``: the same likelihood with a uniform prior and no actions.
 
 A stimulus in which no speech is detected gets the posterior from the actions alone (full
-model) or no command (speech-only), as ``siftom.listen`` does.
+model) or no command (speech-only), as ``siftom.api.listen`` does.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Calibrate the acoustic likelihood's temperature on a dataset, and measure calibration.
 
-For every stimulus the audio goes through ``siftom.listen``'s path (VAD, recognition, key-phrase
+For every stimulus the audio goes through ``siftom.api.listen``'s path (VAD, recognition, key-phrase
 alignment) once; the raw alignment scores are kept and the full model's posterior is
 recomputed for each temperature T on a grid. T is chosen per SNR band by the negative
 log-likelihood of the gold command (a proper scoring rule: it is lowest when the posterior is

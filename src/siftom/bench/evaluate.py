@@ -10,7 +10,7 @@ Models (names as in ``summary.json``):
 * ``siftom-llm``: the full model with the paper's LLM instruction likelihood (``likelihood/llm.py``);
   with ``llm-end-to-end`` and ``llm-ablated-siftom`` it runs only when an LLM is configured;
 * on request (``--models ...,siftom-acoustic,speech-only-acoustic``): the same two models with
-  the acoustic likelihood on the audio, through ``siftom.listen``'s path (bench/acoustic_models.py).
+  the acoustic likelihood on the audio, through ``siftom.api.listen``'s path (bench/acoustic_models.py).
 
 Per stimulus the chosen command is scored against the gold one (object class and count exact;
 class only for ``fetch`` domains), called a helpful error when wrong but its class is part of
@@ -53,7 +53,7 @@ MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
-# the audio itself through siftom.listen's path (VAD, ASR word times, key-phrase alignment); on request
+# the audio itself through siftom.api.listen's path (VAD, ASR word times, key-phrase alignment); on request
 ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"

@@ -160,8 +160,8 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
 
 def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine, png,
                  as_json) -> None:
-    """``--audio``: one call to siftom.listen (VAD, recognition, likelihood, posterior)."""
-    from siftom.inference.listen import listen
+    """``--audio``: one call to siftom.api.listen (VAD, recognition, likelihood, posterior)."""
+    from siftom.api import listen
 
     actions = _read_actions(actions_file) if actions_file else None
     if scenario_id is not None:
@@ -222,7 +222,7 @@ def register(root: click.Group) -> None:
     bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)
     bench.add_command(bench_planner_cmd)
-    from siftom.inference.latency import bench_latency_cmd
+    from siftom.bench.latency import bench_latency_cmd
 
     bench.add_command(bench_latency_cmd)
     from siftom.bench.calibrate import _cli as calibrate_cli

@@ -1,4 +1,4 @@
-"""One call from a recording to the posterior: ``siftom.listen(audio, scenario=...)``.
+"""The parts of ``siftom.api.listen`` (a recording to the posterior in one call) below the API layer.
 
     audio --> voice-activity detection --(no speech)--> posterior from the actions alone
                      | speech
@@ -20,13 +20,12 @@ import time
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from siftom.errors import ObservationError
-from siftom.inference.model import OnlineInference, Posterior
+from siftom.inference.model import Posterior
 from siftom.observation import Instruction
 
 NO_SPEECH = "no speech heard"
@@ -77,7 +76,7 @@ class Heard:
 
 
 @dataclass(frozen=True)
-class _Scene:
+class Scene:
     world: Any
     start: Any
     goals: tuple
@@ -86,7 +85,7 @@ class _Scene:
     key: Any
 
 
-class _Cache:
+class Cache:
     """Small thread-safe LRU for per-home objects (engines, online inferences)."""
 
     def __init__(self, size: int) -> None:
@@ -105,13 +104,13 @@ class _Cache:
         return value
 
 
-_ENGINES = _Cache(8)
-_ONLINE = _Cache(64)
-_LOCK = threading.Lock()  # decoders and likelihood caches hold one utterance at a time
+ENGINES = Cache(8)
+ONLINE = Cache(64)
+LOCK = threading.Lock()  # decoders and likelihood caches hold one utterance at a time
 
 
-def _scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
-           verb: str | None) -> _Scene:
+def resolve_scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
+           verb: str | None) -> Scene:
     from siftom.scenarios.base import get_scenario
     from siftom.world.model import apply, check
 
@@ -136,18 +135,7 @@ def _scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any,
             acts.append(act)
             s = apply(s, act)
     key = (scenario if isinstance(scenario, str) else id(src), tuple(map(str, acts)))
-    return _Scene(w, s0, gs, vb, tuple(acts), key)
-
-
-def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
-    """A cached recogniser; pocketsphinx is biased to the world's command phrasings."""
-    from siftom.api import vocabulary_for
-    from siftom.speech.asr.base import get_engine
-
-    if engine != "pocketsphinx":
-        return _ENGINES.get((engine,), lambda: get_engine(engine))
-    vocab = tuple(sorted(vocabulary_for(world, verb)))
-    return _ENGINES.get((engine, hash(vocab)), lambda: get_engine("pocketsphinx", vocabulary=list(vocab)))
+    return Scene(w, s0, gs, vb, tuple(acts), key)
 
 
 def hear(x: np.ndarray, asr: Any, nbest: int = 10) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
@@ -167,63 +155,3 @@ def hear(x: np.ndarray, asr: Any, nbest: int = 10) -> tuple[Instruction | None, 
         return None, tr, vad, timings
     instruction = dataclasses.replace(tr.to_instruction(samples=y), snr_db=vad.snr_db)
     return instruction, tr, vad, timings
-
-
-def listen(
-    audio: str | Path | np.ndarray,
-    scenario: Any = None,
-    world: Any = None,
-    actions: Sequence[Any] | None = None,
-    *,
-    start: Any = None,
-    goals: Sequence[Any] | None = None,
-    verb: str | None = None,
-    mode: str = "full",
-    likelihood: str = "phonetic",
-    engine: str = "pocketsphinx",
-    nbest: int = 10,
-    top: int = 10,
-) -> Heard:
-    """Infer the robot command from a recording of the instruction and the human's actions.
-
-    Args:
-        audio: a file path (WAV, FLAC, ...) or 16 kHz mono samples.
-        scenario: a registered scenario id or a Scenario (its actions are used unless
-            ``actions`` is given).
-        world: instead of ``scenario``: a loaded scene (``siftom.world.io.load_scene``) or a
-            World with ``start`` and ``goals``.
-        actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
-        mode: ``full``, ``speech-only`` or ``action-only``.
-        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
-        engine: the ASR engine.
-
-    Returns:
-        Heard: the posterior, whether speech was heard, the transcript and timings. Without
-        speech the posterior is the actions-alone one and ``message`` is "no speech heard".
-    """
-    from siftom.api import get_model
-    from siftom.speech.audio import as_audio
-
-    t0 = time.perf_counter()
-    sc = _scene(scenario, world, actions, start, goals, verb)
-    x = as_audio(audio)
-    t_load = time.perf_counter() - t0
-    with _LOCK:
-        asr = engine_for(sc.world, sc.verb, engine)
-        instruction, tr, vad, timings = hear(x, asr, nbest)
-        t1 = time.perf_counter()
-        if instruction is None:
-            use_mode, use_lik = "action-only", "phonetic"
-        else:
-            use_mode, use_lik = mode, likelihood
-
-        def make() -> OnlineInference:
-            on = get_model(use_mode, use_lik).online(sc.world, sc.start, sc.goals, sc.verb)
-            for a in sc.actions:
-                on.observe(a)
-            return on
-
-        online = _ONLINE.get((sc.key, use_mode, use_lik), make)
-        post = online.posterior(instruction, top=top)
-    timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
-    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings)

@@ -326,7 +326,7 @@ class Runtime:
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
                     asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
-        """Detect speech in an uploaded recording, recognise it and infer (siftom.listen's path).
+        """Detect speech in an uploaded recording, recognise it and infer (siftom.api.listen's path).
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
         """

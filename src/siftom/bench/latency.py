@@ -1,7 +1,7 @@
 """``siftom bench latency``: time from an audio file to the chosen command, per likelihood.
 
 Clips of 1-4 s (TTS voices, recorded or synthetic babble at 10 dB, fixed seeds) are written to
-WAV files; each is passed to ``siftom.listen`` as a path, so the time covers reading the file,
+WAV files; each is passed to ``siftom.api.listen`` as a path, so the time covers reading the file,
 voice-activity detection, recognition, the instruction likelihood and the posterior. Process
 start-up is excluded and the per-home set-up (recogniser, model, action term) is built by one
 warm-up call first, as a robot that lives in one home would. ``ratio_p50`` is the median over
@@ -52,7 +52,7 @@ def make_clips(folder: Path, noise: str, snr: float, quick: bool = False) -> lis
 
 def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quick: bool = False) -> dict[str, Any]:
     """Per likelihood: p50 seconds, ratio_p50 (and p90), chosen commands."""
-    import siftom
+    from siftom.api import listen
 
     result: dict[str, Any] = {"scenario": SCENARIO, "noise": noise, "snr_db": snr, "repeats": repeats,
                               "likelihoods": {}}
@@ -60,13 +60,13 @@ def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quic
         clips = make_clips(Path(tmp), noise, snr, quick)
         result["clip_seconds"] = [round(d, 2) for _, d, _ in clips]
         for lk in LIKELIHOODS:
-            siftom.listen(clips[0][0], scenario=SCENARIO, likelihood=lk)  # per-home set-up, cached
+            listen(clips[0][0], scenario=SCENARIO, likelihood=lk)  # per-home set-up, cached
             secs, ratios, cpu_ratios, chosen = [], [], [], []
             for path, dur, _ in clips:
                 best, best_cpu = float("inf"), float("inf")
                 for _ in range(repeats):
                     t0, c0 = time.perf_counter(), time.process_time()
-                    heard = siftom.listen(path, scenario=SCENARIO, likelihood=lk)
+                    heard = listen(path, scenario=SCENARIO, likelihood=lk)
                     best = min(best, time.perf_counter() - t0)
                     best_cpu = min(best_cpu, time.process_time() - c0)
                 secs.append(best)

@@ -184,7 +184,8 @@ def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audi
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
     print_posterior(heard.posterior, con)
-    con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command")
+    con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
+              "loading the recogniser and the scene; `siftom bench latency` times warm calls)")
 
 
 def print_posterior(post, console: Console | None = None) -> None:

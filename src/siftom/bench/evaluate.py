@@ -9,8 +9,7 @@ Models (names as in ``summary.json``):
 * ``siftom-oracle-text``: the full model given the reference transcript (an upper bound);
 * ``siftom-llm``: the full model with the paper's LLM instruction likelihood (``likelihood/llm.py``);
   with ``llm-end-to-end`` and ``llm-ablated-siftom`` it runs only when an LLM is configured;
-* on request (``--models ...,siftom-acoustic,speech-only-acoustic``): the same two models with
-  the acoustic likelihood on the audio, through ``siftom.api.listen``'s path (bench/acoustic_models.py).
+* on request, ``siftom-acoustic`` and ``speech-only-acoustic``: the audio itself (bench/acoustic_models.py).
 
 Per stimulus the chosen command is scored against the gold one (object class and count exact;
 class only for ``fetch`` domains), called a helpful error when wrong but its class is part of
@@ -53,7 +52,6 @@ MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
-# the audio itself through siftom.api.listen's path (VAD, ASR word times, key-phrase alignment); on request
 ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
 ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
@@ -251,11 +249,10 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
-            elif m in ACOUSTIC_MODELS:
+            elif m in ACOUSTIC_MODELS:  # siftom.api.listen's path: VAD, ASR word times, key-phrase alignment
                 from siftom.bench.acoustic_models import acoustic_choice
-
-                audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
-                command, prob = acoustic_choice(m, sc, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
+                command, prob = acoustic_choice(m, sc, Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio,
+                                                _engine(opts.engine, task.vocabulary), opts.nbest)
             elif m in LLM_BASELINES:
                 from siftom.bench.llm_baselines import chooser, command_space
 

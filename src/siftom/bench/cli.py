@@ -74,16 +74,20 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--phrasings", "phrasings", default=None,
+              help="carrier file: UTF-8, one carrier per line with {np}, '#' comments; or a shipped set "
+                   "(free-v0, free-heldout-v0). Default: siftom's phrasing grammar")
 @click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, workers: int | None, as_json: bool) -> None:
+              noises: str | None, snr: str, seed: int, phrasings: str | None, workers: int | None,
+              as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed)
+                        snrs=_snrs(snr), seed=seed, phrasings=phrasings)
     t0 = time.perf_counter()
     with _bar("building", not as_json) as bar:
         ds = build_dataset(opts, out, workers=workers or _default_workers(), progress=bar)

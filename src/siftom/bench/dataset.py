@@ -443,7 +443,8 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
     else:
         from siftom.likelihood.carriers import load_carriers, sample_with_carriers
 
-        text = sample_with_carriers(sc.command, default_lexicon(), rng, load_carriers(opts.phrasings))
+        text = sample_with_carriers(sc.command, default_lexicon(), rng, load_carriers(opts.phrasings),
+                                    carrier_rng=np.random.default_rng([opts.seed, unit.k, j, 3]))
         style = "free"
     nkey = (opts.noise_dir, opts.noises)
     if nkey not in _NOISE_SOURCES:

@@ -2,8 +2,8 @@
 
 A carrier file is UTF-8 text with one carrier per line, each containing ``{np}`` where the
 noun phrase goes ("um could you get {np} for me"); blank lines and lines starting with ``#``
-are skipped. :func:`sample_with_carriers` draws a carrier uniformly and a noun phrase from the
-same distribution as :func:`siftom.likelihood.phrasing.sample_phrasing` ("the forks", "three
+are skipped. :func:`sample_with_carriers` draws a carrier uniformly and takes the noun phrase
+of the phrasing :func:`siftom.likelihood.phrasing.sample_phrasing` draws ("the forks", "three
 forks", "an onion", "the cutlery"), so only the words around the object change.
 
 Two sets ship with siftom (``siftom/data/phrasings``), written without looking at the phrasing
@@ -20,7 +20,7 @@ import numpy as np
 
 from siftom.errors import DatasetError
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
-from siftom.likelihood.phrasing import _noun_phrases
+from siftom.likelihood.phrasing import CARRIERS, _noun_phrases, sample_phrasing
 from siftom.world.commands import RobotCommand
 
 PLACEHOLDER = "{np}"
@@ -88,17 +88,37 @@ def load_carriers(spec: str | Path) -> tuple[str, ...]:
     return _load(str(resolve_carrier_file(spec)))
 
 
+def noun_phrase_of(text: str, command: RobotCommand, lexicon: Lexicon | None = None) -> str:
+    """The noun phrase inside a grammar phrasing of ``command`` ("bring me three forks" ->
+    "three forks"; "get me the rest of the forks" -> "the forks")."""
+    lex = lexicon or default_lexicon()
+    for template, _w in (c for cs in CARRIERS.values() for c in cs):
+        for np_text, bare_plural, _nw, _cat in _noun_phrases(command, lex):
+            if "{pl}" in template:
+                if bare_plural and template.format(pl=bare_plural) == text:
+                    return f"the {bare_plural}"
+            elif template.format(np=np_text) == text:
+                return np_text
+    raise DatasetError(f"{text!r} is not a grammar phrasing of {command}")
+
+
 def sample_with_carriers(
     command: RobotCommand,
     lexicon: Lexicon | None,
     rng: np.random.Generator,
     carriers: tuple[str, ...],
+    carrier_rng: np.random.Generator | None = None,
 ) -> str:
-    """A carrier drawn uniformly around a noun phrase drawn as in ``sample_phrasing``."""
+    """A carrier drawn uniformly around a noun phrase drawn as in ``sample_phrasing``.
+
+    The noun phrase is that of ``sample_phrasing(command, lexicon, rng)``, so a dataset built
+    with the same seed says the same noun phrases ("three forks", "the cutlery") with the
+    grammar's carriers or with the file's: a paired comparison. The carrier is drawn from
+    ``carrier_rng`` (default: ``rng``, after the noun phrase).
+    """
     if not carriers:
         raise DatasetError("no carriers given; load them with load_carriers(FILE)")
-    nps = _noun_phrases(command, lexicon or default_lexicon())
-    w = np.array([n[2] for n in nps], dtype=float)
-    k = int(rng.integers(len(carriers)))
-    j = int(rng.choice(len(nps), p=w / w.sum()))
-    return " ".join(carriers[k].replace(PLACEHOLDER, nps[j][0]).split())
+    lex = lexicon or default_lexicon()
+    noun_phrase = noun_phrase_of(sample_phrasing(command, lex, rng), command, lex)
+    k = int((carrier_rng or rng).integers(len(carriers)))
+    return " ".join(carriers[k].replace(PLACEHOLDER, noun_phrase).split())

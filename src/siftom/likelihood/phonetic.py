@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import ObservationError
+from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
 from siftom.likelihood.base import Instruction
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phrasing import FILLER_WORDS, content_prior, number_word
@@ -548,6 +549,8 @@ class PhoneticLikelihood:
         filler_sub_penalty: float = 0.4,
         content_insert_scale: float = 1.0,
         lost_word_weight: float = 0.3,
+        background: bool = True,
+        relevance_range: tuple[float, float] = (R_NEAR, R_FAR),
         cache_size: int = 4096,
     ) -> None:
         for label, v in (("lam", lam), ("asr_temperature", asr_temperature),
@@ -569,6 +572,13 @@ class PhoneticLikelihood:
         if not (np.isfinite(lost_word_weight) and 0 <= lost_word_weight <= 1):
             raise ObservationError(f"lost_word_weight must be in [0, 1], got {lost_word_weight!r}")
         self.lost_word_weight = float(lost_word_weight)
+        # Words that sound like no object name, synonym, category word or count are background:
+        # they cost about the same under every command (background.py, docs/likelihoods.md).
+        self.background = bool(background)
+        r_near, r_far = relevance_range
+        if not (np.isfinite(r_near) and np.isfinite(r_far) and 0 <= r_near < r_far):
+            raise ObservationError(f"relevance_range must be (near, far) with 0 <= near < far, got {relevance_range!r}")
+        self.vocabulary = MeaningVocabulary(lexicon_words(self.lexicon), r_near, r_far)
         self._cache_size = cache_size
         self._contents: list[str] = []
         self._content_id: dict[str, int] = {}
@@ -582,6 +592,9 @@ class PhoneticLikelihood:
     def _content(self, text: str) -> int:
         cid = self._content_id.get(text)
         if cid is None:
+            if self.background and self.vocabulary.add(normalize_text(text)):
+                self._heard_cache.clear()  # relevances changed: re-encode hypotheses
+                self._dist.clear()
             phones: list[str] = []
             costs: list[float] = []
             for w in normalize_text(text):
@@ -611,11 +624,15 @@ class PhoneticLikelihood:
         ins: list[float] = []
         sub: list[float] = []
         for w in normalize_text(text):
-            filler = w in FILLER_WORDS
+            # g = 0 for filler words; for others, how much the word sounds like a meaning word
+            if w in FILLER_WORDS:
+                g = 0.0
+            else:
+                g = self.vocabulary.relevance(w) if self.background else 1.0
             for p in word_phonemes(w):
                 ids.append(PHONEME_ID[p])
-                ins.append(self.filler_cost if filler else indel_cost(p) * self.content_insert_scale)
-                sub.append(self.filler_sub_penalty if filler else 0.0)
+                ins.append(g * indel_cost(p) * self.content_insert_scale + (1 - g) * self.filler_cost)
+                sub.append((1 - g) * self.filler_sub_penalty)
         return (np.array(ids, dtype=np.int16), np.array(ins, dtype=np.float32),
                 np.array(sub, dtype=np.float32))
 

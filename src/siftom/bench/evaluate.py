@@ -37,7 +37,7 @@ from siftom.errors import DatasetError, SiftomError, unknown_name
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
-ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
+ENGINES = ("pocketsphinx-vocab", "pocketsphinx-closed", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
 RUN = "run.json"
@@ -112,10 +112,14 @@ def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
     from siftom.speech.asr.base import get_engine
 
-    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if name == "pocketsphinx-vocab" else "")
+    scene = name in ("pocketsphinx-vocab", "pocketsphinx-closed")
+    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
     if key not in _ENGINES:
-        if name == "pocketsphinx-vocab":
-            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary))
+        if scene:
+            # -vocab: the scene's phrasings mixed with generic English words (open vocabulary);
+            # -closed: the phrasings alone (docs/speech.md)
+            extra = {"background_words": 0} if name == "pocketsphinx-closed" else {}
+            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary), **extra)
         else:
             _ENGINES[key] = get_engine(name)
     return _ENGINES[key]
@@ -397,7 +401,7 @@ def evaluate(
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine == "pocketsphinx-vocab" and pending:
+    if opts.engine in ("pocketsphinx-vocab", "pocketsphinx-closed") and pending:
         _engine(opts.engine, vocab)  # build the LM once, before workers race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()

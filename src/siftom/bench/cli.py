@@ -121,7 +121,7 @@ def check_cmd(folder: str) -> None:
 @click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
               "siftom-oracle-text, plus llm-end-to-end,llm-ablated-siftom when an LLM is configured "
               "(SIFTOM_LLM_BASE_URL + SIFTOM_LLM_MODEL, or SIFTOM_LLM=llama)")
-@click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx-closed | pocketsphinx | whisper")
+@click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx-open | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")

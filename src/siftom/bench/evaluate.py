@@ -37,7 +37,7 @@ from siftom.errors import DatasetError, SiftomError, unknown_name
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text")
 # run only when a language model is configured (siftom.bench.llm_baselines)
 OPTIONAL_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
-ENGINES = ("pocketsphinx-vocab", "pocketsphinx-closed", "pocketsphinx", "whisper")
+ENGINES = ("pocketsphinx-vocab", "pocketsphinx-open", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
 RUN = "run.json"
@@ -112,13 +112,15 @@ def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
     from siftom.speech.asr.base import get_engine
 
-    scene = name in ("pocketsphinx-vocab", "pocketsphinx-closed")
+    scene = name in ("pocketsphinx-vocab", "pocketsphinx-open")
     key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
     if key not in _ENGINES:
         if scene:
-            # -vocab: the scene's phrasings mixed with generic English words (open vocabulary);
-            # -closed: the phrasings alone (docs/speech.md)
-            extra = {"background_words": 0} if name == "pocketsphinx-closed" else {}
+            # -vocab: the scene's phrasings alone; -open: mixed with frequent English words
+            # (open vocabulary, docs/speech.md)
+            from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
+
+            extra = {"background_words": OPEN_BACKGROUND_WORDS} if name == "pocketsphinx-open" else {}
             _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary), **extra)
         else:
             _ENGINES[key] = get_engine(name)
@@ -401,7 +403,7 @@ def evaluate(
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine in ("pocketsphinx-vocab", "pocketsphinx-closed") and pending:
+    if opts.engine in ("pocketsphinx-vocab", "pocketsphinx-open") and pending:
         _engine(opts.engine, vocab)  # build the LM once, before workers race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()

@@ -31,11 +31,11 @@ from siftom.speech.audio import FRAME_RATE, SAMPLE_RATE, as_audio, to_pcm16
 # pocketsphinx keeps path scores in log-base-1.0001 units shifted right by 10 bits (SENSCR_SHIFT)
 SENSCR_SHIFT = 10
 _FILLERS = {"<s>", "</s>", "<sil>", "[noise]", "<unk>"}
-# Open vocabulary: the scene's phrasings are mixed with the most frequent words of the generic
-# English LM, so words outside the phrasings are recognised as themselves, not forced onto the
-# nearest object name (docs/speech.md, "Open vocabulary").
-BACKGROUND_WORDS = 2000
-BACKGROUND_WEIGHT = 0.1
+# Open vocabulary (opt-in, engine name "pocketsphinx-open"): the scene's phrasings mixed with the
+# most frequent words of the generic English LM, so words outside the phrasings are recognised
+# as themselves, not forced onto the nearest object name (docs/speech.md, "Open vocabulary").
+OPEN_BACKGROUND_WORDS = 2000
+OPEN_BACKGROUND_WEIGHT = 0.1
 # Default request templates used when a vocabulary is given as bare object words.
 REQUEST_TEMPLATES = (
     "{x}",
@@ -199,10 +199,13 @@ class PocketsphinxEngine:
         vocabulary: phrasings to build a domain LM from (or bare object words, expanded with
             REQUEST_TEMPLATES); None uses the generic LM.
         max_seconds: refuse longer audio (the generic LM decodes at RTF >= 1 in noise).
+        background_words: with a vocabulary, also admit this many of the generic LM's most
+            frequent words (open vocabulary, e.g. OPEN_BACKGROUND_WORDS); 0 = the phrasings only.
+        background_weight: unigram probability mass given to those words.
     """
 
     def __init__(self, vocabulary: Sequence[str] | None = None, max_seconds: float = 120.0,
-                 background_words: int = BACKGROUND_WORDS, background_weight: float = BACKGROUND_WEIGHT) -> None:
+                 background_words: int = 0, background_weight: float = OPEN_BACKGROUND_WEIGHT) -> None:
         """Load the decoder (fast with a vocabulary: the dictionary is trimmed)."""
         ps = _ps()
         self.max_seconds = max_seconds
@@ -229,8 +232,8 @@ class PocketsphinxEngine:
                 raise SiftomError(f"background_words must be >= 0 and background_weight in [0, 1), "
                                   f"got {background_words}, {background_weight}")
             open_vocab = background_words > 0 and background_weight > 0
-            if not open_vocab:
-                self.name = "pocketsphinx-closed"
+            if open_vocab:
+                self.name = "pocketsphinx-open"
             tag = f"\nbackground={background_words},{background_weight}" if open_vocab else ""
             key = hashlib.sha1(("\n".join(self.phrases) + tag).encode()).hexdigest()[:16]
             d = cache_dir()

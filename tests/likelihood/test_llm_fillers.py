@@ -42,5 +42,5 @@ def test_filler_words_keep_the_llm_ranking(plain, padded):
     b = lik.log_prob(Instruction.from_text(padded), cmds)
     target = ITEMS.index(plain.split()[-1])
     assert int(np.argmax(a)) == target
-    assert int(np.argmax(b)) == target, f"filler words moved the top command: {dict(zip(ITEMS, b.round(2)))}"
+    assert int(np.argmax(b)) == target, f"filler words moved the top command: {dict(zip(ITEMS, b.round(2), strict=True))}"
     assert _spearman(a, b) >= 0.6

@@ -136,7 +136,7 @@ def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, 
 
     t = Table(title=f"siftom bench asr ({res.seconds:.0f} s)")
     for col in ("engine", "voice", "noise", "SNR dB", "WER %", "in-vocab %", "OOV %", "free %",
-                "obj err % grammar", "obj err % free", "RTF"):
+                "obj % gram", "obj % free", "RTF"):
         left = col in ("engine", "voice", "noise")
         t.add_column(col, justify="left" if left else "right", no_wrap=left)
     for r in res.rows:

@@ -14,9 +14,11 @@ phrasing scored so far) and gives each heard word a *relevance* g in [0, 1]:
 
 the cheapest way to explain w's phonemes as (part of) a meaning word, relative to not
 explaining them at all (D the weighted phoneme edit distance of ``phonetic.py``; a span
-rather than the whole word so "see real" can still be a mishearing of "cereal", with the
-unheard rest of the word costing β = 0.5 of its deletion cost). g(w) is 1
-for r <= r_near, 0 for r >= r_far and linear in between. The channel then treats w as
+rather than the whole word, the unheard rest of the word costing β = 0.5 of its deletion
+cost). g(w) is 1 for r <= r_near, 0 for r >= r_far and linear in between. A meaning word the
+recogniser split in two ("see real" for "cereal") is caught by also rating each pair of
+adjacent non-filler heard words run together; a word gets the larger of its own and its
+pairs' relevance. The channel then treats w as
 g · content + (1 − g) · background (docs/likelihoods.md).
 """
 
@@ -29,8 +31,8 @@ import numpy as np
 from siftom.likelihood.lexicon import Lexicon
 from siftom.likelihood.phrasing import FILLER_WORDS, NUMBER_WORDS
 
-R_NEAR = 0.15
-R_FAR = 0.35
+R_NEAR = 0.2
+R_FAR = 0.4
 EDGE_WEIGHT = 0.5
 
 
@@ -104,10 +106,17 @@ class MeaningVocabulary:
 
     def relative_cost(self, word: str) -> float:
         """r(w): cheapest explanation of ``word`` as a span of a meaning word / not explaining it."""
-        from siftom.likelihood.phonetic import PHONEME_ID, SUB_COST, indel_cost, word_phonemes
+        from siftom.likelihood.phonetic import word_phonemes
 
-        phones = word_phonemes(word)
-        if not phones or word in self.words:
+        if word in self.words:
+            return 0.0
+        return self.relative_cost_phones(word_phonemes(word))
+
+    def relative_cost_phones(self, phones: tuple[str, ...]) -> float:
+        """r for a phoneme sequence (a word, or two adjacent heard words run together)."""
+        from siftom.likelihood.phonetic import PHONEME_ID, SUB_COST, indel_cost
+
+        if not phones:
             return 0.0
         if len(self._ids) == 0:
             return float("inf")
@@ -133,11 +142,23 @@ class MeaningVocabulary:
         total = sum(indel_cost(p) for p in phones)
         return float(end.min() / total) if total > 0 else 0.0
 
+    def _ramp(self, r: float) -> float:
+        return float(np.clip((self.r_far - r) / (self.r_far - self.r_near), 0.0, 1.0))
+
     def relevance(self, word: str) -> float:
         """g(w) in [0, 1]: 1 when ``word`` sounds like (part of) a meaning word, 0 when like none."""
         g = self._cache.get(word)
         if g is None:
-            r = self.relative_cost(word)
-            g = float(np.clip((self.r_far - r) / (self.r_far - self.r_near), 0.0, 1.0))
-            self._cache[word] = g
+            g = self._cache[word] = self._ramp(self.relative_cost(word))
+        return g
+
+    def pair_relevance(self, first: str, second: str) -> float:
+        """g of two adjacent heard words run together: a recogniser can split one meaning word
+        into two ("see real" for "cereal"); each of the two words gets at least this relevance."""
+        from siftom.likelihood.phonetic import word_phonemes
+
+        key = first + " " + second
+        g = self._cache.get(key)
+        if g is None:
+            g = self._cache[key] = self._ramp(self.relative_cost_phones(word_phonemes(first) + word_phonemes(second)))
         return g

@@ -623,18 +623,28 @@ class PhoneticLikelihood:
         ids: list[int] = []
         ins: list[float] = []
         sub: list[float] = []
-        for w in normalize_text(text):
-            # g = 0 for filler words; for others, how much the word sounds like a meaning word
-            if w in FILLER_WORDS:
-                g = 0.0
-            else:
-                g = self.vocabulary.relevance(w) if self.background else 1.0
+        words = normalize_text(text)
+        for w, g in zip(words, self._relevances(words), strict=True):
             for p in word_phonemes(w):
                 ids.append(PHONEME_ID[p])
                 ins.append(g * indel_cost(p) * self.content_insert_scale + (1 - g) * self.filler_cost)
                 sub.append((1 - g) * self.filler_sub_penalty)
         return (np.array(ids, dtype=np.int16), np.array(ins, dtype=np.float32),
                 np.array(sub, dtype=np.float32))
+
+    def _relevances(self, words: Sequence[str]) -> list[float]:
+        """g per heard word: 0 for filler words, else how much it (alone or run together with a
+        non-filler neighbour) sounds like a meaning word; 1 without the background model."""
+        if not self.background:
+            return [0.0 if w in FILLER_WORDS else 1.0 for w in words]
+        voc = self.vocabulary
+        g = [0.0 if w in FILLER_WORDS else voc.relevance(w) for w in words]
+        for i in range(len(words) - 1):
+            a, b = words[i], words[i + 1]
+            if a not in FILLER_WORDS and b not in FILLER_WORDS and min(g[i], g[i + 1]) < 1.0:
+                pg = voc.pair_relevance(a, b)
+                g[i], g[i + 1] = max(g[i], pg), max(g[i + 1], pg)
+        return g
 
     def _plan(self, commands: tuple[RobotCommand, ...]) -> _Plan:
         plan = self._plans.get(commands)

@@ -17,8 +17,8 @@ explaining them at all (D the weighted phoneme edit distance of ``phonetic.py``;
 rather than the whole word, the unheard rest of the word costing β = 0.5 of its deletion
 cost). g(w) is 1 for r <= r_near, 0 for r >= r_far and linear in between. A meaning word the
 recogniser split in two ("see real" for "cereal") is caught by also rating each pair of
-adjacent non-filler heard words run together; a word gets the larger of its own and its
-pairs' relevance. The channel then treats w as
+adjacent non-filler heard words that are not meaning words themselves, run together, against
+whole meaning words (β = 1); a word gets the larger of its own and its pairs' relevance. The channel then treats w as
 g · content + (1 − g) · background (docs/likelihoods.md).
 """
 
@@ -112,8 +112,9 @@ class MeaningVocabulary:
             return 0.0
         return self.relative_cost_phones(word_phonemes(word))
 
-    def relative_cost_phones(self, phones: tuple[str, ...]) -> float:
-        """r for a phoneme sequence (a word, or two adjacent heard words run together)."""
+    def relative_cost_phones(self, phones: tuple[str, ...], edge_weight: float | None = None) -> float:
+        """r for a phoneme sequence (a word, or two adjacent heard words run together); the
+        unheard rest of the meaning word costs ``edge_weight`` (default: the instance's β)."""
         from siftom.likelihood.phonetic import PHONEME_ID, SUB_COST, indel_cost
 
         if not phones:
@@ -124,9 +125,10 @@ class MeaningVocabulary:
         # Every phoneme of the heard word is explained; the meaning word's phonemes before and
         # after the matched span cost edge_weight x their deletion cost (a heard fragment of a
         # long word is weaker evidence than the whole word).
+        beta = self.edge_weight if edge_weight is None else edge_weight
         cum = np.zeros((n_v, width + 1), dtype=np.float32)
         np.cumsum(self._ins, axis=1, out=cum[:, 1:])
-        prev = self.edge_weight * cum
+        prev = beta * cum
         for p in phones:
             pid = PHONEME_ID[p]
             dp = indel_cost(p)
@@ -138,7 +140,7 @@ class MeaningVocabulary:
             for j in range(width):
                 cur[:, j + 1] = np.minimum(best[:, j], cur[:, j] + self._ins[:, j])
             prev = cur
-        end = prev + self.edge_weight * (cum[:, -1:] - cum)
+        end = prev + beta * (cum[:, -1:] - cum)
         total = sum(indel_cost(p) for p in phones)
         return float(end.min() / total) if total > 0 else 0.0
 
@@ -154,11 +156,14 @@ class MeaningVocabulary:
 
     def pair_relevance(self, first: str, second: str) -> float:
         """g of two adjacent heard words run together: a recogniser can split one meaning word
-        into two ("see real" for "cereal"); each of the two words gets at least this relevance."""
+        into two ("see real" for "cereal"); each of the two words gets at least this relevance.
+        The pair must sound like a *whole* meaning word (its unheard rest costs full deletion),
+        so two ordinary words that share a fragment with a name ("as well", "lettuce") do not."""
         from siftom.likelihood.phonetic import word_phonemes
 
         key = first + " " + second
         g = self._cache.get(key)
         if g is None:
-            g = self._cache[key] = self._ramp(self.relative_cost_phones(word_phonemes(first) + word_phonemes(second)))
+            phones = word_phonemes(first) + word_phonemes(second)
+            g = self._cache[key] = self._ramp(self.relative_cost_phones(phones, edge_weight=1.0))
         return g

@@ -633,15 +633,16 @@ class PhoneticLikelihood:
                 np.array(sub, dtype=np.float32))
 
     def _relevances(self, words: Sequence[str]) -> list[float]:
-        """g per heard word: 0 for filler words, else how much it (alone or run together with a
-        non-filler neighbour) sounds like a meaning word; 1 without the background model."""
+        """g per heard word: 0 for filler words, else how much it sounds like a meaning word,
+        alone or run together with a non-filler neighbour when neither is one already ("see
+        real" for "cereal", but not "egg as" for "eggs"); 1 without the background model."""
         if not self.background:
             return [0.0 if w in FILLER_WORDS else 1.0 for w in words]
         voc = self.vocabulary
         g = [0.0 if w in FILLER_WORDS else voc.relevance(w) for w in words]
         for i in range(len(words) - 1):
             a, b = words[i], words[i + 1]
-            if a not in FILLER_WORDS and b not in FILLER_WORDS and min(g[i], g[i + 1]) < 1.0:
+            if a not in FILLER_WORDS and b not in FILLER_WORDS and max(g[i], g[i + 1]) < 1.0:
                 pg = voc.pair_relevance(a, b)
                 g[i], g[i + 1] = max(g[i], pg), max(g[i + 1], pg)
         return g

@@ -72,7 +72,7 @@ def test_new_class_names_become_meaning_words():
     cmds = [RobotCommand("fetch", "ketchup"), RobotCommand("fetch", "milk")]
     lp = lik.log_prob(Instruction.from_text("um could you get the ketchup for me"), cmds)
     assert int(np.argmax(lp)) == 0
-    assert lik.vocabulary.relevance("ketchup") == 1.0
+    assert lik.vocabulary(cmds).relevance("ketchup") == 1.0
 
 
 def test_relevance_range_is_checked():

@@ -504,6 +504,7 @@ class _Plan:
     index: np.ndarray  # (n_commands, K) positions into content_ids
     log_prior: np.ndarray  # (n_commands, K), -inf on padding
     trie: PhonemeTrie  # the used contents' phonemes, in content_ids order
+    vocab: int = 0  # which MeaningVocabulary rates the heard words (lexicon + these contents)
 
 
 class PhoneticLikelihood:
@@ -578,13 +579,18 @@ class PhoneticLikelihood:
         r_near, r_far = relevance_range
         if not (np.isfinite(r_near) and np.isfinite(r_far) and 0 <= r_near < r_far):
             raise ObservationError(f"relevance_range must be (near, far) with 0 <= near < far, got {relevance_range!r}")
-        self.vocabulary = MeaningVocabulary(lexicon_words(self.lexicon), r_near, r_far)
+        self.relevance_range = (float(r_near), float(r_far))
+        self._lexicon_words = frozenset(lexicon_words(self.lexicon))
+        # one MeaningVocabulary per set of meaning words: the lexicon's plus the content words
+        # of the commands scored in the call (a class missing from the lexicon counts too)
+        self._vocab_id: dict[frozenset[str], int] = {}
+        self._vocabs: list[MeaningVocabulary] = []
         self._cache_size = cache_size
         self._contents: list[str] = []
         self._content_id: dict[str, int] = {}
         self._said: list[tuple[np.ndarray, np.ndarray]] = []
-        self._dist: OrderedDict[str, np.ndarray] = OrderedDict()
-        self._heard_cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._dist: OrderedDict[tuple[int, str], np.ndarray] = OrderedDict()
+        self._heard_cache: dict[tuple[int, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._plans: OrderedDict[tuple[RobotCommand, ...], _Plan] = OrderedDict()
 
     # -- encoding ------------------------------------------------------------------------------
@@ -592,9 +598,6 @@ class PhoneticLikelihood:
     def _content(self, text: str) -> int:
         cid = self._content_id.get(text)
         if cid is None:
-            if self.background and self.vocabulary.add(normalize_text(text)):
-                self._heard_cache.clear()  # relevances changed: re-encode hypotheses
-                self._dist.clear()
             phones: list[str] = []
             costs: list[float] = []
             for w in normalize_text(text):
@@ -610,21 +613,35 @@ class PhoneticLikelihood:
             self._content_id[text] = cid
         return cid
 
-    def _heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def vocabulary(self, commands: Sequence[RobotCommand]) -> MeaningVocabulary:
+        """The meaning words that rate heard words when scoring ``commands``."""
+        return self._vocabs[self._plan(tuple(commands)).vocab]
+
+    def _vocab_for(self, content_ids: Iterable[int]) -> int:
+        words = self._lexicon_words | {w for i in content_ids for w in normalize_text(self._contents[i])}
+        key = frozenset(words)
+        vid = self._vocab_id.get(key)
+        if vid is None:
+            vid = self._vocab_id[key] = len(self._vocabs)
+            self._vocabs.append(MeaningVocabulary(key, *self.relevance_range))
+        return vid
+
+    def _heard(self, text: str, vocab: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Phoneme ids, insertion costs and substitution penalties of a hypothesis (cached)."""
-        hit = self._heard_cache.get(text)
+        key = (vocab, text)
+        hit = self._heard_cache.get(key)
         if hit is None:
-            hit = self._heard_cache[text] = self._encode_heard(text)
+            hit = self._heard_cache[key] = self._encode_heard(text, vocab)
             if len(self._heard_cache) > self._cache_size:
                 self._heard_cache.pop(next(iter(self._heard_cache)))
         return hit
 
-    def _encode_heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _encode_heard(self, text: str, vocab: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ids: list[int] = []
         ins: list[float] = []
         sub: list[float] = []
         words = normalize_text(text)
-        for w, g in zip(words, self._relevances(words), strict=True):
+        for w, g in zip(words, self._relevances(words, vocab), strict=True):
             for p in word_phonemes(w):
                 ids.append(PHONEME_ID[p])
                 ins.append(g * indel_cost(p) * self.content_insert_scale + (1 - g) * self.filler_cost)
@@ -632,13 +649,13 @@ class PhoneticLikelihood:
         return (np.array(ids, dtype=np.int16), np.array(ins, dtype=np.float32),
                 np.array(sub, dtype=np.float32))
 
-    def _relevances(self, words: Sequence[str]) -> list[float]:
+    def _relevances(self, words: Sequence[str], vocab: int = 0) -> list[float]:
         """g per heard word: 0 for filler words, else how much it sounds like a meaning word,
         alone or run together with a non-filler neighbour when neither is one already ("see
         real" for "cereal", but not "egg as" for "eggs"); 1 without the background model."""
         if not self.background:
             return [0.0 if w in FILLER_WORDS else 1.0 for w in words]
-        voc = self.vocabulary
+        voc = self._vocabs[vocab]
         g = [0.0 if w in FILLER_WORDS else voc.relevance(w) for w in words]
         for i in range(len(words) - 1):
             a, b = words[i], words[i + 1]
@@ -663,7 +680,7 @@ class PhoneticLikelihood:
                 index[r, c] = used.setdefault(cid, len(used))
                 prior[r, c] = lp
         ids = np.fromiter(used, dtype=np.intp, count=len(used))
-        plan = _Plan(ids, index, prior, PhonemeTrie.build([self._said[i] for i in ids]))
+        plan = _Plan(ids, index, prior, PhonemeTrie.build([self._said[i] for i in ids]), self._vocab_for(ids))
         self._plans[commands] = plan
         if len(self._plans) > 64:
             self._plans.popitem(last=False)
@@ -682,14 +699,15 @@ class PhoneticLikelihood:
         todo: list[int] = []
         vecs: list[np.ndarray] = []
         for j, t in enumerate(texts):
-            vec = self._dist.get(t)
+            key = (plan.vocab, t)
+            vec = self._dist.get(key)
             if vec is None or len(vec) < n_reg:
                 grown = np.full(n_reg, np.nan, dtype=np.float32)
                 if vec is not None:
                     grown[: len(vec)] = vec
                 vec = grown
-                self._dist[t] = vec
-            self._dist.move_to_end(t)
+                self._dist[key] = vec
+            self._dist.move_to_end(key)
             vecs.append(vec)
             col = vec[content_ids]
             if np.isnan(col).any():
@@ -697,7 +715,7 @@ class PhoneticLikelihood:
             else:
                 out[:, j] = col
         if todo:
-            heard = [self._heard(texts[j]) for j in todo]
+            heard = [self._heard(texts[j], plan.vocab) for j in todo]
             nonempty = [k for k, h in enumerate(heard) if len(h[0])]
             block = np.zeros((len(content_ids), len(todo)), dtype=np.float32)
             if nonempty:
@@ -735,7 +753,7 @@ class PhoneticLikelihood:
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
         ch = self._channel(d, plan)
-        ch[:, [len(self._heard(t)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
+        ch[:, [len(self._heard(t, plan.vocab)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         return logsumexp(plan.log_prior + per_content[plan.index], axis=1)
 

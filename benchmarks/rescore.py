@@ -13,7 +13,7 @@ from collections import defaultdict
 
 from siftom.bench.dataset import load_dataset, scenario_for
 from siftom.bench.evaluate import is_correct
-from siftom.inference.model import SIFToM, ModelConfig, Observation
+from siftom.inference.model import ModelConfig, Observation, SIFToM
 from siftom.likelihood.base import Hypothesis, Instruction
 from siftom.likelihood.phonetic import PhoneticLikelihood
 

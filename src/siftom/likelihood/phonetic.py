@@ -548,7 +548,7 @@ class PhoneticLikelihood:
         asr_temperature: float = 10.0,
         filler_cost: float = 0.15,
         filler_sub_penalty: float = 0.4,
-        content_insert_scale: float = 1.0,
+        content_insert_scale: float = 0.5,
         lost_word_weight: float = 0.3,
         background: bool = True,
         relevance_range: tuple[float, float] = (R_NEAR, R_FAR),

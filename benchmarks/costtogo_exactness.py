@@ -16,7 +16,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from helpers import random_world  # noqa: E402
-
 from siftom.planning.astar import plan_for_goal  # noqa: E402
 from siftom.planning.costtogo import CostToGo  # noqa: E402
 from siftom.world.model import HELD, NOTHING, Goal, State  # noqa: E402

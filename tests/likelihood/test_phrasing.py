@@ -86,3 +86,13 @@ def test_sample_phrasing_errors():
     assert "category" not in phrasing_styles(RobotCommand("fetch", "cereal"))
     with pytest.raises(CommandParseError, match="available"):
         sample_phrasing(RobotCommand("fetch", "cereal"), None, rng, style="category")
+
+
+def test_articles_follow_the_sound_not_the_spelling():
+    from siftom.likelihood.phrasing import indefinite_article
+
+    texts = [t for c in ("onion", "egg", "apple") for t, _ in phrasings(RobotCommand("fetch", c, 1))]
+    assert any(" an onion" in t for t in texts) and any(" an egg" in t for t in texts)
+    assert not any(" a onion" in t or " a egg" in t or " a apple" in t for t in texts)
+    assert indefinite_article("fork") == "a" and indefinite_article("utensil") == "a"
+    assert indefinite_article("hour") == "an"

@@ -76,6 +76,9 @@ class BuildOptions:
             kinds (default: babble, pink, hum), or WAV paths.
         snrs: one noisy condition per SNR in dB; () keeps only clean clips.
         seed: drives phrasings, speakers' rate and pitch, noise types and excerpts.
+        phrasings: a carrier file (one carrier with ``{np}`` per line) or a shipped set name
+            (``free-v0``); carriers are drawn uniformly from it instead of the built-in
+            grammar, noun phrases as before. None: ``sample_phrasing``.
     """
 
     domain: str = "household-table-v0"
@@ -86,6 +89,7 @@ class BuildOptions:
     noises: tuple[str, ...] = ()
     snrs: tuple[float, ...] = DEFAULT_SNRS
     seed: int = 0
+    phrasings: str | None = None
 
     def __post_init__(self) -> None:
         if self.scenarios < 1:
@@ -100,12 +104,17 @@ class BuildOptions:
             raise DatasetError(f"--snr lists a value twice: {self.snrs}")
         if self.noise_dir is not None and not Path(self.noise_dir).is_dir():
             raise DatasetError(f"--noise-dir {self.noise_dir!r} is not a folder; give a folder of noise WAVs")
+        if self.phrasings is not None:
+            from siftom.likelihood.carriers import load_carriers
+
+            load_carriers(self.phrasings)  # DatasetError for a missing file or no {np} line
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict (stored in dataset.json)."""
         return {"domain": self.domain, "scenarios": self.scenarios, "speakers": self.speakers,
                 "voices": list(self.voices), "noise_dir": self.noise_dir, "noises": list(self.noises),
-                "snrs": list(self.snrs), "seed": self.seed}
+                "snrs": list(self.snrs), "seed": self.seed,
+                **({"phrasings": self.phrasings} if self.phrasings is not None else {})}
 
 
 @dataclass(frozen=True)
@@ -427,8 +436,15 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
     sc = resolve_scenario(unit.sid, opts.domain, unit.scenario_seed)
     j = int(unit.speaker.id[1:]) - 1
     rng = np.random.default_rng([opts.seed, unit.k, j, 1])
-    text = sample_phrasing(sc.command, default_lexicon(), rng)
-    style = next((("category" if p.category else p.style) for p in phrasing_details(sc.command) if p.text == text), "")
+    if opts.phrasings is None:
+        text = sample_phrasing(sc.command, default_lexicon(), rng)
+        style = next((("category" if p.category else p.style) for p in phrasing_details(sc.command) if p.text == text), "")
+    else:
+        from siftom.likelihood.carriers import load_carriers, sample_with_carriers
+
+        text = sample_with_carriers(sc.command, default_lexicon(), rng, load_carriers(opts.phrasings),
+                                    carrier_rng=np.random.default_rng([opts.seed, unit.k, j, 3]))
+        style = "free"
     nkey = (opts.noise_dir, opts.noises)
     if nkey not in _NOISE_SOURCES:
         _NOISE_SOURCES[nkey] = dict(resolve_noises(opts)) if opts.snrs else {}
@@ -564,6 +580,23 @@ def _table(rows: Iterable[Sequence[Any]], header: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
+def _phrasing_note(opts: BuildOptions) -> str:
+    if opts.phrasings is None:
+        return ("Instructions are drawn from siftom's phrasing model "
+                "(`siftom.likelihood.phrasing.sample_phrasing`: direct, polite and indirect carriers, with\n"
+                "or without the count, synonyms and category words)")
+    return (f"Instructions put a carrier drawn uniformly from `{opts.phrasings}` around a noun phrase drawn "
+            "as in\n`sample_phrasing` (with or without the count, synonyms and category words)")
+
+
+def _grammar_limit(opts: BuildOptions) -> str:
+    if opts.phrasings is None:
+        return ("* The phrasings come from the same grammar that the model's instruction likelihood and the\n"
+                "  domain-biased recogniser use, so no instruction falls outside the model's vocabulary.")
+    return ("* The carriers come from a file, but the noun phrases (counts, names, category words) still\n"
+            "  come from siftom's lexicon, so no object is named in a way the model does not know.")
+
+
 def write_datasheet(ds: Dataset, opts: BuildOptions, seconds: float | None = None) -> Path:
     """Write ``README.md`` in the dataset folder: what is in it, how it was made, its limits."""
     st = ds.stimuli
@@ -576,7 +609,8 @@ def write_datasheet(ds: Dataset, opts: BuildOptions, seconds: float | None = Non
            f"--speakers {opts.speakers} --voices {','.join(opts.voices)}"
            + (f" --noise-dir {opts.noise_dir}" if opts.noise_dir else "")
            + (f" --noises {','.join(opts.noises)}" if opts.noises else "")
-           + f" --snr {','.join(f'{x:g}' for x in opts.snrs) or 'none'} --seed {opts.seed}")
+           + f" --snr {','.join(f'{x:g}' for x in opts.snrs) or 'none'} --seed {opts.seed}"
+           + (f" --phrasings {opts.phrasings}" if opts.phrasings else ""))
     examples = [s for s in st if s.noise is None][:6]
     text = f"""# Datasheet: {ds.root.name}
 
@@ -609,9 +643,7 @@ Examples:
 {_table([(s.id, s.scenario, f'"{s.reference}"', s.gold_command) for s in examples], ["id", "scenario", "said", "gold command"])}
 
 ## Collection process
-Nothing was recorded from people. Instructions are drawn from siftom's phrasing model
-(`siftom.likelihood.phrasing.sample_phrasing`: direct, polite and indirect carriers, with
-or without the count, synonyms and category words), spoken by offline TTS (flite, espeak-ng)
+Nothing was recorded from people. {_phrasing_note(opts)}, spoken by offline TTS (flite, espeak-ng)
 with a per-speaker rate and pitch, and mixed with noise at the stated SNR measured over active
 speech (`siftom.speech.noise.mix_at_snr`). Noise: {"recordings in " + str(opts.noise_dir) if opts.noise_dir else "synthetic (" + ", ".join(SYNTHETIC_NOISES) + ")"}.
 
@@ -623,8 +655,7 @@ Rebuild bit for bit with:
 * TTS voices stand in for the paper's five non-native speakers; accented espeak-ng voices are
   harder for the recogniser than the flite voices, but no voice hesitates, restarts or mixes
   languages as people do.
-* The phrasings come from the same grammar that the model's instruction likelihood and the
-  domain-biased recogniser use, so no instruction falls outside the model's vocabulary.
+{_grammar_limit(opts)}
 * Noise is added, not recorded in a room (no reverberation, no Lombard effect).
 """
     if seconds is not None:

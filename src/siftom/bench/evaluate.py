@@ -53,7 +53,7 @@ MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
 ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
-ENGINES = ("pocketsphinx-vocab", "pocketsphinx", "whisper")
+ENGINES = ("pocketsphinx-vocab", "pocketsphinx-open", "pocketsphinx", "whisper")
 DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
 RUN = "run.json"
@@ -133,10 +133,16 @@ def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
     from siftom.speech.asr.base import get_engine
 
-    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if name == "pocketsphinx-vocab" else "")
+    scene = name in ("pocketsphinx-vocab", "pocketsphinx-open")
+    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
     if key not in _ENGINES:
-        if name == "pocketsphinx-vocab":
-            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary))
+        if scene:
+            # -vocab: the scene's phrasings alone; -open: mixed with frequent English words
+            # (open vocabulary, docs/speech.md)
+            from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
+
+            extra = {"background_words": OPEN_BACKGROUND_WORDS} if name == "pocketsphinx-open" else {}
+            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary), **extra)
         else:
             _ENGINES[key] = get_engine(name)
     return _ENGINES[key]
@@ -428,7 +434,7 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine == "pocketsphinx-vocab" and pending and be.name == "local":
+    if opts.engine in ("pocketsphinx-vocab", "pocketsphinx-open") and pending and be.name == "local":
         _engine(opts.engine, vocab)  # build the LM once, before pool workers fork and race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()

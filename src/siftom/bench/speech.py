@@ -33,7 +33,17 @@ ASR_SENTENCES = (
     ("pass me the ketchup please", False),
     ("bring me the spoon", False),
 )
-ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "whisper")
+# Requests outside siftom's phrasing grammar: carriers of the shipped free-v0 set
+# (siftom/data/phrasings) around the same foods.
+FREE_SENTENCES = (
+    "um could you get the cereal for me",
+    "i think we're out of milk on the table could you bring some",
+    "do me a favor and get the sugar",
+    "let me have some bread when you get a chance",
+    "the recipe says we need the flour",
+    "oh and the butter too",
+)
+ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "pocketsphinx-open", "whisper")
 DEFAULT_VOICES = ("flite-slt", "flite-rms", "espeak-en-us+klatt", "espeak-es")
 QUICK_VOICES = ("flite-slt", "espeak-en-us+klatt")
 DEFAULT_SNRS: tuple[float | None, ...] = (None, 20.0, 10.0, 5.0, 0.0)
@@ -55,6 +65,9 @@ class AsrRow:
     wer_out_of_vocab: float
     rtf: float
     utterances: int
+    wer_free: float = float("nan")
+    ower_grammar: float = float("nan")
+    ower_free: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -75,7 +88,20 @@ class AsrBench:
 
 
 def _vocabulary() -> list[str]:
-    return list(KITCHEN_FOODS)
+    """The scene vocabulary as ``siftom infer``/``eval`` build it (every phrasing of every command)."""
+    from siftom.likelihood.phrasing import command_vocabulary
+
+    return command_vocabulary(KITCHEN_FOODS, "fetch")
+
+
+def _engine(name: str) -> Any:
+    from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
+
+    if name == "pocketsphinx-vocab":
+        return get_engine("pocketsphinx", vocabulary=_vocabulary())
+    if name == "pocketsphinx-open":
+        return get_engine("pocketsphinx", vocabulary=_vocabulary(), background_words=OPEN_BACKGROUND_WORDS)
+    return get_engine(name)
 
 
 def run_asr_bench(
@@ -88,15 +114,24 @@ def run_asr_bench(
 ) -> AsrBench:
     """Synthesise the fixed sentences, mix at each SNR, transcribe with each engine, score WER.
 
-    The biased engine's vocabulary is KITCHEN_FOODS expanded with request templates; sentences
-    marked out-of-vocabulary ask for objects outside it, so its price shows separately.
+    The scene engines' vocabulary is every phrasing of ``fetch`` for KITCHEN_FOODS
+    (``command_vocabulary``, as in ``siftom infer``/``eval``); sentences marked out-of-vocabulary
+    ask for objects outside it, and FREE_SENTENCES say in-scene objects with carriers outside the
+    grammar. Besides WER, the object-word error rate (ower_*: object names and counts of the
+    reference missing from the 1-best) is reported for grammar and free sentences.
     """
+    from siftom.likelihood.background import lexicon_words
+    from siftom.likelihood.lexicon import default_lexicon
+    from siftom.speech.metrics import object_word_errors
+
+    object_words = lexicon_words(default_lexicon())
+    sentences = [*ASR_SENTENCES, *((f, None) for f in FREE_SENTENCES)]
     t0 = time.perf_counter()
     conditions = [("none", None)] if None in snrs else []
     conditions += [(n, s) for n in noises for s in snrs if s is not None]
     clips: dict[tuple[str, str, float | None], list[np.ndarray]] = {}
     for vi, voice in enumerate(voices):
-        clean = [synthesize(s, voice) for s, _ in ASR_SENTENCES]
+        clean = [synthesize(s, voice) for s, _ in sentences]
         for noise, snr in conditions:
             if snr is None:
                 clips[(voice, noise, snr)] = clean
@@ -110,8 +145,7 @@ def run_asr_bench(
     skipped: list[str] = []
     for engine_name in engines:
         try:
-            engine = (get_engine("pocketsphinx", vocabulary=_vocabulary())
-                      if engine_name == "pocketsphinx-vocab" else get_engine(engine_name))
+            engine = _engine(engine_name)
         except BackendUnavailableError as exc:
             skipped.append(f"{engine_name}: {exc}")
             continue
@@ -121,21 +155,26 @@ def run_asr_bench(
             err = defaultdict(int)
             words = defaultdict(int)
             dec_s = audio_s = 0.0
-            for (ref, inv), x in zip(ASR_SENTENCES, xs, strict=True):
+            for (ref, inv), x in zip(sentences, xs, strict=True):
                 tr = engine.transcribe(x)
                 e, n = word_errors(ref, tr.text)
-                key = "in" if inv else "out"
+                key = "free" if inv is None else "in" if inv else "out"
                 err[key] += e
                 words[key] += n
+                if inv is not False:
+                    oe, on = object_word_errors(ref, tr.text, object_words)
+                    err["o" + key] += oe
+                    words["o" + key] += on
                 dec_s += tr.rtf * tr.audio_s
                 audio_s += tr.audio_s
             total_e, total_n = err["in"] + err["out"], words["in"] + words["out"]
             rows.append(AsrRow(
                 engine_name, voice, noise, snr, total_e / total_n,
                 err["in"] / max(1, words["in"]), err["out"] / max(1, words["out"]),
-                dec_s / audio_s, len(xs),
+                dec_s / audio_s, len(xs), err["free"] / max(1, words["free"]),
+                err["oin"] / max(1, words["oin"]), err["ofree"] / max(1, words["ofree"]),
             ))
-    return AsrBench(tuple(rows), tuple(s for s, _ in ASR_SENTENCES), time.perf_counter() - t0, tuple(skipped))
+    return AsrBench(tuple(rows), tuple(s for s, _ in sentences), time.perf_counter() - t0, tuple(skipped))
 
 
 def summarise_wer(bench: AsrBench) -> dict[str, dict[str, float]]:

@@ -107,18 +107,22 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--phrasings", "phrasings", default=None,
+              help="carrier file: UTF-8, one carrier per line with {np}, '#' comments; or a shipped set "
+                   "(free-v0, free-heldout-v0). Default: siftom's phrasing grammar")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, workers: int | None, backend: str, ray_address: str | None,
+              noises: str | None, snr: str, seed: int, phrasings: str | None, workers: int | None, backend: str,
+              ray_address: str | None,
               as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed)
+                        snrs=_snrs(snr), seed=seed, phrasings=phrasings)
     t0 = time.perf_counter()
     with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
         ds = build_dataset(opts, out, progress=bar, backend=be)
@@ -153,7 +157,8 @@ def check_cmd(folder: str) -> None:
               "siftom-oracle-text, plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
               "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic, "
               "speech-only-acoustic (the audio itself, key-phrase alignment)")
-@click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
+@click.option("--engine", default="pocketsphinx-vocab", show_default=True,
+              help="pocketsphinx-vocab | pocketsphinx-open | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options

@@ -110,7 +110,7 @@ def voices_cmd(as_json: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="print the results as JSON")
 @click.option("--out", "out_dir", default="bench-out/asr", show_default=True, help="folder for JSON + PNG")
 @click.option("--quick", is_flag=True, help="2 voices, clean and 10 dB (under a minute)")
-@click.option("--engine", "engines", multiple=True, help="engines (default: all three)")
+@click.option("--engine", "engines", multiple=True, help="engines (default: all four)")
 @click.option("--voice", "voices", multiple=True, help="voices (default: 4 incl. one accented)")
 @click.option("--noise", "noises", multiple=True, help="noise specs (default: babble)")
 def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, ...],
@@ -135,12 +135,14 @@ def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, 
     from rich.table import Table
 
     t = Table(title=f"siftom bench asr ({res.seconds:.0f} s)")
-    for col in ("engine", "voice", "noise", "SNR dB", "WER %", "in-vocab %", "OOV %", "RTF"):
+    for col in ("engine", "voice", "noise", "SNR dB", "WER %", "in-vocab %", "OOV %", "free %",
+                "obj % gram", "obj % free", "RTF"):
         left = col in ("engine", "voice", "noise")
         t.add_column(col, justify="left" if left else "right", no_wrap=left)
     for r in res.rows:
         t.add_row(r.engine, r.voice, r.noise, "clean" if r.snr_db is None else f"{r.snr_db:g}",
                   f"{100 * r.wer:.0f}", f"{100 * r.wer_in_vocab:.0f}", f"{100 * r.wer_out_of_vocab:.0f}",
+                  f"{100 * r.wer_free:.0f}", f"{100 * r.ower_grammar:.0f}", f"{100 * r.ower_free:.0f}",
                   f"{r.rtf:.3f}")
     c = Console()
     c.print(t)

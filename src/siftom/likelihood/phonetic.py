@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from siftom.errors import ObservationError
+from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phrasing import FILLER_WORDS, content_prior, number_word
 from siftom.observation import Instruction
@@ -503,6 +504,7 @@ class _Plan:
     index: np.ndarray  # (n_commands, K) positions into content_ids
     log_prior: np.ndarray  # (n_commands, K), -inf on padding
     trie: PhonemeTrie  # the used contents' phonemes, in content_ids order
+    vocab: int = 0  # which MeaningVocabulary rates the heard words (lexicon + these contents)
 
 
 class PhoneticLikelihood:
@@ -546,8 +548,10 @@ class PhoneticLikelihood:
         asr_temperature: float = 10.0,
         filler_cost: float = 0.15,
         filler_sub_penalty: float = 0.4,
-        content_insert_scale: float = 1.0,
+        content_insert_scale: float = 0.5,
         lost_word_weight: float = 0.3,
+        background: bool = True,
+        relevance_range: tuple[float, float] = (R_NEAR, R_FAR),
         cache_size: int = 4096,
     ) -> None:
         for label, v in (("lam", lam), ("asr_temperature", asr_temperature),
@@ -569,12 +573,24 @@ class PhoneticLikelihood:
         if not (np.isfinite(lost_word_weight) and 0 <= lost_word_weight <= 1):
             raise ObservationError(f"lost_word_weight must be in [0, 1], got {lost_word_weight!r}")
         self.lost_word_weight = float(lost_word_weight)
+        # Words that sound like no object name, synonym, category word or count are background:
+        # they cost about the same under every command (background.py, docs/likelihoods.md).
+        self.background = bool(background)
+        r_near, r_far = relevance_range
+        if not (np.isfinite(r_near) and np.isfinite(r_far) and 0 <= r_near < r_far):
+            raise ObservationError(f"relevance_range must be (near, far) with 0 <= near < far, got {relevance_range!r}")
+        self.relevance_range = (float(r_near), float(r_far))
+        self._lexicon_words = frozenset(lexicon_words(self.lexicon))
+        # one MeaningVocabulary per set of meaning words: the lexicon's plus the content words
+        # of the commands scored in the call (a class missing from the lexicon counts too)
+        self._vocab_id: dict[frozenset[str], int] = {}
+        self._vocabs: list[MeaningVocabulary] = []
         self._cache_size = cache_size
         self._contents: list[str] = []
         self._content_id: dict[str, int] = {}
         self._said: list[tuple[np.ndarray, np.ndarray]] = []
-        self._dist: OrderedDict[str, np.ndarray] = OrderedDict()
-        self._heard_cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._dist: OrderedDict[tuple[int, str], np.ndarray] = OrderedDict()
+        self._heard_cache: dict[tuple[int, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._plans: OrderedDict[tuple[RobotCommand, ...], _Plan] = OrderedDict()
 
     # -- encoding ------------------------------------------------------------------------------
@@ -597,27 +613,56 @@ class PhoneticLikelihood:
             self._content_id[text] = cid
         return cid
 
-    def _heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def vocabulary(self, commands: Sequence[RobotCommand]) -> MeaningVocabulary:
+        """The meaning words that rate heard words when scoring ``commands``."""
+        return self._vocabs[self._plan(tuple(commands)).vocab]
+
+    def _vocab_for(self, content_ids: Iterable[int]) -> int:
+        words = self._lexicon_words | {w for i in content_ids for w in normalize_text(self._contents[i])}
+        key = frozenset(words)
+        vid = self._vocab_id.get(key)
+        if vid is None:
+            vid = self._vocab_id[key] = len(self._vocabs)
+            self._vocabs.append(MeaningVocabulary(key, *self.relevance_range))
+        return vid
+
+    def _heard(self, text: str, vocab: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Phoneme ids, insertion costs and substitution penalties of a hypothesis (cached)."""
-        hit = self._heard_cache.get(text)
+        key = (vocab, text)
+        hit = self._heard_cache.get(key)
         if hit is None:
-            hit = self._heard_cache[text] = self._encode_heard(text)
+            hit = self._heard_cache[key] = self._encode_heard(text, vocab)
             if len(self._heard_cache) > self._cache_size:
                 self._heard_cache.pop(next(iter(self._heard_cache)))
         return hit
 
-    def _encode_heard(self, text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _encode_heard(self, text: str, vocab: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ids: list[int] = []
         ins: list[float] = []
         sub: list[float] = []
-        for w in normalize_text(text):
-            filler = w in FILLER_WORDS
+        words = normalize_text(text)
+        for w, g in zip(words, self._relevances(words, vocab), strict=True):
             for p in word_phonemes(w):
                 ids.append(PHONEME_ID[p])
-                ins.append(self.filler_cost if filler else indel_cost(p) * self.content_insert_scale)
-                sub.append(self.filler_sub_penalty if filler else 0.0)
+                ins.append(g * indel_cost(p) * self.content_insert_scale + (1 - g) * self.filler_cost)
+                sub.append((1 - g) * self.filler_sub_penalty)
         return (np.array(ids, dtype=np.int16), np.array(ins, dtype=np.float32),
                 np.array(sub, dtype=np.float32))
+
+    def _relevances(self, words: Sequence[str], vocab: int = 0) -> list[float]:
+        """g per heard word: 0 for filler words, else how much it sounds like a meaning word,
+        alone or run together with a non-filler neighbour when neither is one already ("see
+        real" for "cereal", but not "egg as" for "eggs"); 1 without the background model."""
+        if not self.background:
+            return [0.0 if w in FILLER_WORDS else 1.0 for w in words]
+        voc = self._vocabs[vocab]
+        g = [0.0 if w in FILLER_WORDS else voc.relevance(w) for w in words]
+        for i in range(len(words) - 1):
+            a, b = words[i], words[i + 1]
+            if a not in FILLER_WORDS and b not in FILLER_WORDS and max(g[i], g[i + 1]) < 1.0:
+                pg = voc.pair_relevance(a, b)
+                g[i], g[i + 1] = max(g[i], pg), max(g[i + 1], pg)
+        return g
 
     def _plan(self, commands: tuple[RobotCommand, ...]) -> _Plan:
         plan = self._plans.get(commands)
@@ -635,7 +680,7 @@ class PhoneticLikelihood:
                 index[r, c] = used.setdefault(cid, len(used))
                 prior[r, c] = lp
         ids = np.fromiter(used, dtype=np.intp, count=len(used))
-        plan = _Plan(ids, index, prior, PhonemeTrie.build([self._said[i] for i in ids]))
+        plan = _Plan(ids, index, prior, PhonemeTrie.build([self._said[i] for i in ids]), self._vocab_for(ids))
         self._plans[commands] = plan
         if len(self._plans) > 64:
             self._plans.popitem(last=False)
@@ -654,14 +699,15 @@ class PhoneticLikelihood:
         todo: list[int] = []
         vecs: list[np.ndarray] = []
         for j, t in enumerate(texts):
-            vec = self._dist.get(t)
+            key = (plan.vocab, t)
+            vec = self._dist.get(key)
             if vec is None or len(vec) < n_reg:
                 grown = np.full(n_reg, np.nan, dtype=np.float32)
                 if vec is not None:
                     grown[: len(vec)] = vec
                 vec = grown
-                self._dist[t] = vec
-            self._dist.move_to_end(t)
+                self._dist[key] = vec
+            self._dist.move_to_end(key)
             vecs.append(vec)
             col = vec[content_ids]
             if np.isnan(col).any():
@@ -669,7 +715,7 @@ class PhoneticLikelihood:
             else:
                 out[:, j] = col
         if todo:
-            heard = [self._heard(texts[j]) for j in todo]
+            heard = [self._heard(texts[j], plan.vocab) for j in todo]
             nonempty = [k for k, h in enumerate(heard) if len(h[0])]
             block = np.zeros((len(content_ids), len(todo)), dtype=np.float32)
             if nonempty:
@@ -707,7 +753,7 @@ class PhoneticLikelihood:
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
         ch = self._channel(d, plan)
-        ch[:, [len(self._heard(t)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
+        ch[:, [len(self._heard(t, plan.vocab)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         return logsumexp(plan.log_prior + per_content[plan.index], axis=1)
 

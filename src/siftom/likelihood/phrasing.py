@@ -101,6 +101,18 @@ def number_word(n: int) -> str:
     return " ".join(NUMBER_WORDS[int(d)] for d in str(n))
 
 
+def indefinite_article(phrase: str) -> str:
+    """"an" before a vowel sound ("an onion", "an egg"), else "a" ("a utensil", "a fork").
+
+    Decided by the first phoneme of the first word (CMUdict, then espeak-ng), not its spelling.
+    """
+    from siftom.likelihood.phonetic import VOWELS, word_phonemes
+
+    words = phrase.split()
+    phones = word_phonemes(words[0].lower()) if words else ()
+    return "an" if phones and phones[0] in VOWELS else "a"
+
+
 def content_words(text: str) -> str:
     """Drop filler words: ``"could you grab three forks"`` -> ``"three forks"``."""
     return " ".join(w for w in text.split() if w not in FILLER_WORDS)
@@ -131,7 +143,7 @@ def _noun_phrases(command: RobotCommand, lexicon: Lexicon) -> list[tuple[str, st
                         (f"the {name.singular}", "", (1 - COUNT_SAID) * w, False)]
         elif n == 1:
             out += [(f"the {name.singular}", "", 0.4 * w, False),
-                    (f"a {name.singular}", "", 0.35 * w, False),
+                    (f"{indefinite_article(name.singular)} {name.singular}", "", 0.35 * w, False),
                     (f"one {name.singular}", "", 0.15 * w, False),
                     (f"another {name.singular}", "", 0.1 * w, False)]
         else:

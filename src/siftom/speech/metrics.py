@@ -26,3 +26,24 @@ def wer(reference: str, hypothesis: str) -> float:
     """Word error rate of one hypothesis (edits / reference words; may exceed 1)."""
     errors, n = word_errors(reference, hypothesis)
     return errors / n if n else float(errors > 0)
+
+
+def object_word_errors(reference: str, hypothesis: str, object_words: set[str] | frozenset[str]) -> tuple[int, int]:
+    """(object words of ``reference`` missing from ``hypothesis``, object words in ``reference``).
+
+    Object words are the words that carry the command: object names, synonyms, category
+    words and counts (``siftom.likelihood.background.lexicon_words``). Each reference object
+    word must appear in the hypothesis (as a multiset; order is not checked), so "could you
+    get the milk for me" heard as "could you get the milk some me" has no object-word error,
+    and heard as "could you get the mail" has one.
+    """
+    hyp = normalise_text(hypothesis).split()
+    missed = total = 0
+    for w in normalise_text(reference).split():
+        if w in object_words:
+            total += 1
+            if w in hyp:
+                hyp.remove(w)
+            else:
+                missed += 1
+    return missed, total

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import os
 import tempfile
 import time
@@ -30,6 +31,11 @@ from siftom.speech.audio import FRAME_RATE, SAMPLE_RATE, as_audio, to_pcm16
 # pocketsphinx keeps path scores in log-base-1.0001 units shifted right by 10 bits (SENSCR_SHIFT)
 SENSCR_SHIFT = 10
 _FILLERS = {"<s>", "</s>", "<sil>", "[noise]", "<unk>"}
+# Open vocabulary (opt-in, engine name "pocketsphinx-open"): the scene's phrasings mixed with the
+# most frequent words of the generic English LM, so words outside the phrasings are recognised
+# as themselves, not forced onto the nearest object name (docs/speech.md, "Open vocabulary").
+OPEN_BACKGROUND_WORDS = 2000
+OPEN_BACKGROUND_WEIGHT = 0.1
 # Default request templates used when a vocabulary is given as bare object words.
 REQUEST_TEMPLATES = (
     "{x}",
@@ -125,6 +131,60 @@ def build_arpa(sentences: Sequence[str], discount: float = 0.5) -> str:
     return buf.getvalue()
 
 
+def generic_unigrams(n: int) -> tuple[tuple[str, float], ...]:
+    """The ``n`` most probable words of pocketsphinx's generic English LM with their log10
+    unigram probabilities (dictionary words only; cached on disk, ~6 s the first time)."""
+    path = cache_dir() / f"generic-unigrams-{n}.tsv"
+    if not path.is_file():
+        ps = _ps()
+        logmath = ps.LogMath()  # keep a reference while the model is alive
+        lm = ps.NGramModel(ps.Config(), logmath, model_path("en-us/en-us.lm.bin"))
+        per_unit = math.log10(1.0001)  # NGramModel.prob is in log-base-1.0001 units
+        rows: list[tuple[float, str]] = []
+        for w in cmudict():
+            if w.isalpha() and w.islower():
+                lp = lm.prob([w])
+                if lp > -(1 << 28):  # unknown words score about -2^29
+                    rows.append((lp * per_unit, w))
+        rows.sort(key=lambda r: (-r[0], r[1]))
+        _atomic_write(path, "".join(f"{w}\t{lp:.4f}\n" for lp, w in rows[:n]))
+    out = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        w, lp = line.split("\t")
+        out.append((w, float(lp)))
+    return tuple(out)
+
+
+def add_background_words(arpa: str, words: Sequence[tuple[str, float]], weight: float) -> str:
+    """Mix a unigram background into an ARPA LM: P(w) -> (1 - weight) P(w) for its words, plus
+    ``weight`` x the (renormalised) background distribution over new words, with backoff 1.
+
+    After a background word the LM backs off to unigrams, so free speech around the scene's
+    phrasings ("um could you get the milk from the fridge") is a loop of background words that
+    re-enters the phrasings' n-grams wherever they match.
+    """
+    lines = arpa.splitlines()
+    start = lines.index("\\1-grams:")
+    end = next(i for i in range(start + 1, len(lines)) if lines[i].startswith("\\"))
+    known: set[str] = set()
+    shift = math.log10(1.0 - weight)
+    uni: list[str] = []
+    for line in lines[start + 1 : end]:
+        parts = line.split()
+        if len(parts) < 2:
+            continue
+        known.add(parts[1])
+        lp = float(parts[0])
+        parts[0] = f"{lp + shift:.4f}" if lp > -99 else parts[0]
+        uni.append(" ".join(parts))
+    new = [(w, lp) for w, lp in words if w not in known]
+    if new:
+        z = math.log10(sum(10.0 ** lp for _, lp in new))
+        uni += [f"{lp - z + math.log10(weight):.4f} {w} 0.0000" for w, lp in new]
+    head = [("ngram 1=" + str(len(uni))) if ln.startswith("ngram 1=") else ln for ln in lines[:start]]
+    return "\n".join([*head, "\\1-grams:", *uni, "", *lines[end:]]) + "\n"
+
+
 def _atomic_write(path: Path, text: str) -> None:
     tmp = path.with_suffix(path.suffix + f".{os.getpid()}.tmp")
     tmp.write_text(text, encoding="utf-8")
@@ -138,9 +198,13 @@ class PocketsphinxEngine:
         vocabulary: phrasings to build a domain LM from (or bare object words, expanded with
             REQUEST_TEMPLATES); None uses the generic LM.
         max_seconds: refuse longer audio (the generic LM decodes at RTF >= 1 in noise).
+        background_words: with a vocabulary, also admit this many of the generic LM's most
+            frequent words (open vocabulary, e.g. OPEN_BACKGROUND_WORDS); 0 = the phrasings only.
+        background_weight: unigram probability mass given to those words.
     """
 
-    def __init__(self, vocabulary: Sequence[str] | None = None, max_seconds: float = 120.0) -> None:
+    def __init__(self, vocabulary: Sequence[str] | None = None, max_seconds: float = 120.0,
+                 background_words: int = 0, background_weight: float = OPEN_BACKGROUND_WEIGHT) -> None:
         """Load the decoder (fast with a vocabulary: the dictionary is trimmed)."""
         ps = _ps()
         self.max_seconds = max_seconds
@@ -163,12 +227,25 @@ class PocketsphinxEngine:
                     "use common English spellings"
                 )
             self.phrases = tuple(kept)
-            key = hashlib.sha1("\n".join(self.phrases).encode()).hexdigest()[:16]
+            if background_words < 0 or not 0 <= background_weight < 1:
+                raise SiftomError(f"background_words must be >= 0 and background_weight in [0, 1), "
+                                  f"got {background_words}, {background_weight}")
+            open_vocab = background_words > 0 and background_weight > 0
+            if open_vocab:
+                self.name = "pocketsphinx-open"
+            tag = f"\nbackground={background_words},{background_weight}" if open_vocab else ""
+            key = hashlib.sha1(("\n".join(self.phrases) + tag).encode()).hexdigest()[:16]
             d = cache_dir()
             lm_path, dict_path = d / f"{key}.arpa", d / f"{key}.dict"
             if not lm_path.is_file() or not dict_path.is_file():
-                write_dictionary({w for p in self.phrases for w in p.split()}, dict_path)
-                _atomic_write(lm_path, build_arpa(self.phrases))
+                words = {w for p in self.phrases for w in p.split()}
+                arpa = build_arpa(self.phrases)
+                if open_vocab:
+                    bg = generic_unigrams(background_words)
+                    arpa = add_background_words(arpa, bg, background_weight)
+                    words |= {w for w, _ in bg}
+                write_dictionary(words, dict_path)
+                _atomic_write(lm_path, arpa)
             self._decoder = ps.Decoder(lm=str(lm_path), dict=str(dict_path), loglevel="FATAL")
         self._logmath = self._decoder.get_logmath()
 

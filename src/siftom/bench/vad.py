@@ -1,4 +1,4 @@
-"""Measure the voice-activity detector: ``python -m siftom.speech.vad_bench [NOISE_DIR]``.
+"""Measure the voice-activity detector: ``python -m siftom.bench.vad [NOISE_DIR]``.
 
 False alarms: 3 s excerpts (the first two) of every recorded noise file. Misses: four TTS
 sentences (four voices) mixed with every third noise file at 20, 10, 5 and 0 dB (fixed seeds).

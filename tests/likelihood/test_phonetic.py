@@ -7,23 +7,25 @@ from hypothesis import strategies as st
 
 from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
-from siftom.likelihood.lexicon import HOUSEHOLD_CLASSES, KITCHEN_ITEMS
-from siftom.likelihood.phonetic import (
-    PHONEMES,
+from siftom.likelihood.editdistance import (
     PhonemeTrie,
-    PhoneticLikelihood,
     batch_edit_distance,
     edit_distance,
     encode,
+    trie_edit_distance,
+)
+from siftom.likelihood.lexicon import HOUSEHOLD_CLASSES, KITCHEN_ITEMS
+from siftom.likelihood.phonemes import (
+    PHONEMES,
     indel_cost,
     ipa_to_arpabet,
     letters_to_arpabet,
     normalize_text,
     substitution_cost,
     text_phonemes,
-    trie_edit_distance,
     word_phonemes,
 )
+from siftom.likelihood.phonetic import PhoneticLikelihood
 from siftom.world.commands import RobotCommand
 
 KITCHEN = [RobotCommand("fetch", c) for c in KITCHEN_ITEMS]
@@ -76,7 +78,7 @@ def test_vectorised_distances_match_the_reference(said, heard):
         got = trie_edit_distance(PhonemeTrie.build(seqs), triples)
         np.testing.assert_allclose(got, expected[:, nonempty], atol=1e-4)
         # batch version with a substitution penalty, checked against a penalised reference
-        from siftom.likelihood.phonetic import _pad
+        from siftom.likelihood.editdistance import _pad
 
         s_ids, s_del = _pad([s for s, _ in seqs], [c for _, c in seqs])
         h_ids, h_ins = _pad([encode(heard[k]) for k in nonempty], [ins[k] for k in nonempty])

@@ -87,7 +87,7 @@ class MeaningVocabulary:
 
     def add(self, words: Iterable[str]) -> bool:
         """Add meaning words; True when any was new (cached relevances are then dropped)."""
-        from siftom.likelihood.phonetic import PAD, PHONEME_ID, indel_cost, word_phonemes
+        from siftom.likelihood.phonemes import PAD, PHONEME_ID, indel_cost, word_phonemes
 
         new = sorted({w for w in words if w and w not in FILLER_WORDS} - self.words)
         if not new:
@@ -106,7 +106,7 @@ class MeaningVocabulary:
 
     def relative_cost(self, word: str) -> float:
         """r(w): cheapest explanation of ``word`` as a span of a meaning word / not explaining it."""
-        from siftom.likelihood.phonetic import word_phonemes
+        from siftom.likelihood.phonemes import word_phonemes
 
         if word in self.words:
             return 0.0
@@ -115,7 +115,7 @@ class MeaningVocabulary:
     def relative_cost_phones(self, phones: tuple[str, ...], edge_weight: float | None = None) -> float:
         """r for a phoneme sequence (a word, or two adjacent heard words run together); the
         unheard rest of the meaning word costs ``edge_weight`` (default: the instance's β)."""
-        from siftom.likelihood.phonetic import PHONEME_ID, SUB_COST, indel_cost
+        from siftom.likelihood.phonemes import PHONEME_ID, SUB_COST, indel_cost
 
         if not phones:
             return 0.0
@@ -159,7 +159,7 @@ class MeaningVocabulary:
         into two ("see real" for "cereal"); each of the two words gets at least this relevance.
         The pair must sound like a *whole* meaning word (its unheard rest costs full deletion),
         so two ordinary words that share a fragment with a name ("as well", "lettuce") do not."""
-        from siftom.likelihood.phonetic import word_phonemes
+        from siftom.likelihood.phonemes import word_phonemes
 
         key = first + " " + second
         g = self._cache.get(key)

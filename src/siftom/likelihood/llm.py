@@ -28,8 +28,9 @@ import numpy as np
 from siftom.backends.config import BACKENDS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
+from siftom.likelihood.editdistance import logsumexp
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
-from siftom.likelihood.phonetic import logsumexp, normalize_text
+from siftom.likelihood.phonemes import normalize_text
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 

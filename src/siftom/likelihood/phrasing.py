@@ -106,7 +106,7 @@ def indefinite_article(phrase: str) -> str:
 
     Decided by the first phoneme of the first word (CMUdict, then espeak-ng), not its spelling.
     """
-    from siftom.likelihood.phonetic import VOWELS, word_phonemes
+    from siftom.likelihood.phonemes import VOWELS, word_phonemes
 
     words = phrase.split()
     phones = word_phonemes(words[0].lower()) if words else ()

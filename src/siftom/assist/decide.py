@@ -60,7 +60,7 @@ class Decision:
         expected_benefit: expected steps saved by ``command`` (nan for ``map`` without values).
         question: the spoken question when ``action == 'ask'``, else ''.
         options: the commands the question contrasts.
-        evi: expected value of information of the question, in steps (0 when none asked).
+        evi: expected value of information of the best question, in steps (question_values).
         ask_cost: the cost of asking, in steps.
         reason: one line saying why.
         benefits: the best few actions with their expected benefit, best first.
@@ -196,19 +196,24 @@ class ExpectedBenefitRule:
 
 
 def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, loss_aversion: float = 0.0,
-                    reliability: float = 1.0) -> list[tuple[float, tuple[str, str]]]:
+                    reliability: float = 1.0, ask_cost: float = 0.0) -> list[tuple[float, tuple[str, str]]]:
     """EVI (steps) of "Did you mean A or B?" for every pair among the ``pool`` most probable commands.
 
     The truthful answer names a cell of {A}, {B}, {anything else}; it is heard as its own cell
     with probability ``reliability`` and as each of the two others with ``(1 - reliability) / 2``
     (a symmetric channel: 1 = heard perfectly, 1/3 = the answer says nothing). The robot then
-    acts by expected utility given what it heard, so
+    acts by expected utility given what it heard, the question's time ``ask_cost`` counted in
+    the outcome (so a question followed by doing nothing is a loss, weighed as losses are):
 
-        EVI = sum_heard max_a sum_cells P(heard | cell) E[u(a) ; cell] - max_a E[u(a)].
+        EVI = sum_heard max_a sum_cells P(heard | cell) E[u(b(a) - ask_cost) ; cell]
+              - max_a E[u(b(a))] + ask_cost.
+
+    Risk-neutral (``loss_aversion = 0``) this is the classic EVI, whatever ``ask_cost``; a
+    question pays when ``EVI > ask_cost`` (plus any interruption penalty).
     """
     cands = [c for c, _p in post.commands[:pool] if c in tv.actions]
-    w = tv.prob[:, None] * tv.utility(loss_aversion)  # (rows, actions)
-    v0 = float(w.sum(axis=0).max())
+    v0 = float((tv.prob @ tv.utility(loss_aversion)).max())
+    w = tv.prob[:, None] * tv.utility(loss_aversion, ask_cost)  # (rows, actions), after the question
     r = float(np.clip(reliability, 1.0 / 3.0, 1.0))
     conf = np.full((3, 3), (1.0 - r) / 2.0)
     np.fill_diagonal(conf, r)
@@ -218,7 +223,7 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
         in_a, in_b = row_cmd == a, row_cmd == b
         cells = np.stack([w[m].sum(axis=0) for m in (in_a, in_b, ~(in_a | in_b))])  # (3, actions)
         v = float((conf @ cells).max(axis=1).sum())
-        out.append((max(v - v0, 0.0), (a, b)))
+        out.append((v - v0 + ask_cost, (a, b)))
     out.sort(key=lambda t: -t[0])
     return out
 
@@ -249,7 +254,8 @@ class AskOrActRule:
         best, eb = _best(tv, self.loss_aversion)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = question_values(tv, post, loss_aversion=self.loss_aversion, reliability=where.answer_reliability)
+        qs = question_values(tv, post, loss_aversion=self.loss_aversion, reliability=where.answer_reliability,
+                             ask_cost=self.ask_cost)
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.threshold:
             evi, opts = qs[0]
@@ -282,6 +288,24 @@ def get_rule(name: str, **options: Any) -> DecisionRule:
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
     """Apply the named decision rule."""
     return get_rule(rule, **options)(post, where)
+
+
+def answer_log_likelihood(log_lik: Sequence[float] | np.ndarray, reliability: float = 1.0) -> np.ndarray:
+    """The answer's log-likelihood per command when it is heard only with probability ``reliability``.
+
+    With probability ``reliability`` the answer was heard and the instruction likelihood
+    ``log_lik`` applies; otherwise what was heard is noise and says nothing about the command:
+    ``P(heard | c) ∝ reliability * softmax(log_lik)(c) + (1 - reliability) / K`` over the K
+    commands. The same channel the question's EVI assumes (question_values); at 1 the
+    likelihood is used as it is.
+    """
+    ll = np.asarray(log_lik, dtype=np.float64)
+    if not 0.0 <= reliability <= 1.0:
+        raise ObservationError(f"reliability must be a probability in [0, 1], got {reliability!r}")
+    if reliability >= 1.0 or len(ll) == 0:
+        return ll
+    p = np.exp(ll - logsumexp(ll))
+    return np.log(reliability * p + (1.0 - reliability) / len(ll))
 
 
 def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcript: str = "") -> Posterior:

@@ -28,6 +28,7 @@ from siftom.assist.decide import (
     DEFAULT_LOSS_AVERSION,
     DEFAULT_QUESTION_PENALTY,
     Situation,
+    answer_log_likelihood,
     decide,
     with_answer,
 )
@@ -38,7 +39,7 @@ FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to a
 # on the seed-1 development sets (both domains pooled) with `siftom bench answer-reliability`
 # (docs/decisions.md). The robot measures the noise level between utterances; the benchmark
 # hands it the stimulus's SNR as that measurement. Interpolated linearly in between.
-ANSWER_RELIABILITY = ((5.0, 1.0), (10.0, 1.0), (20.0, 1.0), (float("inf"), 1.0))
+ANSWER_RELIABILITY = ((5.0, 0.67), (10.0, 0.70), (20.0, 0.87), (float("inf"), 0.88))
 
 
 def answer_reliability(snr_db: float | None) -> float:
@@ -169,7 +170,8 @@ def run_decision_model(
     heard_cell = 2
     if hyps and sift.likelihood is not None:
         ll = np.asarray(sift.likelihood.log_prob(Instruction(nbest=hyps), posterior.joint.commands))
-        post2 = with_answer(posterior, ll * sift.config.speech_weight, hyps[0].text)
+        post2 = with_answer(posterior, answer_log_likelihood(ll * sift.config.speech_weight, reliability),
+                            hyps[0].text)
         heard_cell = _cell(str(posterior.joint.commands[int(np.argmax(ll))]), d.options)
     gold_cell = next((k for k, o in enumerate(d.options) if is_correct(o, stimulus.gold_command, scenario.verb)), 2)
     d2 = decide(post2, where, "expected-benefit", loss_aversion=lam)

@@ -8,7 +8,8 @@ simulation (cached, as in the evaluator). It prints negative-speedup share, mean
 accuracy per ``lam`` next to ``siftom``'s (the MAP command) and, for comparison, the same
 curve for the chance constraint ``P(b < 0) <= alpha`` (expected benefit among the actions
 that satisfy it; doing nothing always does). It chooses the smallest ``lam`` whose negative
-share is within the target on every set while the mean speedup stays at least ``siftom``'s.
+share is within the target on every set and says whether the mean speedup stays at least
+``siftom``'s.
 """
 
 from __future__ import annotations
@@ -106,9 +107,9 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
 def loss_aversion_cmd(results: tuple[str, ...], target: float, as_json: bool) -> None:
     """Choose the loss aversion of expected benefit from development RESULTS folders (siftom eval).
 
-    The smallest loss aversion whose negative-speedup share is within TARGET on every set while
-    its mean speedup stays at least siftom's (the MAP command); if none qualifies, the one with
-    the lowest worst-case negative share among those that keep the speedup.
+    The smallest loss aversion whose negative-speedup share is within TARGET on every set (the
+    risk a teammate accepts); it says whether the mean speedup then stays at least siftom's
+    (the MAP command) on every set. None when no value of the grid reaches TARGET.
     """
     curves = [loss_aversion_curve(r) for r in results]
     lams = [row["lam"] for row in curves[0]["loss_aversion"]]
@@ -119,13 +120,12 @@ def loss_aversion_cmd(results: tuple[str, ...], target: float, as_json: bool) ->
     def worst(k: int) -> float:
         return max(c["loss_aversion"][k]["neg_speedup_share"] for c in curves)
 
-    ok = [k for k in range(len(lams)) if keeps(k) and worst(k) <= target]
-    fallback = [k for k in range(len(lams)) if keeps(k)]
-    k = ok[0] if ok else (min(fallback, key=worst) if fallback else None)
-    chosen = None if k is None else lams[k]
+    ok = [k for k in range(len(lams)) if worst(k) <= target]
+    chosen = lams[ok[0]] if ok else None
+    faster = bool(ok) and keeps(ok[0])
     if as_json:
-        click.echo(json.dumps({"target": target, "loss_aversion": chosen, "met": bool(ok), "curves": curves},
-                              indent=2))
+        click.echo(json.dumps({"target": target, "loss_aversion": chosen, "speedup_kept": faster,
+                               "curves": curves}, indent=2))
         return
     for c in curves:
         b = c["siftom"]
@@ -137,6 +137,6 @@ def loss_aversion_cmd(results: tuple[str, ...], target: float, as_json: bool) ->
                            f"{100 * row['neg_speedup_share']:.1f} %, accuracy {100 * row['accuracy']:.1f} %, "
                            f"does nothing {100 * row['no_action']:.1f} %, "
                            f"confident wrong {100 * row['confident_wrong_share']:.1f} %")
-    met = "meets" if ok else "does not meet"
-    click.echo(f"chosen loss aversion: {chosen} ({met} <= {100 * target:g} % negative on every set "
-               "with speedup >= siftom's)")
+    kept = "keeps" if faster else "does not keep"
+    click.echo(f"smallest loss aversion with <= {100 * target:g} % negative on every set: {chosen} "
+               f"({kept} a mean speedup >= siftom's on every set)")

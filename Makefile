@@ -44,7 +44,12 @@ test: setup sysdeps-browser
 	$(BIN)/ruff check src tests
 	$(BIN)/python -m pytest -q -n 2 -p no:cacheprovider
 
-test-slow: setup
+# the slow suite also runs the Ray backend's tests (siftom[ray], not needed by `make test`)
+$(VENV)/.installed-ray: pyproject.toml | $(VENV)/.installed
+	$(BIN)/pip install -q -e ".[$(EXTRAS),ray]"
+	touch $@
+
+test-slow: setup $(VENV)/.installed-ray
 	$(BIN)/python -m pytest -q -m slow
 
 test-browser: setup sysdeps-browser

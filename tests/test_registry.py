@@ -80,3 +80,27 @@ def test_every_builtin_registry_entry_describes_itself():
     for r in regs.values():
         for line in r.describe():
             assert line["name"] and isinstance(line["available"], bool)
+
+
+def test_plugins_command_lists_every_registry(capsys):
+    import json
+
+    from siftom.cli import main
+
+    assert main(["plugins", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"domain", "voice", "decision rule"} <= set(out)
+    assert {"household-table-v0", "kitchen-v0"} == {e["name"] for e in out["domain"]}
+    assert main(["plugins", "--kind", "domian"]) == 2
+    assert "Did you mean 'domain'" in capsys.readouterr().err
+
+
+def test_healthz_lists_the_plugins(tmp_path):
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    from siftom.service.app import create_app
+
+    with TestClient(create_app(tmp_path)) as c:
+        body = c.get("/healthz").json()
+    assert {e["name"] for e in body["plugins"]["decision rule"]} == {"map", "expected-benefit", "ask-or-act"}

@@ -103,23 +103,13 @@ def infer_actions(
     likelihood: LikelihoodArg = "phonetic",
     llm: LLMConfig | None = None,
 ) -> Posterior:
-    """Inference on a registered scenario's start state with the caller's own action strings."""
+    """Inference on a registered scenario's start state with the caller's own action strings
+    (siftom's ``walk(human, fridge)`` or VirtualHome's ``[Walk] <fridge> (1)``, see world/vhscript.py)."""
     from siftom.scenarios.base import get_scenario
+    from siftom.world.vhscript import parse_actions
 
     sc = get_scenario(scenario_id)
-    states = [sc.start]
-    acts = []
-    for k, text in enumerate(actions):
-        if not isinstance(text, str):
-            raise ObservationError(f"actions[{k}] must be a string like 'walk(human, fridge)'")
-        a = sc.world.parse_action(text, states[-1])
-        acts.append(a)
-        from siftom.world.model import apply, check
-
-        why = check(sc.world, states[-1], a)
-        if why is not None:
-            raise ObservationError(f"actions[{k}] {text!r} is impossible here: {why}")
-        states.append(apply(states[-1], a))
+    acts, _ = parse_actions(sc.world, sc.start, actions)  # siftom's or VirtualHome's script format
     obs = Observation(sc.world, sc.start, tuple(acts), sc.goals, sc.verb, instruction)
     return get_model(mode, likelihood, llm).infer(obs)
 

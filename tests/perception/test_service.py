@@ -74,3 +74,32 @@ def test_model_failures_are_502_and_no_model_is_501(client, vlm_env, frames, mon
     monkeypatch.delenv("SIFTOM_LLM_BASE_URL")
     r = client.post("/v1/perceive", json={"frames": data_urls(frames[:1])})
     assert r.status_code == 501 and "SIFTOM_LLM_BASE_URL" in r.json()["detail"]
+
+
+def test_a_session_takes_frames_instead_of_actions(client, vlm_env, frames):
+    vlm_env.on("chat/completions", handler(frames))
+    r = client.post("/v1/perceive", json={"frames": data_urls(frames[:1]), "goal_space": "kitchen-v0",
+                                          "target": "kitchen_counter", "propose_goals": False})
+    assert r.status_code == 200, r.text
+    world = r.json()["world"]
+    r = client.post("/v1/sessions", json={"world": world, "goal_space": "kitchen-v0"})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    r = client.post(f"/v1/sessions/{sid}/frames", json={"frames": data_urls(frames)})
+    assert r.status_code == 200, r.text
+    assert len(r.json()["added"]) == 10 and r.json()["n_actions"] == 10
+    r = client.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you pass me the silver"})
+    assert r.status_code == 200, r.text
+    assert r.json()["command"] == "fetch(cereal)"
+    # the same frames again: the milk is no longer where the first frame shows it -> 422, nothing added
+    r = client.post(f"/v1/sessions/{sid}/frames", json={"frames": data_urls(frames)})
+    assert r.status_code in (422, 502), r.text
+    assert client.get(f"/v1/sessions/{sid}").json()["n_actions"] == 10
+
+
+def test_session_frames_need_a_session_and_two_frames(client, vlm_env, frames):
+    r = client.post("/v1/sessions/s0000000000000000/frames", json={"frames": data_urls(frames[:2])})
+    assert r.status_code in (404, 422)
+    r = client.post("/v1/sessions/s0000000000000000/frames", json={"frames": data_urls(frames[:1])})
+    assert r.status_code == 422
+    assert vlm_env.requests == []

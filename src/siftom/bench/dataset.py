@@ -29,7 +29,6 @@ import re
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -470,8 +469,8 @@ def _stable(s: str) -> int:
     return int(hashlib.sha1(s.encode()).hexdigest()[:8], 16)
 
 
-def _worker_build(args: tuple[_Unit, BuildOptions, str]) -> list[Stimulus]:
-    unit, opts, out = args
+def _worker_build(unit: _Unit, shared: tuple[BuildOptions, str]) -> list[Stimulus]:
+    opts, out = shared
     return _build_unit(unit, opts, Path(out))
 
 
@@ -495,6 +494,7 @@ def build_dataset(
     out: str | Path,
     workers: int = 1,
     progress: Callable[[int, int], None] | None = None,
+    backend: Any = None,
 ) -> Dataset:
     """Build (or finish building) a dataset in ``out``; return it loaded.
 
@@ -506,11 +506,25 @@ def build_dataset(
         out: the dataset folder (created).
         workers: processes for synthesis and mixing (1 = in this process).
         progress: called with (units done, units total) after each scenario x speaker.
+        backend: ``"local"`` (default), ``"ray"`` or a backend object (bench/backends.py).
     """
+    from siftom.bench.backends import make_backend
+    from siftom.bench.runlock import RunLock, stop_on_signals
+
+    with RunLock(out), stop_on_signals():
+        owned = backend is None or isinstance(backend, str)
+        be = make_backend(backend or "local", workers) if owned else backend
+        try:
+            return _build(opts, Path(out), be, progress)
+        finally:
+            if owned:
+                be.shutdown()
+
+
+def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int], None] | None) -> Dataset:
     from siftom.scenarios.base import get_domain
 
     get_domain(opts.domain)  # unknown domain: UnknownNameError with suggestions
-    root = Path(out)
     spec_path = root / SPEC
     if spec_path.is_file():
         old = json.loads(spec_path.read_text(encoding="utf-8")).get("options")
@@ -520,24 +534,19 @@ def build_dataset(
                 "use another --out folder or delete this one"
             )
     (root / AUDIO_DIR).mkdir(parents=True, exist_ok=True)
+    for tmp in (root / AUDIO_DIR).glob("*.tmp.wav"):  # left by a stopped worker; we hold the lock
+        tmp.unlink()
     t0 = time.perf_counter()
     units = plan_units(opts)
     spec = {"format_version": FORMAT_VERSION, "options": opts.to_json(),
             "speakers": [s.__dict__ for s in make_speakers(opts)]}
     spec_path.write_text(json.dumps(spec, indent=2) + "\n", encoding="utf-8")
     results: list[list[Stimulus]] = [[] for _ in units]
-    if workers <= 1:
-        for i, u in enumerate(units):
-            results[i] = _build_unit(u, opts, root)
-            if progress:
-                progress(i + 1, len(units))
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            args = [(u, opts, str(root)) for u in units]
-            for i, rows in enumerate(ex.map(_worker_build, args, chunksize=2)):
-                results[i] = rows
-                if progress:
-                    progress(i + 1, len(units))
+    # units go out in order and come back in any order; the manifest keeps the order
+    for n, (i, rows) in enumerate(be.map_unordered(_worker_build, units, shared=(opts, str(root))), 1):
+        results[i] = rows
+        if progress:
+            progress(n, len(units))
     stimuli = [s for rows in results for s in rows]
     tmp = root / (MANIFEST + ".tmp")
     tmp.write_text("".join(json.dumps(s.to_json()) + "\n" for s in stimuli), encoding="utf-8")

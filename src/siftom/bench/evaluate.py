@@ -28,13 +28,23 @@ import os
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from siftom.bench.dataset import Dataset, Stimulus, load_dataset, scenario_for
 from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
+from siftom.bench.results_io import (
+    TIMINGS,
+    AtomicAppender,
+    check_unique,
+    provenance,
+    provenance_mismatch,
+    read_jsonl,
+    rewrite,
+    split_timings,
+)
+from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.errors import DatasetError, SiftomError, unknown_name
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text", "siftom-eb", "siftom-ask")
@@ -296,32 +306,14 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
         yield row, new_tr, new_team
 
 
-def _run_task(task: _Task) -> list[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
-    return list(_eval_stimuli(task))
+def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
+    """One scenario group on a worker; the vocabulary is shipped once per worker, not per task."""
+    return list(_eval_stimuli(replace(task, vocabulary=vocabulary)))
 
 
 # -- files ---------------------------------------------------------------------------------
 
-def _read_jsonl(path: Path, repair: bool = False) -> list[dict[str, Any]]:
-    """Lines of a JSONL file; a torn last line (interrupted write) is dropped (and cut if repair)."""
-    if not path.is_file():
-        return []
-    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
-    out, good = [], 0
-    for n, line in enumerate(lines):
-        if not line.strip():
-            good += len(line)
-            continue
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            if n == len(lines) - 1:
-                if repair:
-                    with open(path, "r+b") as f:
-                        f.truncate(len("".join(lines[:n]).encode("utf-8")))
-                break
-            raise DatasetError(f"{path}:{n + 1} is not valid JSON; delete the file to start over") from None
-    return out
+_read_jsonl = read_jsonl  # the name older code imports
 
 
 def load_results(out: str | Path) -> list[dict[str, Any]]:
@@ -333,21 +325,8 @@ def load_results(out: str | Path) -> list[dict[str, Any]]:
     for n, r in enumerate(rows, 1):
         if not isinstance(r, dict) or "id" not in r or not isinstance(r.get("models"), dict):
             raise DatasetError(f"{p}:{n}: a results row needs 'id' and 'models'; the file is not from siftom eval")
+    check_unique(rows, p)
     return rows
-
-
-class _Appender:
-    """Append JSON lines and flush, so a kill loses at most the line being written."""
-
-    def __init__(self, path: Path) -> None:
-        self.f = open(path, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
-
-    def write(self, obj: dict[str, Any]) -> None:
-        self.f.write(json.dumps(obj) + "\n")
-        self.f.flush()
-
-    def close(self) -> None:
-        self.f.close()
 
 
 def evaluate(
@@ -357,26 +336,49 @@ def evaluate(
     workers: int = 1,
     overwrite: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    backend: Any = None,
 ) -> EvalRun:
     """Evaluate every model on every stimulus not yet in ``out/results.jsonl``.
+
+    The run owns ``out`` while it works (a second run on it is refused, see bench/runlock.py);
+    SIGINT and SIGTERM stop it and its workers, raising RunInterrupted, and leave a folder that
+    resumes. ``results.jsonl`` ends in manifest order and without timings (``timings.jsonl``),
+    so it is the same, byte for byte, on every backend.
 
     Args:
         dataset: a dataset folder (or a loaded Dataset).
         out: the results folder (created).
         options: models, engine, N-best size, likelihood, bootstrap seed.
-        workers: processes (1 = in this process).
+        workers: processes (1 = in this process), or Ray CPUs.
         overwrite: start over when ``out`` holds a run with other settings or data.
         progress: called with (stimuli done, total) after each stimulus.
+        backend: ``"local"`` (default), ``"ray"`` or a backend object (bench/backends.py);
+            one given as an object is left running for the caller.
 
     Raises:
         DatasetError: malformed dataset, or ``out`` holds another run (and not ``overwrite``).
+        RunLockedError: another live process is writing into ``out``.
     """
+    from siftom.bench.backends import make_backend
+
     opts = options or EvalOptions()
     ds = dataset if isinstance(dataset, Dataset) else load_dataset(dataset)
     root = Path(out)
-    root.mkdir(parents=True, exist_ok=True)
+    with RunLock(root), stop_on_signals():
+        owned = backend is None or isinstance(backend, str)
+        be = make_backend(backend or "local", workers) if owned else backend
+        try:
+            return _evaluate(ds, root, opts, be, overwrite, progress)
+        finally:
+            if owned:
+                getattr(be, "shutdown", be.close)()
+
+
+def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bool,
+              progress: Callable[[int, int], None] | None) -> EvalRun:
     run_info = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
                 "options": opts.to_json(), "seed": opts.seed}
+    prov = provenance(opts.to_json(), ds.fingerprint)
     run_path = root / RUN
     old: dict[str, Any] = {}
     if run_path.is_file():
@@ -384,29 +386,33 @@ def evaluate(
             old = json.loads(run_path.read_text(encoding="utf-8"))
         except json.JSONDecodeError:
             old = {}
-    if old and not overwrite:
-        mismatch = [k for k in ("dataset_fingerprint", "options") if old.get(k) != run_info[k]]
-        if mismatch and (root / RESULTS).is_file():
-            raise DatasetError(
-                f"{root} holds results of another run (different {' and '.join(mismatch)}); "
-                "use another --out folder or pass --overwrite to start over"
-            )
     if overwrite:
-        for name in (RESULTS, TRANSCRIPTS, TEAM_CACHE):
+        for name in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS):
             (root / name).unlink(missing_ok=True)
     t0 = time.perf_counter()
-    done = {r["id"]: r for r in _read_jsonl(root / RESULTS, repair=True)}
+    old_rows = _read_jsonl(root / RESULTS, repair=True)
+    check_unique(old_rows, root / RESULTS)
+    for n, r in enumerate(old_rows, 1):  # every row says how it was made: another run's rows are refused
+        differs = provenance_mismatch(r.get("provenance"), prov)
+        if differs:
+            raise DatasetError(
+                f"{root} holds results of another run ({root / RESULTS}:{n} differs in {'; '.join(differs)}); "
+                "resume with the same options and code, use another --out folder, or pass --overwrite"
+            )
+    done = {r["id"]: r for r in old_rows}
     valid = {s.id for s in ds.stimuli}
     done = {k: v for k, v in done.items() if k in valid}
     cached_tr = {t["id"]: t for t in _read_jsonl(root / TRANSCRIPTS, repair=True) if t.get("engine") == opts.engine}
     cached_team: dict[str, dict[str, dict[str, Any]]] = {}
     for t in _read_jsonl(root / TEAM_CACHE, repair=True):
         cached_team.setdefault(t["key"], {})[t["command"]] = t
+    _read_jsonl(root / TIMINGS, repair=True)
     pending = [s for s in ds.stimuli if s.id not in done]
     history = [] if overwrite else list(old.get("history", [])) if old.get("dataset_fingerprint") == ds.fingerprint else []
     started = time.strftime("%Y-%m-%dT%H:%M:%S")
     run_info["history"] = history
-    run_path.write_text(json.dumps(run_info, indent=2) + "\n", encoding="utf-8")
+    run_info["code"] = prov["code"]
+    _write_json(run_path, run_info)
 
     # the ASR vocabulary covers every class of every scenario in the dataset
     classes: set[str] = set()
@@ -416,25 +422,29 @@ def evaluate(
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine == "pocketsphinx-vocab" and pending:
-        _engine(opts.engine, vocab)  # build the LM once, before workers race to build it
+    if opts.engine == "pocketsphinx-vocab" and pending and be.name == "local":
+        _engine(opts.engine, vocab)  # build the LM once, before pool workers fork and race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()
     for s in pending:
         groups.setdefault(scenario_key(s), []).append(s)
-    tasks = [_Task(str(ds.root), tuple(g), opts, vocab, {s.id: cached_tr[s.id] for s in g if s.id in cached_tr},
+    tasks = [_Task(str(ds.root), tuple(g), opts, vocab if be.inline else (),
+                   {s.id: cached_tr[s.id] for s in g if s.id in cached_tr},
                    cached_team.get(k, {})) for k, g in groups.items()]
-    res_f, tr_f, team_f = (_Appender(root / n) for n in (RESULTS, TRANSCRIPTS, TEAM_CACHE))
+    res_f, tr_f, team_f, tim_f = (AtomicAppender(root / n) for n in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS))
     n_done = len(done)
     total = len(ds.stimuli)
 
     def consume(row: dict[str, Any], new_tr: dict[str, Any] | None, new_team: list[dict[str, Any]]) -> None:
         nonlocal n_done
-        res_f.write(row)
         if new_tr is not None:
             tr_f.write(new_tr)
         for t in new_team:
             team_f.write(t)
+        row, timing = split_timings(row)
+        row["provenance"] = prov
+        tim_f.write(timing)
+        res_f.write(row)  # last: a stimulus counts as done once its caches are saved
         done[row["id"]] = row
         n_done += 1
         if progress:
@@ -443,34 +453,42 @@ def evaluate(
     try:
         if progress:
             progress(n_done, total)
-        if workers <= 1:
+        if be.inline:
             for task in tasks:
                 for item in _eval_stimuli(task):
                     consume(*item)
         else:
-            # biggest groups first keeps both workers busy until the end
+            # biggest groups first keeps every worker busy until the end
             order = sorted(tasks, key=lambda t: -len(t.stimuli))
-            with ProcessPoolExecutor(max_workers=workers) as ex:
-                futs = {ex.submit(_run_task, t) for t in order}
-                while futs:
-                    finished, futs = wait(futs, return_when=FIRST_COMPLETED)
-                    for f in finished:
-                        for item in f.result():
-                            consume(*item)
+            results = be.map_unordered(_run_task, order, shared=vocab)
+            try:
+                for _, items in results:
+                    for item in items:
+                        consume(*item)
+            finally:
+                results.close()
+                be.close()
     finally:
-        for f in (res_f, tr_f, team_f):
+        for f in (res_f, tr_f, team_f, tim_f):
             f.close()
     seconds = time.perf_counter() - t0
     rows = [done[s.id] for s in ds.stimuli if s.id in done]
+    if len(rows) == total:
+        rewrite(root / RESULTS, rows)  # manifest order: the same bytes on every backend
     counters = {
         "asr_audio_s": sum(t.get("audio_s", 0.0) for t in cached_tr.values()),
         "team_simulations": sum(1 for _ in _read_jsonl(root / TEAM_CACHE)),
     }
     this = {"started": started, "finished": time.strftime("%Y-%m-%dT%H:%M:%S"), "seconds": round(seconds, 1),
-            "resumed": total - len(pending), "evaluated": len(pending), "workers": workers}
+            "resumed": total - len(pending), "evaluated": len(pending), "workers": be.workers,
+            "backend": be.name}
     run_info["history"] = [*history, this]
     run_info["seconds"] = round(sum(h["seconds"] for h in run_info["history"]), 1)
-    tmp = run_path.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(run_info, indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, run_path)
+    _write_json(run_path, run_info)
     return EvalRun(root, rows, total - len(pending), len(pending), seconds, counters)
+
+
+def _write_json(path: Path, obj: dict[str, Any]) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(obj, indent=2) + "\n", encoding="utf-8")
+    os.replace(tmp, path)

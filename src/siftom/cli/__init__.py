@@ -23,6 +23,7 @@ _AREAS = (
     "siftom.cli.service",
     "siftom.cli.perception",
     "siftom.cli.demo",
+    "siftom.cli.plugins",
 )
 
 

@@ -6,7 +6,7 @@ import json
 import os
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 
 import click
 
@@ -31,6 +31,38 @@ def _snrs(value: str) -> tuple[float, ...]:
 
 def _default_workers() -> int:
     return max(1, min(4, os.cpu_count() or 1))
+
+
+def _backend_options(f: Callable[..., None]) -> Callable[..., None]:
+    """--backend and --ray-address (bench/backends.py)."""
+    f = click.option("--ray-address", default=None,
+                     help="with --backend ray: 'auto' or HOST:PORT of a running cluster (default: start a local Ray)")(f)
+    return click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                        help="where the work runs: local processes, or Ray (pip install \"siftom[ray]\")")(f)
+
+
+@contextmanager
+def _backend(name: str, workers: int | None, address: str | None) -> Iterator[object]:
+    """The backend for a command; a signal-stopped run exits 128 + signal with how to resume."""
+    import signal
+
+    from siftom.bench.backends import make_backend
+    from siftom.bench.runlock import interrupting_signal, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            be = make_backend(name, workers or (None if name == "ray" else _default_workers()), address)
+            with stop_on_signals():  # again: ray.init replaces the SIGTERM handler
+                try:
+                    yield be
+                finally:
+                    be.shutdown()
+    except KeyboardInterrupt as exc:
+        signum = interrupting_signal(exc)
+        err = click.ClickException(f"stopped by {signal.Signals(signum).name}; what was finished is saved: "
+                                   "run the same command again to resume")
+        err.exit_code = 128 + signum
+        raise err from None
 
 
 @contextmanager
@@ -75,10 +107,12 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
-@click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, workers: int | None, as_json: bool) -> None:
+              noises: str | None, snr: str, seed: int, workers: int | None, backend: str, ray_address: str | None,
+              as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
 
@@ -86,8 +120,8 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
                         snrs=_snrs(snr), seed=seed)
     t0 = time.perf_counter()
-    with _bar("building", not as_json) as bar:
-        ds = build_dataset(opts, out, workers=workers or _default_workers(), progress=bar)
+    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
+        ds = build_dataset(opts, out, progress=bar, backend=be)
     secs = time.perf_counter() - t0
     if as_json:
         click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "seconds": round(secs, 1)}))
@@ -120,14 +154,15 @@ def check_cmd(folder: str) -> None:
               "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True, help="pocketsphinx-vocab | pocketsphinx | whisper")
 @click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
-@click.option("--workers", type=int, default=None, help="processes (default: number of CPUs, at most 4)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
 @llm_options
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             seed: int, overwrite: bool, as_json: bool, llm_backend: str | None, llm_base_url: str | None,
-             llm_model: str | None) -> None:
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool,
+             llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.backends.config import llm_configured
     from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
@@ -141,9 +176,14 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
     chosen = _csv(models) or default
     llm = llm_config(llm_backend, llm_base_url, llm_model) if set(chosen) & set(OPTIONAL_MODELS) else None
     opts = EvalOptions(models=chosen, engine=engine, nbest=nbest, seed=seed, llm=llm)
-    with _bar("evaluating", not as_json) as bar:
-        run = evaluate(dataset, out, opts, workers=workers or _default_workers(), overwrite=overwrite, progress=bar)
-    summary = write_report(out)
+    from siftom.bench.backends import check_backend_args
+    from siftom.bench.runlock import RunLock
+
+    check_backend_args(backend, ray_address)
+    with RunLock(out), _backend(backend, workers, ray_address) as be:
+        with _bar("evaluating", not as_json) as bar:
+            run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
+        summary = write_report(out)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
         return
@@ -159,13 +199,41 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
 def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
     """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl."""
     from siftom.bench.report import main_table, write_report
+    from siftom.bench.runlock import RunLock
 
-    summary = write_report(results, seed=seed)
+    with RunLock(results) if os.path.isdir(results) else nullcontext():
+        summary = write_report(results, seed=seed)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 
+@click.command("sweep")
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="sweep folder (resumes if it exists)")
+@click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
+@_backend_options
+@click.option("--json", "as_json", is_flag=True, help="print sweep.json")
+def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_address: str | None, as_json: bool) -> None:
+    """Run the cross product of a sweep CONFIG.toml (datasets x evaluations); write table.md and sweep.png."""
+    from siftom.bench.sweep import load_config, markdown_table, plan, run_sweep, table_rows
+
+    n = len(plan(load_config(config), out))
+
+    def show(i: int, total: int, cell: object) -> None:
+        if not as_json and i < total:
+            click.echo(f"cell {i + 1}/{total}: {getattr(cell, 'values', '')}", err=True)
+
+    with _backend(backend, workers, ray_address) as be:
+        result = run_sweep(config, out, be, progress=show)
+    if as_json:
+        click.echo(json.dumps(result, indent=2, default=list))
+        return
+    click.echo(markdown_table(table_rows(result)))
+    click.echo(f"\n{n} cells; wrote {out}/sweep.json, table.md, table.csv and sweep.png")
+
+
 def register(root: click.Group) -> None:
-    """Add ``dataset``, ``eval`` and ``report`` to the root command."""
+    """Add ``dataset``, ``eval``, ``report`` and ``sweep`` to the root command."""
     root.add_command(dataset_group)
     root.add_command(eval_cmd)
     root.add_command(report_cmd)
+    root.add_command(sweep_cmd)

@@ -34,6 +34,19 @@ def _read_actions(path: Path) -> list[str]:
     return data
 
 
+def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
+    """Warnings for object classes no goal mentions (each naming the nearest library classes)."""
+    from siftom.world.io import scene_warnings
+
+    try:
+        obj = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    if goal_space and isinstance(obj, dict) and "goals" not in obj:
+        obj = {**obj, "goal_space": goal_space}
+    return scene_warnings(obj, scene)
+
+
 def _read_nbest(path: Path) -> list[dict]:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -51,7 +64,8 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None,
               help="Your own world JSON or VirtualHome graph (instead of --scenario).")
 @click.option("--actions", "actions_file", type=click.Path(path_type=Path), default=None,
-              help="The human's actions: JSON list or one per line, e.g. grab(human, milk, fridge).")
+              help="The human's actions: JSON list or one per line, e.g. grab(human, milk, fridge) "
+                   "or VirtualHome script lines, e.g. [Grab] <milk> (195).")
 @click.option("--goal-space", default=None, help="For --scene: household-table-v0 or kitchen-v0.")
 @click.option("--target", default=None, help="For a VirtualHome --scene: class name of the target surface.")
 @click.option("--transcript", default=None, help="What was heard (1-best transcript).")
@@ -101,6 +115,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
     model = get_model(mode, likelihood, llm)
     sc = None
+    warnings: list[str] = []
     if scenario_id is not None:
         from siftom.scenarios.base import get_scenario
 
@@ -113,17 +128,15 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
             post = model.infer(Observation.from_scenario(sc, instruction))
     else:
         from siftom.world.io import load_scene
-        from siftom.world.model import apply, check
+        from siftom.world.vhscript import parse_actions
 
         scene = load_scene(scene_file, goal_space=goal_space, target=target)
-        acts, s = [], scene.start
-        for k, text in enumerate(_read_actions(actions_file) if actions_file else []):
-            a = scene.world.parse_action(text, s)
-            why = check(scene.world, s, a)
-            if why is not None:
-                raise ObservationError(f"action {k + 1} {text!r} is impossible here: {why}")
-            acts.append(a)
-            s = apply(s, a)
+        warnings = _unmentioned(scene_file, scene, goal_space)
+        if not as_json:  # with --json they are a field of the output
+            for w in warnings:
+                click.echo(f"warning: {w}", err=True)
+        acts, _ = parse_actions(scene.world, scene.start, _read_actions(actions_file) if actions_file else [],
+                                first=1, label="action {k}")
         post = model.infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb, instruction))
     decision = None
     if post.joint is not None and post.joint.state is not None:
@@ -140,6 +153,8 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         body = post.to_json()
         if decision is not None:
             body["decision"] = decision.to_json()
+        if scene_file is not None:
+            body["warnings"] = warnings
         click.echo(json.dumps(body, indent=2))
         return
     print_posterior(post)

@@ -8,6 +8,8 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+* ``/v1/sessions``: a robot's own world, streamed actions, instructions
+  (:mod:`siftom.service.session_api`).
 
 CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
 stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
@@ -15,6 +17,7 @@ stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from collections.abc import Callable
@@ -120,6 +123,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     @app.get("/healthz", tags=["meta"])
     async def healthz() -> dict[str, Any]:
         """Liveness, version and what this server offers."""
+        from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices
 
@@ -127,9 +131,11 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
             "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
             "llm": rt.llm_status(),
+            "plugins": {kind: reg.describe() for kind, reg in load_all().items()},
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
-                       "request_timeout_s": settings.request_timeout_s},
+                       "request_timeout_s": settings.request_timeout_s,
+                       "sessions": dataclasses.asdict(settings.sessions)},
         }
 
     # ----- scenarios -------------------------------------------------------------------------
@@ -249,6 +255,14 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
 
     install_perceive(app, folder)  # POST /v1/perceive (camera frames through a vision model)
 
+    # ----- sessions --------------------------------------------------------------------------
+    from siftom.service.session_api import install_sessions, session_schemas
+
+    install_sessions(app, rt, run_cpu)
+    from siftom.service.perceive import install_session_frames
+
+    install_session_frames(app, folder)  # POST /v1/sessions/{id}/frames (actions read from camera frames)
+
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:
         if app.openapi_schema:
@@ -262,6 +276,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
         form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
         comps["AudioInferForm"] = form
+        comps.update(session_schemas(settings.likelihoods))
         app.openapi_schema = schema
         return schema
 

@@ -70,3 +70,60 @@ def install(app: FastAPI, folder: Path) -> None:
         except (PerceptionError, BackendUnavailableError) as exc:
             raise ProblemError(502, "vision-model-failed", str(exc)) from None
         return result.to_json()
+
+
+class SessionFramesRequest(Strict):
+    """Consecutive camera frames of a session's world; the first shows the current state."""
+
+    frames: list[str] = Field(min_length=2, max_length=MAX_FRAMES,
+                              description="two or more images in time order (data URLs or base64); the actions "
+                              "between each pair are perceived and appended to the session")
+
+
+def install_session_frames(app: FastAPI, folder: Path) -> None:
+    """``POST /v1/sessions/{id}/frames``: perceive the person's actions and append them (all or none)."""
+    from fastapi import Path as PathParam
+
+    from siftom.service.session_schemas import SESSION_ID, ActionsResponse
+
+    mgr = app.state.sessions
+
+    @app.post("/v1/sessions/{session_id}/frames", tags=["sessions", "perception"],
+              responses={200: {"model": ActionsResponse},
+                         **{c: {"description": d} for c, d in ((404, "no such session"), (422, "bad frames, or "
+                            "perceived actions impossible in the session's state"), (501, "no vision model configured"),
+                            (502, "the vision model failed or its answers were rejected"))}})
+    async def session_frames(req: SessionFramesRequest,
+                             session_id: str = PathParam(pattern=SESSION_ID)) -> dict[str, Any]:
+        """Frames instead of action lines: the vision model reads the person's actions between
+        consecutive frames (checked against the session's world and state), and they are appended."""
+        from siftom.perception import Frame, VisionModel
+        from siftom.perception.pipeline import perceive_actions
+
+        try:
+            frames = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
+        except PerceptionError as exc:
+            raise ProblemError(422, "invalid-observation", str(exc)) from None
+        sess = mgr.get(session_id)  # 404 before any model call
+        try:
+            model = VisionModel(cache_dir=folder)
+        except BackendUnavailableError as exc:
+            raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
+        work = functools.partial(perceive_actions, sess.scene.world, sess.online.state, frames, model)
+        try:
+            with anyio.fail_after(PERCEIVE_TIMEOUT_S):
+                lines, _state = await anyio.to_thread.run_sync(work, abandon_on_cancel=True)
+        except TimeoutError:
+            raise ProblemError(504, "timeout", f"perception took longer than {PERCEIVE_TIMEOUT_S:g} s; send fewer "
+                               "frames") from None
+        except (PerceptionError, BackendUnavailableError) as exc:
+            raise ProblemError(502, "vision-model-failed", str(exc)) from None
+
+        def append() -> dict[str, Any]:
+            # checked again at the session's state now: another producer may have added actions meanwhile
+            added = mgr.append(session_id, lines, source="perceive")
+            view = mgr.view(mgr.get(session_id))
+            return {"id": session_id, "added": added, "n_actions": view["n_actions"],
+                    "state": view["state"], "belief": view["belief"]}
+
+        return await anyio.to_thread.run_sync(append)

@@ -33,6 +33,7 @@ from siftom.errors import AudioError, ObservationError, SiftomError, unknown_nam
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
+from siftom.service.sessions import SessionLimits
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -82,6 +83,7 @@ class ServiceSettings:
             docs/llm.md; an invalid environment leaves it None and ``/healthz`` says why).
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
+        sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -93,6 +95,7 @@ class ServiceSettings:
     plan_max_time: float = 0.3
     llm: LLMConfig | None = None
     llm_error: str = ""
+    sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
 
     def __post_init__(self) -> None:
         if self.llm is None and not self.llm_error:

@@ -2,7 +2,8 @@
 
 Voices are registered by name: ``flite-slt``, ``espeak-en-us+klatt``, ``espeak-es`` (a Spanish
 voice reading English, standing in for a non-native speaker, as in the paper's data) ...
-``list_voices()`` gives them all. Measured with pocketsphinx (FINDINGS.md): flite voices and
+``list_voices()`` gives them all. Measured with pocketsphinx (`siftom bench asr --voices …`,
+WER per voice in docs/speech.md): flite voices and
 espeak's ``+klatt`` variants are recognised well; espeak's default and accented voices badly.
 """
 

@@ -1,6 +1,7 @@
 """Bring your own scene: siftom's world JSON and VirtualHome scene graphs -> World + State.
 
-World JSON (docs/world.md has the full schema)::
+World JSON (docs/world.md has the full schema, every field and its default, and a runnable
+example in docs/examples/salad/)::
 
     {"places": [{"name": "table", "kind": "surface", "room": "dining", "pos": [0, 0]},
                 {"name": "drawer", "kind": "container", "room": "kitchen", "pos": [5, 1], "closable": true}],
@@ -104,29 +105,42 @@ def scene_from_json(obj: Any) -> LoadedScene:
         open_mask |= 1 << place_of(name, "open")
     target = place_of(_need(obj, "target", "world"), "target")
     start = State((human, robot), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = _goals(obj, world, target)
+    goals = feasible_goals(obj, world, target)
     verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
     return LoadedScene(world, start, goals, verb)
 
 
-def _goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
-    classes = set(world.classes)
+def goal_library(obj: dict, target: int) -> list[Goal]:
+    """Every goal of the library a world names (its own ``goals`` or a ``goal_space``), unfiltered."""
     if "goals" in obj:
         goals = []
-        for k, g in enumerate(obj["goals"]):
+        raw = obj["goals"]
+        if not isinstance(raw, list) or not raw:
+            raise ObservationError("goals must be a non-empty list like [{\"name\": \"salad\", \"counts\": {\"tomato\": 1}}]")
+        for k, g in enumerate(raw):
+            if not isinstance(g, dict):
+                raise ObservationError(f"goals[{k}] must be an object with name and counts")
             counts = _need(g, "counts", f"goals[{k}]")
             if not isinstance(counts, dict) or not counts:
                 raise ObservationError(f"goals[{k}]: counts must be an object like {{\"fork\": 2}}")
+            if not all(isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= 20 for n in counts.values()):
+                raise ObservationError(f"goals[{k}]: each count must be an integer from 1 to 20")
             goals.append(Goal(str(g.get("name", f"goal{k}")), target, tuple(sorted((str(c), int(n)) for c, n in counts.items()))))
+        return goals
+    space = obj.get("goal_space", "household-table-v0")
+    if space == "household-table-v0":
+        from siftom.world.domains.household import goal_space
+    elif space == "kitchen-v0":
+        from siftom.world.domains.kitchen import goal_space
     else:
-        space = obj.get("goal_space", "household-table-v0")
-        if space == "household-table-v0":
-            from siftom.world.domains.household import goal_space
-        elif space == "kitchen-v0":
-            from siftom.world.domains.kitchen import goal_space
-        else:
-            raise ObservationError(f"goal_space must be household-table-v0 or kitchen-v0, got {space!r}; or give 'goals'")
-        goals = [Goal(g.name, target, g.counts) for g in goal_space(target)]
+        raise ObservationError(f"goal_space must be household-table-v0 or kitchen-v0, got {space!r}; or give 'goals'")
+    return [Goal(g.name, target, g.counts) for g in goal_space(target)]
+
+
+def feasible_goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
+    """The goals of the library ``obj`` names that the world's objects can satisfy (none: an error)."""
+    classes = set(world.classes)
+    goals = goal_library(obj, target)
     feasible = []
     for g in goals:
         if all(c in classes and sum(1 for it in world.items if it.cls == c) >= n for c, n in g.counts):
@@ -134,6 +148,61 @@ def _goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
     if not feasible:
         raise ObservationError("no goal in the goal space can be reached with the objects in this scene")
     return tuple(feasible)
+
+
+def unmentioned_class_warnings(world: World, library: list[Goal] | tuple[Goal, ...]) -> list[str]:
+    """One warning per object class of ``world`` that no goal of ``library`` mentions.
+
+    Such objects can never be part of the robot's command (the goal prior gives them nothing);
+    usually a class name is spelled differently from the library's. Each warning names the
+    nearest library classes (difflib ratio), e.g. ``"cutleryfork" -> fork``.
+    """
+    import difflib
+
+    known = sorted({c for g in library for c, _n in g.counts})
+    out = []
+    for cls in world.classes:
+        if cls in known:
+            continue
+        near = [k for k in known if k in cls or cls in k]  # "cutleryfork" ~ "fork"
+        near += [k for k in difflib.get_close_matches(cls, known, n=3, cutoff=0.0) if k not in near]
+        hint = f"nearest goal-library classes: {', '.join(near[:3])}" if near else "the goal library is empty"
+        out.append(f"objects of class {cls!r} appear in no goal, so the robot will never be asked for them; "
+                   f"{hint} (rename the class, or add a goal that mentions it)")
+    return out
+
+
+def scene_warnings(obj: Any, scene: LoadedScene) -> list[str]:
+    """Warnings about a loaded world JSON (classes no goal mentions)."""
+    if not isinstance(obj, dict) or ("nodes" in obj and "edges" in obj and "goals" not in obj):
+        space = obj.get("goal_space", "household-table-v0") if isinstance(obj, dict) else "household-table-v0"
+        lib = goal_library({"goal_space": space}, scene.goals[0].target)
+    else:
+        lib = goal_library(obj, scene.goals[0].target)
+    return unmentioned_class_warnings(scene.world, lib)
+
+
+def scene_to_json(world: World, start: State, goals: tuple[Goal, ...] | list[Goal], verb: str,
+                  doors: dict[frozenset[str], tuple[float, float]] | None = None) -> dict[str, Any]:
+    """The world JSON of a scene (inverse of :func:`scene_from_json`). Walking costs are recomputed
+    from positions and ``doors`` (e.g. a built-in domain's ``DOORS``) when the JSON is loaded."""
+    from siftom.world.model import HELD
+
+    if any(h != NOTHING for h in start.held) or any(loc == HELD for loc in start.item_at):
+        raise ObservationError("scene_to_json needs a start state where nobody holds anything")
+    target = goals[0].target
+    return {
+        "places": [{"name": p.name, "kind": p.kind, "room": p.room, "pos": list(p.pos), "closable": p.closable}
+                   for p in world.places],
+        "doors": [{"rooms": sorted(rooms), "pos": list(pos)} for rooms, pos in (doors or {}).items()],
+        "items": [{"name": it.name, "class": it.cls, "at": world.places[start.item_at[i]].name}
+                  for i, it in enumerate(world.items)],
+        "agents": {"human": world.places[start.agent_at[0]].name, "robot": world.places[start.agent_at[1]].name},
+        "open": [p.name for i, p in enumerate(world.places) if p.closable and start.is_open(i)],
+        "target": world.places[target].name,
+        "verb": verb,
+        "goals": [{"name": g.name, "counts": dict(g.counts)} for g in goals],
+    }
 
 
 def load_scene(path: str | Path, goal_space: str | None = None, target: str | None = None) -> LoadedScene:
@@ -212,5 +281,5 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             open_mask |= 1 << i
     t = pidx[tnode]
     start = State((t, t), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = _goals({"goal_space": goal_space}, world, t)
+    goals = feasible_goals({"goal_space": goal_space}, world, t)
     return LoadedScene(world, start, goals, "fetch" if goal_space == "kitchen-v0" else "deliver")

@@ -1,0 +1,139 @@
+"""Result files that stay trustworthy: atomic lines, provenance, one line per stimulus.
+
+* Each line is written with one ``write(2)`` on a file opened ``O_APPEND``: a signal cannot
+  split it (Python runs handlers between calls, never inside one), and a hard kill loses at
+  most the last line, which the reader drops as torn.
+* Every results row carries ``provenance``: siftom's version, a hash of its source code, the
+  evaluation options and the dataset's fingerprint. Resuming checks it, so rows made with other
+  options or other code are never mixed into one summary.
+* Readers refuse a stimulus id that appears twice, naming it.
+* Timings (seconds per model, ASR real-time factor) go to ``timings.jsonl``, not the results,
+  so that ``results.jsonl`` depends only on the dataset, the options and the code: the same run
+  on any backend or number of workers gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Sequence
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from siftom.errors import DatasetError
+
+TIMINGS = "timings.jsonl"
+
+
+@lru_cache(maxsize=1)
+def code_version() -> dict[str, str]:
+    """siftom's version and a hash of every ``.py`` file of the installed package."""
+    import siftom
+
+    pkg = Path(siftom.__file__).resolve().parent
+    h = hashlib.sha1()
+    for p in sorted(pkg.rglob("*.py")):
+        h.update(p.relative_to(pkg).as_posix().encode() + b"\0")
+        h.update(p.read_bytes() + b"\0")
+    return {"siftom": str(getattr(siftom, "__version__", "?")), "source_sha1": h.hexdigest()[:16]}
+
+
+def provenance(options: dict[str, Any], dataset_fingerprint: str) -> dict[str, Any]:
+    """The record stored in every results row."""
+    return {"code": code_version(), "options": options, "dataset": dataset_fingerprint}
+
+
+def provenance_mismatch(old: dict[str, Any] | None, new: dict[str, Any]) -> list[str]:
+    """What differs between a row's provenance and this run's, in words (empty: the same)."""
+    if not isinstance(old, dict):
+        return ["the rows record no provenance (made by an older siftom)"]
+    out = []
+    if old.get("dataset") != new["dataset"]:
+        out.append("the dataset")
+    oo, no = old.get("options", {}), new["options"]
+    for k in sorted(set(oo) | set(no)):
+        if oo.get(k) != no.get(k):
+            out.append(f"option {k} ({oo.get(k)!r} then, {no.get(k)!r} now)")
+    oc, nc = old.get("code", {}), new["code"]
+    if oc != nc:
+        out.append(f"the code (siftom {oc.get('siftom')} source {oc.get('source_sha1')} then, "
+                   f"{nc['siftom']} source {nc['source_sha1']} now)")
+    return out
+
+
+def split_timings(row: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(row without timing fields, timing record) for a row of the evaluator."""
+    models = {m: {k: v for k, v in r.items() if k != "seconds"} for m, r in row.get("models", {}).items()}
+    tr = {k: v for k, v in row.get("transcript", {}).items() if k != "rtf"}
+    clean = {**row, "models": models, **({"transcript": tr} if "transcript" in row else {})}
+    timing = {"id": row["id"], "rtf": row.get("transcript", {}).get("rtf"),
+              "seconds": {m: r.get("seconds") for m, r in row.get("models", {}).items()}}
+    return clean, timing
+
+
+class AtomicAppender:
+    """Append JSON lines, each with a single ``write`` on an ``O_APPEND`` file."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+
+    def write(self, obj: dict[str, Any]) -> None:
+        data = (json.dumps(obj) + "\n").encode("utf-8")
+        n = os.write(self.fd, data)
+        while n < len(data):  # a regular file takes it whole; this is for odd file systems
+            n += os.write(self.fd, data[n:])
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.fsync(self.fd)
+            os.close(self.fd)
+            self.fd = -1
+
+
+def read_jsonl(path: Path, repair: bool = False) -> list[dict[str, Any]]:
+    """Lines of a JSONL file; a torn last line (interrupted write) is dropped (and cut if repair)."""
+    if not path.is_file():
+        return []
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    out = []
+    for n, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            if n == len(lines) - 1:
+                if repair:
+                    with open(path, "r+b") as f:
+                        f.truncate(len("".join(lines[:n]).encode("utf-8")))
+                break
+            raise DatasetError(f"{path}:{n + 1} is not valid JSON; delete the file to start over") from None
+    return out
+
+
+def check_unique(rows: Sequence[dict[str, Any]], where: str | Path) -> None:
+    """Raise DatasetError naming the first stimulus id that appears twice."""
+    seen: dict[str, int] = {}
+    for n, r in enumerate(rows, 1):
+        i = r.get("id")
+        if i in seen:
+            raise DatasetError(
+                f"{where}: stimulus {i!r} appears twice (lines {seen[i]} and {n}), so two runs wrote "
+                "into this folder; its metrics would count that trial twice. Evaluate again into a new "
+                "--out folder (or pass --overwrite)"
+            )
+        seen[str(i)] = n
+
+
+def rewrite(path: Path, rows: Iterable[dict[str, Any]]) -> None:
+    """Replace a JSONL file atomically (a temporary file renamed over it)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        for r in rows:
+            f.write(json.dumps(r) + "\n")
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)

@@ -1,0 +1,222 @@
+"""One writer per results folder, and runs that stop cleanly on SIGINT / SIGTERM.
+
+* :class:`RunLock` holds ``FOLDER/.siftom.lock``: an exclusive ``flock`` on a file that names
+  the owner (pid, host, command, start time). A second run on the folder is refused with a
+  message naming the owner. The kernel drops the ``flock`` when its owner dies, however it
+  dies, so a lock left behind by a dead process is taken over without asking anybody.
+  Where the file system has no ``flock`` (some network mounts), the owner's pid and host decide:
+  a live pid on this host, or any other host, keeps the folder; a dead local pid is stale.
+* :func:`stop_on_signals` turns SIGTERM (and SIGINT) into :class:`RunInterrupted`, an exception
+  that unwinds the run like Ctrl-C does, so the ``finally`` blocks stop the workers and close
+  the files, and the CLI exits with ``128 + signal``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from siftom.errors import DatasetError
+
+LOCK = ".siftom.lock"
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
+
+
+class RunLockedError(DatasetError):
+    """Another live siftom process writes into the results folder."""
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The run was stopped by a signal; ``signum`` is SIGINT or SIGTERM."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def read_owner(folder: str | Path) -> dict[str, Any] | None:
+    """The lock file's owner record, or None when there is none (or it is unreadable)."""
+    try:
+        d = json.loads((Path(folder) / LOCK).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+    return d if isinstance(d, dict) else None
+
+
+def _describe(owner: dict[str, Any] | None) -> str:
+    if not owner:
+        return "another process"
+    return (f"siftom pid {owner.get('pid')} on host {owner.get('host')!r} since {owner.get('started')} "
+            f"({owner.get('command', '?')})")
+
+
+# (resolved folder, thread) -> (fd, depth): re-entrant within a thread; another thread of the
+# same process opens its own descriptor, and flock refuses it like another process
+_HELD: dict[tuple[str, int], tuple[int, int]] = {}
+_HELD_MUTEX = threading.Lock()
+
+
+class RunLock:
+    """Exclusive ownership of a results folder, re-entrant within one thread.
+
+    Use as a context manager; ``took_over`` holds the record of a stale lock that was taken over.
+
+    Raises:
+        RunLockedError: another live process owns the folder.
+    """
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+        self.path = self.folder / LOCK
+        self.took_over: dict[str, Any] | None = None
+        self._key: tuple[str, int] = ("", 0)
+
+    def __enter__(self) -> RunLock:
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+    def acquire(self) -> None:
+        """Take the folder, or raise RunLockedError naming its owner."""
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self._key = (str(self.folder.resolve()), threading.get_ident())
+        with _HELD_MUTEX:
+            if self._key in _HELD:
+                fd, depth = _HELD[self._key]
+                _HELD[self._key] = (fd, depth + 1)
+                return
+            fd = self._take()
+            _HELD[self._key] = (fd, 1)
+
+    def _take(self) -> int:
+        for _ in range(20):  # retried only when a releasing owner unlinks the file under us
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                if not self._flock(fd):
+                    raise RunLockedError(
+                        f"{self.folder} is being written by {_describe(read_owner(self.folder))}; "
+                        "wait for it to finish (or stop it), or give another --out folder"
+                    )
+                try:
+                    same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+                except FileNotFoundError:
+                    same = False
+                if not same:
+                    os.close(fd)
+                    continue
+                old = read_owner(self.folder)
+                if old and not (old.get("pid") == os.getpid() and old.get("host") == socket.gethostname()):
+                    self.took_over = old
+                    print(f"note: taking over the stale lock of {_describe(old)} on {self.folder}", file=sys.stderr)
+                record = {"pid": os.getpid(), "host": socket.gethostname(),
+                          "started": time.strftime("%Y-%m-%dT%H:%M:%S"), "command": " ".join(sys.argv)[:300]}
+                data = (json.dumps(record) + "\n").encode()
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, data, 0)
+                os.fsync(fd)
+                return fd
+            except BaseException:
+                os.close(fd)
+                raise
+        raise RunLockedError(f"could not lock {self.path}: it keeps being replaced; is another siftom starting?")
+
+    def _flock(self, fd: int) -> bool:
+        """True when this process now owns the lock."""
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return True
+            except BlockingIOError:
+                return False
+            except OSError as exc:
+                if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
+                    raise
+        # no flock here: decide by the recorded owner
+        owner = read_owner(self.folder)
+        if not owner or (owner.get("pid") == os.getpid() and owner.get("host") == socket.gethostname()):
+            return True
+        if owner.get("host") != socket.gethostname():
+            return False
+        return not _pid_alive(int(owner.get("pid", 0)))
+
+    def release(self) -> None:
+        """Give the folder back (the outermost release removes the lock file)."""
+        with _HELD_MUTEX:
+            if self._key not in _HELD:
+                return
+            fd, depth = _HELD[self._key]
+            if depth > 1:
+                _HELD[self._key] = (fd, depth - 1)
+                return
+            del _HELD[self._key]
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self.path)  # still holding the flock, so no one took it meanwhile
+            os.close(fd)
+
+
+_RECEIVED = [0]
+
+
+def interrupting_signal(exc: BaseException) -> int:
+    """The signal behind a KeyboardInterrupt: its own, or the last one caught (some libraries,
+    Ray among them, re-raise a plain KeyboardInterrupt from inside a blocking call)."""
+    return getattr(exc, "signum", 0) or _RECEIVED[0] or signal.SIGINT
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """Raise RunInterrupted in the main thread on SIGINT or SIGTERM; restore the handlers after.
+
+    A second signal while the run is being stopped is ignored, so the cleanup (stopping the
+    workers, closing the files) finishes. Outside the main thread this does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    stopping = False
+
+    def handler(signum: int, frame: Any) -> None:
+        nonlocal stopping
+        _RECEIVED[0] = signum
+        if stopping:
+            return
+        stopping = True
+        raise RunInterrupted(signum)
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def ignore_signals_in_worker() -> None:
+    """Worker processes leave SIGINT to the parent, which stops them (terminal Ctrl-C hits all)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)

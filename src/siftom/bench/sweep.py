@@ -1,0 +1,250 @@
+"""Sweeps: the cross product of dataset and evaluation settings, on one backend, resumable.
+
+``siftom sweep CONFIG.toml --out DIR`` reads a TOML file::
+
+    [dataset]            # fixed build options (fields of BuildOptions)
+    scenarios = 4
+    speakers = 2
+    [eval]               # fixed evaluation options (fields of EvalOptions)
+    nbest = 5
+    [axes]               # one list per axis; the sweep runs every combination
+    domains = ["household-table-v0", "kitchen-v0"]
+    seeds = [0, 1]
+    snrs = [[20, 10, 5], [0]]
+    models = [["literal-asr", "siftom"]]
+    likelihoods = ["phonetic"]
+
+An axis is any field of BuildOptions or EvalOptions, singular or plural (``seeds`` = ``seed``;
+``seed`` is the dataset's seed, the bootstrap keeps ``[eval] seed``). Options added to either
+later (a phrasing file, a new likelihood) become axes with no change here.
+
+Each distinct dataset is built once in ``DIR/datasets/`` and each cell evaluated in
+``DIR/runs/``, both named by a hash of their options, so a rerun resumes where it stopped (a
+finished cell costs a few file reads). The sweep writes ``sweep.json``, ``table.md``,
+``table.csv`` and ``sweep.png``: accuracy and speedup per cell and model with 95 % bootstrap CIs.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import io
+import itertools
+import json
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from siftom.bench.dataset import SPEC, BuildOptions, build_dataset, load_dataset
+from siftom.bench.evaluate import EvalOptions, evaluate
+from siftom.bench.report import write_report
+from siftom.bench.runlock import RunLock, stop_on_signals
+from siftom.errors import DatasetError, SiftomError
+
+BUILD_FIELDS = tuple(f.name for f in dataclasses.fields(BuildOptions))
+EVAL_FIELDS = tuple(f.name for f in dataclasses.fields(EvalOptions))
+ALIASES = {"domains": "domain", "seeds": "seed", "snr_sets": "snrs", "likelihoods": "likelihood",
+           "engines": "engine", "voice_sets": "voices"}
+TUPLE_FIELDS = {"voices", "noises", "snrs", "models"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One combination of the axes: its dataset, its evaluation and where they live."""
+
+    values: dict[str, Any]
+    build: BuildOptions
+    options: EvalOptions
+    dataset_dir: str
+    run_dir: str
+
+
+def _axis_field(key: str) -> str:
+    name = ALIASES.get(key, key)
+    if name in BUILD_FIELDS or name in EVAL_FIELDS:
+        return name
+    if name.endswith("s") and (name[:-1] in BUILD_FIELDS or name[:-1] in EVAL_FIELDS):
+        return name[:-1]
+    raise DatasetError(f"sweep axis {key!r} is not an option of 'dataset build' ({', '.join(BUILD_FIELDS)}) "
+                       f"or 'eval' ({', '.join(EVAL_FIELDS)})")
+
+
+def _coerce(name: str, value: Any) -> Any:
+    if name in TUPLE_FIELDS:
+        return tuple(value) if isinstance(value, list | tuple) else (value,)
+    return value
+
+
+def _hash(obj: Any) -> str:
+    return hashlib.sha1(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:10]
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    """Read and check a sweep TOML file; raise DatasetError saying what to fix."""
+    p = Path(path)
+    if not p.is_file():
+        raise DatasetError(f"sweep config {str(p)!r} does not exist; see docs/scaling.md for an example")
+    try:
+        cfg = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise DatasetError(f"{p}: not valid TOML ({exc})") from None
+    unknown = set(cfg) - {"dataset", "eval", "axes"}
+    if unknown:
+        raise DatasetError(f"{p}: unknown section(s) {', '.join(sorted(unknown))}; use [dataset], [eval] and [axes]")
+    axes = cfg.get("axes", {})
+    if not axes:
+        raise DatasetError(f"{p}: give at least one axis under [axes], e.g. seeds = [0, 1]")
+    for k, v in axes.items():
+        if not isinstance(v, list) or not v:
+            raise DatasetError(f"{p}: axis {k!r} must be a non-empty list, e.g. {k} = [0, 1]")
+        _axis_field(k)
+    for section, fields in (("dataset", BUILD_FIELDS), ("eval", EVAL_FIELDS)):
+        bad = set(cfg.get(section, {})) - set(fields)
+        if bad:
+            raise DatasetError(f"{p}: [{section}] has unknown option(s) {', '.join(sorted(bad))}; "
+                               f"valid: {', '.join(fields)}")
+    return cfg
+
+
+def plan(cfg: dict[str, Any], out: str | Path) -> list[Cell]:
+    """Every cell of the cross product, in axis order (the last axis varies fastest)."""
+    root = Path(out)
+    axes = [(k, _axis_field(k), v) for k, v in cfg["axes"].items()]
+    cells = []
+    for combo in itertools.product(*(v for _, _, v in axes)):
+        b = {k: _coerce(k, v) for k, v in cfg.get("dataset", {}).items()}
+        e = {k: _coerce(k, v) for k, v in cfg.get("eval", {}).items()}
+        values = {}
+        for (key, name, _), v in zip(axes, combo, strict=True):
+            (b if name in BUILD_FIELDS else e)[name] = _coerce(name, v)
+            values[key] = v
+        try:
+            bo, eo = BuildOptions(**b), EvalOptions(**e)
+        except TypeError as exc:
+            raise DatasetError(f"sweep cell {values}: {exc}") from None
+        dkey = _hash(bo.to_json())
+        ekey = _hash({"dataset": dkey, "eval": eo.to_json(), "seed": eo.seed})
+        cells.append(Cell(values, bo, eo, str(root / "datasets" / f"{bo.domain}-{dkey}"),
+                          str(root / "runs" / ekey)))
+    return cells
+
+
+def _dataset(cell: Cell, backend: Any) -> Any:
+    spec = Path(cell.dataset_dir) / SPEC
+    if spec.is_file() and (Path(cell.dataset_dir) / "manifest.jsonl").is_file():
+        try:
+            if json.loads(spec.read_text(encoding="utf-8")).get("options") == cell.build.to_json():
+                return load_dataset(cell.dataset_dir)
+        except (json.JSONDecodeError, SiftomError):
+            pass  # half-written: build it again (the WAVs already there are kept)
+    return build_dataset(cell.build, cell.dataset_dir, backend=backend)
+
+
+def run_sweep(config: str | Path, out: str | Path, backend: Any,
+              progress: Callable[[int, int, Cell], None] | None = None) -> dict[str, Any]:
+    """Run (or resume) every cell on ``backend``; write the combined table and figure; return sweep.json."""
+    cfg = load_config(config)
+    root = Path(out)
+    cells = plan(cfg, root)
+    result: dict[str, Any] = {"config": cfg, "cells": []}
+    with RunLock(root), stop_on_signals():
+        for i, cell in enumerate(cells):
+            if progress:
+                progress(i, len(cells), cell)
+            ds = _dataset(cell, backend)
+            evaluate(ds, cell.run_dir, cell.options, backend=backend)
+            summary = write_report(cell.run_dir, figures=False)
+            result["cells"].append({"values": cell.values, "dataset": cell.dataset_dir, "results": cell.run_dir,
+                                    "n_stimuli": summary["n_stimuli"], "models": summary["models"]})
+        if progress:
+            progress(len(cells), len(cells), cells[-1])
+        (root / "sweep.json").write_text(json.dumps(result, indent=2, default=list) + "\n", encoding="utf-8")
+        rows = table_rows(result)
+        (root / "table.md").write_text(markdown_table(rows) + "\n", encoding="utf-8")
+        (root / "table.csv").write_text(csv_table(rows), encoding="utf-8")
+        figure(rows, root / "sweep.png")
+    return result
+
+
+def _label(v: Any) -> str:
+    return ",".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v) if isinstance(v, list | tuple) else str(v)
+
+
+def table_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per cell and model: the axis values, n, accuracy and speedup with their CIs."""
+    rows = []
+    for c in result["cells"]:
+        for m, s in c["models"].items():
+            rows.append({**{k: _label(v) for k, v in c["values"].items()}, "model": m, "n": s["n"],
+                         "accuracy": s["accuracy"], "accuracy_lo": s["accuracy_ci"][0],
+                         "accuracy_hi": s["accuracy_ci"][1], "speedup": s["speedup"],
+                         "speedup_lo": s["speedup_ci"][0], "speedup_hi": s["speedup_ci"][1]})
+    return rows
+
+
+def _f(x: float | None, pct: bool) -> str:
+    return "–" if x is None else (f"{100 * x:.1f}" if pct else f"{x:+.3f}")
+
+
+def markdown_table(rows: list[dict[str, Any]]) -> str:
+    """The Markdown table (accuracy in %, speedup, 95 % CIs in brackets)."""
+    if not rows:
+        return "(no cells)"
+    keys = [k for k in rows[0] if k not in {"n", "accuracy", "accuracy_lo", "accuracy_hi", "speedup",
+                                               "speedup_lo", "speedup_hi"}]
+    head = [*keys, "n", "accuracy % [95 % CI]", "speedup [95 % CI]"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        acc = f"{_f(r['accuracy'], True)} [{_f(r['accuracy_lo'], True)}, {_f(r['accuracy_hi'], True)}]"
+        sp = f"{_f(r['speedup'], False)} [{_f(r['speedup_lo'], False)}, {_f(r['speedup_hi'], False)}]"
+        lines.append("| " + " | ".join([*(str(r[k]) for k in keys), str(r["n"]), acc, sp]) + " |")
+    return "\n".join(lines)
+
+
+def csv_table(rows: list[dict[str, Any]]) -> str:
+    """The same table as CSV (fractions, not percent)."""
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return buf.getvalue()
+
+
+def figure(rows: list[dict[str, Any]], path: Path) -> Path:
+    """Accuracy and speedup per cell (groups) and model (bars), with 95 % CI error bars."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    keys = [k for k in rows[0] if k not in {"model", "n"} and not k.startswith(("accuracy", "speedup"))]
+    cells = list(dict.fromkeys(" / ".join(str(r[k]) for k in keys) for r in rows))
+    models = list(dict.fromkeys(r["model"] for r in rows))
+    width = 0.8 / max(1, len(models))
+    fig, axes = plt.subplots(2, 1, figsize=(max(6.0, 1.2 * len(cells) * max(1, len(models)) ** 0.5), 7))
+    colors = plt.get_cmap("tab10")(np.arange(len(models)) % 10)
+    for ax, key, label, scale in ((axes[0], "accuracy", "accuracy (%)", 100.0),
+                                  (axes[1], "speedup", "speedup (L_single / L_team − 1)", 1.0)):
+        for j, m in enumerate(models):
+            mine = {" / ".join(str(r[k]) for k in keys): r for r in rows if r["model"] == m}
+            x = np.arange(len(cells)) + (j - (len(models) - 1) / 2) * width
+            v = np.array([np.nan if mine.get(c, {}).get(key) is None else mine[c][key] for c in cells]) * scale
+            lo = np.array([np.nan if mine.get(c, {}).get(f"{key}_lo") is None else mine[c][f"{key}_lo"] for c in cells]) * scale
+            hi = np.array([np.nan if mine.get(c, {}).get(f"{key}_hi") is None else mine[c][f"{key}_hi"] for c in cells]) * scale
+            ax.bar(x, v, width, yerr=np.abs(np.stack([v - lo, hi - v])), capsize=3, color=colors[j],
+                   edgecolor="black", linewidth=0.4, label=m)
+        ax.set_xticks(np.arange(len(cells)), cells, rotation=20, ha="right", fontsize=8)
+        ax.set_ylabel(label)
+        ax.axhline(0, color="black", linewidth=0.6)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].set_ylim(0, 100)
+    axes[0].legend(fontsize=8, ncol=min(4, len(models)))
+    axes[0].set_title(f"sweep over {' / '.join(keys)}; error bars: 95 % bootstrap CI", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

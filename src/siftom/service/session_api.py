@@ -1,0 +1,191 @@
+"""The session endpoints (``/v1/sessions``), installed on the app by :func:`install_sessions`.
+
+* ``POST /v1/sessions``: a world (siftom world JSON or VirtualHome scene graph) and optionally a
+  goal library -> 201 with the session's state and its id.
+* ``POST /v1/sessions/{id}/actions``: observed actions, siftom's or VirtualHome's script format.
+* ``POST /v1/sessions/{id}/instruction``: a transcript, an N-best list (JSON) or a recording
+  (multipart) -> posterior, command, clarifying question when it pays, the robot's plan.
+* ``GET /v1/sessions/{id}``; ``DELETE /v1/sessions/{id}``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi import Path as PathParam
+from fastapi.responses import JSONResponse, Response
+from starlette.datastructures import UploadFile
+
+from siftom.api import make_instruction
+from siftom.assist.clarify import ClarifyPolicy
+from siftom.service.problems import PROBLEM_JSON, ProblemError
+from siftom.service.session_schemas import (
+    AUDIO_INSTRUCTION_SCHEMA,
+    SESSION_ID,
+    ActionsRequest,
+    ActionsResponse,
+    AudioInstructionFields,
+    InstructionRequest,
+    InstructionResponse,
+    SessionCreate,
+    SessionView,
+)
+from siftom.service.sessions import SessionManager
+from siftom.service.store import SessionStore
+
+RunCpu = Callable[..., Awaitable[Any]]
+
+
+def _problems(*codes: int) -> dict[int | str, dict[str, Any]]:
+    from siftom.service.schemas import Problem
+
+    return {c: {"model": Problem, "content": {PROBLEM_JSON: {}}} for c in codes}
+
+
+def _media(request: Request) -> str:
+    return request.headers.get("content-type", "").split(";")[0].strip().lower()
+
+
+def _need_json(request: Request) -> None:
+    media = _media(request)
+    if not (media == "application/json" or media.endswith("+json")):
+        raise ProblemError(415, "media-type", f"send application/json, not {media or 'no Content-Type'}")
+
+
+def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
+    """Add the session endpoints; the store lives in ``rt.data_dir / 'sessions.sqlite3'``."""
+    settings = rt.settings
+    limits = settings.sessions
+    mgr = SessionManager(SessionStore(rt.data_dir / "sessions.sqlite3"), limits, rt._model_lock)
+    app.state.sessions = mgr
+    sid_param = PathParam(pattern=SESSION_ID, description="the id POST /v1/sessions returned")
+
+    @app.post("/v1/sessions", tags=["sessions"], status_code=201,
+              openapi_extra={"requestBody": {"required": True, "content": {
+                  "application/json": {"schema": {"$ref": "#/components/schemas/SessionCreate"}}}}},
+              responses={201: {"model": SessionView}, **_problems(400, 413, 415, 422, 429, 503)})
+    async def create_session(request: Request) -> JSONResponse:
+        """Start a session over the robot's own world (and goal library); returns its id and state."""
+        _need_json(request)
+        body = await request.body()
+        if len(body) > limits.max_world_bytes:
+            raise ProblemError(413, "world-too-large",
+                               f"the world is {len(body)} bytes, more than the {limits.max_world_bytes} this server "
+                               "allows (--max-world-bytes); leave out nodes the robot never uses")
+        req = SessionCreate.model_validate_json(body)
+        rt.check_likelihood(req.likelihood)  # 422 naming those this server offers
+        spec = {"world": req.world, "goals": [g.model_dump() for g in req.goals] if req.goals else None,
+                "goal_space": req.goal_space, "target": req.target}
+
+        def work() -> dict[str, Any]:
+            return mgr.view(mgr.create(spec, {"mode": req.mode, "likelihood": req.likelihood}))
+
+        view = await run_cpu(work)
+        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
+
+    @app.get("/v1/sessions/{session_id}", tags=["sessions"], response_model=None,
+             responses={200: {"model": SessionView}, **_problems(404, 422, 503)})
+    async def get_session(session_id: str = sid_param) -> JSONResponse:
+        """The session's state: actions so far, where everything is, the belief, the last answer."""
+        return JSONResponse(await run_cpu(lambda: mgr.view(mgr.get(session_id))))
+
+    @app.delete("/v1/sessions/{session_id}", tags=["sessions"], status_code=204, response_class=Response,
+                responses=_problems(404, 422))
+    async def delete_session(session_id: str = sid_param) -> Response:
+        """End the session (its stored record is deleted)."""
+        await run_cpu(mgr.delete, session_id)
+        return Response(status_code=204)
+
+    @app.post("/v1/sessions/{session_id}/actions", tags=["sessions"],
+              openapi_extra={"requestBody": {"required": True, "content": {
+                  "application/json": {"schema": {"$ref": "#/components/schemas/ActionsRequest"}}}}},
+              responses={200: {"model": ActionsResponse}, **_problems(404, 413, 415, 422, 503)})
+    async def add_actions(request: Request, session_id: str = sid_param) -> JSONResponse:
+        """Append observed actions (all or none) and update the belief incrementally."""
+        _need_json(request)
+        req = ActionsRequest.model_validate_json(await request.body())
+
+        def work() -> dict[str, Any]:
+            added = mgr.append(session_id, list(req.actions))
+            view = mgr.view(mgr.get(session_id))
+            return {"id": session_id, "added": added, "n_actions": view["n_actions"],
+                    "state": view["state"], "belief": view["belief"]}
+
+        return JSONResponse(await run_cpu(work))
+
+    body_doc = {"required": True, "content": {
+        "application/json": {"schema": {"$ref": "#/components/schemas/InstructionRequest"}},
+        "multipart/form-data": {"schema": {"$ref": "#/components/schemas/AudioInstructionForm"}}}}
+
+    @app.post("/v1/sessions/{session_id}/instruction", tags=["sessions"], openapi_extra={"requestBody": body_doc},
+              responses={200: {"model": InstructionResponse}, **_problems(400, 404, 413, 415, 422, 501, 503)})
+    async def instruction(request: Request, session_id: str = sid_param) -> JSONResponse:
+        """What was heard -> posterior, chosen command, clarifying question when it pays, plan."""
+        media = _media(request)
+        if media == "application/json" or media.endswith("+json"):
+            req = InstructionRequest.model_validate_json(await request.body())
+            policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
+            nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
+            ins = make_instruction(transcript=req.transcript, nbest=nbest)
+            return JSONResponse(await run_cpu(mgr.instruct, session_id, ins, req.top, policy))
+        if media == "multipart/form-data":
+            return JSONResponse(await _audio(request, session_id))
+        raise ProblemError(415, "media-type", "send application/json (a transcript or N-best list) or "
+                           f"multipart/form-data (an audio file), not {media or 'no Content-Type'}")
+
+    async def _audio(request: Request, session_id: str) -> dict[str, Any]:
+        try:
+            form = await request.form(max_files=1, max_fields=8, max_part_size=settings.max_body_bytes)
+        except Exception as exc:  # malformed multipart, too many parts
+            detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
+            raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
+        try:
+            audio = form.get("audio")
+            if not isinstance(audio, UploadFile):
+                raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
+                                   [{"loc": "audio", "msg": "a file is required"}])
+            fields: dict[str, Any] = {}
+            for k, v in form.multi_items():
+                if k == "audio":
+                    continue
+                if k in fields or not isinstance(v, str):
+                    raise ProblemError(422, "validation", f"{k}: give the field once, as text",
+                                       [{"loc": k, "msg": "repeated or not text"}])
+                fields[k] = v
+            opts = AudioInstructionFields.model_validate(fields)
+            data = await audio.read()
+        finally:
+            await form.close()
+
+        def work() -> dict[str, Any]:
+            sess = mgr.get(session_id)  # an unknown id fails before decoding
+            x = rt.decode_audio(data)
+            eng = rt._engine_for(sess.scene)  # a decoder biased to this world's command phrasings
+            with eng.lock:
+                tr = eng.engine.transcribe(x, nbest=opts.asr_nbest)
+            nbest = [(h.text, h.score) for h in tr.nbest if h.text]
+            if not nbest:
+                from siftom.errors import AudioError
+
+                raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
+            return mgr.instruct(session_id, make_instruction(nbest=nbest), opts.top,
+                                ClarifyPolicy(opts.threshold, opts.cost), asr=tr.to_json())
+
+        return await run_cpu(work)
+
+    return mgr
+
+
+def session_schemas(likelihoods: tuple[str, ...]) -> dict[str, Any]:
+    """The request schemas to add to /openapi.json's components (``likelihoods``: those offered)."""
+    comps: dict[str, Any] = {}
+    for model in (SessionCreate, ActionsRequest, InstructionRequest):
+        js = model.model_json_schema(ref_template="#/components/schemas/{model}")
+        comps.update(js.pop("$defs", {}))
+        comps[model.__name__] = js
+    offered = [lk for lk in likelihoods if lk in ("phonetic", "llm")]
+    comps["SessionCreate"]["properties"]["likelihood"] = {"type": "string", "enum": offered, "default": "phonetic"}
+    comps["AudioInstructionForm"] = AUDIO_INSTRUCTION_SCHEMA
+    return comps

@@ -1,0 +1,344 @@
+"""Sessions: a robot's own world, the human's actions as they happen, instructions when heard.
+
+A session holds a scene (world JSON or VirtualHome scene graph, see docs/world.md), an
+:class:`~siftom.inference.model.OnlineInference` that has observed every action so far (one
+more action costs one Q-table row), and the answer to the last instruction. The SQLite store
+(:mod:`siftom.service.store`) is the truth: every change is written there before the caller
+returns, memory only caches live sessions (rebuilt by replaying the stored actions when a
+restarted service, or an evicted cache entry, meets the id again).
+
+Actions come in through :meth:`SessionManager.append`: lines in siftom's or VirtualHome's
+script format (:mod:`siftom.world.vhscript`), checked against the session's current state,
+all or none, tagged with a ``source``. Another producer of actions (e.g. perception of
+camera frames) calls :meth:`SessionManager.append_actions` with checked
+:class:`~siftom.world.model.Action` objects and its own source name.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from siftom.api import get_model
+from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.errors import ObservationError, SiftomError
+from siftom.inference.model import OnlineInference
+from siftom.observation import Instruction
+from siftom.service.problems import ProblemError
+from siftom.service.store import SessionStore
+from siftom.world.io import (
+    LoadedScene,
+    feasible_goals,
+    goal_library,
+    scene_from_json,
+    unmentioned_class_warnings,
+)
+from siftom.world.model import AGENT_NAMES, HELD, HUMAN, NOTHING, Action, apply, check
+
+SESSION_LIKELIHOODS = ("phonetic", "llm")  # the acoustic likelihood needs the recording: /v1/infer
+BELIEF_TOP = 5
+
+
+@dataclass(frozen=True)
+class SessionLimits:
+    """Limits of the session API (docs/service.md; ``siftom serve --max-sessions ...``).
+
+    Attributes:
+        max_sessions: sessions stored at once (429 above; DELETE ends one, idle ones expire).
+        idle_s: a session not used for this long is deleted.
+        max_world_bytes: largest world in a create request (413 above). The apartment graphs of
+            ../shared/data/virtualhome are 160-180 kB.
+        max_world_items: most objects a world may hold (422 above): inference cost grows with it.
+        max_actions: most actions one session may observe (422 above).
+        cache: live sessions kept in memory; the others are rebuilt from the store on use.
+    """
+
+    max_sessions: int = 1000
+    idle_s: float = 24 * 3600.0
+    max_world_bytes: int = 1024 * 1024
+    max_world_items: int = 200
+    max_actions: int = 2000
+    cache: int = 256
+
+    def __post_init__(self) -> None:
+        if min(self.max_sessions, self.max_world_bytes, self.max_world_items, self.max_actions, self.cache) < 1:
+            raise ObservationError("session limits must all be >= 1")
+        if not self.idle_s > 0:
+            raise ObservationError(f"the session idle time must be > 0 s, got {self.idle_s}")
+
+
+@dataclass(eq=False)
+class Session:
+    """One live session (memory side)."""
+
+    id: str
+    created: float
+    spec: dict[str, Any]
+    options: dict[str, Any]
+    scene: LoadedScene
+    online: OnlineInference
+    actions: list[str]
+    warnings: list[str]
+    last: dict[str, Any] | None = None
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    belief: tuple[int, dict[str, Any]] | None = None  # (n_actions, belief) of the last view
+
+
+def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
+    """The session's scene from a create request's spec (world, goals, goal_space, target), and warnings."""
+    world = spec["world"]
+    try:
+        if "nodes" in world and "edges" in world:
+            from siftom.world.io import scene_from_scenegraph
+            from siftom.world.scenegraph import SceneGraph
+
+            space = spec.get("goal_space") or "household-table-v0"
+            scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.get("target") or world.get("target"),
+                                          goal_space=space)
+            lib_spec: dict[str, Any] = {"goal_space": space}
+        else:
+            obj = dict(world)
+            if spec.get("goal_space"):
+                obj["goal_space"] = spec["goal_space"]
+                obj.pop("goals", None)
+            if spec.get("target"):
+                obj["target"] = spec["target"]
+            scene = scene_from_json(obj)
+            lib_spec = obj
+        if spec.get("goals"):
+            lib_spec = {"goals": spec["goals"]}
+            scene = replace(scene, goals=feasible_goals(lib_spec, scene.world, scene.goals[0].target))
+    except SiftomError:
+        raise
+    except (TypeError, ValueError, KeyError, AttributeError, IndexError, OverflowError) as exc:
+        raise ObservationError(f"the world is malformed ({type(exc).__name__}: {str(exc)[:200]}); "
+                               "docs/world.md gives the schema") from None
+    if len(scene.world.items) > max_items:
+        raise ObservationError(f"the world holds {len(scene.world.items)} objects, more than the {max_items} "
+                               "this server allows (--max-world-items); leave out objects no goal mentions")
+    warnings = unmentioned_class_warnings(scene.world, goal_library(lib_spec, scene.goals[0].target))
+    return scene, warnings
+
+
+def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
+    model = get_model(options["mode"], options["likelihood"])
+    return model.online(scene.world, scene.start, scene.goals, scene.verb)
+
+
+class SessionManager:
+    """Create, advance, query and end sessions; thread-safe (see module doc)."""
+
+    def __init__(self, store: SessionStore, limits: SessionLimits, model_lock: Any) -> None:
+        self.store, self.limits = store, limits
+        self._model_lock = model_lock  # (mode, likelihood) -> threading.Lock shared with /v1/infer
+        self._live: OrderedDict[str, Session] = OrderedDict()
+        self._lock = threading.Lock()
+        self._loading: dict[str, threading.Lock] = {}
+        self._last_sweep = 0.0
+
+    # ----- lifecycle ---------------------------------------------------------------------------
+    def sweep(self, force: bool = False) -> None:
+        """Delete sessions idle for longer than the limit (at most once a minute unless forced)."""
+        now = time.time()
+        if not force and now - self._last_sweep < 60:
+            return
+        self._last_sweep = now
+        for sid in self.store.expire(now - self.limits.idle_s):
+            with self._lock:
+                self._live.pop(sid, None)
+
+    def create(self, spec: dict[str, Any], options: dict[str, Any]) -> Session:
+        """A new session over ``spec['world']``; written to the store before returning."""
+        self.sweep(force=True)
+        n = self.store.count()
+        if n >= self.limits.max_sessions:
+            raise ProblemError(429, "too-many-sessions",
+                               f"{n} sessions are open, the most this server allows (--max-sessions); DELETE "
+                               f"finished sessions, or wait for idle ones to expire after {self.limits.idle_s:g} s",
+                               headers={"Retry-After": "60"})
+        if options["likelihood"] not in SESSION_LIKELIHOODS:
+            raise ObservationError(f"sessions infer with the {' or '.join(SESSION_LIKELIHOODS)} likelihood, not "
+                                   f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
+        scene, warnings = build_scene(spec, self.limits.max_world_items)
+        online = _online(scene, options)
+        sid = secrets.token_urlsafe(12)
+        options = {**options, "warnings": warnings}
+        created = self.store.create(sid, spec, options)
+        sess = Session(sid, created, spec, options, scene, online, [], warnings)
+        self._remember(sess)
+        return sess
+
+    def _remember(self, sess: Session) -> None:
+        with self._lock:
+            self._live[sess.id] = sess
+            self._live.move_to_end(sess.id)
+            while len(self._live) > self.limits.cache:
+                self._live.popitem(last=False)
+
+    def get(self, sid: str) -> Session:
+        """The live session, rebuilt from the store if needed; 404 when there is none."""
+        self.sweep()
+        with self._lock:
+            sess = self._live.get(sid)
+            if sess is not None:
+                self._live.move_to_end(sid)
+                return sess
+            gate = self._loading.setdefault(sid, threading.Lock())
+        try:
+            with gate:  # one thread rebuilds a given session; the others wait for it
+                with self._lock:
+                    sess = self._live.get(sid)
+                if sess is None:
+                    sess = self._rebuild(sid)
+                    self._remember(sess)
+        finally:
+            with self._lock:
+                self._loading.pop(sid, None)
+        return sess
+
+    def _rebuild(self, sid: str) -> Session:
+        row = self.store.load(sid)
+        if row is None:
+            raise ProblemError(404, "unknown-session",
+                               f"no session {sid!r} (it was deleted, or expired after {self.limits.idle_s:g} s "
+                               "idle); create one with POST /v1/sessions")
+        scene, _warnings = build_scene(row.spec, self.limits.max_world_items)
+        online = _online(scene, row.options)
+        for text in row.actions:
+            online.observe(scene.world.parse_action(text, online.state))
+        return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
+                       list(row.options.get("warnings", [])), row.last)
+
+    def delete(self, sid: str) -> None:
+        with self._lock:
+            self._live.pop(sid, None)
+        if not self.store.delete(sid):
+            raise ProblemError(404, "unknown-session", f"no session {sid!r}; nothing to delete")
+
+    # ----- actions -----------------------------------------------------------------------------
+    def append(self, sid: str, lines: list[str], source: str = "actions") -> list[str]:
+        """Parse, check and add action lines (siftom or VirtualHome format), all or none; returns
+        the actions added, in siftom's form (a script line may stand for none, one or two)."""
+        from siftom.world.vhscript import parse_actions
+
+        sess = self.get(sid)
+        with sess.lock:
+            acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
+            return self._add(sess, acts, source)
+
+    def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
+        """Add already-built human actions (another producer, e.g. perception), all or none;
+        returns them in siftom's form."""
+        sess = self.get(sid)
+        with sess.lock:
+            s = sess.online.state
+            for k, a in enumerate(actions):
+                why = check(sess.scene.world, s, a) if a.agent == HUMAN else "only the human's actions are observed"
+                if why is not None:
+                    raise ObservationError(f"{source} action {k} is impossible here: {why}")
+                s = apply(s, a)
+            return self._add(sess, actions, source)
+
+    def _add(self, sess: Session, acts: list[Action], source: str) -> list[str]:
+        if len(sess.actions) + len(acts) > self.limits.max_actions:
+            raise ObservationError(f"a session may observe at most {self.limits.max_actions} actions "
+                                   "(--max-session-actions); start a new session for a new task")
+        texts = [sess.scene.world.format_action(a) for a in acts]
+        if texts:
+            try:
+                self.store.append(sess.id, len(sess.actions), texts, source)  # durable before the reply
+            except ProblemError as exc:
+                if exc.status == 404:  # deleted or expired meanwhile: forget the live copy too
+                    with self._lock:
+                        self._live.pop(sess.id, None)
+                raise
+        for a in acts:
+            sess.online.observe(a)
+        sess.actions.extend(texts)
+        return texts
+
+    # ----- instruction -------------------------------------------------------------------------
+    def instruct(self, sid: str, instruction: Instruction | None, top: int, policy: ClarifyPolicy,
+                 asr: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Posterior over goals and commands given everything so far and what was heard."""
+        sess = self.get(sid)
+        mode, lk = sess.options["mode"], sess.options["likelihood"]
+        with sess.lock:
+            if instruction is not None:
+                with self._model_lock(mode, lk):  # the likelihoods' caches are not thread-safe
+                    post = sess.online.posterior(instruction, top=top)
+            else:
+                post = sess.online.posterior(None, top=top)
+            body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
+            body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
+            body["clarification"] = clarify(post.commands, policy).to_json()
+            body["plan"] = self._plan(sess, post.command)
+            if asr is not None:
+                body["asr"] = asr
+            body = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
+            self.store.set_last(sid, body)
+            sess.last = body
+        return body
+
+    @staticmethod
+    def _plan(sess: Session, command: str) -> dict[str, Any] | None:
+        from types import SimpleNamespace
+
+        from siftom.assist.route import robot_plan
+        from siftom.world.commands import RobotCommand
+
+        scene = sess.scene
+        sc = SimpleNamespace(world=scene.world, target=scene.goals[0].target, parse_command=RobotCommand.parse)
+        try:
+            return robot_plan(sc, sess.online.state, command, max_time=0.1).to_json()
+        except SiftomError:
+            return None
+
+    # ----- views -------------------------------------------------------------------------------
+    @staticmethod
+    def _belief(sess: Session) -> dict[str, Any]:
+        """The top goals and commands from the actions alone (none before words in speech-only mode)."""
+        if sess.options["mode"] == "speech-only":
+            return {"goals": [], "commands": []}
+        post = sess.online.posterior(None, top=BELIEF_TOP)
+        return {"goals": [{"goal": g, "prob": p} for g, p in post.goals[:BELIEF_TOP]],
+                "commands": [{"command": c, "prob": p} for c, p in post.commands[:BELIEF_TOP]]}
+
+    def view(self, sess: Session) -> dict[str, Any]:
+        """The session's state as JSON (the same before and after a restart)."""
+        with sess.lock:
+            w, s = sess.scene.world, sess.online.state
+            if sess.belief is None or sess.belief[0] != len(sess.actions):
+                sess.belief = (len(sess.actions), self._belief(sess))
+            belief = sess.belief[1]
+            items: dict[str, list[str]] = {}
+            for i, loc in enumerate(s.item_at):
+                if loc != HELD:
+                    items.setdefault(w.places[loc].name, []).append(w.items[i].name)
+            return {
+                "id": sess.id,
+                "created": sess.created,
+                "mode": sess.options["mode"],
+                "likelihood": sess.options["likelihood"],
+                "verb": sess.scene.verb,
+                "target": w.places[sess.scene.goals[0].target].name,
+                "num_goals": len(sess.scene.goals),
+                "classes": list(w.classes),
+                "places": [p.name for p in w.places],
+                "n_actions": len(sess.actions),
+                "actions": list(sess.actions),
+                "state": {
+                    "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
+                    "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
+                    "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
+                    "items": items,
+                },
+                "belief": belief,
+                "last_instruction": sess.last,
+                "warnings": list(sess.warnings),
+            }

@@ -1,0 +1,307 @@
+"""The session API: a robot's own world, streamed actions, instructions, persistence, limits."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from siftom.service.app import create_app
+from siftom.service.runtime import ServiceSettings
+from siftom.service.sessions import SessionLimits
+
+ROOT = Path(__file__).parents[2]
+SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
+SALAD_ACTIONS = [ln for ln in (ROOT / "docs" / "examples" / "salad" / "actions.txt").read_text().splitlines()
+                 if ln.strip() and not ln.startswith("#")]
+VIRTUALHOME = ROOT.parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+
+
+def _client(folder: Path, **limits) -> TestClient:
+    settings = ServiceSettings(sessions=SessionLimits(**limits)) if limits else None
+    return TestClient(create_app(folder, settings), raise_server_exceptions=False)
+
+
+@pytest.fixture
+def folder(tmp_path: Path) -> Path:
+    return tmp_path / "data"
+
+
+def test_salad_session_streams_actions_and_answers_the_misheard_word(folder):
+    c = _client(folder)
+    r = c.post("/v1/sessions", json={"world": SALAD})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    assert r.headers["location"] == f"/v1/sessions/{sid}"
+    assert r.json()["n_actions"] == 0 and r.json()["warnings"] == []
+    beliefs = []
+    for line in SALAD_ACTIONS:  # one at a time, as a robot sees them
+        r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": [line]})
+        assert r.status_code == 200, r.text
+        assert r.json()["added"] == [line]
+        beliefs.append(dict((g["goal"], g["prob"]) for g in r.json()["belief"]["goals"]))
+    assert beliefs[-1]["salad"] > 0.9 > beliefs[0].get("salad", 0.0)  # the belief sharpens as actions arrive
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the potato"})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["command"] == "fetch(tomato)" and body["n_actions"] == len(SALAD_ACTIONS)
+    assert body["plan"]["command"] == "fetch(tomato)" and "fridge" in body["plan"]["route"]
+    view = c.get(f"/v1/sessions/{sid}").json()
+    assert view["actions"] == SALAD_ACTIONS and view["last_instruction"] == body
+    assert view["state"]["items"]["counter"] == ["lettuce_1", "cucumber_1"]
+
+
+def test_the_incremental_answer_equals_inference_on_the_whole_observation(folder):
+    """Independent reference: the batch path (siftom.inference) on the same world and actions."""
+    from siftom.api import get_model, make_instruction
+    from siftom.inference.model import Observation
+    from siftom.world.io import scene_from_json
+    from siftom.world.vhscript import parse_actions
+
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    for k in range(0, len(SALAD_ACTIONS), 3):
+        assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS[k:k + 3]}).status_code == 200
+    got = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "the potato please"}).json()
+    scene = scene_from_json(SALAD)
+    acts, _ = parse_actions(scene.world, scene.start, SALAD_ACTIONS)
+    obs = Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
+                      make_instruction(transcript="the potato please"))
+    want = get_model("full", "phonetic").infer(obs)
+    assert got["command"] == want.command
+    assert [x["prob"] for x in got["commands"]] == pytest.approx([p for _c, p in want.commands[:10]], abs=1e-9)
+
+
+def test_restart_continues_every_session(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS[:4]})
+    c.post(f"/v1/sessions/{sid}/instruction", json={"nbest": [{"text": "get me the potato", "score": -1.0},
+                                                               {"text": "get me the tomato", "score": -1.5}]})
+    before = c.get(f"/v1/sessions/{sid}").json()
+    c2 = _client(folder)  # a new process on the same data directory
+    assert c2.get(f"/v1/sessions/{sid}").json() == before
+    r = c2.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS[4:]})
+    assert r.status_code == 200 and r.json()["n_actions"] == len(SALAD_ACTIONS)
+
+
+def test_actions_are_all_or_none_and_errors_name_the_fix(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["walk(human, fridge)", "grab(human, tomato_1)"]})
+    assert r.status_code == 422 and r.headers["content-type"].startswith("application/problem+json")
+    assert "fridge is closed; open it first" in r.json()["detail"]
+    assert c.get(f"/v1/sessions/{sid}").json()["n_actions"] == 0  # the legal first action was not kept
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["grab(human, tomatoe_1)"]})
+    assert r.status_code == 422 and "Did you mean 'tomato_1'" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["walk(robot, fridge)"]})
+    assert r.status_code == 422 and "only the human's actions" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["[Cut] <tomato_1> (1)"]})
+    assert r.status_code == 422 and "[Cut] has no counterpart" in r.json()["detail"]
+    assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": []}).status_code == 422
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={})
+    assert r.status_code == 422 and "exactly one of 'transcript' or 'nbest'" in r.json()["detail"]
+    r = c.post("/v1/sessions/nope/actions", json={"actions": ["walk(human, fridge)"]})
+    assert r.status_code == 404 and "POST /v1/sessions" in r.json()["detail"]
+
+
+@pytest.mark.parametrize("world, words", [
+    ({"places": []}, "'places' must be a non-empty list"),
+    ({"places": [{"name": "a"}], "items": 5, "target": "a"}, "docs/world.md"),
+    ({**SALAD, "target": "sofa"}, "unknown place 'sofa'"),
+    ({**SALAD, "goals": [{"name": "x", "counts": {"caviar": 1}}]}, "no goal in the goal space can be reached"),
+    ({"nodes": [{"id": "x"}], "edges": []}, "id"),
+])
+def test_malformed_worlds_get_a_problem_naming_the_fix(folder, world, words):
+    r = _client(folder).post("/v1/sessions", json={"world": world})
+    assert r.status_code == 422, r.text
+    assert words in r.json()["detail"]
+
+
+def test_goal_library_and_warnings(folder):
+    c = _client(folder)
+    world = {**SALAD, "items": [*SALAD["items"], {"name": "tomatoes_1", "class": "tomatoes", "at": "fridge"}]}
+    r = c.post("/v1/sessions", json={"world": world, "goals": [{"name": "soup", "counts": {"potato": 1, "onion": 1}}]})
+    assert r.status_code == 201, r.text
+    assert r.json()["num_goals"] == 1
+    assert any("'tomatoes'" in w and "nearest goal-library classes" in w for w in r.json()["warnings"])
+    assert any("'lettuce'" in w for w in r.json()["warnings"])  # the given library replaces the world's own
+    r = c.post("/v1/sessions", json={"world": SALAD, "goals": [{"name": "s", "counts": {"tomato": 1}}],
+                                     "goal_space": "kitchen-v0"})
+    assert r.status_code == 422 and "not both" in r.json()["detail"]
+
+
+def test_limits_sessions_world_size_and_idle_time(folder):
+    c = _client(folder, max_sessions=2, max_world_bytes=4000, idle_s=0.5)
+    a = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    c.post("/v1/sessions", json={"world": SALAD})
+    r = c.post("/v1/sessions", json={"world": SALAD})
+    assert r.status_code == 429 and "--max-sessions" in r.json()["detail"]
+    assert c.delete(f"/v1/sessions/{a}").status_code == 204
+    assert c.post("/v1/sessions", json={"world": SALAD}).status_code == 201  # room again
+    big = {**SALAD, "items": SALAD["items"] * 10}
+    r = c.post("/v1/sessions", json={"world": big})
+    assert r.status_code == 413 and "--max-world-bytes" in r.json()["detail"]
+    time.sleep(0.6)
+    r = c.post("/v1/sessions", json={"world": SALAD})  # creating sweeps the idle ones first
+    assert r.status_code == 201
+    assert c.app.state.sessions.store.count() == 1
+
+
+def test_another_producer_appends_checked_actions(folder):
+    """The hook perception (or any other source) uses: checked Action objects, all or none."""
+    from siftom.errors import ObservationError
+    from siftom.world.model import HUMAN, Action
+
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    mgr = c.app.state.sessions
+    w = mgr.get(sid).scene.world
+    mgr.append_actions(sid, [Action("walk", HUMAN, place=w.place("fridge")),
+                             Action("open", HUMAN, place=w.place("fridge"))], source="perceive")
+    with pytest.raises(ObservationError, match="perceive action 0 is impossible"):
+        mgr.append_actions(sid, [Action("grab", HUMAN, obj=w.item("potato_1"), place=w.place("pantry_shelf"))],
+                           source="perceive")
+    assert c.get(f"/v1/sessions/{sid}").json()["actions"] == ["walk(human, fridge)", "open(human, fridge)"]
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"needs {VIRTUALHOME}")
+def test_virtualhome_scene_graph_session_with_script_lines(folder):
+    c = _client(folder)
+    r = c.post("/v1/sessions", json={"world": json.loads(VIRTUALHOME.read_text())})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    assert r.json()["target"] == "kitchentable.130"
+    assert any("'milk'" in w for w in r.json()["warnings"])  # the table-setting library never asks for milk
+    lines = ["[Walk] <dishwasher> (159)", "[Open] <dishwasher> (159)", "[Grab] <cutleryfork> (1006)",
+             "[PutBack] <cutleryfork> (1006) <kitchentable> (130)"]
+    for line in lines:
+        assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": [line]}).status_code == 200
+    view = c.get(f"/v1/sessions/{sid}").json()
+    assert view["actions"][-1] == "put(human, cutleryfork.1006, kitchentable.130)"
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "could you bring me two wine glasses"})
+    assert r.status_code == 200 and r.json()["command"] == "deliver(wineglass,2)"
+
+
+def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS})
+    wav = c.post("/v1/say", json={"text": "can you get me the tomato"})
+    if wav.status_code != 200:
+        pytest.skip(f"no TTS voice: {wav.text[:200]}")
+    r = c.post(f"/v1/sessions/{sid}/instruction", data={"asr_nbest": "3"},
+               files={"audio": ("say.wav", wav.content, "audio/wav")})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
+    assert body["command"] == "fetch(tomato)"
+    r = c.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("x.wav", b"not audio", "audio/wav")})
+    assert r.status_code == 422 and "send WAV, FLAC or OGG" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/instruction", content=b"hi", headers={"content-type": "text/plain"})
+    assert r.status_code == 415
+
+
+def test_infer_endpoint_takes_virtualhome_lines_too(folder):
+    from siftom.scenarios.base import get_scenario
+
+    c = _client(folder)
+    sc = get_scenario("kitchen-cereal-v0")
+    siftom_form = [sc.world.format_action(a) for a in sc.actions[:4]]
+    vh = []
+    for a in sc.actions[:4]:
+        if a.kind == "walk":
+            vh.append(f"[Walk] <{sc.world.places[a.place].name}> (1)")
+        elif a.kind in ("open", "close"):
+            vh.append(f"[{a.kind.title()}] <{sc.world.places[a.place].name}> (1)")
+        elif a.kind == "grab":
+            vh.append(f"[Grab] <{sc.world.items[a.obj].name}> (1)")
+        else:
+            vh.append(f"[PutBack] <{sc.world.items[a.obj].name}> (1) <{sc.world.places[a.place].name}> (1)")
+    body = {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"}
+    a = c.post("/v1/infer", json={**body, "actions": siftom_form}).json()
+    b = c.post("/v1/infer", json={**body, "actions": vh}).json()
+    assert a["commands"] == b["commands"] and a["n_actions"] == b["n_actions"] == 4
+    r = c.post("/v1/infer", json={**body, "actions": ["[Cut] <sugar> (1)"]})
+    assert r.status_code == 422 and "no counterpart" in r.json()["detail"]
+
+
+def test_actions_for_a_session_deleted_meanwhile_are_a_404_not_a_crash(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    mgr = c.app.state.sessions
+    mgr.get(sid)  # live in memory ...
+    mgr.store.delete(sid)  # ... while another request deletes it from the store
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["walk(human, fridge)"]})
+    assert r.status_code == 404 and "POST /v1/sessions" in r.json()["detail"]
+    assert c.get(f"/v1/sessions/{sid}").status_code == 404  # and the live copy is gone too
+
+
+def test_sessions_evicted_from_memory_are_rebuilt_from_the_store(folder):
+    c = _client(folder, cache=1)
+    a = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    b = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]  # evicts a
+    for k, line in enumerate(SALAD_ACTIONS[:4]):
+        for sid in (a, b):  # every request meets the other session evicted
+            r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": [line]})
+            assert r.status_code == 200 and r.json()["n_actions"] == k + 1
+    assert c.get(f"/v1/sessions/{a}").json()["actions"] == SALAD_ACTIONS[:4]
+
+
+def test_concurrent_robots_get_the_answers_they_would_get_alone(folder):
+    from concurrent.futures import ThreadPoolExecutor
+
+    import httpx
+
+    from siftom.service.loadtest import serve_in_thread
+
+    heard = ["can you get me the potato", "the tomato please", "get me a bowl"]
+    with serve_in_thread(create_app(folder)) as url, httpx.Client(base_url=url, timeout=60) as c:
+        ids = [c.post("/v1/sessions", json={"world": SALAD}).json()["id"] for _ in range(6)]
+
+        def robot(k: int) -> tuple[int, str]:
+            sid = ids[k]
+            for line in SALAD_ACTIONS[: 3 + k]:
+                r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": [line]})
+                assert r.status_code == 200, r.text
+            r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": heard[k % 3]})
+            assert r.status_code == 200, r.text
+            return k, r.json()["command"]
+
+        with ThreadPoolExecutor(6) as pool:
+            together = dict(pool.map(robot, range(6)))
+        counts = [c.get(f"/v1/sessions/{sid}").json()["n_actions"] for sid in ids]
+    assert counts == [3 + k for k in range(6)]
+    alone = _client(folder.parent / "alone")
+    for k in range(6):
+        sid = alone.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+        alone.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS[: 3 + k]})
+        body = alone.post(f"/v1/sessions/{sid}/instruction", json={"transcript": heard[k % 3]}).json()
+        assert together[k] == body["command"]
+
+
+def test_session_load_test_counts_requests_and_checks_nothing_was_lost(folder):
+    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.session_load import run_session_load
+
+    app = create_app(folder)
+    with serve_in_thread(app) as url:
+        res = run_session_load(sessions=3, actions=2, interval=0.0, url=url, warmup=False)
+    assert res.requests == 3 * (2 + 1) and res.errors == 0 and res.lost == 0
+    assert res.p50_ms <= res.p99_ms <= res.max_ms
+    assert app.state.sessions.store.count() == 0  # it cleans up after itself
+
+
+@pytest.mark.parametrize("mode, want", [("speech-only", {"fetch(potato)"}),  # the words alone: misheard
+                                        ("action-only", {"fetch(tomato)", "fetch(bowl)"})])  # what the salad lacks
+def test_ablation_sessions(folder, mode, want):
+    c = _client(folder)
+    r = c.post("/v1/sessions", json={"world": SALAD, "mode": mode})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS}).status_code == 200
+    body = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the potato"}).json()
+    assert body["mode"] == mode and body["command"] in want

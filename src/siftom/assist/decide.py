@@ -3,15 +3,16 @@
 * ``map``: execute the command with the highest posterior marginal (the Bayes choice for
   the accuracy metric, which scores the command).
 * ``expected-benefit``: execute the action, any command of the domain or doing nothing, with
-  the highest expected reduction of the team's completion time,
-  ``argmax_a E_{g, pi_r | obs}[L_single(g) - L_team(g, a)]``, the team terms counted as the
-  team simulation counts them (assist/teamvalue.py).
+  the highest expected loss-averse utility of the steps it saves the team,
+  ``argmax_a E[u(b)]`` with ``b = L_single(g) - L_team(g, a)`` and
+  ``u(b) = b - loss_aversion * max(0, -b)``, the team terms counted as the team simulation
+  counts them (assist/teamvalue.py).
 * ``ask-or-act``: ask the question "Did you mean A or B?" with the highest expected value of
   information (EVI, in steps) when it exceeds the question's cost in steps, otherwise act by
-  ``expected-benefit``. For a question whose answer reveals which cell of a partition of the
-  commands the human meant (A, B, or something else),
+  ``expected-benefit``. The answer reveals which cell (A, B, something else) the human meant,
+  heard right with probability ``Situation.answer_reliability`` (question_values):
 
-      EVI = sum_cells max_a E[benefit(a) ; cell] - max_a E[benefit(a)].
+      EVI = sum_heard max_a E[u(b(a) - ask_cost) ; heard] - max_a E[u(b(a))] + ask_cost.
 
 Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
 """

@@ -66,7 +66,7 @@ def test_expected_benefit_acts_on_a_clear_request():
 def test_expected_benefit_does_nothing_when_every_command_risks_a_remedy():
     # a request for an object no goal needs and only harmful guesses: keeping still is best
     sc, post = _posterior("household-table-v0/3", None)
-    d = decide(post, Situation.from_scenario(sc), "expected-benefit")
+    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0)  # risk-neutral
     best_command = max(b for a, b in d.benefits if a != NONE)
     assert (d.action == NONE) == (best_command <= 0)
 
@@ -116,3 +116,53 @@ def test_registry_names_and_errors():
         get_rule("expected_benefit")
     with pytest.raises(ObservationError, match="ask_cost"):
         get_rule("ask-or-act", ask_cost=-1)
+
+
+def test_loss_aversion_trades_expected_steps_for_fewer_losses():
+    # count unsaid: several counts compete and the larger ones risk a remedy
+    sc, post = _posterior("household-table-v0/3", "get the spoons")
+    where = Situation.from_scenario(sc)
+    tv = team_values(post.joint, sc.world, sc.target)
+    loss = tv.prob @ np.maximum(0.0, -tv.benefit)  # independent of expected_utility
+    gain = tv.expected()
+    chosen = []
+    for lam in (0.0, 1.0, 4.0, 1e6):
+        d = decide(post, where, "expected-benefit", loss_aversion=lam)
+        i = tv.actions.index(d.action)
+        # the chosen action maximises E[b] - lam E[max(0, -b)], computed here by hand
+        assert gain[i] - lam * loss[i] >= max(gain - lam * loss) - 1e-9
+        chosen.append(i)
+    # a larger aversion never picks an action with a larger expected loss or a larger E[b]
+    assert all(loss[b] <= loss[a] + 1e-9 and gain[b] <= gain[a] + 1e-9 for a, b in zip(chosen, chosen[1:], strict=False))
+    assert loss[chosen[-1]] == pytest.approx(0.0, abs=1e-6)
+    with pytest.raises(ObservationError, match="loss_aversion"):
+        get_rule("expected-benefit", loss_aversion=-0.5)
+
+
+def test_question_value_shrinks_with_the_answers_reliability():
+    sc, post = _posterior("household-table-v0/3", "get the spoons")
+    tv = team_values(post.joint, sc.world, sc.target)
+    evi = [question_values(tv, post, reliability=r)[0][0] for r in (1 / 3, 0.5, 0.8, 1.0)]
+    assert evi[0] == pytest.approx(0.0, abs=1e-9)  # an answer heard at chance says nothing
+    assert all(b >= a - 1e-9 for a, b in zip(evi, evi[1:], strict=False)) and evi[-1] > 0
+    assert evi[-1] == pytest.approx(question_values(tv, post)[0][0])
+    # a deaf robot does not ask, however cheap the question
+    deaf = Situation.from_scenario(sc, answer_reliability=1 / 3)
+    assert not AskOrActRule(ask_cost=0.0, penalty=0.0)(post, deaf).ask
+    with pytest.raises(ObservationError, match="answer_reliability"):
+        Situation.from_scenario(sc, answer_reliability=1.5)
+
+
+def test_an_unreliable_answer_moves_the_posterior_less():
+    from siftom.assist.decide import answer_log_likelihood
+
+    ll = np.array([0.0, -8.0, -8.0, -8.0])
+    assert np.allclose(answer_log_likelihood(ll, 1.0), ll)
+    flat = answer_log_likelihood(ll, 0.0)
+    assert np.allclose(flat, flat[0])  # noise says nothing
+    # heard with probability 0.7: the odds it gives the heard command are at most
+    # (0.7 + 0.3 / 4) / (0.3 / 4), whatever the likelihood's own sharpness
+    half = answer_log_likelihood(ll, 0.7)
+    p = np.exp(ll) / np.exp(ll).sum()
+    assert half[0] - half[1] == pytest.approx(np.log((0.7 * p[0] + 0.075) / (0.7 * p[1] + 0.075)))
+    assert half[0] - half[1] < np.log((0.7 + 0.075) / 0.075) < ll[0] - ll[1]

@@ -188,3 +188,21 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
     assert all(r["models"][m]["command"].startswith("deliver(fork,") for r in rows for m in lb.LLM_MODELS)
     summary = json.loads((tmp_path / "llm" / "summary.json").read_text())
     assert set(summary["models"]) == {"siftom", *lb.LLM_MODELS}
+
+
+def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny_results: Path) -> None:
+    from siftom.assist.decide import DEFAULT_LOSS_AVERSION
+    from siftom.bench.decision_tuning import loss_aversion_curve
+
+    curve = loss_aversion_curve(tiny_results, lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
+    rows = load_results(tiny_results)
+
+    def mean(model: str) -> float:
+        return sum(r["models"][model]["speedup"] for r in rows) / len(rows)
+
+    assert curve["n"] == len(rows)
+    # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator
+    assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom"))
+    assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-eb"))
+    # no chance constraint (alpha = 1) is the risk-neutral rule
+    assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])

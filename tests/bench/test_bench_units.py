@@ -184,3 +184,19 @@ def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
     assert [c[x]["questions_per_trial"] for x in (0.0, 5.0, 30.0)] == pytest.approx([1.0, 2 / 3, 0.0])
     assert c[5.0]["accuracy"] == pytest.approx(1 / 3)  # asks on 9 and 20: right, wrong; acts on 3: wrong
     assert c[30.0]["neg_speedup_share"] == 1.0
+
+
+def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.MonkeyPatch) -> None:
+    from siftom.bench.decisions import ANSWER_RELIABILITY, answer_reliability, reliability_table
+
+    monkeypatch.delenv("SIFTOM_ANSWER_RELIABILITY", raising=False)
+    table = dict(ANSWER_RELIABILITY)
+    assert answer_reliability(None) == table[float("inf")]  # clean speech
+    assert answer_reliability(5.0) == table[5.0] and answer_reliability(0.0) == table[5.0]
+    assert answer_reliability(7.5) == pytest.approx((table[5.0] + table[10.0]) / 2)
+    assert all(1 / 3 <= r <= 1 for r in table.values())
+    monkeypatch.setenv("SIFTOM_ANSWER_RELIABILITY", "1")
+    assert answer_reliability(5.0) == 1.0
+    rows = [{"snr_db": 5.0, "models": {"siftom-ask": {"asked": True, "answer_cell_ok": ok}}} for ok in (True, False)]
+    rows.append({"snr_db": None, "models": {"siftom-ask": {"asked": False}}})
+    assert reliability_table(rows) == [{"snr_db": 5.0, "n": 2, "heard": 0.5}]

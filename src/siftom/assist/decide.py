@@ -3,15 +3,16 @@
 * ``map``: execute the command with the highest posterior marginal (the Bayes choice for
   the accuracy metric, which scores the command).
 * ``expected-benefit``: execute the action, any command of the domain or doing nothing, with
-  the highest expected reduction of the team's completion time,
-  ``argmax_a E_{g, pi_r | obs}[L_single(g) - L_team(g, a)]``, the team terms counted as the
-  team simulation counts them (assist/teamvalue.py).
+  the highest expected loss-averse utility of the steps it saves the team,
+  ``argmax_a E[u(b)]`` with ``b = L_single(g) - L_team(g, a)`` and
+  ``u(b) = b - loss_aversion * max(0, -b)``, the team terms counted as the team simulation
+  counts them (assist/teamvalue.py).
 * ``ask-or-act``: ask the question "Did you mean A or B?" with the highest expected value of
   information (EVI, in steps) when it exceeds the question's cost in steps, otherwise act by
-  ``expected-benefit``. For a question whose answer reveals which cell of a partition of the
-  commands the human meant (A, B, or something else),
+  ``expected-benefit``. The answer reveals which cell (A, B, something else) the human meant,
+  heard right with probability ``Situation.answer_reliability`` (question_values):
 
-      EVI = sum_cells max_a E[benefit(a) ; cell] - max_a E[benefit(a)].
+      EVI = sum_heard max_a E[u(b(a) - ask_cost) ; heard] - max_a E[u(b(a))] + ask_cost.
 
 Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
 """
@@ -39,7 +40,11 @@ DEFAULT_ASK_COST = 2.0
 # Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
 # Lagrange multiplier of a budget of questions per trial, chosen on a development set of
 # another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 10.0
+DEFAULT_QUESTION_PENALTY = 4.0
+# A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
+# is worse than one who does nothing); chosen on a development set of another seed
+# (docs/decisions.md; `siftom bench loss-aversion`).
+DEFAULT_LOSS_AVERSION = 4.0
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
 
@@ -56,7 +61,7 @@ class Decision:
         expected_benefit: expected steps saved by ``command`` (nan for ``map`` without values).
         question: the spoken question when ``action == 'ask'``, else ''.
         options: the commands the question contrasts.
-        evi: expected value of information of the question, in steps (0 when none asked).
+        evi: expected value of information of the best question, in steps (question_values).
         ask_cost: the cost of asking, in steps.
         reason: one line saying why.
         benefits: the best few actions with their expected benefit, best first.
@@ -95,11 +100,20 @@ class Situation:
     world: World
     state: State
     target: int
+    # probability that a spoken answer is heard as the cell it names (1: perfectly); the noise
+    # is part of the situation (docs/decisions.md)
+    answer_reliability: float = 1.0
+
+    def __post_init__(self) -> None:
+        r = self.answer_reliability
+        if isinstance(r, bool) or not (isinstance(r, (int, float)) and 0.0 <= r <= 1.0):
+            raise ObservationError(f"answer_reliability must be a probability in [0, 1], got {r!r}")
 
     @classmethod
-    def from_scenario(cls, scenario: Any, n_actions: int | None = None) -> Situation:
+    def from_scenario(cls, scenario: Any, n_actions: int | None = None, answer_reliability: float = 1.0) -> Situation:
         states = scenario.states()
-        return cls(scenario.world, states[-1] if n_actions is None else states[n_actions], scenario.target)
+        return cls(scenario.world, states[-1] if n_actions is None else states[n_actions], scenario.target,
+                   answer_reliability)
 
 
 DecisionRule = Callable[[Posterior, Situation], Decision]
@@ -121,13 +135,21 @@ def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str,
     return tuple((actions[i], float(eb[i])) for i in order)
 
 
-def _best(tv: TeamValues) -> tuple[int, np.ndarray]:
-    eb = tv.expected()
+def _best(tv: TeamValues, loss_aversion: float = 0.0) -> tuple[int, np.ndarray]:
+    """The action of highest expected utility (ties go to doing nothing) and every action's E[b]."""
+    eu = tv.expected_utility(loss_aversion)
     # ties (e.g. several commands worth exactly nothing) go to doing nothing, then to the list order
-    best = int(np.argmax(eb))
-    if eb[-1] >= eb[best] - 1e-9:
-        best = len(eb) - 1
-    return best, eb
+    best = int(np.argmax(eu))
+    if eu[-1] >= eu[best] - 1e-9:
+        best = len(eu) - 1
+    return best, tv.expected()
+
+
+def _check_steps(obj: Any, *names: str) -> None:
+    for k in names:
+        v = getattr(obj, k)
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
+            raise ObservationError(f"{k} must be a non-negative finite number, got {v!r}")
 
 
 class MapRule:
@@ -149,55 +171,79 @@ class MapRule:
                         reason=f"most probable command: P = {p:.2f}", benefits=benefits)
 
 
+@dataclass(frozen=True)
 class ExpectedBenefitRule:
-    """Execute the action (a command or nothing) that saves the team the most steps in expectation."""
+    """Execute the action (a command or nothing) of highest expected loss-averse utility.
 
-    name = "expected-benefit"
+    The utility of saving ``b`` steps is ``b - loss_aversion * max(0, -b)``: a step lost
+    weighs ``1 + loss_aversion`` steps saved (0: risk-neutral, the expected steps saved).
+    """
+
+    loss_aversion: float = DEFAULT_LOSS_AVERSION
+    name: str = "expected-benefit"
+
+    def __post_init__(self) -> None:
+        _check_steps(self, "loss_aversion")
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv)
+        best, eb = _best(tv, self.loss_aversion)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        why = (f"no command is expected to save time (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
-               f"{eb[:-1].max():+.1f} steps)" if a == NONE and len(eb) > 1 else
+        why = (f"no command is worth its risk (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
+               f"{eb[:-1].max():+.1f} steps expected)" if a == NONE and len(eb) > 1 else
                f"expected to save {eb[best]:.1f} steps (P = {p:.2f})")
         return Decision(self.name, a, a, p, float(eb[best]), reason=why, benefits=_top(tv.actions, eb))
 
 
-def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL) -> list[tuple[float, tuple[str, str]]]:
+def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, loss_aversion: float = 0.0,
+                    reliability: float = 1.0, ask_cost: float = 0.0) -> list[tuple[float, tuple[str, str]]]:
     """EVI (steps) of "Did you mean A or B?" for every pair among the ``pool`` most probable commands.
 
-    The answer reveals whether the human meant A, B or something else (a truthful answer);
-    the robot then acts by expected benefit within that cell.
+    The truthful answer names a cell of {A}, {B}, {anything else}; it is heard as its own cell
+    with probability ``reliability`` and as each of the two others with ``(1 - reliability) / 2``
+    (a symmetric channel: 1 = heard perfectly, 1/3 = the answer says nothing). The robot then
+    acts by expected utility given what it heard, the question's time ``ask_cost`` counted in
+    the outcome (so a question followed by doing nothing is a loss, weighed as losses are):
+
+        EVI = sum_heard max_a sum_cells P(heard | cell) E[u(b(a) - ask_cost) ; cell]
+              - max_a E[u(b(a))] + ask_cost.
+
+    Risk-neutral (``loss_aversion = 0``) this is the classic EVI, whatever ``ask_cost``; a
+    question pays when ``EVI > ask_cost`` (plus any interruption penalty).
     """
     cands = [c for c, _p in post.commands[:pool] if c in tv.actions]
-    w = tv.prob[:, None] * tv.benefit  # (rows, actions)
-    v0 = float(w.sum(axis=0).max())
+    v0 = float((tv.prob @ tv.utility(loss_aversion)).max())
+    w = tv.prob[:, None] * tv.utility(loss_aversion, ask_cost)  # (rows, actions), after the question
+    r = float(np.clip(reliability, 1.0 / 3.0, 1.0))
+    conf = np.full((3, 3), (1.0 - r) / 2.0)
+    np.fill_diagonal(conf, r)
     row_cmd = np.array([tv.actions[i] for i in tv.row_cmd]) if len(tv.row_cmd) else np.array([], dtype=str)
     out = []
     for a, b in combinations(cands, 2):
         in_a, in_b = row_cmd == a, row_cmd == b
-        rest = ~(in_a | in_b)
-        v = sum(float(w[m].sum(axis=0).max()) if m.any() else 0.0 for m in (in_a, in_b, rest))
-        out.append((v - v0, (a, b)))
+        cells = np.stack([w[m].sum(axis=0) for m in (in_a, in_b, ~(in_a | in_b))])  # (3, actions)
+        v = float((conf @ cells).max(axis=1).sum())
+        out.append((v - v0 + ask_cost, (a, b)))
     out.sort(key=lambda t: -t[0])
     return out
 
 
 @dataclass(frozen=True)
 class AskOrActRule:
-    """Ask the best question when its EVI exceeds ``ask_cost`` steps; otherwise expected benefit."""
+    """Ask the best question when its EVI exceeds its cost; otherwise act by expected utility.
+
+    The EVI is weighted by how reliably the answer will be heard here
+    (``Situation.answer_reliability``).
+    """
 
     ask_cost: float = DEFAULT_ASK_COST
     penalty: float = DEFAULT_QUESTION_PENALTY
+    loss_aversion: float = DEFAULT_LOSS_AVERSION
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
-        for k in ("ask_cost", "penalty"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
-                raise ObservationError(f"{k} must be a non-negative number of steps, got {v!r}")
+        _check_steps(self, "ask_cost", "penalty", "loss_aversion")
 
     @property
     def threshold(self) -> float:
@@ -206,10 +252,11 @@ class AskOrActRule:
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv)
+        best, eb = _best(tv, self.loss_aversion)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = question_values(tv, post)
+        qs = question_values(tv, post, loss_aversion=self.loss_aversion, reliability=where.answer_reliability,
+                             ask_cost=self.ask_cost)
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.threshold:
             evi, opts = qs[0]
@@ -225,10 +272,11 @@ class AskOrActRule:
 RULES = Registry("decision rule", default="map")
 RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
 RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
-               summary="execute the command (or nothing) that saves the team the most steps in expectation")
+               summary="execute the command (or nothing) that saves the team the most steps in expectation",
+               attrs={"options": ("loss_aversion",)})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
-               attrs={"options": ("ask_cost", "penalty")})
+               attrs={"options": ("ask_cost", "penalty", "loss_aversion")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:
@@ -241,6 +289,24 @@ def get_rule(name: str, **options: Any) -> DecisionRule:
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
     """Apply the named decision rule."""
     return get_rule(rule, **options)(post, where)
+
+
+def answer_log_likelihood(log_lik: Sequence[float] | np.ndarray, reliability: float = 1.0) -> np.ndarray:
+    """The answer's log-likelihood per command when it is heard only with probability ``reliability``.
+
+    With probability ``reliability`` the answer was heard and the instruction likelihood
+    ``log_lik`` applies; otherwise what was heard is noise and says nothing about the command:
+    ``P(heard | c) ∝ reliability * softmax(log_lik)(c) + (1 - reliability) / K`` over the K
+    commands. The same channel the question's EVI assumes (question_values); at 1 the
+    likelihood is used as it is.
+    """
+    ll = np.asarray(log_lik, dtype=np.float64)
+    if not 0.0 <= reliability <= 1.0:
+        raise ObservationError(f"reliability must be a probability in [0, 1], got {reliability!r}")
+    if reliability >= 1.0 or len(ll) == 0:
+        return ll
+    p = np.exp(ll - logsumexp(ll))
+    return np.log(reliability * p + (1.0 - reliability) / len(ll))
 
 
 def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcript: str = "") -> Posterior:

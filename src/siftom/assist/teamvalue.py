@@ -75,6 +75,24 @@ class TeamValues:
         """Expected benefit of each action."""
         return self.prob @ self.benefit
 
+    def utility(self, loss_aversion: float = 0.0, cost: float = 0.0) -> np.ndarray:
+        """Per-row utility ``b - loss_aversion * max(0, -b)`` of ``b = benefit - cost`` (steps).
+
+        Losses weigh ``1 + loss_aversion``; ``cost`` is time spent before acting (a question).
+        """
+        b = self.benefit - cost if cost else self.benefit
+        if loss_aversion == 0.0:
+            return b
+        return b - loss_aversion * np.maximum(0.0, -b)
+
+    def expected_utility(self, loss_aversion: float = 0.0) -> np.ndarray:
+        """``E[b] - loss_aversion * E[max(0, -b)]`` of each action (the risk-neutral one at 0)."""
+        return self.prob @ self.utility(loss_aversion)
+
+    def loss_probability(self) -> np.ndarray:
+        """``P(b < 0)`` of each action: how likely it makes the team slower."""
+        return self.prob @ (self.benefit < -1e-9)
+
 
 def _keep_rows(joint: JointPosterior) -> tuple[np.ndarray, np.ndarray, float]:
     lj = joint.log_joint

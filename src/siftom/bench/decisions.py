@@ -25,14 +25,38 @@ import numpy as np
 
 from siftom.assist.decide import (
     DEFAULT_ASK_COST,
+    DEFAULT_LOSS_AVERSION,
     DEFAULT_QUESTION_PENALTY,
     Situation,
+    answer_log_likelihood,
     decide,
     with_answer,
 )
 
 DECISION_MODELS = {"siftom-eb": "expected-benefit", "siftom-ask": "ask-or-act"}
 FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
+# How often a spoken answer is heard as the cell it names, by SNR (dB; clean = inf), measured
+# on the seed-1 development sets (both domains pooled) with `siftom bench answer-reliability`
+# (docs/decisions.md). The robot measures the noise level between utterances; the benchmark
+# hands it the stimulus's SNR as that measurement. Interpolated linearly in between.
+ANSWER_RELIABILITY = ((5.0, 0.67), (10.0, 0.70), (20.0, 0.87), (float("inf"), 0.88))
+
+
+def answer_reliability(snr_db: float | None) -> float:
+    """The probability that an answer is heard right at this SNR (``None``: clean speech)."""
+    env = os.environ.get("SIFTOM_ANSWER_RELIABILITY")
+    if env:  # tuning runs measure recognition with the EVI unweighted
+        return float(env)
+    x = float("inf") if snr_db is None else float(snr_db)
+    pts = [p for p in ANSWER_RELIABILITY if np.isfinite(p[0])]
+    if not np.isfinite(x) or x >= pts[-1][0]:
+        return ANSWER_RELIABILITY[-1][1] if not np.isfinite(x) else pts[-1][1]
+    return float(np.interp(x, [p[0] for p in pts], [p[1] for p in pts]))
+
+
+def _env_float(name: str, default: float) -> float:
+    v = os.environ.get(name)
+    return float(v) if v else default
 
 
 def _seed(stimulus_id: str, *extra: int) -> list[int]:
@@ -117,19 +141,24 @@ def run_decision_model(
     from siftom.inference.model import Observation
 
     if penalty is None:
-        penalty = float(os.environ.get("SIFTOM_QUESTION_PENALTY", DEFAULT_QUESTION_PENALTY))
+        penalty = _env_float("SIFTOM_QUESTION_PENALTY", DEFAULT_QUESTION_PENALTY)
+    lam = _env_float("SIFTOM_LOSS_AVERSION", DEFAULT_LOSS_AVERSION)
     sift = get_model("full", likelihood)
     posterior = sift.infer(Observation.from_scenario(scenario, instruction))
-    where = Situation.from_scenario(scenario)
+    reliability = answer_reliability(stimulus.snr_db)
+    where = Situation.from_scenario(scenario, answer_reliability=reliability)
     rule = DECISION_MODELS[model]
-    opts = {"ask_cost": ask_cost, "penalty": penalty} if rule == "ask-or-act" else {}
+    opts: dict[str, float] = {"loss_aversion": lam}
+    if rule == "ask-or-act":
+        opts.update(ask_cost=ask_cost, penalty=penalty)
     d = decide(posterior, where, rule, **opts)
     # what the robot believes was asked for (the MAP command), next to what it does
     out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
                            "expected_benefit": round(d.expected_benefit, 3), "map_command": posterior.command,
                            "map_correct": is_correct(posterior.command, stimulus.gold_command, scenario.verb)}
     if rule == "ask-or-act":
-        out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty})
+        out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty,
+                    "answer_reliability": round(reliability, 4)})
     if not d.ask:
         return out
     text = answer_text(stimulus.gold_command, stimulus.id)
@@ -138,17 +167,27 @@ def run_decision_model(
     tr = transcribe(answer_audio(stimulus, text, dataset_root))
     hyps = tuple(Hypothesis(h.text, float(h.score)) for h in tr.nbest if h.text.strip())
     post2 = posterior
+    heard_cell = 2
     if hyps and sift.likelihood is not None:
         ll = np.asarray(sift.likelihood.log_prob(Instruction(nbest=hyps), posterior.joint.commands))
-        post2 = with_answer(posterior, ll * sift.config.speech_weight, hyps[0].text)
-    d2 = decide(post2, where, "expected-benefit")
+        post2 = with_answer(posterior, answer_log_likelihood(ll * sift.config.speech_weight, reliability),
+                            hyps[0].text)
+        heard_cell = _cell(str(posterior.joint.commands[int(np.argmax(ll))]), d.options)
+    gold_cell = next((k for k, o in enumerate(d.options) if is_correct(o, stimulus.gold_command, scenario.verb)), 2)
+    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam)
     out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
                 "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
                 "answer": text, "answer_heard": hyps[0].text if hyps else "", "map_command": post2.command,
+                "answer_cell_ok": heard_cell == gold_cell,
                 "map_correct": is_correct(post2.command, stimulus.gold_command, scenario.verb),
                 "expected_benefit": round(d2.expected_benefit, 3)})
     return out
+
+
+def _cell(command: str, options: tuple[str, ...]) -> int:
+    """Which cell of the question's partition (option 0, option 1, anything else) a command is in."""
+    return options.index(command) if command in options else 2
 
 
 def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:
@@ -210,3 +249,35 @@ def ask_penalty_cmd(results: tuple[str, ...], budget: float, as_json: bool) -> N
                        f"accuracy {100 * row['accuracy']:.1f} %, speedup {row['speedup']:+.3f}, "
                        f"negative {100 * row['neg_speedup_share']:.1f} %")
     click.echo(f"smallest penalty within {budget} questions per trial on every set: {chosen}")
+
+
+def reliability_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """How often ``siftom-ask``'s answers were heard as the cell they name, by SNR (clean last)."""
+    by: dict[float, list[bool]] = {}
+    for r in rows:
+        a = r["models"].get("siftom-ask", {})
+        if a.get("asked") and "answer_cell_ok" in a:
+            snr = float("inf") if r.get("snr_db") is None else float(r["snr_db"])
+            by.setdefault(snr, []).append(bool(a["answer_cell_ok"]))
+    return [{"snr_db": k, "n": len(v), "heard": float(np.mean(v))} for k, v in sorted(by.items())]
+
+
+@click.command("answer-reliability")
+@click.argument("results", nargs=-1, required=True, type=click.Path(file_okay=False))
+def answer_reliability_cmd(results: tuple[str, ...]) -> None:
+    """How often answers to siftom-ask's questions were heard right, by SNR, pooled over RESULTS.
+
+    Measure on development runs made with SIFTOM_QUESTION_PENALTY=0 SIFTOM_ANSWER_RELIABILITY=1
+    (every question worth its time is asked and the EVI is unweighted); the printed table is
+    ANSWER_RELIABILITY in bench/decisions.py.
+    """
+    from siftom.bench.evaluate import load_results
+
+    rows = [r for res in results for r in load_results(res)]
+    table = reliability_table(rows)
+    for t in table:
+        snr = "clean" if not np.isfinite(t["snr_db"]) else f"{t['snr_db']:g} dB"
+        click.echo(f"  {snr:>6}: {t['n']:4d} answers, heard as the cell they name {100 * t['heard']:.1f} %")
+    inf = 'float("inf")'
+    pts = [f"({t['snr_db'] if np.isfinite(t['snr_db']) else inf}, {t['heard']:.2f})" for t in table]
+    click.echo("ANSWER_RELIABILITY = (" + ", ".join(pts) + ")")

@@ -232,6 +232,10 @@ def register(root: click.Group) -> None:
     from siftom.bench.decide_speed import bench_decide_cmd
 
     bench.add_command(bench_decide_cmd)
-    from siftom.bench.decisions import ask_penalty_cmd
+    from siftom.bench.decisions import answer_reliability_cmd, ask_penalty_cmd
 
     bench.add_command(ask_penalty_cmd)
+    bench.add_command(answer_reliability_cmd)
+    from siftom.bench.decision_tuning import loss_aversion_cmd
+
+    bench.add_command(loss_aversion_cmd)

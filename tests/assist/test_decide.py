@@ -53,10 +53,12 @@ def test_benefits_match_the_team_simulation(sid):
     assert eb[-1] == 0.0 and tv.actions[-1] == NONE
 
 
-def test_expected_benefit_acts_on_a_clear_request():
+def test_risk_neutral_expected_benefit_acts_on_a_clear_request():
     sc, post = _posterior("household-table-v0/3", "bring me three spoons")
     assert post.command == str(sc.command) == "deliver(spoon,3)"
-    d = decide(post, Situation.from_scenario(sc), "expected-benefit")
+    # risk-neutral: with the default loss aversion (a lost step weighs 5 saved) a 77 % posterior
+    # whose alternatives need remedy steps may rightly keep still (docs/decisions.md, the curve)
+    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0)
     # two spoons balance the work better than three (robot 24 steps, human 19, vs 32 and 10):
     # the rule finds the faster team, which the simulation confirms
     assert d.action.startswith("deliver(spoon,") and d.expected_benefit > 0

@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from siftom.speech.asr.base import get_engine
 from siftom.bench.speech import ASR_SENTENCES, FREE_SENTENCES, _vocabulary
+from siftom.speech.asr.base import get_engine
 from siftom.speech.noise import get_noise, mix_at_snr
 from siftom.speech.tts import synthesize
 

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.dataset import BuildOptions, build_dataset, load_dataset
+from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate, load_results
 from siftom.bench.report import write_report
+from siftom.bench.stimuli import BuildOptions, load_dataset
 from siftom.errors import DatasetError
 
 pytestmark = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")

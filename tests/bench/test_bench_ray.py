@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.dataset import BuildOptions, build_dataset
+from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS
+from siftom.bench.stimuli import BuildOptions
 
 pytestmark = [
     pytest.mark.slow,

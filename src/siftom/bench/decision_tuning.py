@@ -65,7 +65,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     from siftom.assist.decide import Situation, _best
     from siftom.assist.teamvalue import team_values
     from siftom.bench import evaluate as ev
-    from siftom.bench.dataset import load_dataset, scenario_for
+    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.inference.model import Observation
 
     root = Path(results)

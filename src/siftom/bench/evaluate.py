@@ -33,7 +33,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from siftom.bench.dataset import Dataset, Stimulus, load_dataset, scenario_for
 from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
 from siftom.bench.results_io import (
     TIMINGS,
@@ -46,6 +45,7 @@ from siftom.bench.results_io import (
     split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
+from siftom.bench.stimuli import Dataset, Stimulus, load_dataset, scenario_for
 from siftom.errors import DatasetError, SiftomError, unknown_name
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text", "siftom-eb", "siftom-ask")

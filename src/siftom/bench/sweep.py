@@ -37,10 +37,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from siftom.bench.dataset import SPEC, BuildOptions, build_dataset, load_dataset
+from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import EvalOptions, evaluate
 from siftom.bench.report import write_report
 from siftom.bench.runlock import RunLock, stop_on_signals
+from siftom.bench.stimuli import SPEC, BuildOptions, load_dataset
 from siftom.errors import DatasetError, SiftomError
 
 BUILD_FIELDS = tuple(f.name for f in dataclasses.fields(BuildOptions))

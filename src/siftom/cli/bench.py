@@ -118,7 +118,8 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
               ray_address: str | None,
               as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
-    from siftom.bench.dataset import DEFAULT_VOICES, BuildOptions, build_dataset
+    from siftom.bench.dataset import build_dataset
+    from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
@@ -140,7 +141,7 @@ def check_cmd(folder: str) -> None:
     """Check a dataset folder (manifest keys, audio files, scenarios) without evaluating it."""
     from collections import Counter
 
-    from siftom.bench.dataset import load_dataset, scenario_for
+    from siftom.bench.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(folder)
     for s in ds.stimuli:

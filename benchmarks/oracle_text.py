@@ -11,8 +11,8 @@ from __future__ import annotations
 import json
 import sys
 
-from siftom.bench.evaluate import is_correct
 from siftom.bench.stimuli import load_dataset, scenario_for
+from siftom.bench.trials import is_correct
 from siftom.inference.model import ModelConfig, Observation, SIFToM
 from siftom.likelihood.base import Instruction
 from siftom.likelihood.phonetic import PhoneticLikelihood

@@ -27,8 +27,9 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct)."""
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.evaluate import _engine, asr_vocabulary, is_correct
+    from siftom.bench.evaluate import _engine, asr_vocabulary
     from siftom.bench.stimuli import load_dataset, scenario_for
+    from siftom.bench.trials import is_correct
     from siftom.inference.model import Observation
 
     ds = load_dataset(dataset)

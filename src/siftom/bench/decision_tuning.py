@@ -42,11 +42,11 @@ class _Outcome:
         self.actions, self.skey, self.sc, self.gold, self.post = actions, skey, sc, gold, post
 
     def __call__(self, i: int) -> tuple[dict[str, Any], bool, float]:
-        from siftom.bench import evaluate as ev
+        from siftom.bench import trials as tr
 
         a = self.actions[i]
-        t = dict(ev._simulate(self.skey, self.sc, a), command=a)
-        return t, ev.is_correct(a, self.gold, self.sc.verb), 0.0 if a == "none" else self.post.prob(a)
+        t = dict(tr._simulate(self.skey, self.sc, a), command=a)
+        return t, tr.is_correct(a, self.gold, self.sc.verb), 0.0 if a == "none" else self.post.prob(a)
 
 
 def _summ(trials: Sequence[tuple[dict[str, Any], bool, float]]) -> dict[str, float]:
@@ -65,6 +65,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     from siftom.assist.decide import Situation, _best
     from siftom.assist.teamvalue import team_values
     from siftom.bench import evaluate as ev
+    from siftom.bench import trials as tr
     from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.inference.model import Observation
 
@@ -73,7 +74,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     ds = load_dataset(run["dataset"])
     likelihood = run["options"].get("likelihood", "phonetic")
     for t in ev._read_jsonl(root / ev.TEAM_CACHE):
-        ev._TEAM.setdefault((t["key"], t["command"]), t)
+        tr._TEAM.setdefault((t["key"], t["command"]), t)
     rows = {r["id"]: r for r in ev.load_results(root)}
     model = get_model("full", likelihood)
     per_l: dict[float, list[tuple[dict[str, Any], bool, float]]] = {x: [] for x in lambdas}
@@ -84,16 +85,16 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
         if r is None:
             continue
         sc = scenario_for(s)
-        skey = ev.scenario_key(s)
-        post = model.infer(Observation.from_scenario(sc, ev._instruction(r["transcript"]["nbest"])))
+        skey = tr.scenario_key(s)
+        post = model.infer(Observation.from_scenario(sc, tr._instruction(r["transcript"]["nbest"])))
         tv = team_values(post.joint, sc.world, sc.target, Situation.from_scenario(sc).state)
         outcome = _Outcome(tv.actions, skey, sc, s.gold_command, post)
         for x in lambdas:
             per_l[x].append(outcome(_best(tv, x)[0]))
         for x in alphas:
             per_a[x].append(outcome(_choose_alpha(tv, x)))
-        m = ev._simulate(skey, sc, post.command)
-        base.append((dict(m, command=post.command), ev.is_correct(post.command, s.gold_command, sc.verb),
+        m = tr._simulate(skey, sc, post.command)
+        base.append((dict(m, command=post.command), tr.is_correct(post.command, s.gold_command, sc.verb),
                      float(post.commands[0][1])))
     return {"results": str(root), "n": len(base), "siftom": _summ(base),
             "loss_aversion": [{"lam": x, **_summ(v)} for x, v in per_l.items()],

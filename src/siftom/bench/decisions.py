@@ -137,7 +137,7 @@ def run_decision_model(
             tuning runs on a development set, else :data:`DEFAULT_QUESTION_PENALTY`).
     """
     from siftom.api import get_model
-    from siftom.bench.evaluate import is_correct
+    from siftom.bench.trials import is_correct
     from siftom.inference.model import Observation
 
     if penalty is None:

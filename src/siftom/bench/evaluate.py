@@ -23,17 +23,15 @@ the results folder (``transcripts.jsonl``, ``team_cache.jsonl``).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
 from siftom.bench.results_io import (
     TIMINGS,
     AtomicAppender,
@@ -46,20 +44,26 @@ from siftom.bench.results_io import (
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.bench.stimuli import Dataset, Stimulus, load_dataset, scenario_for
-from siftom.errors import DatasetError, SiftomError, unknown_name
+from siftom.bench.trials import (
+    ACOUSTIC_MODELS,
+    DEFAULT_ENGINE,
+    ENGINES,
+    MODELS,
+    OPTIONAL_MODELS,
+    _engine,
+    _eval_stimuli,
+    _run_task,
+    _Task,
+    asr_vocabulary,
+    scenario_key,
+)
+from siftom.errors import DatasetError, unknown_name
 
-MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text", "siftom-eb", "siftom-ask")
 # run only when a language model is configured (siftom.bench.llm_baselines)
-OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
-LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
-ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
-ENGINES = ("pocketsphinx-vocab", "pocketsphinx-open", "pocketsphinx", "whisper")
-DEFAULT_ENGINE = "pocketsphinx-vocab"
 RESULTS = "results.jsonl"
 RUN = "run.json"
 TRANSCRIPTS = "transcripts.jsonl"
 TEAM_CACHE = "team_cache.jsonl"
-MAX_COUNT = 4  # the largest count in the command space (ModelConfig.max_count)
 
 
 @dataclass(frozen=True)
@@ -115,212 +119,6 @@ class EvalRun:
     evaluated: int
     seconds: float
     counters: dict[str, float] = field(default_factory=dict)
-
-
-# -- per-process state (engines, caches) -------------------------------------------------------
-
-_ENGINES: dict[tuple[str, str], Any] = {}
-_TEAM: dict[tuple[str, str], dict[str, Any]] = {}
-
-
-def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT) -> tuple[str, ...]:
-    """Every phrasing of every command over ``classes``: the domain LM's training sentences."""
-    from siftom.likelihood.phrasing import command_vocabulary
-
-    return tuple(command_vocabulary(sorted(set(classes)), verb, max_count))
-
-
-def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
-    from siftom.speech.asr.base import get_engine
-
-    scene = name in ("pocketsphinx-vocab", "pocketsphinx-open")
-    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
-    if key not in _ENGINES:
-        if scene:
-            # -vocab: the scene's phrasings alone; -open: mixed with frequent English words
-            # (open vocabulary, docs/speech.md)
-            from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
-
-            extra = {"background_words": OPEN_BACKGROUND_WORDS} if name == "pocketsphinx-open" else {}
-            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary), **extra)
-        else:
-            _ENGINES[key] = get_engine(name)
-    return _ENGINES[key]
-
-
-def scenario_key(s: Stimulus) -> str:
-    """Stimuli with the same key share the world, the observed actions and the gold goal."""
-    h = hashlib.sha1("\n".join(s.observed_actions).encode()).hexdigest()[:10]
-    return f"{s.scenario}#{s.scenario_seed}#{h}"
-
-
-def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
-    """Team simulation of a command string (``none``: the robot does nothing), cached."""
-    from siftom.agents.team import simulate_scenario
-    from siftom.world.commands import RobotCommand
-
-    key = (skey, command)
-    if key not in _TEAM:
-        t0 = time.perf_counter()
-        try:
-            r = simulate_scenario(sc, None if command == "none" else RobotCommand.parse(command))
-        except SiftomError as exc:  # a planning budget ran out: keep the trial, without a speedup
-            _TEAM[key] = {"l_single": None, "l_team": None, "remedy_steps": None, "speedup": None,
-                          "useful": None, "wrong": None, "error": str(exc),
-                          "seconds": round(time.perf_counter() - t0, 3)}
-            return _TEAM[key]
-        _TEAM[key] = {"l_single": r.l_single, "l_team": r.l_team, "remedy_steps": r.remedy_steps,
-                      "speedup": r.speedup, "useful": r.useful, "wrong": r.wrong,
-                      "seconds": round(time.perf_counter() - t0, 3)}
-    return _TEAM[key]
-
-
-def is_correct(command: str, gold: str, verb: str) -> bool:
-    """Object class and count exact (class only for ``fetch``); ``none`` is never correct."""
-    if command == "none":
-        return False
-    from siftom.world.commands import RobotCommand
-
-    c, g = RobotCommand.parse(command), RobotCommand.parse(gold)
-    if verb == "fetch":
-        return c.obj_class == g.obj_class
-    return c.obj_class == g.obj_class and c.count == g.count
-
-
-def is_helpful(command: str, goal_counts: dict[str, Any]) -> bool:
-    """A command whose class is part of the human's goal."""
-    if command == "none":
-        return False
-    from siftom.world.commands import RobotCommand
-
-    return RobotCommand.parse(command).obj_class in goal_counts
-
-
-def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
-    from siftom.observation import Hypothesis, Instruction
-
-    hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
-    return Instruction(nbest=hyps) if hyps else None
-
-
-def _wer(reference: str, text: str) -> float:
-    from siftom.speech.metrics import wer
-
-    return wer(reference, text)
-
-
-@dataclass(frozen=True)
-class _Task:
-    root: str
-    stimuli: tuple[Stimulus, ...]
-    options: EvalOptions
-    vocabulary: tuple[str, ...]
-    transcripts: dict[str, dict[str, Any]]
-    team: dict[str, dict[str, Any]]
-
-
-def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
-    """Yield (results row, new transcript or None, new team simulations) per stimulus."""
-    from siftom.api import get_model
-    from siftom.bench.literal import literal_command
-    from siftom.inference.model import Observation
-    from siftom.observation import Instruction
-
-    opts = task.options
-    root = Path(task.root)
-    for s in task.stimuli:
-        skey = scenario_key(s)
-        for c, r in task.team.items():
-            _TEAM.setdefault((skey, c), r)
-    memo: dict[tuple[str, str, str], tuple[str, float, float]] = {}
-    for s in task.stimuli:
-        sc = scenario_for(s)
-        skey = scenario_key(s)
-        new_tr = None
-        tr = task.transcripts.get(s.id)
-        if tr is None:
-            audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
-            t = _engine(opts.engine, task.vocabulary).transcribe(audio, nbest=opts.nbest)
-            tr = {"id": s.id, "engine": opts.engine, "text": t.text,
-                  "nbest": [{"text": h.text, "score": round(float(h.score), 4)} for h in t.nbest][: opts.nbest],
-                  "rtf": round(t.rtf, 4), "audio_s": round(t.audio_s, 3)}
-            new_tr = tr
-        instr = _instruction(tr["nbest"]) if tr["nbest"] else _instruction([{"text": tr["text"], "score": 0.0}])
-        before = set(_TEAM)
-        models: dict[str, Any] = {}
-        for m in opts.models:
-            t0 = time.perf_counter()
-            prob = float("nan")
-            extra: dict[str, Any] = {}
-            if m == "literal-asr":
-                cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
-                command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
-            elif m in ACOUSTIC_MODELS:  # siftom.api.listen's path: VAD, ASR word times, key-phrase alignment
-                from siftom.bench.acoustic_models import acoustic_choice
-                command, prob = acoustic_choice(m, sc, Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio,
-                                                _engine(opts.engine, task.vocabulary), opts.nbest)
-            elif m in LLM_BASELINES:
-                from siftom.bench.llm_baselines import chooser, command_space
-
-                mk = (skey, m, tr["text"])
-                if mk not in memo:
-                    c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
-                    memo[mk] = (c_, p_, 0.0)
-                command, prob, _ = memo[mk]
-            elif m in DECISION_MODELS:  # decision rules and questions: bench/decisions.py
-                extra = run_decision_model(m, s, sc, instr, opts.likelihood, task.root,
-                                           lambda x: _engine(opts.engine, task.vocabulary).transcribe(x, nbest=opts.nbest))
-                command, prob = extra.pop("command"), float(extra.pop("prob"))
-            else:
-                mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")
-                if m == "siftom-oracle-text":
-                    heard = Instruction.from_text(s.reference)
-                    mk = (skey, m, s.reference)
-                elif m == "action-only":
-                    heard, mk = None, (skey, m, "")
-                else:
-                    heard = instr
-                    mk = (skey, m, json.dumps(tr["nbest"]))
-                if mk in memo:
-                    command, prob, _ = memo[mk]
-                elif mode == "speech-only" and heard is None:
-                    command, prob = "none", 1.0  # nothing was heard: the robot does nothing
-                else:
-                    lk = "llm" if m == "siftom-llm" else opts.likelihood
-                    post = get_model(mode, lk, opts.llm).infer(Observation.from_scenario(sc, heard))
-                    command, prob = post.command, float(post.commands[0][1])
-                memo[mk] = (command, prob, 0.0)
-            team = _simulate(skey, sc, command)
-            models[m] = {
-                "command": command, "prob": round(prob, 4),
-                "correct": is_correct(command, s.gold_command, sc.verb),
-                "helpful": is_helpful(command, s.gold_goal["counts"]),
-                "l_single": team["l_single"], "l_team": team["l_team"],
-                "remedy_steps": team["remedy_steps"],
-                "speedup": None if team["speedup"] is None else round(team["speedup"], 6),
-                "seconds": round(time.perf_counter() - t0, 4),
-            }
-            if extra:
-                models[m].update(decision_fields(extra, team))
-            if team.get("error"):  # no speedup: say why (summary.json counts these)
-                models[m]["speedup_error"] = team["error"]
-        gold = _simulate(skey, sc, s.gold_command)
-        row = {
-            "id": s.id, "scenario": s.scenario, "speaker": s.speaker, "voice": s.voice,
-            "noise": s.noise, "snr_db": s.snr_db, "condition": s.condition, "style": s.style,
-            "reference": s.reference, "gold_command": s.gold_command, "gold_goal": s.gold_goal.get("name", ""),
-            "gold_speedup": None if gold["speedup"] is None else round(gold["speedup"], 6),
-            "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
-                           "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
-            "models": models,
-        }
-        new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]
-        yield row, new_tr, new_team
-
-
-def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
-    """One scenario group on a worker; the vocabulary is shipped once per worker, not per task."""
-    return list(_eval_stimuli(replace(task, vocabulary=vocabulary)))
 
 
 # -- files ---------------------------------------------------------------------------------

@@ -95,6 +95,11 @@ class Entry:
         """Check, import and construct with ``kwargs``."""
         return self.load()(**kwargs)
 
+    def build(self, **kwargs: Any) -> Any:
+        """Import and construct without the environment check: for callers that pass the
+        configuration themselves (e.g. an explicit LLM endpoint), which the class validates."""
+        return _import(self.entry_point)(**kwargs)
+
     def describe(self) -> dict[str, Any]:
         """A JSON-able line: name, summary, whether it is available and, if not, why."""
         why = self.missing()
@@ -194,6 +199,7 @@ _DEFINERS = (
     "siftom.scenarios.base",
     "siftom.speech.tts",
     "siftom.assist.decide",
+    "siftom.likelihood.registry",
 )
 
 

@@ -4,7 +4,12 @@ import pytest
 
 from siftom.errors import BackendUnavailableError, ObservationError, UnknownNameError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
-from siftom.likelihood.registry import REGISTRY, get_likelihood, likelihood_names, likelihood_spec
+from siftom.likelihood.registry import (
+    check_instruction,
+    get_likelihood,
+    likelihood_names,
+    likelihood_spec,
+)
 
 
 def test_names_default_first():
@@ -23,18 +28,28 @@ def test_typos_get_suggestions():
 
 
 def test_specs_declare_what_they_consume():
-    assert REGISTRY["acoustic"].needs_audio and not REGISTRY["acoustic"].needs_text
-    assert REGISTRY["phonetic"].needs_text and not REGISTRY["phonetic"].needs_audio
-    with pytest.raises(ObservationError, match="needs audio"):
-        likelihood_spec("acoustic").check(Instruction.from_text("milk"))
+    assert likelihood_spec("acoustic").attrs["needs_audio"] and not likelihood_spec("acoustic").attrs["needs_text"]
+    assert likelihood_spec("phonetic").attrs["needs_text"] and not likelihood_spec("phonetic").attrs["needs_audio"]
+    with pytest.raises(ObservationError, match="needs the audio"):
+        check_instruction("acoustic", Instruction.from_text("milk"))
     with pytest.raises(ObservationError, match="transcript"):
-        likelihood_spec("llm").check(Instruction(audio=Path("a.wav")))
+        check_instruction("llm", Instruction(audio=Path("a.wav")))
 
 
 def test_llm_without_backend_says_how_to_install(monkeypatch):
+    for var in ("SIFTOM_LLM_BASE_URL", "SIFTOM_LLM_BACKEND", "SIFTOM_LLM", "SIFTOM_LLM_MODEL"):
+        monkeypatch.delenv(var, raising=False)
     pytest.importorskip("siftom.backends.llama_cpp")
     try:
         import llama_cpp  # noqa: F401
     except ImportError:
         with pytest.raises(BackendUnavailableError, match=r"siftom\[llm\]"):
             get_likelihood("llm")
+
+
+def test_an_endpoint_in_the_environment_makes_llm_available(monkeypatch):
+    monkeypatch.setenv("SIFTOM_LLM_BASE_URL", "http://127.0.0.1:9/v1")
+    monkeypatch.delenv("SIFTOM_LLM_MODEL", raising=False)
+    assert "SIFTOM_LLM_MODEL" in likelihood_spec("llm").missing()  # the fix is named
+    monkeypatch.setenv("SIFTOM_LLM_MODEL", "some-model")
+    assert likelihood_spec("llm").missing() is None

@@ -31,7 +31,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from siftom.errors import BackendUnavailableError, unknown_name
+from siftom.errors import BackendUnavailableError, SiftomError, unknown_name
 
 BACKENDS = ("llama", "openai")
 
@@ -202,3 +202,20 @@ def _env_number(env: Mapping[str, str], name: str, kind: type, default: Any) -> 
         raise BackendUnavailableError(
             f"{name}={raw!r} is not a {'whole ' if kind is int else ''}number; fix or unset it"
         ) from None
+
+
+def llm_missing(env: Mapping[str, str] | None = None) -> str | None:
+    """Why no LLM can be used with this environment (None when one can): an endpoint
+    (``SIFTOM_LLM_BASE_URL``) is enough; the in-process backend needs llama-cpp-python."""
+    import importlib.util
+
+    try:
+        cfg = LLMConfig.from_env(env)
+    except SiftomError as exc:
+        return str(exc)
+    if cfg.backend == "openai":
+        return None
+    if importlib.util.find_spec("llama_cpp") is None:
+        return ('no LLM: set SIFTOM_LLM_BASE_URL (+ SIFTOM_LLM_MODEL) for an OpenAI-compatible endpoint, '
+                'or install the in-process backend with: pip install "siftom[llm]"')
+    return None

@@ -32,6 +32,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
@@ -305,6 +306,8 @@ class OnlineInference:
         # instruction term per unique command
         if instruction is not None and self.model.likelihood is not None:
             lk = self.model.likelihood
+            if getattr(lk, "name", None) in LIKELIHOODS:  # explain a missing input before scoring
+                check_instruction(lk.name, instruction)
             if getattr(lk, "uses_context", False):
                 # e.g. the acoustic likelihood prunes commands with little prior x action mass
                 ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, len(cmds)) if cfg.uses_actions else None

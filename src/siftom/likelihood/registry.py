@@ -1,75 +1,58 @@
-"""Instruction likelihoods by name, loaded lazily from ``"module:attr"`` entry points.
+"""Instruction likelihoods by name (one :class:`~siftom.registry.Registry`).
 
-``get_likelihood("phonetic")`` always works offline; "llm" needs the ``llm`` extra or an
-endpoint; "acoustic" needs audio. Each entry declares what it consumes, so callers can
-explain a refusal before constructing anything.
+``get_likelihood("phonetic")`` always works offline; "llm" needs an endpoint
+(``SIFTOM_LLM_BASE_URL``) or the ``llm`` extra; "acoustic" needs audio. Each entry declares
+what it consumes (``needs_text``, ``needs_audio``), so callers explain a refusal before
+constructing anything: :func:`check_instruction`.
 """
 
 from __future__ import annotations
 
-import importlib
-from dataclasses import dataclass
 from typing import Any
 
-from siftom.errors import ObservationError, unknown_name
+from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.registry import Entry, Registry
 
-
-@dataclass(frozen=True)
-class LikelihoodSpec:
-    """A registered instruction likelihood."""
-
-    name: str
-    entry_point: str  # "module:attr"
-    needs_text: bool
-    needs_audio: bool
-    summary: str
-
-    def load(self) -> Any:
-        """Import and return the class (or factory)."""
-        module, _, attr = self.entry_point.partition(":")
-        return getattr(importlib.import_module(module), attr)
-
-    def check(self, instruction: Instruction) -> None:
-        """Raise ObservationError when ``instruction`` lacks what this likelihood consumes."""
-        if self.needs_audio and not instruction.has_audio:
-            raise ObservationError(
-                f"the {self.name!r} likelihood needs audio; give an audio file or use 'phonetic'"
-            )
-        if self.needs_text and not instruction.nbest:
-            raise ObservationError(
-                f"the {self.name!r} likelihood needs a transcript or N-best list; "
-                "transcribe the audio first or use 'acoustic'"
-            )
-
-
-REGISTRY: dict[str, LikelihoodSpec] = {
-    s.name: s
-    for s in (
-        LikelihoodSpec("phonetic", "siftom.likelihood.phonetic:PhoneticLikelihood", True, False,
-                       "phoneme noisy channel over N-best transcripts (offline, default)"),
-        LikelihoodSpec("llm", "siftom.likelihood.llm:LLMLikelihood", True, False,
-                       "language-model token log-probs with a few-shot corrupted-instruction prompt"),
-        LikelihoodSpec("acoustic", "siftom.likelihood.acoustic:AcousticLikelihood", False, True,
-                       "forced alignment of candidate phrasings against the audio"),
-    )
-}
 DEFAULT = "phonetic"
+LIKELIHOODS = Registry("instruction likelihood", default=DEFAULT)
+LIKELIHOODS.register("phonetic", "siftom.likelihood.phonetic:PhoneticLikelihood",
+                     summary="phoneme noisy channel over N-best transcripts (offline, default)",
+                     attrs={"needs_text": True, "needs_audio": False})
+LIKELIHOODS.register("llm", "siftom.likelihood.llm:LLMLikelihood",
+                     summary="language-model token log-probs with a few-shot corrupted-instruction prompt",
+                     checker="siftom.backends.config:llm_missing",
+                     attrs={"needs_text": True, "needs_audio": False})
+LIKELIHOODS.register("acoustic", "siftom.likelihood.acoustic:AcousticLikelihood",
+                     summary="key-phrase forced alignment of each command against the audio",
+                     attrs={"needs_text": False, "needs_audio": True})
 
 
 def likelihood_names() -> tuple[str, ...]:
     """Registered names, default first."""
-    return (DEFAULT, *sorted(n for n in REGISTRY if n != DEFAULT))
+    return LIKELIHOODS.names()
 
 
-def likelihood_spec(name: str) -> LikelihoodSpec:
-    """The spec for ``name``; unknown names raise UnknownNameError with suggestions."""
-    spec = REGISTRY.get(name)
-    if spec is None:
-        raise unknown_name("instruction likelihood", name, REGISTRY)
-    return spec
+def likelihood_spec(name: str) -> Entry:
+    """The entry for ``name``; unknown names raise UnknownNameError with suggestions."""
+    return LIKELIHOODS.spec(name)
+
+
+def check_instruction(name: str, instruction: Instruction) -> None:
+    """Raise ObservationError when ``instruction`` lacks what likelihood ``name`` consumes."""
+    attrs = LIKELIHOODS.spec(name).attrs
+    if attrs.get("needs_audio") and not instruction.has_audio:
+        raise ObservationError(f"the {name!r} likelihood needs the audio; give an audio file or use 'phonetic'")
+    if attrs.get("needs_text") and not instruction.nbest:
+        raise ObservationError(f"the {name!r} likelihood needs a transcript or N-best list; "
+                               "transcribe the audio first or use 'acoustic'")
 
 
 def get_likelihood(name: str = DEFAULT, **kwargs: Any) -> InstructionLikelihood:
-    """Construct the likelihood registered as ``name`` with ``kwargs``."""
-    return likelihood_spec(name).load()(**kwargs)
+    """Check, then construct the likelihood registered as ``name`` with ``kwargs``.
+
+    An explicit ``backend`` argument configures "llm" itself, so the environment check is
+    skipped then (the backend is validated when the scorer is built).
+    """
+    entry = LIKELIHOODS.spec(name)
+    return entry.build(**kwargs) if kwargs.get("backend") is not None else entry.make(**kwargs)

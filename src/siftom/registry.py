@@ -200,6 +200,7 @@ _DEFINERS = (
     "siftom.speech.tts",
     "siftom.assist.decide",
     "siftom.likelihood.registry",
+    "siftom.speech.asr.base",
 )
 
 

@@ -47,7 +47,6 @@ from siftom.bench.stimuli import Dataset, Stimulus, load_dataset, scenario_for
 from siftom.bench.trials import (
     ACOUSTIC_MODELS,
     DEFAULT_ENGINE,
-    ENGINES,
     MODELS,
     OPTIONAL_MODELS,
     _engine,
@@ -58,6 +57,7 @@ from siftom.bench.trials import (
     scenario_key,
 )
 from siftom.errors import DatasetError, unknown_name
+from siftom.speech.asr.base import is_scene_engine
 
 # run only when a language model is configured (siftom.bench.llm_baselines)
 RESULTS = "results.jsonl"
@@ -95,8 +95,9 @@ class EvalOptions:
                 raise unknown_name("model", m, MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS)
         if len(set(self.models)) != len(self.models):
             raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
-        if self.engine not in ENGINES:
-            raise unknown_name("ASR engine", self.engine, ENGINES)
+        from siftom.speech.asr.base import ENGINES
+
+        ENGINES.spec(self.engine)  # unknown names suggest close matches
         if self.nbest < 1:
             raise DatasetError(f"--nbest must be >= 1, got {self.nbest}")
 
@@ -232,7 +233,7 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-    if opts.engine in ("pocketsphinx-vocab", "pocketsphinx-open") and pending and be.name == "local":
+    if is_scene_engine(opts.engine) and pending and be.name == "local":
         _engine(opts.engine, vocab)  # build the LM once, before pool workers fork and race to build it
 
     groups: OrderedDict[str, list[Stimulus]] = OrderedDict()

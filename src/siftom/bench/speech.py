@@ -43,7 +43,7 @@ FREE_SENTENCES = (
     "the recipe says we need the flour",
     "oh and the butter too",
 )
-ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "pocketsphinx-open", "whisper")
+ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "pocketsphinx-open", "whisper")  # registered ASR engines compared
 DEFAULT_VOICES = ("flite-slt", "flite-rms", "espeak-en-us+klatt", "espeak-es")
 QUICK_VOICES = ("flite-slt", "espeak-en-us+klatt")
 DEFAULT_SNRS: tuple[float | None, ...] = (None, 20.0, 10.0, 5.0, 0.0)
@@ -95,13 +95,9 @@ def _vocabulary() -> list[str]:
 
 
 def _engine(name: str) -> Any:
-    from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
+    from siftom.speech.asr.base import is_scene_engine
 
-    if name == "pocketsphinx-vocab":
-        return get_engine("pocketsphinx", vocabulary=_vocabulary())
-    if name == "pocketsphinx-open":
-        return get_engine("pocketsphinx", vocabulary=_vocabulary(), background_words=OPEN_BACKGROUND_WORDS)
-    return get_engine(name)
+    return get_engine(name, vocabulary=_vocabulary() if is_scene_engine(name) else None)
 
 
 def run_asr_bench(

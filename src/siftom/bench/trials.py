@@ -26,8 +26,7 @@ MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
 ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
-ENGINES = ("pocketsphinx-vocab", "pocketsphinx-open", "pocketsphinx", "whisper")
-DEFAULT_ENGINE = "pocketsphinx-vocab"
+DEFAULT_ENGINE = "pocketsphinx-vocab"  # the evaluator's: recognition biased to the scene's phrasings
 MAX_COUNT = 4  # the largest count in the command space (ModelConfig.max_count)
 
 
@@ -45,20 +44,12 @@ def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT
 
 
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
-    from siftom.speech.asr.base import get_engine
+    from siftom.speech.asr.base import get_engine, is_scene_engine
 
-    scene = name in ("pocketsphinx-vocab", "pocketsphinx-open")
+    scene = is_scene_engine(name)
     key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
     if key not in _ENGINES:
-        if scene:
-            # -vocab: the scene's phrasings alone; -open: mixed with frequent English words
-            # (open vocabulary, docs/speech.md)
-            from siftom.speech.asr.pocketsphinx import OPEN_BACKGROUND_WORDS
-
-            extra = {"background_words": OPEN_BACKGROUND_WORDS} if name == "pocketsphinx-open" else {}
-            _ENGINES[key] = get_engine("pocketsphinx", vocabulary=list(vocabulary), **extra)
-        else:
-            _ENGINES[key] = get_engine(name)
+        _ENGINES[key] = get_engine(name, vocabulary=vocabulary if scene else None)
     return _ENGINES[key]
 
 

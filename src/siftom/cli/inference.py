@@ -9,8 +9,11 @@ import click
 from rich.console import Console
 from rich.table import Table
 
+from siftom.assist.decide import RULES
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
+from siftom.likelihood.registry import LIKELIHOODS
+from siftom.speech.asr.base import ENGINES
 
 
 def _bench_group(root: click.Group) -> click.Group:
@@ -73,11 +76,11 @@ def _read_nbest(path: Path) -> list[dict]:
               help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
 @click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
 @click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default="full")
-@click.option("--likelihood", default="phonetic", help="phonetic (default), llm or acoustic.")
-@click.option("--engine", default="pocketsphinx", help="ASR engine for --audio.")
+@click.option("--likelihood", default="phonetic", help=f"Instruction likelihood: {LIKELIHOODS.help_line()}.")
+@click.option("--engine", default="pocketsphinx", help=f"ASR engine for --audio: {ENGINES.help_line()}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
 @click.option("--decide", "rule", default="map", show_default=True,
-              help="Decision rule: map | expected-benefit | ask-or-act (docs/decisions.md).")
+              help=f"Decision rule: {RULES.help_line()} (docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,

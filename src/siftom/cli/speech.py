@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from siftom.errors import SiftomError
+from siftom.speech.asr.base import ENGINES
 
 
 def _vocab(spec: str | None) -> list[str] | None:
@@ -51,7 +52,7 @@ def say_cmd(text: str, voice: str, rate: float, pitch: float, noise: str | None,
 
 @click.command("transcribe")
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--engine", "-e", default="pocketsphinx", show_default=True, help="pocketsphinx|whisper")
+@click.option("--engine", "-e", default="pocketsphinx", show_default=True, help=f"ASR engine: {ENGINES.help_line()}")
 @click.option("--nbest", "-n", type=int, default=1, show_default=True, help="hypotheses to return")
 @click.option("--vocab", default=None, help="pocketsphinx: phrasings file, or comma-separated words/phrasings")
 @click.option("--model-dir", default=None, help="whisper: a local CTranslate2 whisper folder")

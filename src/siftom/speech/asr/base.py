@@ -7,16 +7,16 @@ between the hypotheses of one utterance.
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from siftom.errors import unknown_name
+from siftom.errors import ObservationError
 from siftom.observation import Hypothesis, Instruction
+from siftom.registry import Registry
 
 
 @dataclass(frozen=True)
@@ -84,23 +84,37 @@ class ASREngine(Protocol):
         ...
 
 
-# name -> "module:attr" of a factory taking keyword options; imported on first use
-ENGINES: dict[str, str] = {
-    "pocketsphinx": "siftom.speech.asr.pocketsphinx:PocketsphinxEngine",
-    "whisper": "siftom.speech.asr.whisper:WhisperEngine",
-}
 DEFAULT_ENGINE = "pocketsphinx"
+ENGINES = Registry("ASR engine", default=DEFAULT_ENGINE)
+ENGINES.register("pocketsphinx", "siftom.speech.asr.pocketsphinx:PocketsphinxEngine",
+                 summary="CMU pocketsphinx; generic English LM, or the scene's phrasings when given a vocabulary",
+                 requires=("pocketsphinx",), attrs={"scene": False})
+ENGINES.register("pocketsphinx-vocab", "siftom.speech.asr.pocketsphinx:PocketsphinxEngine",
+                 summary="pocketsphinx with an LM of the scene's command phrasings (the evaluator's default)",
+                 requires=("pocketsphinx",), attrs={"scene": True})
+ENGINES.register("pocketsphinx-open", "siftom.speech.asr.pocketsphinx:open_vocabulary_engine",
+                 summary="the scene's phrasings mixed with frequent English words (open vocabulary)",
+                 requires=("pocketsphinx",), attrs={"scene": True})
+ENGINES.register("whisper", "siftom.speech.asr.whisper:WhisperEngine",
+                 summary="faster-whisper tiny.en (int8, CPU)", requires=("faster_whisper",), extra="whisper",
+                 attrs={"scene": False})
 
 
-def get_engine(name: str = DEFAULT_ENGINE, **options: Any) -> ASREngine:
-    """Build a registered engine by name; raise UnknownNameError or BackendUnavailableError."""
-    try:
-        target = ENGINES[name]
-    except KeyError:
-        raise unknown_name("ASR engine", name, ENGINES) from None
-    module, attr = target.split(":")
-    factory: Callable[..., ASREngine] = getattr(importlib.import_module(module), attr)
-    return factory(**options)
+def get_engine(name: str = DEFAULT_ENGINE, vocabulary: Sequence[str] | None = None, **options: Any) -> ASREngine:
+    """Build a registered engine; a scene engine (``attrs["scene"]``) needs the scene's
+    ``vocabulary`` (its command phrasings). Raises UnknownNameError or BackendUnavailableError."""
+    entry = ENGINES.spec(name)
+    if entry.attrs.get("scene") and vocabulary is None:
+        raise ObservationError(f"the ASR engine {name!r} is built from the scene's command phrasings: pass "
+                               "vocabulary= (siftom.likelihood.phrasing.command_vocabulary)")
+    if vocabulary is not None:
+        options["vocabulary"] = list(vocabulary)
+    return entry.make(**options)
+
+
+def is_scene_engine(name: str) -> bool:
+    """Whether the engine is built per scene (its LM from the scene's phrasings)."""
+    return bool(ENGINES.spec(name).attrs.get("scene"))
 
 
 def normalise_text(text: str) -> str:

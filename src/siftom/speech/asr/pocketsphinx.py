@@ -20,6 +20,7 @@ import tempfile
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -308,3 +309,9 @@ def path_score_nats(logmath: object, p: float) -> float:
 
 def _clean(text: str) -> str:
     return " ".join(w for w in text.split() if w.lower() not in _FILLERS and not w.startswith("["))
+
+
+def open_vocabulary_engine(vocabulary: Sequence[str], **options: Any) -> PocketsphinxEngine:
+    """The scene's phrasings mixed with the generic LM's most frequent words (docs/speech.md)."""
+    options.setdefault("background_words", OPEN_BACKGROUND_WORDS)
+    return PocketsphinxEngine(vocabulary=vocabulary, **options)

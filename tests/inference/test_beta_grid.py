@@ -27,7 +27,7 @@ q_tables = st.integers(2, 7).flatmap(lambda a: st.integers(1, 5).flatmap(
 def test_grid_log_likelihood_equals_direct_boltzmann(Q, data, betas):
     k = data.draw(st.integers(0, Q.shape[0] - 1))
     online = _online(betas)
-    got = online._action_loglik(Q, k)  # (R, B)
+    got = online.actions.step_log_lik(Q, k)  # (R, B)
     eps = online.model.config.epsilon
     for b, beta in enumerate(betas):
         want = BoltzmannPolicy(beta=beta, epsilon=eps).log_probs(Q)[k]
@@ -37,7 +37,7 @@ def test_grid_log_likelihood_equals_direct_boltzmann(Q, data, betas):
 def test_large_costs_do_not_underflow_the_squared_grid():
     Q = np.array([[0.0, 300.0], [200.0, 0.0], [1e9, 1e9]])
     online = _online((0.5, 1.0, 2.0, 4.0))
-    got = online._action_loglik(Q, 0)
+    got = online.actions.step_log_lik(Q, 0)
     assert np.all(np.isfinite(got))
     for b, beta in enumerate((0.5, 1.0, 2.0, 4.0)):
         want = BoltzmannPolicy(beta=beta, epsilon=online.model.config.epsilon).log_probs(Q)[0]

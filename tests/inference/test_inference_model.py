@@ -406,3 +406,14 @@ def test_online_updates_match_an_independent_reference_at_every_step():
         assert got.keys() == want.keys(), k
         for cmd, p in want.items():
             assert got[cmd] == pytest.approx(p, abs=1e-9), (k, cmd)
+
+
+def test_on_step_observes_inference_without_changing_it():
+    sc = get_scenario("kitchen-cereal-v0")
+    events = []
+    plain = SIFToM(ModelConfig())
+    watched = SIFToM(ModelConfig(), on_step=lambda ev, online, value: events.append((ev, online.n_actions)))
+    obs = Observation.from_scenario(sc, Instruction.from_text(SILVER))
+    a, b = plain.infer(obs), watched.infer(obs)
+    assert a.commands == b.commands
+    assert events == [("observe", k) for k in range(1, len(sc.actions) + 1)] + [("posterior", len(sc.actions))]

@@ -20,10 +20,9 @@ prior over commands; ``action-only`` drops the instruction term.
 
 from __future__ import annotations
 
-import math
 import time
 import weakref
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -31,12 +30,15 @@ from typing import Any
 import numpy as np
 
 from siftom.errors import ObservationError
+from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
 from siftom.likelihood.base import Instruction, InstructionLikelihood
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
+from siftom.logspace import group_logsumexp, logsumexp
 from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
 
+OnStep = Callable[[str, "OnlineInference", Any], None]
 MODES = ("full", "speech-only", "action-only")
 UNKNOWN = "unknown"
 
@@ -180,8 +182,13 @@ class Posterior:
 class SIFToM:
     """The model: build once per observation stream; ``infer`` or use ``online`` updates."""
 
-    def __init__(self, config: ModelConfig | None = None, likelihood: InstructionLikelihood | None = None) -> None:
+    def __init__(self, config: ModelConfig | None = None, likelihood: InstructionLikelihood | None = None,
+                 on_step: OnStep | None = None) -> None:
+        """``on_step(event, online, value)`` observes inference without touching the math:
+        ``("observe", online, action)`` after each action, ``("posterior", online, posterior)``
+        after each posterior (logging, plots, progress)."""
         self.config = config or ModelConfig()
+        self.on_step = on_step
         if likelihood is None and self.config.uses_speech:
             from siftom.likelihood.phonetic import PhoneticLikelihood
 
@@ -215,16 +222,17 @@ class OnlineInference:
         self._class_total = gs.class_total
         self.ctg = gs.ctg
         self._tabs = self.ctg.tables(start)
-        self._betas = np.asarray(cfg.betas, dtype=np.float64)
         # the unknown goal's commands, coded class * K + count (fixed for the domain)
         self._code_base = K = max(cfg.max_count, int(self._N_goal.max())) + 1
         tops = (np.minimum(self._class_total, cfg.max_count) if verb == "deliver"
                 else np.ones_like(self._class_total))
         self._unknown_codes = np.concatenate([c * K + np.arange(1, t + 1) for c, t in enumerate(tops) if t > 0])
         self._goal_names = [g.name for g in goals] + [UNKNOWN]
-        self._doubling = [b > 0 and self._betas[b] == 2 * self._betas[b - 1] for b in range(len(self._betas))]
-        self._row_ll = np.zeros((len(gs.sp), len(cfg.betas)))  # cumulative action log-lik per row per beta
-        self._unknown_ll = 0.0
+        # the model's parts (parts.py): priors and action models; the posterior only sums them
+        self.goal_prior = GoalPrior(cfg.unknown_prior)
+        self.part_prior = HelpfulPartPrior(cfg.help_kappa)
+        self.actions = BoltzmannActions(cfg.betas, cfg.epsilon, len(gs.sp))  # one row per human subgoal
+        self.unknown_actions = UniformActions()
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, action: Action) -> None:
@@ -234,37 +242,19 @@ class OnlineInference:
             raise ObservationError(f"{self.world.format_action(action)} is impossible here: {why}")
         if not self.model.config.uses_actions:
             self._advance(action)
+            if self.model.on_step is not None:
+                self.model.on_step("observe", self, action)
             return
         acts = list(legal_actions(self.world, self.state, HUMAN))
         # legal_actions writes grabs with their place and handovers to the other agent
         key = (action.kind, action.obj, action.place if action.kind != "grab" else self.state.item_at[action.obj])
         k = next(i for i, a in enumerate(acts) if (a.kind, a.obj, a.place) == key)
         Q = successor_values(self.ctg, self.state, self._tabs, acts, self._sp)  # (A, R)
-        self._row_ll += self._action_loglik(Q, k)
-        self._unknown_ll -= math.log(len(acts))
+        self.actions.observe(Q, k)
+        self.unknown_actions.observe(len(acts))
         self._advance(action)
-
-    def _action_loglik(self, Q: np.ndarray, k: int) -> np.ndarray:
-        """log P(a_k | s) under every row and beta, shape (R, B): Boltzmann with epsilon floor.
-
-        The same distribution as :class:`siftom.planning.policy.BoltzmannPolicy`, evaluated only
-        at the observed action and for the whole beta grid at once.
-
-        With Qs = Q - min_a Q >= 0, log P_beta(a_k) = -beta Qs[k] - log sum_a exp(-beta Qs[a]).
-        For a grid where each beta doubles the previous one, exp(-2 beta Qs) is the square of
-        exp(-beta Qs): one exp for the whole grid.
-        """
-        cfg = self.model.config
-        Qc = np.minimum(Q, 1e6)
-        Qs = Qc - Qc.min(axis=0)
-        lp = np.empty((len(self._betas), Q.shape[1]))
-        E = None
-        for b, beta in enumerate(self._betas):
-            E = E * E if E is not None and self._doubling[b] else np.exp(-beta * Qs)
-            lp[b] = -beta * Qs[k] - np.log(E.sum(axis=0))
-        if cfg.epsilon > 0:
-            lp = np.logaddexp(np.log1p(-cfg.epsilon) + lp, np.log(cfg.epsilon / Q.shape[0]))
-        return lp.T
+        if self.model.on_step is not None:
+            self.model.on_step("observe", self, action)
 
     def _advance(self, action: Action) -> None:
         s2 = apply(self.state, action)
@@ -319,31 +309,17 @@ class OnlineInference:
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:
             instr = np.zeros(len(cmds))
-        log_unknown = np.log(cfg.unknown_prior) if cfg.unknown_prior > 0 else -np.inf
         if cfg.mode == "speech-only":
             # uniform over the domain's commands, words alone
             lj = instr[unk_cmds] - np.log(len(unk_cmds))
             terms = np.stack([np.full(len(unk_cmds), -np.log(len(unk_cmds))), np.zeros(len(unk_cmds)), instr[unk_cmds]], 1)
         else:
-            # action term, marginalised over beta
-            nb = len(cfg.betas)
-            act_rows = logsumexp(self._row_ll, axis=1) - np.log(nb)
-            act = act_rows[rows]
-            # prior over robot parts: softmax of steps saved, within each goal
-            saved = self._steps_saved(goal_idx, rows)
-            z = cfg.help_kappa * saved
-            log_pr = z - _group_logsumexp(z, goal_idx, len(self.goals))[goal_idx]
-            has = np.bincount(goal_idx, minlength=len(self.goals)) > 0
-            log_pg = np.log1p(-cfg.unknown_prior) - np.log(max(int(has.sum()), 1))
-            prior = log_pg + log_pr
-            lj_known = prior + act + instr[cmd_of]
-            unk_prior = log_unknown - np.log(len(unk_cmds))
-            lj_unk = unk_prior + self._unknown_ll + instr[unk_cmds]
-            lj = np.concatenate([lj_known, lj_unk])
+            prior, act, unk_prior, unk_act = self._prior_and_actions(goal_idx, rows, len(unk_cmds))
             terms = np.concatenate([
                 np.stack([prior, act, instr[cmd_of]], 1),
-                np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), self._unknown_ll), instr[unk_cmds]], 1),
+                np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), unk_act), instr[unk_cmds]], 1),
             ])
+            lj = terms.sum(axis=1)
         logZ = logsumexp(lj)
         p = np.exp(lj - logZ)
         cmd_all = unk_cmds if cfg.mode == "speech-only" else np.concatenate([cmd_of, unk_cmds])
@@ -361,7 +337,7 @@ class OnlineInference:
         order = np.argsort(-lj, kind="stable")[:top]
         hyps = tuple(Hypothesis(goal_names[goal_all[i]], str(cmds[cmd_all[i]]), float(p[i]), float(terms[i, 0]),
                                 float(terms[i, 1]), float(terms[i, 2])) for i in order)
-        return Posterior(
+        post = Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,
             likelihood=getattr(self.model.likelihood, "name", "none") if instruction is not None else "none",
             n_actions=self.n_actions, seconds=time.perf_counter() - t0,
@@ -369,20 +345,29 @@ class OnlineInference:
             joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
                                  self.state),
         )
+        if self.model.on_step is not None:
+            self.model.on_step("posterior", self, post)
+        return post
+
+    def _prior_and_actions(self, goal_idx: np.ndarray, rows: np.ndarray,
+                           n_unknown: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """log P(g) P(pi_r | g) and the action term per known hypothesis; the same for each
+        unknown-goal command (a constant each)."""
+        n_goals = len(self.goals)
+        prior = (self.goal_prior.log_known(goal_idx, n_goals)
+                 + self.part_prior.log_prob(self._steps_saved(goal_idx, rows), goal_idx, n_goals))
+        return (prior, self.actions.log_lik(rows), self.goal_prior.log_unknown(n_unknown),
+                self.unknown_actions.cumulative)
 
     def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,
                  n_cmds: int) -> np.ndarray:
         """log P(command | actions) up to a constant: the posterior without the instruction term."""
-        cfg = self.model.config
-        act = logsumexp(self._row_ll, axis=1)[rows] - np.log(len(cfg.betas))
-        z = cfg.help_kappa * self._steps_saved(goal_idx, rows)
-        log_pr = z - _group_logsumexp(z, goal_idx, len(self.goals))[goal_idx]
-        n_goals = max(int((np.bincount(goal_idx, minlength=len(self.goals)) > 0).sum()), 1)
-        known = _group_logsumexp(log_pr + act, cmd_of, n_cmds) + np.log1p(-cfg.unknown_prior) - np.log(n_goals)
-        if cfg.unknown_prior <= 0:
+        prior, act, unk_prior, unk_act = self._prior_and_actions(goal_idx, rows, len(unk_cmds))
+        known = group_logsumexp(prior + act, cmd_of, n_cmds)
+        if not np.isfinite(unk_prior):
             return known
         unk = np.full(n_cmds, -np.inf)
-        unk[unk_cmds] = np.log(cfg.unknown_prior) - np.log(len(unk_cmds)) + self._unknown_ll
+        unk[unk_cmds] = unk_prior + unk_act
         return np.logaddexp(known, unk)
 
     def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -463,21 +448,3 @@ def _subgoal_rows(key: bytes, G: int, C: int):
 @lru_cache(maxsize=65536)
 def _command(verb: str, cls: str, n: int) -> RobotCommand:
     return RobotCommand(verb, cls, n)
-
-
-def logsumexp(x: np.ndarray, axis: int | None = None) -> np.ndarray:
-    """log(sum(exp(x))) along ``axis``, stable; the one place probabilities are normalised."""
-    m = np.max(x, axis=axis, keepdims=True)
-    m = np.where(np.isfinite(m), m, 0.0)
-    out = np.log(np.sum(np.exp(x - m), axis=axis, keepdims=True)) + m
-    return out.squeeze(axis=axis) if axis is not None else out.reshape(())
-
-
-def _group_logsumexp(x: np.ndarray, groups: np.ndarray, n: int) -> np.ndarray:
-    """logsumexp of ``x`` within each group (0..n-1); -inf for empty groups."""
-    m = np.full(n, -np.inf)
-    np.maximum.at(m, groups, x)
-    m_safe = np.where(np.isfinite(m), m, 0.0)
-    s = np.bincount(groups, weights=np.exp(x - m_safe[groups]), minlength=n)
-    with np.errstate(divide="ignore"):
-        return np.log(s) + m_safe

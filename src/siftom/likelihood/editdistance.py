@@ -9,17 +9,6 @@ import numpy as np
 
 from siftom.likelihood.phonemes import PAD, PHONEME_ID, SUB_COST, indel_cost, substitution_cost
 
-
-def logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray:
-    """log(sum(exp(a))) along ``axis``; rows of -inf give -inf (scipy's costs ~0.2 ms a call)."""
-    a = np.asarray(a, dtype=float)
-    m = np.max(a, axis=axis, keepdims=True)
-    m = np.where(np.isfinite(m), m, 0.0)
-    with np.errstate(divide="ignore"):
-        out = np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m
-    return np.squeeze(out, axis=axis) if axis is not None else out.reshape(())
-
-
 # -- weighted edit distance -------------------------------------------------------------------
 
 

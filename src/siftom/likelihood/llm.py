@@ -28,9 +28,9 @@ import numpy as np
 from siftom.backends.config import BACKENDS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
-from siftom.likelihood.editdistance import logsumexp
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonemes import normalize_text
+from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 

@@ -19,7 +19,6 @@ from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexic
 from siftom.likelihood.editdistance import (
     PhonemeTrie,
     encode,
-    logsumexp,
     trie_edit_distance,
 )
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
@@ -33,6 +32,7 @@ from siftom.likelihood.phonemes import (
     word_phonemes,
 )
 from siftom.likelihood.phrasing import FILLER_WORDS, content_prior
+from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 

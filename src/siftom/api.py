@@ -19,6 +19,7 @@ from siftom.errors import ObservationError
 from siftom.inference.listen import ENGINES, LOCK, NO_SPEECH, ONLINE, Heard, hear, resolve_scene  # noqa: F401
 from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
+from siftom.world.commands import MAX_COUNT
 
 LikelihoodArg = str | InstructionLikelihood
 
@@ -136,7 +137,7 @@ def infer_actions(
     return get_model(mode, likelihood, llm).infer(obs)
 
 
-def vocabulary_for(world: Any, verb: str, max_count: int = 4) -> list[str]:
+def vocabulary_for(world: Any, verb: str, max_count: int = MAX_COUNT) -> list[str]:
     """Every phrasing of every command this world affords: the biased ASR vocabulary."""
     from siftom.likelihood.phrasing import command_vocabulary
 

@@ -23,7 +23,7 @@ from functools import lru_cache
 
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phrasing import NUMBER_WORDS
-from siftom.world.commands import RobotCommand
+from siftom.world.commands import MAX_COUNT, RobotCommand
 
 NONE = "none"
 NUMBERS: dict[str, int] = {w: i for i, w in enumerate(NUMBER_WORDS)}
@@ -89,7 +89,7 @@ def literal_command(
     text: str,
     scenario: object,
     lexicon: Lexicon | None = None,
-    max_count: int = 4,
+    max_count: int = MAX_COUNT,
 ) -> RobotCommand | None:
     """The robot command a literal parser makes of ``text`` in ``scenario`` (None: do nothing).
 

@@ -37,7 +37,7 @@ import numpy as np
 from siftom.backends.config import LLMConfig, llm_configured
 from siftom.errors import BackendUnavailableError
 from siftom.likelihood.llm import describe_command
-from siftom.world.commands import RobotCommand
+from siftom.world.commands import MAX_COUNT, RobotCommand
 
 LLM_MODELS = ("llm-end-to-end", "llm-ablated-siftom")
 
@@ -197,7 +197,7 @@ def _first_token_choice(data: dict[str, Any], n: int) -> np.ndarray | None:
     return p / p.sum()
 
 
-def command_space(scenario: Any, max_count: int = 4) -> list[RobotCommand]:
+def command_space(scenario: Any, max_count: int = MAX_COUNT) -> list[RobotCommand]:
     """Every command of the scenario's domain (what the baselines choose from)."""
     out = []
     for c in scenario.world.classes:

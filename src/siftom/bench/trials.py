@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
 from siftom.bench.stimuli import Stimulus, scenario_for
 from siftom.errors import SiftomError
+from siftom.world.commands import MAX_COUNT
 
 if TYPE_CHECKING:
     from siftom.bench.evaluate import EvalOptions
@@ -27,7 +28,6 @@ OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
 LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
 ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
 DEFAULT_ENGINE = "pocketsphinx-vocab"  # the evaluator's: recognition biased to the scene's phrasings
-MAX_COUNT = 4  # the largest count in the command space (ModelConfig.max_count)
 
 
 # -- per-process state (engines, caches) -------------------------------------------------------

@@ -35,7 +35,7 @@ from siftom.likelihood.base import Instruction, InstructionLikelihood
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.logspace import group_logsumexp, logsumexp
 from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
-from siftom.world.commands import RobotCommand
+from siftom.world.commands import MAX_COUNT, RobotCommand
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
 
 OnStep = Callable[[str, "OnlineInference", Any], None]
@@ -53,7 +53,7 @@ class ModelConfig:
     unknown_prior: float = 0.02
     help_kappa: float = 0.1
     speech_weight: float = 1.0
-    max_count: int = 4
+    max_count: int = MAX_COUNT
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

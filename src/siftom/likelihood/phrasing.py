@@ -33,7 +33,7 @@ import numpy as np
 
 from siftom.errors import CommandParseError, unknown_name
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
-from siftom.world.commands import RobotCommand
+from siftom.world.commands import MAX_COUNT, RobotCommand
 
 NUMBER_WORDS = ["zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten", "eleven", "twelve", "thirteen", "fourteen", "fifteen", "sixteen", "seventeen", "eighteen", "nineteen", "twenty"]
 
@@ -257,7 +257,7 @@ def sample_phrasing(
     return ph[int(rng.choice(len(ph), p=prob))].text
 
 
-def command_vocabulary(classes: Sequence[str], verb: str, max_count: int = 4,
+def command_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT,
                        lexicon: Lexicon | None = None) -> list[str]:
     """Every phrasing of every command over ``classes`` (counts 1..max_count for ``deliver``),
     in order, without repeats: the sentences a scene-biased ASR language model is built from."""

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from siftom.errors import CommandParseError
 
 VERBS = ("deliver", "fetch")
+MAX_COUNT = 4  # the largest count a command asks for: the command space is COUNT in 1..MAX_COUNT
 _COMMAND_RE = re.compile(r"^\s*(\w+)\s*\(\s*([A-Za-z_][\w]*)\s*(?:,\s*(\d+)\s*)?\)\s*$")
 VALID_FORMS = "deliver(CLASS,COUNT), e.g. deliver(fork,3); fetch(CLASS) or fetch(CLASS,COUNT), e.g. fetch(cereal)"
 

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from support.fake_openai import Reply, chat_answer, echo_logprobs
 
 from siftom.inference.api import infer_scenario, make_instruction
+from support.fake_openai import Reply, chat_answer, echo_logprobs
 
 HEARD = "can you pass me the silver"
 

@@ -162,3 +162,36 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
     assert all(r["models"][m]["command"].startswith("deliver(fork,") for r in rows for m in lb.LLM_MODELS)
     summary = json.loads((tmp_path / "llm" / "summary.json").read_text())
     assert set(summary["models"]) == {"siftom", *lb.LLM_MODELS}
+
+
+def test_siftom_llm_and_chat_baselines_run_against_an_endpoint(tiny: Path, tmp_path: Path, fake_openai) -> None:
+    """siftom-llm scores prompts at /completions; the baselines, finding no echo log-probs
+    there for their prompts, ask /chat/completions instead (multiple choice)."""
+    import re
+
+    from siftom.backends.config import LLMConfig
+    from support.fake_openai import Reply, chat_answer, echo_logprobs
+
+    def likes_forks(text, offset, token):
+        return -0.1 if "forks" in text.rsplit("Command:", 1)[-1] else -2.0
+
+    def completions(req):
+        if any("Choose the robot command" in p for p in req.body["prompt"]):
+            return Reply.error(400, "echo is not supported with logprobs for this model")
+        return echo_logprobs(likes_forks)(req)
+
+    def chat(req):
+        opts = dict(re.findall(r"^(\d+)\. (.*)$", req.body["messages"][-1]["content"], flags=re.M))
+        k = next(n for n, c in opts.items() if "forks, 2" in c)
+        return Reply.json(chat_answer(k, top_logprobs=[[(k, -0.05)]]))
+
+    fake_openai.on("completions", completions).on("chat/completions", chat)
+    llm = LLMConfig(backend="openai", base_url=fake_openai.url, model="m", cache_dir=tmp_path / "cache")
+    models = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
+    evaluate(tiny, tmp_path / "r", EvalOptions(models=models, llm=llm), workers=1)
+    rows = load_results(tmp_path / "r")
+    assert all(r["models"]["llm-end-to-end"]["command"] == "deliver(fork,2)" for r in rows)
+    assert all(r["models"]["siftom-llm"]["command"].startswith("deliver(fork,") for r in rows)
+    assert fake_openai.bodies("chat/completions") and fake_openai.bodies("completions")
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["options"]["llm"] == {"backend": "openai", "base_url": fake_openai.url, "model": "m"}

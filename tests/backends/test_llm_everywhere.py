@@ -48,7 +48,21 @@ def _check_scoring_requests(server, heard: str = HEARD) -> None:
     assert len({re.findall(r"Command: (.*)\n", p)[-1] for p in prompts}) == 42  # every kitchen item
 
 
+def test_siftom_infer_reads_the_environment(endpoint):
+    from click.testing import CliRunner
+
+    from siftom.cli import root
+
+    res = CliRunner().invoke(root, ["infer", "--scenario", "kitchen-cereal-v0", "--transcript", HEARD,
+                                    "--likelihood", "llm", "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.output)["command"] == "fetch(cereal)"
+    _check_scoring_requests(endpoint)
+
+
+@pytest.mark.slow
 def test_siftom_infer_uses_the_endpoint_from_the_environment(endpoint):
+    """The installed command in a fresh process, configured by the environment alone."""
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")}
     out = subprocess.run([sys.executable, "-m", "siftom.cli", "infer", "--scenario", "kitchen-cereal-v0",
                           "--transcript", HEARD, "--likelihood", "llm", "--json"],

@@ -207,3 +207,35 @@ def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny_results: Path)
     assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-eb"))
     # no chance constraint (alpha = 1) is the risk-neutral rule
     assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])
+
+def test_siftom_llm_and_chat_baselines_run_against_an_endpoint(tiny: Path, tmp_path: Path, fake_openai) -> None:
+    """siftom-llm scores prompts at /completions; the baselines, finding no echo log-probs
+    there for their prompts, ask /chat/completions instead (multiple choice)."""
+    import re
+
+    from siftom.backends.config import LLMConfig
+    from support.fake_openai import Reply, chat_answer, echo_logprobs
+
+    def likes_forks(text, offset, token):
+        return -0.1 if "forks" in text.rsplit("Command:", 1)[-1] else -2.0
+
+    def completions(req):
+        if any("Choose the robot command" in p for p in req.body["prompt"]):
+            return Reply.error(400, "echo is not supported with logprobs for this model")
+        return echo_logprobs(likes_forks)(req)
+
+    def chat(req):
+        opts = dict(re.findall(r"^(\d+)\. (.*)$", req.body["messages"][-1]["content"], flags=re.M))
+        k = next(n for n, c in opts.items() if "forks, 2" in c)
+        return Reply.json(chat_answer(k, top_logprobs=[[(k, -0.05)]]))
+
+    fake_openai.on("completions", completions).on("chat/completions", chat)
+    llm = LLMConfig(backend="openai", base_url=fake_openai.url, model="m", cache_dir=tmp_path / "cache")
+    models = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
+    evaluate(tiny, tmp_path / "r", EvalOptions(models=models, llm=llm), workers=1)
+    rows = load_results(tmp_path / "r")
+    assert all(r["models"]["llm-end-to-end"]["command"] == "deliver(fork,2)" for r in rows)
+    assert all(r["models"]["siftom-llm"]["command"].startswith("deliver(fork,") for r in rows)
+    assert fake_openai.bodies("chat/completions") and fake_openai.bodies("completions")
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["options"]["llm"] == {"backend": "openai", "base_url": fake_openai.url, "model": "m"}

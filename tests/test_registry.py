@@ -104,3 +104,27 @@ def test_healthz_lists_the_plugins(tmp_path):
     with TestClient(create_app(tmp_path)) as c:
         body = c.get("/healthz").json()
     assert {e["name"] for e in body["plugins"]["decision rule"]} == {"map", "expected-benefit", "ask-or-act"}
+
+
+KINDS = ("domain", "voice", "decision rule", "instruction likelihood", "ASR engine", "LLM backend")
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_each_kind_is_one_registry_that_explains_refusals_before_construction(kind, monkeypatch):
+    import importlib.util
+
+    regs = load_all()
+    assert kind in regs, f"{kind} is not registered through siftom.registry"
+    reg = regs[kind]
+    with pytest.raises(UnknownNameError, match="Valid:"):
+        reg.spec("no-such-thing")
+    needing = [reg.spec(n) for n in reg.names() if reg.spec(n).requires or reg.spec(n).binaries]
+    if not needing:
+        return
+    entry = needing[0]
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in entry.requires else real(name, *a))
+    monkeypatch.setattr("shutil.which", lambda name: None)
+    with pytest.raises(BackendUnavailableError, match=r"pip install|apt-get install"):
+        reg.make(entry.name)

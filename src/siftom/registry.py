@@ -201,6 +201,7 @@ _DEFINERS = (
     "siftom.assist.decide",
     "siftom.likelihood.registry",
     "siftom.speech.asr.base",
+    "siftom.backends.config",
 )
 
 

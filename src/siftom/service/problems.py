@@ -190,3 +190,31 @@ class SecurityHeadersMiddleware:
             await send(msg)
 
         await self.app(scope, receive, add_headers)
+
+
+async def read_audio_form(request: Request, *, max_fields: int, max_part_size: int) -> tuple[dict[str, str], bytes]:
+    """A multipart upload with one file field ``audio`` and text fields (each given once):
+    returns (fields, audio bytes); a malformed form is a 400, a missing or repeated field a 422."""
+    from starlette.datastructures import UploadFile
+
+    try:
+        form = await request.form(max_files=1, max_fields=max_fields, max_part_size=max_part_size)
+    except Exception as exc:  # malformed multipart, too many parts
+        detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
+        raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
+    try:
+        audio = form.get("audio")
+        if not isinstance(audio, UploadFile):
+            raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
+                               [{"loc": "audio", "msg": "a file is required"}])
+        fields: dict[str, str] = {}
+        for k, v in form.multi_items():
+            if k == "audio":
+                continue
+            if k in fields or not isinstance(v, str):
+                raise ProblemError(422, "validation", f"{k}: give the field once, as text",
+                                   [{"loc": k, "msg": "repeated or not text"}])
+            fields[k] = v
+        return fields, await audio.read()
+    finally:
+        await form.close()

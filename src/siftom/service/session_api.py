@@ -16,11 +16,10 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse, Response
-from starlette.datastructures import UploadFile
 
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
-from siftom.service.problems import PROBLEM_JSON, ProblemError
+from siftom.service.problems import PROBLEM_JSON, ProblemError, read_audio_form
 from siftom.service.session_schemas import (
     AUDIO_INSTRUCTION_SCHEMA,
     SESSION_ID,
@@ -136,28 +135,8 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
                            f"multipart/form-data (an audio file), not {media or 'no Content-Type'}")
 
     async def _audio(request: Request, session_id: str) -> dict[str, Any]:
-        try:
-            form = await request.form(max_files=1, max_fields=8, max_part_size=settings.max_body_bytes)
-        except Exception as exc:  # malformed multipart, too many parts
-            detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
-            raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
-        try:
-            audio = form.get("audio")
-            if not isinstance(audio, UploadFile):
-                raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
-                                   [{"loc": "audio", "msg": "a file is required"}])
-            fields: dict[str, Any] = {}
-            for k, v in form.multi_items():
-                if k == "audio":
-                    continue
-                if k in fields or not isinstance(v, str):
-                    raise ProblemError(422, "validation", f"{k}: give the field once, as text",
-                                       [{"loc": k, "msg": "repeated or not text"}])
-                fields[k] = v
-            opts = AudioInstructionFields.model_validate(fields)
-            data = await audio.read()
-        finally:
-            await form.close()
+        fields, data = await read_audio_form(request, max_fields=8, max_part_size=settings.max_body_bytes)
+        opts = AudioInstructionFields.model_validate(fields)
 
         def work() -> dict[str, Any]:
             sess = mgr.get(session_id)  # an unknown id fails before decoding

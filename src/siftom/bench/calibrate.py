@@ -27,19 +27,12 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct)."""
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.evaluate import _engine, asr_vocabulary
     from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import is_correct
+    from siftom.bench.trials import _engine, dataset_vocabulary, is_correct
     from siftom.inference.model import Observation
 
     ds = load_dataset(dataset)
-    classes: set[str] = set()
-    verbs: set[str] = set()
-    for s in ds.stimuli:
-        sc = scenario_for(s)
-        classes.update(sc.world.classes)
-        verbs.add(sc.verb)
-    vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
+    vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
     asr = _engine(engine, vocab)
     model = get_model(mode, "acoustic")
     lk = model.likelihood

@@ -43,7 +43,7 @@ from siftom.bench.results_io import (
     split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
-from siftom.bench.stimuli import Dataset, Stimulus, load_dataset, scenario_for
+from siftom.bench.stimuli import Dataset, Stimulus, load_dataset
 from siftom.bench.trials import (
     ACOUSTIC_MODELS,
     DEFAULT_ENGINE,
@@ -53,7 +53,7 @@ from siftom.bench.trials import (
     _eval_stimuli,
     _run_task,
     _Task,
-    asr_vocabulary,
+    dataset_vocabulary,
     scenario_key,
 )
 from siftom.errors import DatasetError, unknown_name
@@ -225,14 +225,7 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
     run_info["code"] = prov["code"]
     _write_json(run_path, run_info)
 
-    # the ASR vocabulary covers every class of every scenario in the dataset
-    classes: set[str] = set()
-    verbs: set[str] = set()
-    for s in ds.stimuli:
-        sc = scenario_for(s)
-        classes.update(sc.world.classes)
-        verbs.add(sc.verb)
-    vocab = tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
+    vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
     if is_scene_engine(opts.engine) and pending and be.name == "local":
         _engine(opts.engine, vocab)  # build the LM once, before pool workers fork and race to build it
 

@@ -43,6 +43,17 @@ def asr_vocabulary(classes: Sequence[str], verb: str, max_count: int = MAX_COUNT
     return tuple(command_vocabulary(sorted(set(classes)), verb, max_count))
 
 
+def dataset_vocabulary(stimuli: Sequence[Stimulus]) -> tuple[str, ...]:
+    """The ASR vocabulary of a dataset: every phrasing over every class of every scenario in it."""
+    classes: set[str] = set()
+    verbs: set[str] = set()
+    for s in stimuli:
+        sc = scenario_for(s)
+        classes.update(sc.world.classes)
+        verbs.add(sc.verb)
+    return tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
+
+
 def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
     from siftom.speech.asr.base import get_engine, is_scene_engine
 

@@ -136,10 +136,9 @@ class RobotPlanOut(BaseModel):
     nodes_expanded: int
 
 
-class InferResponse(BaseModel):
-    """The posterior (``Posterior.to_json``) plus what was heard, the question and the robot's plan."""
+class PosteriorOut(BaseModel):
+    """``Posterior.to_json`` plus what was heard: shared by /v1/infer and session instructions."""
 
-    scenario: str
     command: str
     commands: list[CommandProb]
     goals: list[GoalProb]
@@ -151,6 +150,12 @@ class InferResponse(BaseModel):
     seconds: float
     nbest: list[NBestItem]
     asr: dict[str, Any] | None = None
+
+
+class InferResponse(PosteriorOut):
+    """The posterior (``Posterior.to_json``) plus what was heard, the question and the robot's plan."""
+
+    scenario: str
     # audio requests only: whether speech was detected ("no speech heard": the actions alone decide)
     speech_heard: bool | None = None
     message: str | None = None

@@ -16,6 +16,7 @@ from siftom.service.schemas import (
     GoalProb,
     Mode,
     NBestItem,
+    PosteriorOut,
     RobotPlanOut,
     Strict,
 )
@@ -120,21 +121,10 @@ class Belief(BaseModel):
     commands: list[CommandProb]
 
 
-class InstructionResponse(BaseModel):
+class InstructionResponse(PosteriorOut):
     """The posterior given every action so far and what was heard, the question and the plan."""
 
     session: str
-    command: str
-    commands: list[CommandProb]
-    goals: list[GoalProb]
-    hypotheses: list[dict[str, Any]]
-    mode: str
-    likelihood: str
-    n_actions: int
-    transcript: str
-    seconds: float
-    nbest: list[NBestItem]
-    asr: dict[str, Any] | None = None
     clarification: ClarificationOut
     plan: RobotPlanOut | None = None
 

@@ -40,11 +40,11 @@ DEFAULT_ASK_COST = 2.0
 # Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
 # Lagrange multiplier of a budget of questions per trial, chosen on a development set of
 # another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 4.0
+DEFAULT_QUESTION_PENALTY = 4.5
 # A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
 # is worse than one who does nothing); chosen on a development set of another seed
 # (docs/decisions.md; `siftom bench loss-aversion`).
-DEFAULT_LOSS_AVERSION = 4.0
+DEFAULT_LOSS_AVERSION = 3.0
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
 

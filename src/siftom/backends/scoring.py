@@ -33,12 +33,11 @@ def default_cache_dir() -> Path:
     return cache_root()
 
 
-class ScoreCache:
-    """A persistent map from (model, prompt, target) to a log-probability, in SQLite.
+class _SqliteMap:
+    """A thread- and process-safe key -> value table in one SQLite file (the caches below)."""
 
-    Keys are SHA-256 hashes, so prompts of any length are cheap to store and look up.
-    Safe to share between threads of one process and between processes.
-    """
+    TABLE = ""
+    COLUMNS = ""
 
     def __init__(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -46,7 +45,26 @@ class ScoreCache:
         self._lock = threading.Lock()
         self._db = sqlite3.connect(str(path), check_same_thread=False, timeout=30)
         with self._lock, self._db:
-            self._db.execute("CREATE TABLE IF NOT EXISTS scores (key TEXT PRIMARY KEY, logp REAL)")
+            self._db.execute(f"CREATE TABLE IF NOT EXISTS {self.TABLE} ({self.COLUMNS})")
+
+    def __len__(self) -> int:
+        with self._lock:
+            return int(self._db.execute(f"SELECT COUNT(*) FROM {self.TABLE}").fetchone()[0])
+
+    def close(self) -> None:
+        """Close the database."""
+        with self._lock:
+            self._db.close()
+
+
+class ScoreCache(_SqliteMap):
+    """A persistent map from (model, prompt, target) to a log-probability, in SQLite.
+
+    Keys are SHA-256 hashes, so prompts of any length are cheap to store and look up.
+    Safe to share between threads of one process and between processes.
+    """
+
+    TABLE, COLUMNS = "scores", "key TEXT PRIMARY KEY, logp REAL"
 
     @staticmethod
     def key(model: str, prompt: str, target: str) -> str:
@@ -68,26 +86,11 @@ class ScoreCache:
         with self._lock, self._db:
             self._db.executemany("INSERT OR REPLACE INTO scores VALUES (?, ?)", list(values.items()))
 
-    def __len__(self) -> int:
-        with self._lock:
-            return int(self._db.execute("SELECT COUNT(*) FROM scores").fetchone()[0])
 
-    def close(self) -> None:
-        """Close the database."""
-        with self._lock:
-            self._db.close()
-
-
-class ResponseCache:
+class ResponseCache(_SqliteMap):
     """A persistent map from a request (hashed) to the endpoint's JSON answer, in SQLite."""
 
-    def __init__(self, path: Path) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.path = path
-        self._lock = threading.Lock()
-        self._db = sqlite3.connect(str(path), check_same_thread=False, timeout=30)
-        with self._lock, self._db:
-            self._db.execute("CREATE TABLE IF NOT EXISTS responses (key TEXT PRIMARY KEY, body TEXT)")
+    TABLE, COLUMNS = "responses", "key TEXT PRIMARY KEY, body TEXT"
 
     def get(self, key: str) -> str | None:
         """The stored answer, or None."""
@@ -99,7 +102,3 @@ class ResponseCache:
         """Store an answer (replacing any present)."""
         with self._lock, self._db:
             self._db.execute("INSERT OR REPLACE INTO responses VALUES (?, ?)", (key, body))
-
-    def __len__(self) -> int:
-        with self._lock:
-            return int(self._db.execute("SELECT COUNT(*) FROM responses").fetchone()[0])

@@ -305,3 +305,22 @@ def test_ablation_sessions(folder, mode, want):
     assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS}).status_code == 200
     body = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the potato"}).json()
     assert body["mode"] == mode and body["command"] in want
+
+
+def test_a_silent_recording_is_no_speech_and_the_actions_decide(folder):
+    import io
+
+    import numpy as np
+    import soundfile as sf
+
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    c.post(f"/v1/sessions/{sid}/actions", json={"actions": SALAD_ACTIONS})
+    buf = io.BytesIO()
+    sf.write(buf, np.zeros(16000 * 2, dtype=np.float32), 16000, format="WAV", subtype="PCM_16")
+    r = c.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("silence.wav", buf.getvalue(), "audio/wav")})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["speech_heard"] is False and body["message"] == "no speech heard"
+    assert body["nbest"] == [] and body["likelihood"] == "none"
+    assert body["command"]  # the belief from the actions alone still names a command

@@ -139,18 +139,19 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
         opts = AudioInstructionFields.model_validate(fields)
 
         def work() -> dict[str, Any]:
+            from siftom.inference.listen import NO_SPEECH, hear
+
             sess = mgr.get(session_id)  # an unknown id fails before decoding
             x = rt.decode_audio(data)
             eng = rt._engine_for(sess.scene)  # a decoder biased to this world's command phrasings
-            with eng.lock:
-                tr = eng.engine.transcribe(x, nbest=opts.asr_nbest)
-            nbest = [(h.text, h.score) for h in tr.nbest if h.text]
-            if not nbest:
-                from siftom.errors import AudioError
-
-                raise AudioError("nothing was recognised in the recording; speak closer to the microphone")
-            return mgr.instruct(session_id, make_instruction(nbest=nbest), opts.top,
-                                ClarifyPolicy(opts.threshold, opts.cost), asr=tr.to_json())
+            with eng.lock:  # voice-activity detection first: silence or noise is not words
+                instruction, tr, vad, _ = hear(x, eng.engine, opts.asr_nbest)
+            body = mgr.instruct(session_id, instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
+                                asr=tr.to_json() if tr is not None else None)
+            body["speech_heard"] = instruction is not None
+            body["message"] = "" if instruction is not None else NO_SPEECH
+            body["vad"] = vad.to_json()
+            return body
 
         return await run_cpu(work)
 

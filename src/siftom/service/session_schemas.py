@@ -125,6 +125,10 @@ class InstructionResponse(PosteriorOut):
     """The posterior given every action so far and what was heard, the question and the plan."""
 
     session: str
+    # audio instructions only: whether speech was detected ("no speech heard": the actions alone decide)
+    speech_heard: bool | None = None
+    message: str | None = None
+    vad: dict[str, Any] | None = None
     clarification: ClarificationOut
     plan: RobotPlanOut | None = None
 

@@ -103,14 +103,14 @@ def scene_to_world(graph: SceneGraph, strict: bool = True) -> PerceivedScene:
     if len(place_ids) > MAX_PLACES:
         raise PerceptionError(f"the scene has {len(place_ids)} surfaces and containers; at most {MAX_PLACES} "
                               "are supported, list only the furniture that holds objects or where people stand")
-    room_name = _room_names(graph, [r.id for r in view.rooms])
+    room_name = _names(graph, [r.id for r in view.rooms])
     for pid in place_ids:
         if view.room_of(pid) is None:
             problems.append(f"furniture {graph.node(pid).label} is in no room; add an INSIDE edge to its room")
     if problems:
         more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
         raise PerceptionError("invalid scene: " + "; ".join(problems[:5]) + more)
-    names = _names(graph, place_ids + items)
+    names = _names(graph, sorted(place_ids + items))
     places = []
     for pid in place_ids:
         cont = view.container(pid)
@@ -137,23 +137,12 @@ def scene_to_world(graph: SceneGraph, strict: bool = True) -> PerceivedScene:
     return PerceivedScene(graph, world, names)
 
 
-def _room_names(graph: SceneGraph, rooms: list[int]) -> dict[int, str]:
-    counts = Counter(clean_class(graph.node(r).class_name) for r in rooms)
-    seen: dict[str, int] = defaultdict(int)
-    out = {}
-    for r in rooms:
-        cls = clean_class(graph.node(r).class_name)
-        seen[cls] += 1
-        out[r] = cls if counts[cls] == 1 else f"{cls}_{seen[cls]}"
-    return out
-
-
 def _names(graph: SceneGraph, ids: list[int]) -> dict[int, str]:
-    ordered = sorted(ids)
-    counts = Counter(clean_class(graph.node(i).class_name) for i in ordered)
+    """``class`` when a class occurs once among ``ids``, else ``class_1``, ``class_2`` … in order."""
+    counts = Counter(clean_class(graph.node(i).class_name) for i in ids)
     seen: dict[str, int] = defaultdict(int)
     out = {}
-    for i in ordered:
+    for i in ids:
         cls = clean_class(graph.node(i).class_name)
         seen[cls] += 1
         out[i] = cls if counts[cls] == 1 else f"{cls}_{seen[cls]}"

@@ -132,19 +132,20 @@ class VisionModel:
         parts: list[dict[str, Any]] = [{"type": "text", "text": prompt}]
         parts += [{"type": "image_url", "image_url": {"url": f.data_url()}} for f in frames]
         messages: list[dict[str, Any]] = [{"role": "system", "content": SYSTEM}, {"role": "user", "content": parts}]
+        def validated(text: str | None) -> tuple[Any, Any]:
+            answer = parse_answer(text)
+            check_schema(answer, schema)
+            return answer, check(answer)
+
         content = self._chat(messages, schema, stage)
         try:
-            answer = parse_answer(content)
-            check_schema(answer, schema)
-            value = check(answer)
+            answer, value = validated(content)
         except PerceptionError as first:
             messages += [{"role": "assistant", "content": content or ""},
                          {"role": "user", "content": RETRY.format(error=first)}]
             content = self._chat(messages, schema, stage)
             try:
-                answer = parse_answer(content)
-                check_schema(answer, schema)
-                value = check(answer)
+                answer, value = validated(content)
             except PerceptionError as second:
                 why = f"{second}" if str(second) == str(first) else f"first: {first}; after being told: {second}"
                 raise PerceptionError(

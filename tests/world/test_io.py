@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from siftom.errors import ObservationError
-from siftom.world.io import load_scene, scene_from_json
+from siftom.world.io import load_scene, scene_from_json, scene_warnings
 from siftom.world.model import NOTHING
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "scene_three_rooms.json"
@@ -88,3 +88,33 @@ def test_the_virtualhome_apartment_loads_with_the_household_goal_space():
     scene = load_scene(VIRTUALHOME)
     assert "fork" in scene.world.classes and len(scene.goals) > 0
     assert all(g.target == scene.start.agent_at[0] for g in scene.goals)
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"VirtualHome apartment not found at {VIRTUALHOME}")
+def test_objects_the_goal_space_cannot_use_are_reported_not_dropped_silently():
+    scene = load_scene(VIRTUALHOME)
+    left_out = [n for n in scene.notes if "left out" in n and "no household-table-v0 goal uses" in n]
+    assert left_out, scene.notes
+    assert "book x7" in left_out[0] and "'goals'" in left_out[0]  # names the classes and the fix
+    assert any("rest on no furniture" in n and "cutleryknife x2" in n for n in scene.notes)
+    obj = json.loads(VIRTUALHOME.read_text())
+    assert scene_warnings(obj, scene)[: len(scene.notes)] == list(scene.notes)
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"VirtualHome apartment not found at {VIRTUALHOME}")
+def test_a_goals_list_in_the_graph_keeps_objects_of_any_class(tmp_path):
+    obj = json.loads(VIRTUALHOME.read_text())
+    obj["goals"] = [{"name": "bedtime", "counts": {"pillow": 2}}, {"name": "read", "counts": {"book": 1}}]
+    path = tmp_path / "graph.json"
+    path.write_text(json.dumps(obj))
+    scene = load_scene(path, target="kitchentable")
+    assert {"pillow", "book"} <= set(scene.world.classes)
+    assert {g.name for g in scene.goals} == {"bedtime", "read"}
+    unused = next(n for n in scene.notes if "no given goal uses" in n)
+    assert "pillow" not in unused and "book" not in unused
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"VirtualHome apartment not found at {VIRTUALHOME}")
+def test_the_kitchen_goal_space_keeps_foods_named_as_in_virtualhome():
+    scene = load_scene(VIRTUALHOME, goal_space="kitchen-v0", target="kitchencounter")
+    assert "apple" in scene.world.classes  # VirtualHome's own class name, used by kitchen-v0 goals

@@ -98,9 +98,10 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
             from siftom.world.scenegraph import SceneGraph
 
             space = spec.get("goal_space") or "household-table-v0"
+            goals = spec.get("goals") or world.get("goals")
             scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.get("target") or world.get("target"),
-                                          goal_space=space)
-            lib_spec: dict[str, Any] = {"goal_space": space}
+                                          goal_space=space, goals=goals)
+            lib_spec: dict[str, Any] = {"goals": goals} if goals else {"goal_space": space}
         else:
             obj = dict(world)
             if spec.get("goal_space"):
@@ -121,7 +122,8 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
     if len(scene.world.items) > max_items:
         raise ObservationError(f"the world holds {len(scene.world.items)} objects, more than the {max_items} "
                                "this server allows (--max-world-items); leave out objects no goal mentions")
-    warnings = unmentioned_class_warnings(scene.world, goal_library(lib_spec, scene.goals[0].target))
+    warnings = [*scene.notes,
+                *unmentioned_class_warnings(scene.world, goal_library(lib_spec, scene.goals[0].target))]
     return scene, warnings
 
 

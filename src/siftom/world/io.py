@@ -20,6 +20,7 @@ subset, 2-4 of each) or ``"kitchen-v0"`` (the recipe library).
 from __future__ import annotations
 
 import json
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,7 @@ class LoadedScene:
     start: State
     goals: tuple[Goal, ...]
     verb: str
+    notes: tuple[str, ...] = ()  # what the loader left out, and why (shown as warnings)
 
 
 def _need(d: dict, key: str, where: str) -> Any:
@@ -61,7 +63,7 @@ def scene_from_json(obj: Any) -> LoadedScene:
     if "nodes" in obj and "edges" in obj:
         from siftom.world.scenegraph import SceneGraph
 
-        return scene_from_scenegraph(SceneGraph.from_json(obj), target=obj.get("target"))
+        return scene_from_scenegraph(SceneGraph.from_json(obj), target=obj.get("target"), goals=obj.get("goals"))
     raw_places = _need(obj, "places", "world")
     if not isinstance(raw_places, list) or not raw_places:
         raise ObservationError("world: 'places' must be a non-empty list")
@@ -179,7 +181,7 @@ def scene_warnings(obj: Any, scene: LoadedScene) -> list[str]:
         lib = goal_library({"goal_space": space}, scene.goals[0].target)
     else:
         lib = goal_library(obj, scene.goals[0].target)
-    return unmentioned_class_warnings(scene.world, lib)
+    return [*scene.notes, *unmentioned_class_warnings(scene.world, lib)]
 
 
 def scene_to_json(world: World, start: State, goals: tuple[Goal, ...] | list[Goal], verb: str,
@@ -220,15 +222,19 @@ def load_scene(path: str | Path, goal_space: str | None = None, target: str | No
         from siftom.world.scenegraph import SceneGraph
 
         return scene_from_scenegraph(SceneGraph.from_json(obj), target=target or obj.get("target"),
-                                     goal_space=goal_space or "household-table-v0")
+                                     goal_space=goal_space or "household-table-v0", goals=obj.get("goals"))
     if goal_space and isinstance(obj, dict) and "goals" not in obj:
         obj = {**obj, "goal_space": goal_space}
     return scene_from_json(obj)
 
 
 def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str = "household-table-v0",
-                          max_places: int = 40) -> LoadedScene:
+                          max_places: int = 40, goals: list | None = None) -> LoadedScene:
     """Turn a VirtualHome graph into a world: furniture holding known objects become places.
+
+    Objects are kept when their class (or its alias in ``VH_ALIASES``) is used by a goal of
+    ``goal_space``, or of ``goals`` (a world JSON's goal list, e.g. a ``"goals"`` key added to the
+    graph file). What is left out is listed in the scene's ``notes``, never dropped silently.
 
     Positions are bounding-box centres projected on the floor (x, z); with no doors in the
     graph, walking cost is the straight-line distance (docs/world.md).
@@ -243,9 +249,12 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             break
     if tnode is None:
         raise SceneGraphError(f"no surface named {want!r} to use as the target; pass target=CLASS_NAME")
-    objs = []
+    spec: dict[str, Any] = {"goals": goals} if goals is not None else {"goal_space": goal_space}
+    known = {c for g in goal_library(spec, 0) for c, _n in g.counts}
+    objs, unknown, loose = [], Counter(), Counter()
     for nid in view.grabbables:
-        cls = VH_ALIASES.get(graph.node(nid).class_name)
+        vh_cls = graph.node(nid).class_name
+        cls = VH_ALIASES.get(vh_cls) or (vh_cls if vh_cls in known else None)
         pl = view.placement(nid)
         parent = pl.parent if pl is not None else None
         seen = set()
@@ -253,9 +262,16 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             seen.add(parent)
             up = view.placement(parent)
             parent = up.parent if up is not None else None
-        if cls and parent is not None:
+        if cls is None:
+            unknown[vh_cls] += 1
+        elif parent is None:
+            loose[vh_cls] += 1
+        else:
             objs.append((nid, cls, parent))
-    parents = sorted({tnode} | {p for _n, _c, p in objs})[:max_places]
+    holders = sorted({p for _n, _c, p in objs} - {tnode})
+    parents = sorted([tnode] + holders[:max_places - 1])
+    notes = _left_out_notes("given" if goals is not None else goal_space, unknown, loose, holders[max_places - 1:], objs)
+    objs = [o for o in objs if o[2] in set(parents)]
     places, pidx = [], {}
     for nid in parents:
         node = graph.node(nid)
@@ -281,5 +297,30 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             open_mask |= 1 << i
     t = pidx[tnode]
     start = State((t, t), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = feasible_goals({"goal_space": goal_space}, world, t)
-    return LoadedScene(world, start, goals, "fetch" if goal_space == "kitchen-v0" else "deliver")
+    feasible = feasible_goals(spec, world, t)
+    return LoadedScene(world, start, feasible, "fetch" if goal_space == "kitchen-v0" else "deliver", notes)
+
+
+def _summary(counts: Counter, limit: int = 8) -> str:
+    items = [f"{c} x{n}" if n > 1 else c for c, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))]
+    more = f" and {len(items) - limit} more classes" if len(items) > limit else ""
+    return ", ".join(items[:limit]) + more
+
+
+def _left_out_notes(goal_space: str, unknown: Counter, loose: Counter, dropped_places: list[int],
+                    objs: list[tuple[int, str, int]]) -> tuple[str, ...]:
+    """Say what a VirtualHome graph had that the world leaves out, so nothing vanishes silently."""
+    notes = []
+    if unknown:
+        notes.append(f"left out {sum(unknown.values())} grabbable objects whose class no {goal_space} goal uses "
+                     f"({_summary(unknown)}); to use them, add a 'goals' list to the graph JSON "
+                     "(as in a world JSON: [{\"name\": ..., \"counts\": {CLASS: N}}]) that mentions them")
+    if loose:
+        notes.append(f"left out {sum(loose.values())} objects that rest on no furniture in the graph "
+                     f"({_summary(loose)}); give them an ON or INSIDE edge to a surface or container")
+    if dropped_places:
+        gone = set(dropped_places)
+        lost = Counter(cls for _n, cls, p in objs if p in gone)
+        notes.append(f"kept the first places by node id and left out {len(gone)} more holding "
+                     f"{sum(lost.values())} objects ({_summary(lost)}); raise max_places to keep them")
+    return tuple(notes)

@@ -22,6 +22,25 @@ def test_say_then_transcribe_json(tmp_path, capsys):
     assert data["text"] == "pass me the cereal"
     assert all(set(h) == {"text", "score"} for h in data["nbest"])
     assert "words" in data and "rtf" in data
+    assert data["no_speech"] is False and data["vad"]["speech"] is True
+
+
+def test_transcribe_says_no_speech_for_silence_and_noise(tmp_path, capsys):
+    import numpy as np
+
+    from siftom.speech.audio import write_wav
+    from siftom.speech.noise import get_noise
+
+    silence, noise = tmp_path / "silence.wav", tmp_path / "noise.wav"
+    write_wav(silence, np.zeros(16000 * 3, np.float32))
+    write_wav(noise, 0.1 * get_noise("pink").sample(16000 * 3, np.random.default_rng(0)))
+    for path in (silence, noise):
+        assert main(["transcribe", str(path), "--json"]) == 0
+        data = json.loads(capsys.readouterr().out)
+        assert data["no_speech"] is True and data["text"] == "" and data["nbest"] == []
+    assert main(["transcribe", str(silence)]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == "" and "no speech heard" in captured.err
 
 
 @needs_flite

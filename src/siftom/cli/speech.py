@@ -56,10 +56,17 @@ def say_cmd(text: str, voice: str, rate: float, pitch: float, noise: str | None,
 @click.option("--nbest", "-n", type=int, default=1, show_default=True, help="hypotheses to return")
 @click.option("--vocab", default=None, help="pocketsphinx: phrasings file, or comma-separated words/phrasings")
 @click.option("--model-dir", default=None, help="whisper: a local CTranslate2 whisper folder")
-@click.option("--json", "as_json", is_flag=True, help="print JSON: text, nbest [{text, score}], words, rtf")
+@click.option("--vad/--no-vad", default=True, show_default=True,
+              help="detect speech first: silence or noise alone gives 'no speech heard', not words")
+@click.option("--json", "as_json", is_flag=True, help="print JSON: text, nbest [{text, score}], words, rtf, vad")
 def transcribe_cmd(file: str, engine: str, nbest: int, vocab: str | None, model_dir: str | None,
-                   as_json: bool) -> None:
-    """Recognise the speech in FILE (any rate/channels; resampled to 16 kHz mono)."""
+                   vad: bool, as_json: bool) -> None:
+    """Recognise the speech in FILE (any rate/channels; resampled to 16 kHz mono).
+
+    With the voice-activity detector (default) a recording with no speech prints
+    "no speech heard" (JSON: ``"no_speech": true``, empty ``text`` and ``nbest``) instead of
+    the words a recogniser hallucinates from noise; speech is cut to its regions first.
+    """
     from siftom.speech.asr.base import get_engine
     from siftom.speech.audio import load_audio
 
@@ -73,9 +80,27 @@ def transcribe_cmd(file: str, engine: str, nbest: int, vocab: str | None, model_
         if engine != "whisper":
             raise SiftomError("--model-dir applies to --engine whisper only")
         opts["model_dir"] = model_dir
-    tr = get_engine(engine, **opts).transcribe(x, nbest=nbest)
+    asr = get_engine(engine, **opts)
+    found = None
+    if vad:
+        from siftom.speech.vad import detect_speech, trim
+
+        found = detect_speech(x)
+        if not found.speech:
+            if as_json:
+                click.echo(json.dumps({"text": "", "nbest": [], "no_speech": True, "engine": engine,
+                                       "vad": found.to_json()}, indent=2))
+            else:
+                click.echo(f"no speech heard ({found.duration_s:.2f} s of audio; --no-vad to transcribe anyway)",
+                           err=True)
+            return
+        x = trim(x, found)
+    tr = asr.transcribe(x, nbest=nbest)
     if as_json:
-        click.echo(json.dumps(tr.to_json(), indent=2))
+        out = tr.to_json()
+        if found is not None:
+            out.update(no_speech=False, vad=found.to_json())
+        click.echo(json.dumps(out, indent=2))
         return
     click.echo(tr.text)
     if nbest > 1:

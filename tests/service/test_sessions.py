@@ -88,6 +88,25 @@ def test_restart_continues_every_session(folder):
     assert r.status_code == 200 and r.json()["n_actions"] == len(SALAD_ACTIONS)
 
 
+def test_a_retried_actions_request_is_applied_once(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    first, second = SALAD_ACTIONS[:2], SALAD_ACTIONS[2:3]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": first, "after": 0})
+    assert r.status_code == 200 and r.json()["replayed"] is False and r.json()["n_actions"] == 2
+    again = c.post(f"/v1/sessions/{sid}/actions", json={"actions": first, "after": 0})  # the reply was lost
+    assert again.status_code == 200 and again.json()["replayed"] is True
+    assert again.json()["added"] == r.json()["added"] and again.json()["n_actions"] == 2
+    assert c.get(f"/v1/sessions/{sid}").json()["actions"] == first  # not appended twice
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": second, "after": 0})  # stale count, new lines
+    assert r.status_code == 409 and "holds 2 actions" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": second, "after": 5})
+    assert r.status_code == 409
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": second, "after": 2})
+    assert r.status_code == 200 and r.json()["n_actions"] == 3
+    assert c.get(f"/v1/sessions/{sid}").json()["actions"] == SALAD_ACTIONS[:3]
+
+
 def test_actions_are_all_or_none_and_errors_name_the_fix(folder):
     c = _client(folder)
     sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]

@@ -100,17 +100,17 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
     @app.post("/v1/sessions/{session_id}/actions", tags=["sessions"],
               openapi_extra={"requestBody": {"required": True, "content": {
                   "application/json": {"schema": {"$ref": "#/components/schemas/ActionsRequest"}}}}},
-              responses={200: {"model": ActionsResponse}, **_problems(404, 413, 415, 422, 503)})
+              responses={200: {"model": ActionsResponse}, **_problems(404, 409, 413, 415, 422, 503)})
     async def add_actions(request: Request, session_id: str = sid_param) -> JSONResponse:
         """Append observed actions (all or none) and update the belief incrementally."""
         _need_json(request)
         req = ActionsRequest.model_validate_json(await request.body())
 
         def work() -> dict[str, Any]:
-            added = mgr.append(session_id, list(req.actions))
+            added, replayed = mgr.append_once(session_id, list(req.actions), req.after)
             view = mgr.view(mgr.get(session_id))
             return {"id": session_id, "added": added, "n_actions": view["n_actions"],
-                    "state": view["state"], "belief": view["belief"]}
+                    "state": view["state"], "belief": view["belief"], "replayed": replayed}
 
         return JSONResponse(await run_cpu(work))
 

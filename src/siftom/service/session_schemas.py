@@ -70,6 +70,11 @@ class ActionsRequest(Strict):
     actions: list[ActionLine] = Field(
         min_length=1, max_length=MAX_ACTIONS_PER_REQUEST,
         examples=[["[Walk] <fridge> (165)", "[Open] <fridge> (165)", "grab(human, milk.195, fridge.165)"]])
+    after: int | None = Field(
+        default=None, ge=0,
+        description="how many actions the session held when this request was first sent; makes a retry safe: "
+                    "a repeat of a request that was already applied is answered again (replayed: true) "
+                    "instead of appending twice, and any other mismatch is a 409")
 
 
 class InstructionRequest(Strict):
@@ -161,3 +166,4 @@ class ActionsResponse(BaseModel):
     n_actions: int
     state: dict[str, Any]
     belief: Belief
+    replayed: bool = False

@@ -233,6 +233,35 @@ class SessionManager:
             acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
             return self._add(sess, acts, source)
 
+    def append_once(self, sid: str, lines: list[str], after: int | None) -> tuple[list[str], bool]:
+        """:meth:`append`, safe to retry: ``after`` is the action count the client saw before it
+        first sent ``lines``. If those lines were already applied at that point (a retry after a
+        lost reply or a 503) they are returned again with ``replayed`` True and nothing is added;
+        any other mismatch is a 409 naming the session's count. ``after=None``: plain append."""
+        if after is None:
+            return self.append(sid, lines), False
+        from siftom.world.vhscript import parse_actions
+
+        sess = self.get(sid)
+        with sess.lock:
+            n = len(sess.actions)
+            if n == after:
+                acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
+                return self._add(sess, acts, "actions"), False
+            if after < n:
+                w, s = sess.scene.world, sess.scene.start
+                for text in sess.actions[:after]:
+                    s = apply(s, w.parse_action(text, s))
+                try:
+                    acts, _ = parse_actions(w, s, lines, first=0)
+                except ObservationError:
+                    acts = None
+                texts = None if acts is None else [w.format_action(a) for a in acts]
+                if texts is not None and after + len(texts) == n and sess.actions[after:] == texts:
+                    return texts, True
+        raise ProblemError(409, "conflict", f"the session holds {n} actions, not the {after} this request was "
+                           "sent after; GET the session to see them and send only what is new")
+
     def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
         """Add already-built human actions (another producer, e.g. perception), all or none;
         returns them in siftom's form."""

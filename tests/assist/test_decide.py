@@ -8,8 +8,8 @@ import pytest
 from siftom.agents.team import simulate_scenario
 from siftom.api import get_model
 from siftom.assist.decide import (
-    RULES,
     DEFAULT_LOSS_AVERSION,
+    RULES,
     AskOrActRule,
     Situation,
     best_questions,

@@ -188,14 +188,17 @@ def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
 
 
 def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.MonkeyPatch) -> None:
+    from siftom.assist.questions import KINDS
     from siftom.bench.decisions import ANSWER_RELIABILITY, answer_reliability, reliability_table
 
     monkeypatch.delenv("SIFTOM_ANSWER_RELIABILITY", raising=False)
-    table = dict(ANSWER_RELIABILITY)
-    assert answer_reliability(None) == table[float("inf")]  # clean speech
-    assert answer_reliability(5.0) == table[5.0] and answer_reliability(0.0) == table[5.0]
-    assert answer_reliability(7.5) == pytest.approx((table[5.0] + table[10.0]) / 2)
-    assert all(1 / 3 <= r <= 1 for r in table.values())
+    assert set(ANSWER_RELIABILITY) == set(KINDS)
+    for kind, rows in ANSWER_RELIABILITY.items():
+        table = dict(rows)
+        assert answer_reliability(None, kind) == table[float("inf")]  # clean speech
+        assert answer_reliability(5.0, kind) == table[5.0] and answer_reliability(0.0, kind) == table[5.0]
+        assert answer_reliability(7.5, kind) == pytest.approx((table[5.0] + table[10.0]) / 2)
+        assert all(0 <= r <= 1 for r in table.values())
     monkeypatch.setenv("SIFTOM_ANSWER_RELIABILITY", "1")
     assert answer_reliability(5.0) == 1.0
     rows = [{"snr_db": 5.0, "models": {"siftom-ask": {"asked": True, "answer_cell_ok": ok}}} for ok in (True, False)]

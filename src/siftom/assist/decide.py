@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 
-from siftom.assist.clarify import describe_command
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.errors import ObservationError

@@ -31,7 +31,6 @@ from itertools import combinations
 import numpy as np
 
 from siftom.errors import CommandParseError, ObservationError
-from siftom.likelihood.lexicon import pluralize, spoken_form
 from siftom.likelihood.phrasing import number_word
 from siftom.world.commands import RobotCommand
 
@@ -53,8 +52,21 @@ def _parse(command: str) -> RobotCommand | None:
 
 
 def _noun(cmd: RobotCommand) -> str:
-    n = spoken_form(cmd.obj_class)
-    return pluralize(n) if cmd.count > 1 else n
+    """The class's canonical spoken name ("water glasses"), as the instruction phrasings say it."""
+    from siftom.likelihood.lexicon import default_lexicon
+
+    name = default_lexicon().entry(cmd.obj_class).names[0]  # unlisted classes get a default entry
+    return name.plural if cmd.count > 1 else name.singular
+
+
+def describe(command: str) -> str:
+    """Spoken noun phrase: ``fetch(cereal)`` -> "the cereal", ``deliver(waterglass,3)`` -> "three water glasses"."""
+    cmd = _parse(command)
+    if cmd is None:
+        return command
+    if cmd.count == 1:
+        return f"the {_noun(cmd)}" if cmd.verb == "fetch" else f"one {_noun(cmd)}"
+    return f"{number_word(cmd.count)} {_noun(cmd)}"
 
 
 @dataclass(frozen=True)
@@ -67,7 +79,8 @@ class Question:
         options: the commands with a cell of their own, in cell order.
         answers: per cell, the phrases a person answers with (the first is the plainest); the
             last cell is "anything else".
-        keys: per cell, the words that identify it in a heard answer.
+        keys: per cell, the words that identify it in a heard answer (a heard answer names the
+            cell with the most of its key words; a tie names none).
     """
 
     kind: str
@@ -89,27 +102,19 @@ class Question:
         return tuple(dict.fromkeys(p for cell in self.answers for p in cell))
 
     def heard_cell(self, text: str) -> int | None:
-        """The cell a heard answer names (its key words, the longest match), None when unclear."""
-        words = text.lower().split()
-        hits = []
-        for k, keys in enumerate(self.keys):
-            for key in keys:
-                kw = key.split()
-                if any(words[i:i + len(kw)] == kw for i in range(len(words) - len(kw) + 1)):
-                    hits.append((len(kw), k))
-        if not hits:
+        """The cell a heard answer names: the one with the most key words in it; None on a tie or none."""
+        words = set(text.lower().split())
+        score = [sum(1 for k in keys if k in words) for keys in self.keys]
+        best = max(score)
+        if best == 0 or score.count(best) > 1:
             return None
-        best = max(h[0] for h in hits)
-        cells = {k for n, k in hits if n == best}
-        return cells.pop() if len(cells) == 1 else None
+        return score.index(best)
 
 
 def confirm_question(command: str) -> Question:
     """"Shall I bring two plates?" (fetch: "Shall I get the cereal?"); yes / no."""
     cmd = _parse(command)
-    from siftom.assist.clarify import describe_command
-
-    what = describe_command(command)
+    what = describe(command)
     verb = "get" if cmd is not None and cmd.verb == "fetch" else "bring"
     return Question("confirm", f"Shall I {verb} {what}?", (command,), (YES, NO), (_YES_KEYS, _NO_KEYS))
 
@@ -125,15 +130,14 @@ def _choice_names(a: RobotCommand, b: RobotCommand) -> tuple[str, str]:
 
 def choose_question(a: str, b: str) -> Question:
     """"Which one: two plates or three plates?"; the answer names one (or says neither)."""
-    from siftom.assist.clarify import describe_command
-
     ca, cb = _parse(a), _parse(b)
     if ca is None or cb is None or a == b:
         raise ObservationError(f"a choice needs two different commands, got {a!r} and {b!r}")
     na, nb = _choice_names(ca, cb)
     cells = tuple((n, f"{n} please") for n in (na, nb)) + (NEITHER,)
-    keys = ((na.removeprefix("the "),), (nb.removeprefix("the "),), ("neither", "none"))
-    text = f"Which one: {describe_command(a)} or {describe_command(b)}?"
+    wa, wb = set(na.split()) - {"the"}, set(nb.split()) - {"the"}
+    keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), ("neither", "none"))
+    text = f"Which one: {describe(a)} or {describe(b)}?"
     return Question("choose", text, (a, b), cells, keys)
 
 
@@ -147,7 +151,8 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
     cells = tuple((number_word(n), f"{number_word(n)} please", f"just {number_word(n)}" if n == 1 else
                    f"{number_word(n)} of them") for n in counts) + (NONE_OF,)
     keys = tuple((number_word(n),) for n in counts) + (("none",),)
-    return Question("count", f"How many {pluralize(spoken_form(obj_class))}?", opts, cells, keys)
+    plural = _noun(RobotCommand("deliver", obj_class, 2))
+    return Question("count", f"How many {plural}?", opts, cells, keys)
 
 
 def candidate_questions(ranked: Sequence[str], actions: Sequence[str], pool: int = 4,

@@ -148,8 +148,8 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
     if len(opts) < 2:
         raise ObservationError(f"a count question needs at least two counts of {obj_class!r}")
     counts = [RobotCommand.parse(c).count for c in opts]
-    cells = tuple((number_word(n), f"{number_word(n)} please", f"just {number_word(n)}" if n == 1 else
-                   f"{number_word(n)} of them") for n in counts) + (NONE_OF,)
+    cells = tuple((number_word(n), f"{number_word(n)} please",
+                   f"{describe(c).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True)) + (NONE_OF,)
     keys = tuple((number_word(n),) for n in counts) + (("none",),)
     plural = _noun(RobotCommand("deliver", obj_class, 2))
     return Question("count", f"How many {plural}?", opts, cells, keys)

@@ -41,9 +41,9 @@ FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to a
 # `siftom bench answer-grammar` (docs/decisions.md). The robot measures the noise level between
 # utterances; the benchmark hands it the stimulus's SNR as that measurement. Linear in between.
 ANSWER_RELIABILITY: dict[str, tuple[tuple[float, float], ...]] = {
-    "confirm": ((5.0, 0.90), (10.0, 0.95), (20.0, 0.98), (float("inf"), 0.98)),
-    "choose": ((5.0, 0.80), (10.0, 0.88), (20.0, 0.95), (float("inf"), 0.95)),
-    "count": ((5.0, 0.75), (10.0, 0.85), (20.0, 0.93), (float("inf"), 0.93)),
+    "confirm": ((5.0, 0.77), (10.0, 0.91), (20.0, 0.99), (float("inf"), 0.94)),
+    "choose": ((5.0, 0.79), (10.0, 0.84), (20.0, 0.94), (float("inf"), 0.94)),
+    "count": ((5.0, 0.67), (10.0, 0.59), (20.0, 0.97), (float("inf"), 0.92)),  # household only
 }
 
 

@@ -6,8 +6,8 @@ its recogniser to them. Three kinds of question (docs/decisions.md):
 * ``confirm`` "Shall I bring two plates?" — answers *yes* / *no* (2 cells: {A}, anything else);
 * ``choose`` "Which one: two plates or three plates?" — answers name the option by what tells
   them apart ("two" / "three", "the plates" / "the cups") or say *neither* (3 cells);
-* ``count`` "How many plates?" (``deliver`` domains) — answers a number or *none* (one cell per
-  count of the class, and one for anything else).
+* ``count`` "How many plates?" (``deliver`` domains) — answers a number or *no plates* (one
+  cell per count of the class, and one for anything else).
 
 Each question is a partition of the commands into cells with the phrases a person says for
 each cell (the answer grammar). The answer is heard as the cell it names with probability
@@ -38,7 +38,6 @@ KINDS = ("confirm", "choose", "count")
 YES = ("yes", "yes please", "yeah")
 NO = ("no", "no thanks", "no thank you")
 NEITHER = ("neither", "neither of them", "none of those")
-NONE_OF = ("none", "none of them", "none at all")
 # words that name a cell; a heard answer maps to the cell whose key words it contains
 _YES_KEYS = ("yes", "yeah")
 _NO_KEYS = ("no",)
@@ -149,9 +148,11 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
         raise ObservationError(f"a count question needs at least two counts of {obj_class!r}")
     counts = [RobotCommand.parse(c).count for c in opts]
     cells = tuple((number_word(n), f"{number_word(n)} please",
-                   f"{describe(c).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True)) + (NONE_OF,)
-    keys = tuple((number_word(n),) for n in counts) + (("none",),)
+                   f"{describe(c).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True))
     plural = _noun(RobotCommand("deliver", obj_class, 2))
+    # "none" alone is easily heard as "one": the other cell says "no", which no number sounds like
+    cells = (*cells, (f"no {plural}", "no thanks", "none of them"))
+    keys = tuple((number_word(n),) for n in counts) + (("no", "none"),)
     return Question("count", f"How many {plural}?", opts, cells, keys)
 
 

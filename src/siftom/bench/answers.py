@@ -43,7 +43,7 @@ FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to a
 ANSWER_RELIABILITY: dict[str, tuple[tuple[float, float], ...]] = {
     "confirm": ((5.0, 0.77), (10.0, 0.91), (20.0, 0.99), (float("inf"), 0.94)),
     "choose": ((5.0, 0.79), (10.0, 0.84), (20.0, 0.94), (float("inf"), 0.94)),
-    "count": ((5.0, 0.67), (10.0, 0.59), (20.0, 0.97), (float("inf"), 0.92)),  # household only
+    "count": ((5.0, 0.63), (10.0, 0.69), (20.0, 0.93), (float("inf"), 0.92)),  # household only
 }
 
 

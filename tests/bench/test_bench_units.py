@@ -204,3 +204,28 @@ def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.Monke
     rows = [{"snr_db": 5.0, "models": {"siftom-ask": {"asked": True, "answer_cell_ok": ok}}} for ok in (True, False)]
     rows.append({"snr_db": None, "models": {"siftom-ask": {"asked": False}}})
     assert reliability_table(rows) == [{"snr_db": 5.0, "n": 2, "heard": 0.5}]
+
+
+def test_answers_are_said_from_the_cell_and_heard_by_the_first_hypothesis_naming_one(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from types import SimpleNamespace
+
+    from siftom.assist.questions import count_question
+    from siftom.bench import answers
+    from siftom.observation import Hypothesis
+
+    q = count_question("spoon", [f"deliver(spoon,{k})" for k in range(1, 5)])
+    said = answers.answer_phrase(q, 2, "household-table-v0/3#s1")
+    assert said in q.answers[2] and said == answers.answer_phrase(q, 2, "household-table-v0/3#s1")
+    monkeypatch.setattr(answers, "answer_audio", lambda *a, **k: np.zeros(160, dtype=np.float32))
+    heard_grammar = []
+
+    def listen(x: np.ndarray, grammar: tuple[str, ...]) -> SimpleNamespace:
+        heard_grammar.append(grammar)
+        return SimpleNamespace(text="please", nbest=(Hypothesis("please", 0.0), Hypothesis("three please", -1.0)))
+
+    stim = SimpleNamespace(id="x")
+    h = answers.ask_and_hear(q, 2, stim, ".", listen)
+    assert heard_grammar == [q.grammar()]  # the recogniser listens for this question's answers
+    assert h["heard_cell"] == 2 and h["answer_heard"] == "three please"
+    assert set(answers.answer_reliabilities(5.0)) == {"confirm", "choose", "count"}

@@ -8,9 +8,11 @@ import pytest
 from siftom.agents.team import simulate_scenario
 from siftom.api import get_model
 from siftom.assist.decide import (
+    DEFAULT_LOSS_AVERSION,
     RULES,
     AskOrActRule,
     Situation,
+    best_questions,
     decide,
     get_rule,
     question_values,
@@ -83,11 +85,15 @@ def test_ask_or_act_asks_only_when_the_question_beats_its_cost():
     sc, post = _posterior("household-table-v0/3", "get the spoons")  # count unsaid
     where = Situation.from_scenario(sc)
     tv = team_values(post.joint, sc.world, sc.target)
-    evi, pair = question_values(tv, post)[0]
+    evi, q = best_questions(tv, post, where, DEFAULT_LOSS_AVERSION)[0]
     assert evi > 0
-    cheap = AskOrActRule(ask_cost=0.0)(post, where)
-    dear = AskOrActRule(ask_cost=evi + 1.0)(post, where)
-    assert cheap.ask and cheap.options == pair and cheap.question.startswith("Did you mean")
+    cheap = AskOrActRule(ask_cost=0.0, penalty=0.0)(post, where)
+    # priced at the EVI the question has at that price (EVI depends on ask_cost under loss aversion)
+    dear_cost = 50.0
+    assert best_questions(tv, post, where, DEFAULT_LOSS_AVERSION, dear_cost)[0][0] < dear_cost
+    dear = AskOrActRule(ask_cost=dear_cost, penalty=0.0)(post, where)
+    assert cheap.ask and cheap.options == q.options and cheap.question == q.text
+    assert cheap.question_kind in ("confirm", "choose", "count")
     assert not dear.ask and dear.action == decide(post, where, "expected-benefit").action
 
 
@@ -149,8 +155,12 @@ def test_question_value_shrinks_with_the_answers_reliability():
     assert all(b >= a - 1e-9 for a, b in zip(evi, evi[1:], strict=False)) and evi[-1] > 0
     assert evi[-1] == pytest.approx(question_values(tv, post)[0][0])
     # a deaf robot does not ask, however cheap the question
-    deaf = Situation.from_scenario(sc, answer_reliability=1 / 3)
+    deaf = Situation.from_scenario(sc, answer_reliability=0.0)  # every kind at chance
     assert not AskOrActRule(ask_cost=0.0, penalty=0.0)(post, deaf).ask
+    # per kind: only the kinds heard reliably are asked
+    only_yes_no = Situation.from_scenario(sc, answer_reliability={"confirm": 1.0, "choose": 0.0, "count": 0.0})
+    d = AskOrActRule(ask_cost=0.0, penalty=0.0)(post, only_yes_no)
+    assert d.ask and d.question_kind == "confirm" and d.question.startswith("Shall I bring")
     with pytest.raises(ObservationError, match="answer_reliability"):
         Situation.from_scenario(sc, answer_reliability=1.5)
 

@@ -188,16 +188,44 @@ def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
 
 
 def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.MonkeyPatch) -> None:
+    from siftom.assist.questions import KINDS
     from siftom.bench.decisions import ANSWER_RELIABILITY, answer_reliability, reliability_table
 
     monkeypatch.delenv("SIFTOM_ANSWER_RELIABILITY", raising=False)
-    table = dict(ANSWER_RELIABILITY)
-    assert answer_reliability(None) == table[float("inf")]  # clean speech
-    assert answer_reliability(5.0) == table[5.0] and answer_reliability(0.0) == table[5.0]
-    assert answer_reliability(7.5) == pytest.approx((table[5.0] + table[10.0]) / 2)
-    assert all(1 / 3 <= r <= 1 for r in table.values())
+    assert set(ANSWER_RELIABILITY) == set(KINDS)
+    for kind, rows in ANSWER_RELIABILITY.items():
+        table = dict(rows)
+        assert answer_reliability(None, kind) == table[float("inf")]  # clean speech
+        assert answer_reliability(5.0, kind) == table[5.0] and answer_reliability(0.0, kind) == table[5.0]
+        assert answer_reliability(7.5, kind) == pytest.approx((table[5.0] + table[10.0]) / 2)
+        assert all(0 <= r <= 1 for r in table.values())
     monkeypatch.setenv("SIFTOM_ANSWER_RELIABILITY", "1")
     assert answer_reliability(5.0) == 1.0
     rows = [{"snr_db": 5.0, "models": {"siftom-ask": {"asked": True, "answer_cell_ok": ok}}} for ok in (True, False)]
     rows.append({"snr_db": None, "models": {"siftom-ask": {"asked": False}}})
     assert reliability_table(rows) == [{"snr_db": 5.0, "n": 2, "heard": 0.5}]
+
+
+def test_answers_are_said_from_the_cell_and_heard_by_the_first_hypothesis_naming_one(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from types import SimpleNamespace
+
+    from siftom.assist.questions import count_question
+    from siftom.bench import answers
+    from siftom.observation import Hypothesis
+
+    q = count_question("spoon", [f"deliver(spoon,{k})" for k in range(1, 5)])
+    said = answers.answer_phrase(q, 2, "household-table-v0/3#s1")
+    assert said in q.answers[2] and said == answers.answer_phrase(q, 2, "household-table-v0/3#s1")
+    monkeypatch.setattr(answers, "answer_audio", lambda *a, **k: np.zeros(160, dtype=np.float32))
+    heard_grammar = []
+
+    def listen(x: np.ndarray, grammar: tuple[str, ...]) -> SimpleNamespace:
+        heard_grammar.append(grammar)
+        return SimpleNamespace(text="please", nbest=(Hypothesis("please", 0.0), Hypothesis("three please", -1.0)))
+
+    stim = SimpleNamespace(id="x")
+    h = answers.ask_and_hear(q, 2, stim, ".", listen)
+    assert heard_grammar == [q.grammar()]  # the recogniser listens for this question's answers
+    assert h["heard_cell"] == 2 and h["answer_heard"] == "three please"
+    assert set(answers.answer_reliabilities(5.0)) == {"confirm", "choose", "count"}

@@ -7,10 +7,11 @@
   ``argmax_a E[u(b)]`` with ``b = L_single(g) - L_team(g, a)`` and
   ``u(b) = b - loss_aversion * max(0, -b)``, the team terms counted as the team simulation
   counts them (assist/teamvalue.py).
-* ``ask-or-act``: ask the question "Did you mean A or B?" with the highest expected value of
-  information (EVI, in steps) when it exceeds the question's cost in steps, otherwise act by
-  ``expected-benefit``. The answer reveals which cell (A, B, something else) the human meant,
-  heard right with probability ``Situation.answer_reliability`` (question_values):
+* ``ask-or-act``: ask the question (confirm "Shall I bring two plates?", choose "Which one:
+  the cereal or the oatmeal?", count "How many plates?"; assist/questions.py) with the highest
+  expected value of information (EVI, in steps) when it exceeds the question's cost in steps,
+  otherwise act by ``expected-benefit``. The answer names a cell of the question's partition,
+  heard right with the kind's probability ``Situation.reliability(kind)``:
 
       EVI = sum_heard max_a E[u(b(a) - ask_cost) ; heard] - max_a E[u(b(a))] + ask_cost.
 
@@ -19,14 +20,14 @@ Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Any
 
 import numpy as np
 
-from siftom.assist.clarify import describe_command
+from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.errors import ObservationError
 from siftom.inference.model import JointPosterior, Posterior, logsumexp
@@ -40,7 +41,7 @@ DEFAULT_ASK_COST = 2.0
 # Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
 # Lagrange multiplier of a budget of questions per trial, chosen on a development set of
 # another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 4.5
+DEFAULT_QUESTION_PENALTY = 9.5
 # A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
 # is worse than one who does nothing); chosen on a development set of another seed
 # (docs/decisions.md; `siftom bench loss-aversion`).
@@ -78,6 +79,8 @@ class Decision:
     ask_cost: float = DEFAULT_ASK_COST
     reason: str = ""
     benefits: tuple[tuple[str, float], ...] = field(default=(), compare=False)
+    question_kind: str = ""
+    asked: Question | None = field(default=None, compare=False)
 
     @property
     def ask(self) -> bool:
@@ -89,7 +92,8 @@ class Decision:
         return {"rule": self.rule, "action": self.action, "command": self.command, "prob": self.prob,
                 "expected_benefit": None if not np.isfinite(eb) else round(eb, 4), "question": self.question,
                 "options": list(self.options), "evi": round(self.evi, 4), "ask_cost": self.ask_cost,
-                "reason": self.reason,
+                "reason": self.reason, "question_kind": self.question_kind,
+                "answers": list(self.asked.grammar()) if self.asked is not None else [],
                 "benefits": [{"action": a, "expected_benefit": round(b, 4)} for a, b in self.benefits]}
 
 
@@ -100,17 +104,25 @@ class Situation:
     world: World
     state: State
     target: int
-    # probability that a spoken answer is heard as the cell it names (1: perfectly); the noise
-    # is part of the situation (docs/decisions.md)
-    answer_reliability: float = 1.0
+    # probability that a spoken answer is heard as the cell it names (1: perfectly), one number
+    # or one per question kind ({"confirm": 0.95, ...}); the noise is part of the situation
+    # (docs/decisions.md)
+    answer_reliability: float | Mapping[str, float] = 1.0
 
     def __post_init__(self) -> None:
         r = self.answer_reliability
-        if isinstance(r, bool) or not (isinstance(r, (int, float)) and 0.0 <= r <= 1.0):
-            raise ObservationError(f"answer_reliability must be a probability in [0, 1], got {r!r}")
+        for v in (r.values() if isinstance(r, Mapping) else (r,)):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
+                raise ObservationError(f"answer_reliability must be a probability in [0, 1] (or a mapping "
+                                       f"question kind -> probability), got {r!r}")
+
+    def reliability(self, kind: str) -> float:
+        """How reliably an answer to a question of ``kind`` is heard here."""
+        return reliability_for(self.answer_reliability, kind)
 
     @classmethod
-    def from_scenario(cls, scenario: Any, n_actions: int | None = None, answer_reliability: float = 1.0) -> Situation:
+    def from_scenario(cls, scenario: Any, n_actions: int | None = None,
+                      answer_reliability: float | Mapping[str, float] = 1.0) -> Situation:
         states = scenario.states()
         return cls(scenario.world, states[-1] if n_actions is None else states[n_actions], scenario.target,
                    answer_reliability)
@@ -229,21 +241,45 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
     return out
 
 
+def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_aversion: float = 0.0,
+                   ask_cost: float = 0.0, kinds: Sequence[str] = KINDS,
+                   pool: int = QUESTION_POOL) -> list[tuple[float, Question]]:
+    """EVI (steps) of every candidate question (assist/questions.py), best first.
+
+    Each question's answer is heard with its kind's reliability here
+    (``where.reliability(kind)``); see :func:`siftom.assist.questions.evi`.
+    """
+    qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
+    if not qs:
+        return []
+    v0 = float((tv.prob @ tv.utility(loss_aversion)).max())
+    u_after = tv.utility(loss_aversion, ask_cost)
+    out = [(evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), ask_cost), q)
+           for q in qs]
+    out.sort(key=lambda t: -t[0])
+    return out
+
+
 @dataclass(frozen=True)
 class AskOrActRule:
     """Ask the best question when its EVI exceeds its cost; otherwise act by expected utility.
 
-    The EVI is weighted by how reliably the answer will be heard here
-    (``Situation.answer_reliability``).
+    The candidates are confirmations, choices between two and count questions about the most
+    probable commands (``kinds``); each EVI is weighted by how reliably that kind's answer is
+    heard here (``Situation.reliability``).
     """
 
     ask_cost: float = DEFAULT_ASK_COST
     penalty: float = DEFAULT_QUESTION_PENALTY
     loss_aversion: float = DEFAULT_LOSS_AVERSION
+    kinds: tuple[str, ...] = KINDS
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
         _check_steps(self, "ask_cost", "penalty", "loss_aversion")
+        bad = [k for k in self.kinds if k not in KINDS]
+        if bad or not self.kinds:
+            raise ObservationError(f"unknown question kinds {bad or list(self.kinds)!r}; choose from {', '.join(KINDS)}")
 
     @property
     def threshold(self) -> float:
@@ -255,17 +291,15 @@ class AskOrActRule:
         best, eb = _best(tv, self.loss_aversion)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = question_values(tv, post, loss_aversion=self.loss_aversion, reliability=where.answer_reliability,
-                             ask_cost=self.ask_cost)
+        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds)
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.threshold:
-            evi, opts = qs[0]
-            q = f"Did you mean {describe_command(opts[0])} or {describe_command(opts[1])}?"
-            return Decision(self.name, "ask", a, p, float(eb[best]), q, opts, evi, self.ask_cost,
-                            f"asking is worth {evi:.1f} steps > its cost {self.threshold:g}", top)
-        evi = qs[0][0] if qs else 0.0
-        return Decision(self.name, a, a, p, float(eb[best]), "", (), evi, self.ask_cost,
-                        f"acting: the best question is worth {evi:.1f} steps <= its cost {self.threshold:g}; "
+            value, q = qs[0]
+            return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, self.ask_cost,
+                            f"asking is worth {value:.1f} steps > its cost {self.threshold:g}", top, q.kind, q)
+        value = qs[0][0] if qs else 0.0
+        return Decision(self.name, a, a, p, float(eb[best]), "", (), value, self.ask_cost,
+                        f"acting: the best question is worth {value:.1f} steps <= its cost {self.threshold:g}; "
                         + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
 
 
@@ -276,7 +310,7 @@ RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                attrs={"options": ("loss_aversion",)})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
-               attrs={"options": ("ask_cost", "penalty", "loss_aversion")})
+               attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:

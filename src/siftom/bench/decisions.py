@@ -1,23 +1,20 @@
 """Decision-rule models in the benchmark: ``siftom-eb`` (expected benefit) and ``siftom-ask``.
 
-``siftom-ask`` may ask the clarifying question of assist/decide.py. The simulated human
-answers truthfully: it says the command it wants (its robot part, the gold command) in a
-direct phrasing with the count, in the stimulus's voice (TTS with the speaker's rate and
-pitch), mixed with the stimulus's noise type at its SNR; the evaluator's ASR engine
-transcribes it and the instruction likelihood scores it, so a question can fail. Every random
-choice (phrasing, noise excerpt) is seeded from the stimulus id, so runs are deterministic.
-The robot then acts by expected benefit on the updated posterior; the exchange costs the team
-``ask_cost`` steps (added to L_team).
+``siftom-ask`` may ask a clarifying question (assist/questions.py: confirm, choose, count).
+The simulated human answers truthfully about its command (the gold command) with a phrase of
+the question's answer grammar, in the stimulus's voice, mixed with the stimulus's noise type at
+its SNR; the evaluator's ASR engine listens with that grammar (bench/answers.py), so a
+question can fail. The heard cell updates the posterior through the kind's measured channel.
+Every random choice (phrase, noise excerpt) is seeded from the stimulus id, so runs are
+deterministic. The robot then acts by expected benefit on the updated posterior; the exchange
+costs the team ``ask_cost`` steps (added to L_team).
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from collections.abc import Callable
-from functools import lru_cache
-from pathlib import Path
 from typing import Any
 
 import click
@@ -28,87 +25,21 @@ from siftom.assist.decide import (
     DEFAULT_LOSS_AVERSION,
     DEFAULT_QUESTION_PENALTY,
     Situation,
-    answer_log_likelihood,
     decide,
     with_answer,
 )
+from siftom.assist.questions import answer_log_likelihood_cells
+from siftom.bench import answers as _answers
 
 DECISION_MODELS = {"siftom-eb": "expected-benefit", "siftom-ask": "ask-or-act"}
-FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
-# How often a spoken answer is heard as the cell it names, by SNR (dB; clean = inf), measured
-# on the seed-1 development sets (both domains pooled) with `siftom bench answer-reliability`
-# (docs/decisions.md). The robot measures the noise level between utterances; the benchmark
-# hands it the stimulus's SNR as that measurement. Interpolated linearly in between.
-ANSWER_RELIABILITY = ((5.0, 0.67), (10.0, 0.70), (20.0, 0.87), (float("inf"), 0.88))
-
-
-def answer_reliability(snr_db: float | None) -> float:
-    """The probability that an answer is heard right at this SNR (``None``: clean speech)."""
-    env = os.environ.get("SIFTOM_ANSWER_RELIABILITY")
-    if env:  # tuning runs measure recognition with the EVI unweighted
-        return float(env)
-    x = float("inf") if snr_db is None else float(snr_db)
-    pts = [p for p in ANSWER_RELIABILITY if np.isfinite(p[0])]
-    if not np.isfinite(x) or x >= pts[-1][0]:
-        return ANSWER_RELIABILITY[-1][1] if not np.isfinite(x) else pts[-1][1]
-    return float(np.interp(x, [p[0] for p in pts], [p[1] for p in pts]))
+# the measured reliability table and the answer path live in bench/answers.py
+ANSWER_RELIABILITY = _answers.ANSWER_RELIABILITY
+answer_reliability = _answers.answer_reliability
 
 
 def _env_float(name: str, default: float) -> float:
     v = os.environ.get(name)
     return float(v) if v else default
-
-
-def _seed(stimulus_id: str, *extra: int) -> list[int]:
-    return [int(hashlib.sha1(stimulus_id.encode()).hexdigest()[:8], 16), *extra]
-
-
-def answer_text(command: str, stimulus_id: str) -> str:
-    """What the human says when asked: the command it wants, directly and with the count."""
-    from siftom.likelihood.lexicon import default_lexicon
-    from siftom.likelihood.phrasing import number_word, phrasing_details
-    from siftom.world.commands import RobotCommand
-
-    cmd = RobotCommand.parse(command)
-    lex = default_lexicon()
-    name = lex.entry(cmd.obj_class).names[0]
-    word = name.plural if cmd.count > 1 else name.singular
-    ph = [p for p in phrasing_details(cmd, lex) if p.style == "direct" and not p.category and word in p.text.split()
-          and (cmd.count == 1 or number_word(cmd.count) in p.text.split())]
-    if not ph:  # every command has a direct phrasing with its canonical name; be safe anyway
-        return f"{number_word(cmd.count)} {word}" if cmd.count > 1 else f"the {word}"
-    w = np.exp([p.log_prior for p in ph])
-    rng = np.random.default_rng(_seed(stimulus_id, 11))
-    return ph[int(rng.choice(len(ph), p=w / w.sum()))].text
-
-
-@lru_cache(maxsize=16)
-def _noise_dir(dataset_root: str) -> str | None:
-    spec = Path(dataset_root) / "dataset.json"
-    if not spec.is_file():
-        return None
-    nd = json.loads(spec.read_text(encoding="utf-8")).get("options", {}).get("noise_dir")
-    if not nd:
-        return None
-    for base in (Path.cwd(), Path(dataset_root)):
-        p = Path(nd) if Path(nd).is_absolute() else base / nd
-        if p.is_dir():
-            return str(p)
-    return None
-
-
-def answer_audio(stimulus: Any, text: str, dataset_root: str) -> np.ndarray:
-    """The answer as the stimulus's speaker would say it, in the stimulus's noise at its SNR."""
-    from siftom.speech.noise import FolderNoise, get_noise, mix_at_snr
-    from siftom.speech.tts import VOICES, synthesize
-
-    voice = stimulus.voice if stimulus.voice in VOICES else FALLBACK_VOICE
-    x = synthesize(text, voice, rate=stimulus.rate, pitch=stimulus.pitch)
-    if stimulus.noise is None or stimulus.snr_db is None:
-        return x
-    nd = _noise_dir(dataset_root)
-    source = FolderNoise(nd, categories=(stimulus.noise,)) if nd else get_noise(stimulus.noise)
-    return mix_at_snr(x, source, float(stimulus.snr_db), np.random.default_rng(_seed(stimulus.id, 12)))
 
 
 def run_decision_model(
@@ -118,7 +49,7 @@ def run_decision_model(
     instruction: Any,
     likelihood: str,
     dataset_root: str,
-    transcribe: Callable[[np.ndarray], Any],
+    transcribe: Callable[..., Any],
     ask_cost: float = DEFAULT_ASK_COST,
     penalty: float | None = None,
 ) -> dict[str, Any]:
@@ -131,7 +62,8 @@ def run_decision_model(
         instruction: what was heard (the N-best list), or None.
         likelihood: the instruction likelihood's name (it also scores the answer).
         dataset_root: the dataset folder (for its noise folder).
-        transcribe: audio samples -> transcript with ``nbest`` (the evaluator's ASR engine).
+        transcribe: ``(audio samples, grammar phrases) -> transcript`` with ``nbest``: the
+            evaluator's ASR engine listening for the question's answers (bench/answers.py).
         ask_cost: steps one question costs the team (added to L_team).
         penalty: the interruption penalty in steps (default: ``$SIFTOM_QUESTION_PENALTY``, for
             tuning runs on a development set, else :data:`DEFAULT_QUESTION_PENALTY`).
@@ -145,7 +77,7 @@ def run_decision_model(
     lam = _env_float("SIFTOM_LOSS_AVERSION", DEFAULT_LOSS_AVERSION)
     sift = get_model("full", likelihood)
     posterior = sift.infer(Observation.from_scenario(scenario, instruction))
-    reliability = answer_reliability(stimulus.snr_db)
+    reliability = _answers.answer_reliabilities(stimulus.snr_db)
     where = Situation.from_scenario(scenario, answer_reliability=reliability)
     rule = DECISION_MODELS[model]
     opts: dict[str, float] = {"loss_aversion": lam}
@@ -158,36 +90,27 @@ def run_decision_model(
                            "map_correct": is_correct(posterior.command, stimulus.gold_command, scenario.verb)}
     if rule == "ask-or-act":
         out.update({"evi": round(d.evi, 3), "ask_cost": ask_cost, "penalty": penalty,
-                    "answer_reliability": round(reliability, 4)})
+                    "answer_reliability": {k: round(v, 4) for k, v in reliability.items()}})
     if not d.ask:
         return out
-    text = answer_text(stimulus.gold_command, stimulus.id)
-    from siftom.observation import Hypothesis, Instruction
-
-    tr = transcribe(answer_audio(stimulus, text, dataset_root))
-    hyps = tuple(Hypothesis(h.text, float(h.score)) for h in tr.nbest if h.text.strip())
-    post2 = posterior
-    heard_cell = 2
-    if hyps and sift.likelihood is not None:
-        ll = np.asarray(sift.likelihood.log_prob(Instruction(nbest=hyps), posterior.joint.commands))
-        post2 = with_answer(posterior, answer_log_likelihood(ll * sift.config.speech_weight, reliability),
-                            hyps[0].text)
-        heard_cell = _cell(str(posterior.joint.commands[int(np.argmax(ll))]), d.options)
-    gold_cell = next((k for k, o in enumerate(d.options) if is_correct(o, stimulus.gold_command, scenario.verb)), 2)
+    q = d.asked
+    if q is None:  # an ask decision always carries its question
+        return out
+    cell = next((k for k, o in enumerate(q.options) if is_correct(o, stimulus.gold_command, scenario.verb)),
+                q.n_cells - 1)
+    h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe)
+    r = where.reliability(q.kind)
+    ll = answer_log_likelihood_cells(q, [str(c) for c in posterior.joint.commands], h["heard_cell"], r)
+    post2 = with_answer(posterior, ll, h["answer_heard"])
     d2 = decide(post2, where, "expected-benefit", loss_aversion=lam)
     out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
-                "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
+                "question_kind": q.kind, "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": text, "answer_heard": hyps[0].text if hyps else "", "map_command": post2.command,
-                "answer_cell_ok": heard_cell == gold_cell,
+                "answer": h["answer"], "answer_heard": h["answer_heard"], "map_command": post2.command,
+                "answer_cell_ok": h["heard_cell"] == cell, "answer_unclear": h["heard_cell"] is None,
                 "map_correct": is_correct(post2.command, stimulus.gold_command, scenario.verb),
                 "expected_benefit": round(d2.expected_benefit, 3)})
     return out
-
-
-def _cell(command: str, options: tuple[str, ...]) -> int:
-    """Which cell of the question's partition (option 0, option 1, anything else) a command is in."""
-    return options.index(command) if command in options else 2
 
 
 def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:

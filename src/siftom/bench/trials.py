@@ -185,7 +185,8 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 command, prob, _ = memo[mk]
             elif m in DECISION_MODELS:  # decision rules and questions: bench/decisions.py
                 extra = run_decision_model(m, s, sc, instr, opts.likelihood, task.root,
-                                           lambda x: _engine(opts.engine, task.vocabulary).transcribe(x, nbest=opts.nbest))
+                                           lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
+                                           .transcribe(x, nbest=opts.nbest))
                 command, prob = extra.pop("command"), float(extra.pop("prob"))
             else:
                 mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")

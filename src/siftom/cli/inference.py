@@ -239,6 +239,9 @@ def register(root: click.Group) -> None:
 
     bench.add_command(ask_penalty_cmd)
     bench.add_command(answer_reliability_cmd)
+    from siftom.bench.answers import answer_grammar_cmd
+
+    bench.add_command(answer_grammar_cmd)
     from siftom.bench.decision_tuning import loss_aversion_cmd
 
     bench.add_command(loss_aversion_cmd)

@@ -1,0 +1,209 @@
+"""Clarifying questions with answer grammars, valued by expected value of information (EVI).
+
+A spoken-dialogue system that asks a question knows which answers to expect, and constrains
+its recogniser to them. Three kinds of question (docs/decisions.md):
+
+* ``confirm`` "Shall I bring two plates?" — answers *yes* / *no* (2 cells: {A}, anything else);
+* ``choose`` "Which one: two plates or three plates?" — answers name the option by what tells
+  them apart ("two" / "three", "the plates" / "the cups") or say *neither* (3 cells);
+* ``count`` "How many plates?" (``deliver`` domains) — answers a number or *no plates* (one
+  cell per count of the class, and one for anything else).
+
+Each question is a partition of the commands into cells with the phrases a person says for
+each cell (the answer grammar). The answer is heard as the cell it names with probability
+``r`` (the question kind's measured reliability at the current noise level) and as each other
+cell with ``(1 - r) / (K - 1)`` (a symmetric channel over the K cells). The question's value:
+
+    EVI = sum_heard max_a sum_cells P(heard | cell) E[u(b(a) - ask_cost) ; cell]
+          - max_a E[u(b(a))] + ask_cost
+
+(steps; u the loss-averse utility of assist/decide.py). After the answer the robot updates
+with the same channel (:func:`answer_log_likelihood_cells`): the exact Bayesian update, since
+the answer depends on the command alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+
+from siftom.errors import CommandParseError, ObservationError
+from siftom.likelihood.phrasing import number_word
+from siftom.world.commands import RobotCommand
+
+KINDS = ("confirm", "choose", "count")
+YES = ("yes", "yes please", "yeah")
+NO = ("no", "no thanks", "no thank you")
+NEITHER = ("neither", "neither of them", "none of those")
+# words that name a cell; a heard answer maps to the cell whose key words it contains
+_YES_KEYS = ("yes", "yeah")
+_NO_KEYS = ("no",)
+
+
+def _parse(command: str) -> RobotCommand | None:
+    try:
+        return RobotCommand.parse(command)
+    except CommandParseError:
+        return None
+
+
+def _noun(cmd: RobotCommand) -> str:
+    """The class's canonical spoken name ("water glasses"), as the instruction phrasings say it."""
+    from siftom.likelihood.lexicon import default_lexicon
+
+    name = default_lexicon().entry(cmd.obj_class).names[0]  # unlisted classes get a default entry
+    return name.plural if cmd.count > 1 else name.singular
+
+
+def describe(command: str) -> str:
+    """Spoken noun phrase: ``fetch(cereal)`` -> "the cereal", ``deliver(waterglass,3)`` -> "three water glasses"."""
+    cmd = _parse(command)
+    if cmd is None:
+        return command
+    if cmd.count == 1:
+        return f"the {_noun(cmd)}" if cmd.verb == "fetch" else f"one {_noun(cmd)}"
+    return f"{number_word(cmd.count)} {_noun(cmd)}"
+
+
+@dataclass(frozen=True)
+class Question:
+    """A question, its cells (the options, then "anything else") and each cell's answer phrases.
+
+    Attributes:
+        kind: ``confirm``, ``choose`` or ``count``.
+        text: what the robot says.
+        options: the commands with a cell of their own, in cell order.
+        answers: per cell, the phrases a person answers with (the first is the plainest); the
+            last cell is "anything else".
+        keys: per cell, the words that identify it in a heard answer (a heard answer names the
+            cell with the most of its key words; a tie names none).
+    """
+
+    kind: str
+    text: str
+    options: tuple[str, ...]
+    answers: tuple[tuple[str, ...], ...]
+    keys: tuple[tuple[str, ...], ...]
+
+    @property
+    def n_cells(self) -> int:
+        return len(self.answers)
+
+    def cell(self, command: str) -> int:
+        """The cell a command is in (the last one for anything that is not an option)."""
+        return self.options.index(command) if command in self.options else self.n_cells - 1
+
+    def grammar(self) -> tuple[str, ...]:
+        """Every phrase of every cell: what the recogniser listens for after this question."""
+        return tuple(dict.fromkeys(p for cell in self.answers for p in cell))
+
+    def heard_cell(self, text: str) -> int | None:
+        """The cell a heard answer names: the one with the most key words in it; None on a tie or none."""
+        words = set(text.lower().split())
+        score = [sum(1 for k in keys if k in words) for keys in self.keys]
+        best = max(score)
+        if best == 0 or score.count(best) > 1:
+            return None
+        return score.index(best)
+
+
+def confirm_question(command: str) -> Question:
+    """"Shall I bring two plates?" (fetch: "Shall I get the cereal?"); yes / no."""
+    cmd = _parse(command)
+    what = describe(command)
+    verb = "get" if cmd is not None and cmd.verb == "fetch" else "bring"
+    return Question("confirm", f"Shall I {verb} {what}?", (command,), (YES, NO), (_YES_KEYS, _NO_KEYS))
+
+
+def _choice_names(a: RobotCommand, b: RobotCommand) -> tuple[str, str]:
+    """What tells two commands apart, as a person would say it."""
+    if a.obj_class == b.obj_class:  # only the count differs
+        return number_word(a.count), number_word(b.count)
+    if a.count == b.count or a.verb == "fetch":
+        return f"the {_noun(a)}", f"the {_noun(b)}"
+    return f"{number_word(a.count)} {_noun(a)}", f"{number_word(b.count)} {_noun(b)}"
+
+
+def choose_question(a: str, b: str) -> Question:
+    """"Which one: two plates or three plates?"; the answer names one (or says neither)."""
+    ca, cb = _parse(a), _parse(b)
+    if ca is None or cb is None or a == b:
+        raise ObservationError(f"a choice needs two different commands, got {a!r} and {b!r}")
+    na, nb = _choice_names(ca, cb)
+    cells = tuple((n, f"{n} please") for n in (na, nb)) + (NEITHER,)
+    wa, wb = set(na.split()) - {"the"}, set(nb.split()) - {"the"}
+    keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), ("neither", "none"))
+    text = f"Which one: {describe(a)} or {describe(b)}?"
+    return Question("choose", text, (a, b), cells, keys)
+
+
+def count_question(obj_class: str, commands: Sequence[str]) -> Question:
+    """"How many plates?" over the ``deliver`` commands of the class among ``commands``."""
+    opts = tuple(sorted((c for c in commands if (p := _parse(c)) is not None and p.verb == "deliver"
+                         and p.obj_class == obj_class), key=lambda c: RobotCommand.parse(c).count))
+    if len(opts) < 2:
+        raise ObservationError(f"a count question needs at least two counts of {obj_class!r}")
+    counts = [RobotCommand.parse(c).count for c in opts]
+    cells = tuple((number_word(n), f"{number_word(n)} please",
+                   f"{describe(c).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True))
+    plural = _noun(RobotCommand("deliver", obj_class, 2))
+    # "none" alone is easily heard as "one": the other cell says "no", which no number sounds like
+    cells = (*cells, (f"no {plural}", "no thanks", "none of them"))
+    keys = tuple((number_word(n),) for n in counts) + (("no", "none"),)
+    return Question("count", f"How many {plural}?", opts, cells, keys)
+
+
+def candidate_questions(ranked: Sequence[str], actions: Sequence[str], pool: int = 4,
+                        kinds: Sequence[str] = KINDS) -> list[Question]:
+    """Questions about the ``pool`` most probable commands ``ranked`` (all of them in ``actions``)."""
+    top = [c for c in ranked if c in actions][:pool]
+    out: list[Question] = []
+    if "confirm" in kinds:
+        out += [confirm_question(c) for c in top]
+    if "choose" in kinds:
+        out += [choose_question(a, b) for a, b in combinations(top, 2)]
+    if "count" in kinds:
+        classes = dict.fromkeys(p.obj_class for c in top if (p := _parse(c)) is not None and p.verb == "deliver")
+        for c in classes:
+            try:
+                out.append(count_question(c, actions))
+            except ObservationError:
+                continue
+    return out
+
+
+def reliability_for(reliability: float | Mapping[str, float], kind: str) -> float:
+    """The chance an answer to a question of ``kind`` is heard as the cell it names."""
+    r = reliability.get(kind, 1.0) if isinstance(reliability, Mapping) else reliability
+    return float(r)
+
+
+def channel(n_cells: int, r: float) -> np.ndarray:
+    """P(heard cell | said cell): ``r`` on the diagonal, the rest shared evenly (r >= 1/K)."""
+    r = float(np.clip(r, 1.0 / n_cells, 1.0))
+    conf = np.full((n_cells, n_cells), (1.0 - r) / max(n_cells - 1, 1))
+    np.fill_diagonal(conf, r)
+    return conf
+
+
+def evi(question: Question, actions: Sequence[str], prob: np.ndarray, row_cmd: np.ndarray,
+        u_after: np.ndarray, v0: float, r: float, ask_cost: float) -> float:
+    """EVI (steps) of ``question`` (module doc) from per-row utilities after asking ``u_after``."""
+    cell_of = np.array([question.cell(a) for a in actions])
+    row_cell = cell_of[row_cmd] if len(row_cmd) else np.array([], dtype=int)
+    w = prob[:, None] * u_after
+    cells = np.stack([w[row_cell == k].sum(axis=0) for k in range(question.n_cells)])
+    v = float((channel(question.n_cells, r) @ cells).max(axis=1).sum())
+    return v - v0 + ask_cost
+
+
+def answer_log_likelihood_cells(question: Question, commands: Sequence[str], heard: int | None,
+                                r: float) -> np.ndarray:
+    """log P(heard cell | command) for every command (zeros when nothing was made out)."""
+    if heard is None:
+        return np.zeros(len(commands))
+    conf = channel(question.n_cells, r)
+    return np.log(np.array([conf[heard, question.cell(str(c))] for c in commands]))

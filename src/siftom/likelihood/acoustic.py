@@ -41,6 +41,7 @@ from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
+FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 # calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
 DEFAULT_TEMPERATURE = 75.0
@@ -158,7 +159,7 @@ class AcousticLikelihood:
         aligner: object | None = None,
         name: str = "acoustic",
         mode: str = "key",
-        with_phonetic: bool = False,
+        with_phonetic: bool = True,
         prune: bool = True,
         prune_mass: float = 0.995,
         max_candidates: int = 6,
@@ -229,10 +230,15 @@ class AcousticLikelihood:
         if n == 0:
             return np.zeros(0)
         T = self.temperature if temperature is None else temperature
-        vals = np.array([logsumexp([sc / T + lp for sc, lp in items]) for items in raw.items])
+        # a failed alignment (the decoder found no path) says nothing about the command: it gets
+        # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
+        ok = [sc for items in raw.items for sc, _ in items if sc > FAILED]
+        worst = min(ok) if ok else 0.0
+        vals = np.array([logsumexp([(sc if sc > FAILED else worst) / T + lp for sc, lp in items])
+                         for items in raw.items])
         floor = float(np.min(vals))
         out = np.full(n, floor)
-        if raw.phonetic is not None and len(raw.keep) < n:
+        if raw.phonetic is not None and len(raw.keep) < n and not self.with_phonetic:
             # a pruned command is at most as likely as the worst aligned one, and less so by as much
             # as the N-best says it is less likely than that one
             ref = float(np.min(raw.phonetic[raw.keep]))

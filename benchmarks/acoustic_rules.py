@@ -1,10 +1,19 @@
 """Compare ways of turning key-phrase alignment scores into a command posterior (research tool).
 
-Reads the per-stimulus features of benchmarks/acoustic_features.py and, for each rule, the
-full model's command posterior softmax(context + instruction term); prints accuracy and mean
-NLL of the gold command per SNR, and pruning recall.
+Reads the per-stimulus features of benchmarks/acoustic_features.py and prints, per SNR,
+accuracy and mean NLL of the gold command under the full model's command posterior
+softmax(context + instruction term) for:
 
-    python benchmarks/acoustic_rules.py FEATURES.jsonl [BASELINE_RESULTS.jsonl]
+* ``phonetic``: the N-best phonetic likelihood alone (what ``siftom`` uses);
+* ``acoustic T``: the key-phrase alignment alone at temperature T (pruned as the likelihood prunes);
+* ``product T``: alignment / T plus the N-best phonetic likelihood (the default since issue 12);
+
+and the diagnostics behind the choice: pruning recall (is the gold command among the aligned
+ones), the within-utterance slope of alignment score against the key phrase's phone count, and
+how well the per-frame gap between a free phone loop and the best alignment predicts that the
+best alignment is right (AUC).
+
+    python benchmarks/acoustic_rules.py FEATURES.jsonl [FEATURES.jsonl ...]
 """
 
 from __future__ import annotations
@@ -12,20 +21,29 @@ from __future__ import annotations
 import json
 import sys
 from collections import defaultdict
+from collections.abc import Callable
 
 import numpy as np
 
+FAILED = -1e5
+ORDER = ["clean", "20 dB", "10 dB", "5 dB", "all"]
+GRID = (20, 40, 75, 150, 300)
+
 
 def lse(v: np.ndarray) -> float:
+    """log-sum-exp."""
     m = float(np.max(v))
     return m + float(np.log(np.sum(np.exp(v - m))))
 
 
 def load(path: str) -> list[dict]:
-    return [json.loads(line) for line in open(path) if line.strip()]
+    """The feature records of one file."""
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
 
 
 def prune_set(r: dict, mass: float = 0.995, most: int = 6, top: int = 3) -> list[int]:
+    """The commands AcousticLikelihood aligns (its default pruning rule)."""
     phon, ctx = np.array(r["phon"]), np.array(r["ctx"])
     q = phon + ctx
     p = np.exp(q - lse(q))
@@ -36,115 +54,93 @@ def prune_set(r: dict, mass: float = 0.995, most: int = 6, top: int = 3) -> list
     return sorted(keep)
 
 
-def acoustic(r: dict, keep: list[int], T: float, norm: str = "none", floor_rule: bool = True) -> np.ndarray:
-    """Instruction term per command from the alignment scores of ``keep`` at temperature T."""
-    n = len(r["cmds"])
-    phon = np.array(r["phon"])
-    vals = {}
-    for i in keep:
-        items = r["align"][str(i)]
-        terms = []
-        for s, lp, nk, nt in items:
-            if s <= FAILED:
-                s = good_min(r)
-            if norm == "phone":
-                s = s / max(nt, 1) * 10
-            terms.append(s / T + lp)
-        vals[i] = lse(np.array(terms))
-    kk = np.array(keep)
-    v = np.array([vals[i] for i in keep])
-    floor = float(v.min())
-    out = np.full(n, floor)
-    if floor_rule and len(keep) < n:
-        ref = float(phon[kk].min())
-        out = floor + np.minimum(phon - ref, 0.0)
-    out[kk] = v
-    return out
-
-
-FAILED = -1e5
-
-
 def good_min(r: dict) -> float:
     """The worst alignment score that did not fail (a failed alignment says nothing)."""
     ok = [s for v in r["align"].values() for s, *_ in v if s > FAILED]
     return min(ok) if ok else 0.0
 
 
-def post(ctx: np.ndarray, lik: np.ndarray) -> np.ndarray:
-    z = ctx + lik
-    return np.exp(z - lse(z))
+def acoustic(r: dict, T: float, with_phonetic: bool) -> np.ndarray:
+    """The instruction term of AcousticLikelihood.combine for one stimulus."""
+    keep = prune_set(r)
+    phon = np.array(r["phon"])
+    worst = good_min(r)
+    v = np.array([lse(np.array([(s if s > FAILED else worst) / T + lp for s, lp, _, _ in r["align"][str(i)]]))
+                  for i in keep])
+    out = np.full(len(phon), float(v.min()))
+    if not with_phonetic:
+        out = out + np.minimum(phon - phon[np.array(keep)].min(), 0.0)
+    out[np.array(keep)] = v
+    return out + phon if with_phonetic else out
 
 
-def evaluate(rows: list[dict], rule) -> dict[str, tuple[float, float, int]]:  # noqa: ANN001
+def evaluate(rows: list[dict], rule: Callable[[dict], np.ndarray]) -> dict[str, tuple[float, float, int]]:
+    """Per SNR: (accuracy %, mean NLL of the gold command, n)."""
     acc: dict[str, list[tuple[bool, float]]] = defaultdict(list)
     for r in rows:
         ctx = np.array(r["ctx"])
         corr = np.array(r["correct"])
-        if not r["speech"]:
-            p = post(ctx, np.zeros(len(ctx)))
-        else:
-            p = post(ctx, rule(r))
-        ok = bool(corr[int(np.argmax(p))])
-        pg = float(p[corr].sum())
-        acc[r["snr"]].append((ok, -np.log(max(pg, 1e-9))))
-        acc["all"].append((ok, -np.log(max(pg, 1e-9))))
-    return {k: (100 * np.mean([a for a, _ in v]), float(np.mean([b for _, b in v])), len(v)) for k, v in acc.items()}
-
-
-ORDER = ["clean", "20 dB", "10 dB", "5 dB", "all"]
+        z = ctx + (rule(r) if r["speech"] else 0.0)
+        p = np.exp(z - lse(z))
+        item = (bool(corr[int(np.argmax(p))]), -float(np.log(max(float(p[corr].sum()), 1e-9))))
+        acc[r["snr"]].append(item)
+        acc["all"].append(item)
+    return {k: (100 * float(np.mean([a for a, _ in v])), float(np.mean([b for _, b in v])), len(v))
+            for k, v in acc.items()}
 
 
 def show(name: str, res: dict) -> None:
-    print(f"{name:38s} " + "  ".join(f"{k}:{res[k][0]:5.1f}/{res[k][1]:.2f}" for k in ORDER if k in res))
+    """One line: accuracy/NLL per SNR."""
+    print(f"{name:22s} " + "  ".join(f"{k} {res[k][0]:5.1f}/{res[k][1]:.2f}" for k in ORDER if k in res))
 
 
-def main(path: str, base: str | None = None) -> None:
-    rows = load(path)
+def diagnostics(rows: list[dict]) -> None:
+    """Pruning recall, phone-count slope, phone-loop gap AUC."""
     sp = [r for r in rows if r["speech"]]
-    print(len(rows), "stimuli", len(sp), "with speech")
-    # pruning recall
-    for name, ks in (("prune (current)", lambda r: prune_set(r)), ("wide", lambda r: [int(k) for k in r["align"]])):
-        rec = defaultdict(list)
-        for r in sp:
-            corr = np.array(r["correct"])
-            hit = bool(corr[ks(r)].any())
-            rec[r["snr"]].append(hit)
-            rec["all"].append(hit)
-        print(f"recall {name:20s}", {k: round(100 * np.mean(rec[k]), 1) for k in ORDER if k in rec})
-    if base:
-        b = {json.loads(line)["id"]: json.loads(line) for line in open(base)}
-        res = defaultdict(list)
-        for r in rows:
-            m = b[r["id"]]["models"]["siftom"]
-            res[r["snr"]].append(m["correct"])
-            res["all"].append(m["correct"])
-        print("siftom (eval)".ljust(38), "  ".join(f"{k}:{100 * np.mean(res[k]):5.1f}" for k in ORDER))
-    show("phonetic (siftom rebuilt)", evaluate(rows, lambda r: np.array(r["phon"])))
-    for T in (20, 40, 75, 150):
-        show(f"acoustic current prune T={T}", evaluate(rows, lambda r, T=T: acoustic(r, prune_set(r), T)))
-    for T in (20, 40, 75, 150):
-        show(f"acoustic wide T={T}", evaluate(rows, lambda r, T=T: acoustic(r, [int(k) for k in r["align"]], T)))
-    for T in (20, 40, 75, 150, 300):
-        show(f"phon + acoustic wide T={T}",
-             evaluate(rows, lambda r, T=T: np.array(r["phon"]) + acoustic(r, [int(k) for k in r["align"]], T)))
+    rec: dict[str, list[bool]] = defaultdict(list)
+    for r in sp:
+        hit = bool(np.array(r["correct"])[prune_set(r)].any())
+        rec[r["snr"]].append(hit)
+        rec["all"].append(hit)
+    print("pruning recall (gold among the aligned commands): "
+          + ", ".join(f"{k} {100 * np.mean(rec[k]):.1f} %" for k in ORDER if k in rec))
+    xs, ys = [], []
+    for r in sp:
+        if r["frame"] is None:
+            continue
+        items = [(s, nk) for v in r["align"].values() for s, _, nk, _ in v if s > FAILED]
+        s = np.array([a for a, _ in items], dtype=float)
+        n = np.array([b for _, b in items], dtype=float)
+        xs += list(n - n.mean())
+        ys += list(s - s.mean())
+    x, y = np.array(xs), np.array(ys)
+    print(f"alignment score vs key-phrase phones (within utterance): {np.sum(x * y) / np.sum(x * x):.1f} nats "
+          f"per phone, r = {np.corrcoef(x, y)[0, 1]:.2f}")
+    gaps, right = [], []
+    for r in sp:
+        al = {int(k): max(s for s, *_ in v) for k, v in r["align"].items()}
+        best = max(al, key=al.get)  # type: ignore[arg-type]
+        if al[best] <= FAILED or r["loop"] != r["loop"]:
+            continue
+        gaps.append((r["loop"] - al[best]) / r["frames"])
+        right.append(bool(np.array(r["correct"])[best]))
+    g, c = np.array(gaps), np.array(right)
+    auc = float(np.mean([(a < b) + 0.5 * (a == b) for a in g[c] for b in g[~c]]))
+    print(f"best alignment right {100 * c.mean():.1f} %; AUC of the phone-loop gap for that: {auc:.2f}")
 
 
-
-
-def extra(rows: list[dict]) -> None:
-    """Mode split and combined rules."""
-    wide = lambda r: [int(k) for k in r["align"]]  # noqa: E731
-    n_sent = sum(1 for r in rows if r["speech"] and r["frame"] is None)
-    print("sentence-mode stimuli:", n_sent)
-    for T in (40, 75, 150):
-        show(f"key-mode acoustic, else phon T={T}", evaluate(
-            rows, lambda r, T=T: acoustic(r, wide(r), T) if r["frame"] is not None else np.array(r["phon"])))
-    for T in (40, 75, 150, 300):
-        show(f"key: phon+acoustic, else phon T={T}", evaluate(
-            rows, lambda r, T=T: np.array(r["phon"]) + (acoustic(r, wide(r), T) if r["frame"] is not None else 0)))
+def main(paths: list[str]) -> None:
+    """Print the tables for each features file."""
+    for path in paths:
+        rows = load(path)
+        print(f"== {path}: {len(rows)} stimuli, {sum(r['speech'] for r in rows)} with words")
+        diagnostics(rows)
+        show("phonetic", evaluate(rows, lambda r: np.array(r["phon"])))
+        for T in GRID:
+            show(f"acoustic T={T}", evaluate(rows, lambda r, T=T: acoustic(r, T, False)))
+        for T in GRID:
+            show(f"product T={T}", evaluate(rows, lambda r, T=T: acoustic(r, T, True)))
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:])
-    extra(load(sys.argv[1]))
+    main(sys.argv[1:])

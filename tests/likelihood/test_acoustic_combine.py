@@ -41,3 +41,27 @@ def test_product_does_not_count_the_nbest_twice_for_pruned_commands():
     out2 = alone.combine(_raw([-300.0, -310.0], phonetic=[-1.0, -0.5, -6.0], keep=[0, 1]), 3)
     # without the product a pruned command is below the worst aligned one by its N-best deficit
     assert np.allclose(out2, [-30.0, -31.0, -31.0 - 5.0])
+
+
+def test_temperature_grows_only_when_alignments_fit_worse_than_free_phones():
+    """T * exp(kappa * max(gap, 0)): a poor fit (noise) softens the alignment term, a good one
+    (gap <= 0) leaves T as calibrated."""
+    base = _raw([-300.0, -330.0])
+    lk = AcousticLikelihood(temperature=10.0, with_phonetic=False, gap_scale=2.0)
+    plain = lk.combine(base, 2)
+    good = lk.combine(RawScores(base.keep, base.items, "key", None, gap=-0.4), 2)
+    poor = lk.combine(RawScores(base.keep, base.items, "key", None, gap=0.5), 2)
+    assert np.allclose(good, plain)
+    assert np.isclose(plain[0] - plain[1], 3.0)
+    assert np.isclose(poor[0] - poor[1], 3.0 / np.e)
+    off = AcousticLikelihood(temperature=10.0, with_phonetic=False, gap_scale=0.0)
+    assert np.allclose(off.combine(RawScores(base.keep, base.items, "key", None, gap=0.5), 2), plain)
+
+
+def test_gap_scale_must_be_non_negative():
+    import pytest
+
+    from siftom.errors import SiftomError
+
+    with pytest.raises(SiftomError, match="gap_scale"):
+        AcousticLikelihood(gap_scale=-1.0)

@@ -7,6 +7,7 @@ softmax(context + instruction term) for:
 * ``phonetic``: the N-best phonetic likelihood alone (what ``siftom`` uses);
 * ``acoustic T``: the key-phrase alignment alone at temperature T (pruned as the likelihood prunes);
 * ``product T``: alignment / T plus the N-best phonetic likelihood (the default since issue 12);
+* ``product T k``: the same with T * exp(k * max(gap, 0)) (the default: T = 75, k = 4);
 
 and the diagnostics behind the choice: pruning recall (is the gold command among the aligned
 ones), the within-utterance slope of alignment score against the key phrase's phone count, and
@@ -60,8 +61,17 @@ def good_min(r: dict) -> float:
     return min(ok) if ok else 0.0
 
 
-def acoustic(r: dict, T: float, with_phonetic: bool) -> np.ndarray:
+def gap(r: dict) -> float:
+    """(phone loop - best alignment) per frame over the aligned audio (0 when unknown)."""
+    ok = [s for v in r["align"].values() for s, *_ in v if s > FAILED]
+    if not ok or r["loop"] != r["loop"]:
+        return 0.0
+    return (r["loop"] - max(ok)) / r["frames"]
+
+
+def acoustic(r: dict, T: float, with_phonetic: bool, kappa: float = 0.0) -> np.ndarray:
     """The instruction term of AcousticLikelihood.combine for one stimulus."""
+    T = T * float(np.exp(kappa * max(gap(r), 0.0)))
     keep = prune_set(r)
     phon = np.array(r["phon"])
     worst = good_min(r)
@@ -140,6 +150,9 @@ def main(paths: list[str]) -> None:
             show(f"acoustic T={T}", evaluate(rows, lambda r, T=T: acoustic(r, T, False)))
         for T in GRID:
             show(f"product T={T}", evaluate(rows, lambda r, T=T: acoustic(r, T, True)))
+        for T in (40, 75):
+            for kappa in (2, 4, 8):
+                show(f"product T={T} k={kappa}", evaluate(rows, lambda r, T=T, k=kappa: acoustic(r, T, True, k)))
 
 
 if __name__ == "__main__":

@@ -1,11 +1,12 @@
 """Calibrate the acoustic likelihood's temperature on a dataset, and measure calibration.
 
-For every stimulus the audio goes through ``siftom.api.listen``'s path (VAD, recognition, key-phrase
-alignment) once; the raw alignment scores are kept and the full model's posterior is
-recomputed for each temperature T on a grid. T is chosen per SNR band by the negative
-log-likelihood of the gold command (a proper scoring rule: it is lowest when the posterior is
-neither over- nor under-confident), and the rule T(estimated SNR) is what the likelihood uses.
-Use a dataset built with another seed (and other voices and noise) than the one you report on.
+For every stimulus the audio goes through the evaluator's acoustic path (recognition of the whole
+clip, key-phrase alignment, the phone-loop gap) once; the raw alignment scores are kept and the
+full model's posterior is recomputed for each base temperature T on a grid (the likelihood's
+gap rule T * exp(kappa * max(gap, 0)) applies on top). The NLL of the gold command per SNR band
+(a proper scoring rule: it is lowest when the posterior is neither over- nor under-confident)
+says which T fits. Use a dataset built with another seed (and other voices and noise) than the
+one you report on.
 
     siftom bench calibrate --dataset runs/kitchen-cal-seed1 [--json] [--out DIR]
 """

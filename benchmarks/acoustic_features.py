@@ -1,13 +1,18 @@
 """Dump, per stimulus, everything the acoustic likelihood's combination rules need (research tool).
 
-For each stimulus of a dataset: the listen() path (VAD, recognition), the command list, the
+For each stimulus of a dataset: the evaluator's acoustic path (recognition of the whole clip,
+``siftom.bench.acoustic_models.heard``), the command list, the
 action context log P(command | actions), the N-best phonetic log-likelihood, the key-phrase
 alignment scores of a wide candidate set (top ``--wide`` commands by phonetic x context, plus
 the top 5 by phonetic alone), the number of phones of each aligned text, the span's length in
 frames, and a free phone-loop score of the same span (the background). Rules are then compared
 offline (benchmarks/acoustic_rules.py) without aligning again.
 
-    python benchmarks/acoustic_features.py DATASET OUT.jsonl [--wide 8] [--step 2] [--limit N]
+    python benchmarks/acoustic_features.py DATASET OUT.jsonl [--wide 8] [--start 0] [--step 2] [--limit N]
+
+(``--start``/``--step`` subsample; the manifest lists clean, 20, 10, 5 dB per speaker, so
+``--step 2`` keeps clean and 10 dB and ``--start 1 --step 2`` keeps 20 and 5 dB.) Resumes
+when OUT exists.
 """
 
 from __future__ import annotations

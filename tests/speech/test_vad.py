@@ -65,3 +65,19 @@ def test_trim_keeps_the_speech(cereal_clip):
     x = np.concatenate([pad, cereal_clip, pad])
     y = trim(x, detect_speech(x))
     assert len(cereal_clip) <= len(y) < len(x) - 16_000
+
+
+@needs_flite
+@pytest.mark.parametrize("name", ["appliance_hum_01", "dishes_06", "street_02", "washing_machine_01"])
+def test_trim_leaves_a_tight_noisy_clip_whole(cereal_clip, name):
+    """At 5 dB the quiet word edges stay: a clip that is all speech is not cut (the earlier
+    level rule cut 30-35 % of these clips and changed the recogniser's output on about one noisy
+    benchmark clip in four)."""
+    from siftom.speech.audio import load_audio
+    from siftom.speech.noise import mix_at_snr
+
+    if not (SHARED_NOISE / f"{name}.wav").is_file():
+        pytest.skip("the recorded noises are not here")
+    x = mix_at_snr(cereal_clip, load_audio(SHARED_NOISE / f"{name}.wav"), 5.0, 1)
+    y = trim(x, detect_speech(x))
+    assert len(y) >= len(x) - 1600  # at most 0.1 s

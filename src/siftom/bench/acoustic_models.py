@@ -1,11 +1,15 @@
-"""The evaluator's acoustic models: the path of ``siftom.api.listen`` on each stimulus.
+"""The evaluator's acoustic models: the instruction likelihood of ``siftom.api.listen`` on each stimulus.
 
-* ``siftom-acoustic``: voice-activity detection, recognition of the speech (N-best and word
-  times), then the full model with the acoustic (key-phrase alignment) likelihood;
+* ``siftom-acoustic``: the full model with the acoustic likelihood (key-phrase alignment
+  combined with the N-best, docs/likelihoods.md);
 * ``speech-only-acoustic``: the same likelihood with a uniform prior and no actions.
 
-A stimulus in which no speech is detected gets the posterior from the actions alone (full
-model) or no command (speech-only), as ``siftom.api.listen`` does.
+Both hear the stimulus as the N-best models do: the whole clip goes to the same recogniser
+(N-best and word times), so a row differs from ``siftom`` / ``speech-only`` only in the
+instruction likelihood. The voice-activity detector runs for its SNR estimate; it does not gate
+or cut the clip here (the benchmark's clips all hold speech, and the N-best models are not
+gated either). A clip the recogniser returns no words for gets the posterior from the actions
+alone (full model) or no command (speech-only).
 """
 
 from __future__ import annotations
@@ -18,13 +22,19 @@ _HEARD: dict[str, tuple[Any, Any]] = {}
 
 def heard(audio: Path, engine: Any, nbest: int) -> tuple[Any, Any]:
     """(instruction or None, VAD result) for one stimulus, shared by both acoustic models."""
-    from siftom.inference.listen import hear
+    import dataclasses
+
     from siftom.speech.audio import load_audio
+    from siftom.speech.vad import detect_speech
 
     key = str(audio)
     if key not in _HEARD:
         _HEARD.clear()  # one stimulus at a time
-        instruction, _, vad, _ = hear(load_audio(audio), engine, nbest)
+        x = load_audio(audio)
+        vad = detect_speech(x)
+        tr = engine.transcribe(x, nbest=nbest)
+        instruction = (dataclasses.replace(tr.to_instruction(samples=x), snr_db=vad.snr_db)
+                       if tr.text else None)
         _HEARD[key] = (instruction, vad)
     return _HEARD[key]
 

@@ -1,11 +1,12 @@
 """Calibrate the acoustic likelihood's temperature on a dataset, and measure calibration.
 
-For every stimulus the audio goes through ``siftom.api.listen``'s path (VAD, recognition, key-phrase
-alignment) once; the raw alignment scores are kept and the full model's posterior is
-recomputed for each temperature T on a grid. T is chosen per SNR band by the negative
-log-likelihood of the gold command (a proper scoring rule: it is lowest when the posterior is
-neither over- nor under-confident), and the rule T(estimated SNR) is what the likelihood uses.
-Use a dataset built with another seed (and other voices and noise) than the one you report on.
+For every stimulus the audio goes through the evaluator's acoustic path (recognition of the whole
+clip, key-phrase alignment, the phone-loop gap) once; the raw alignment scores are kept and the
+full model's posterior is recomputed for each base temperature T on a grid (the likelihood's
+gap rule T * exp(kappa * max(gap, 0)) applies on top). The NLL of the gold command per SNR band
+(a proper scoring rule: it is lowest when the posterior is neither over- nor under-confident)
+says which T fits. Use a dataset built with another seed (and other voices and noise) than the
+one you report on.
 
     siftom bench calibrate --dataset runs/kitchen-cal-seed1 [--json] [--out DIR]
 """
@@ -19,12 +20,16 @@ from typing import Any
 
 import numpy as np
 
-GRID = (3.0, 5.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40.0, 55.0, 75.0, 100.0)
+GRID = (8.0, 12.0, 20.0, 30.0, 40.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0, 500.0)
 
 
 def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = 5,
             limit: int | None = None, combo: bool = False) -> list[dict[str, Any]]:
-    """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct)."""
+    """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct).
+
+    The likelihood is used as configured (by default the alignment times the N-best phonetic
+    likelihood); ``combo=True`` adds the other choice under negative keys (-T).
+    """
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import load_dataset, scenario_for
@@ -38,7 +43,6 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     lk = model.likelihood
     original = lk.raw_scores, lk.temperature
     combo_default = lk.with_phonetic
-    lk.with_phonetic = False
     rows = []
     try:
         for s in ds.stimuli[:limit]:
@@ -57,13 +61,13 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
                 per_t[T] = (post.prob(s.gold_command), post.commands[0][1],
                             is_correct(post.command, s.gold_command, sc.verb))
             if combo:
-                lk.with_phonetic = True
-                for T in GRID + (150.0, 200.0, 300.0):
+                lk.with_phonetic = not combo_default
+                for T in GRID:
                     lk.temperature = T
                     post = model.infer(Observation.from_scenario(sc, instruction))
                     per_t[-T] = (post.prob(s.gold_command), post.commands[0][1],
                                  is_correct(post.command, s.gold_command, sc.verb))
-                lk.with_phonetic = False
+                lk.with_phonetic = combo_default
             rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
                          "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
     finally:

@@ -3,7 +3,11 @@
 For robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
 cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
-    log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]
+    log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]  +  log P_phonetic(N-best | pi_r)
+
+(the last term only with ``with_phonetic``, the default: the alignment and the recogniser's
+N-best are two views of one recording, and alone the alignment is the weaker one; see
+docs/likelihoods.md for the measurements),
 
 where a_W is the audio from the word before the object to the word after it (as the
 recogniser placed them), and s is the pocketsphinx forced-alignment score, in nats (siftom.speech.acoustic), of
@@ -41,9 +45,12 @@ from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
+FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 # calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
 DEFAULT_TEMPERATURE = 75.0
+# T grows by exp(kappa * gap) when alignments fit worse than free phones (docs/likelihoods.md); chosen on seed-1 sets
+DEFAULT_GAP_SCALE = 4.0
 
 
 def temperature_for_snr(snr_db: float | None) -> float:
@@ -130,6 +137,13 @@ class RawScores:
     items: tuple[list[tuple[float, float]], ...]
     mode: str
     phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
+    gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
+
+    def temperature(self, T: float, scale: float) -> float:
+        """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
+        if self.gap is None or not np.isfinite(self.gap) or scale == 0:
+            return T
+        return T * float(np.exp(scale * max(self.gap, 0.0)))
 
 
 class AcousticLikelihood:
@@ -141,12 +155,16 @@ class AcousticLikelihood:
             list is known).
         temperature: T in nats; must be > 0.
         aligner: a ForcedAligner to share (one is created lazily otherwise).
-        with_phonetic: multiply in the N-best phonetic likelihood (two views of one recording:
-            what the recogniser's lattice says and how well each key phrase fits the audio).
+        with_phonetic: multiply in the N-best phonetic likelihood (default; two views of one
+            recording: what the recogniser's N-best says and how well each key phrase fits the
+            audio). A pruned command then gets the worst aligned score plus its own phonetic term.
         mode: ``"key"`` (key phrase in the recogniser's object window; sentence fallback) or
             ``"sentence"`` (whole phrasings over the whole audio).
         prune: align only the commands that matter (module doc); needs an N-best list.
         prune_mass, max_candidates, top_nbest: the pruning rule.
+        gap_scale: kappa in T * exp(kappa * max(gap, 0)), where gap is how many nats per frame
+            the best aligned key phrase scores below a free phone loop over the same audio
+            (``siftom.speech.phoneloop``); 0 turns the phone loop off (one fewer decode).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -158,17 +176,20 @@ class AcousticLikelihood:
         aligner: object | None = None,
         name: str = "acoustic",
         mode: str = "key",
-        with_phonetic: bool = False,
+        with_phonetic: bool = True,
         prune: bool = True,
         prune_mass: float = 0.995,
         max_candidates: int = 6,
         top_nbest: int = 3,
+        gap_scale: float = DEFAULT_GAP_SCALE,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
             raise SiftomError(f"temperature must be a positive number of nats, got {temperature}")
         if mode not in ("key", "sentence"):
             raise SiftomError(f"mode must be 'key' or 'sentence', got {mode!r}")
+        if not np.isfinite(gap_scale) or gap_scale < 0:
+            raise SiftomError(f"gap_scale must be a number >= 0, got {gap_scale}")
         if not 0 < prune_mass <= 1 or max_candidates < 1 or top_nbest < 0:
             raise SiftomError("prune_mass must be in (0, 1], max_candidates >= 1 and top_nbest >= 0")
         self.phrasings = phrasings
@@ -178,7 +199,9 @@ class AcousticLikelihood:
         self.with_phonetic = with_phonetic
         self.prune = prune
         self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
+        self.gap_scale = float(gap_scale)
         self._aligner = aligner
+        self._loop: Any = None
         self._phonetic: Any = None
         self.last_seconds = 0.0
         self.last_candidates = 0
@@ -228,11 +251,16 @@ class AcousticLikelihood:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
         if n == 0:
             return np.zeros(0)
-        T = self.temperature if temperature is None else temperature
-        vals = np.array([logsumexp([sc / T + lp for sc, lp in items]) for items in raw.items])
+        T = raw.temperature(self.temperature if temperature is None else temperature, self.gap_scale)
+        # a failed alignment (the decoder found no path) says nothing about the command: it gets
+        # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
+        ok = [sc for items in raw.items for sc, _ in items if sc > FAILED]
+        worst = min(ok) if ok else 0.0
+        vals = np.array([logsumexp([(sc if sc > FAILED else worst) / T + lp for sc, lp in items])
+                         for items in raw.items])
         floor = float(np.min(vals))
         out = np.full(n, floor)
-        if raw.phonetic is not None and len(raw.keep) < n:
+        if raw.phonetic is not None and len(raw.keep) < n and not self.with_phonetic:
             # a pruned command is at most as likely as the worst aligned one, and less so by as much
             # as the N-best says it is less likely than that one
             ref = float(np.min(raw.phonetic[raw.keep]))
@@ -270,6 +298,7 @@ class AcousticLikelihood:
                                 lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
             mode = "key"
         else:
+            seg = x
             heard = instruction.text if instruction.nbest else None
             if heard is not None and self.phrasings is None:
                 items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
@@ -277,7 +306,19 @@ class AcousticLikelihood:
                 items = self._align(x, kept, self.phrasings or top_phrasings)
             mode = "sentence"
         self.last_mode = mode
-        return RawScores(keep, tuple(items), mode, phon)
+        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items))
+
+    def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
+        """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""
+        ok = [sc for it in items for sc, _ in it if sc > FAILED]
+        if self.gap_scale == 0 or not ok or len(seg) < 1600:
+            return None
+        if self._loop is None:
+            from siftom.speech.phoneloop import PhoneLoop
+
+            self._loop = PhoneLoop()
+        loop = self._loop.score(seg)
+        return None if not np.isfinite(loop) else (loop - max(ok)) / (len(seg) / 160)
 
     def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
                items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> list[list[tuple[float, float]]]:

@@ -1,0 +1,67 @@
+"""How the acoustic likelihood turns alignment scores into log-likelihoods (no audio needed)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from siftom.likelihood.acoustic import AcousticLikelihood, RawScores
+from siftom.speech.acoustic import FAILED_SCORE
+
+
+def _raw(scores, phonetic=None, keep=None):
+    keep = np.arange(len(scores)) if keep is None else np.asarray(keep)
+    return RawScores(keep, tuple([(s, 0.0)] for s in scores), "key",
+                     None if phonetic is None else np.asarray(phonetic, dtype=float))
+
+
+def test_a_failed_alignment_is_uninformative_not_fatal():
+    """A command whose alignment failed gets the worst real score, not -1e6 / T."""
+    lk = AcousticLikelihood(temperature=10.0, with_phonetic=False)
+    out = lk.combine(_raw([-300.0, -320.0, FAILED_SCORE]), 3)
+    assert np.allclose(out, [-30.0, -32.0, -32.0])
+
+
+def test_product_adds_the_nbest_phonetic_likelihood():
+    """with_phonetic (the default): alignment / T plus the N-best phonetic log-likelihood."""
+    lk = AcousticLikelihood(temperature=10.0)
+    assert lk.with_phonetic
+    out = lk.combine(_raw([-300.0, -310.0], phonetic=[-1.0, -0.5]), 2)
+    assert np.allclose(out, [-31.0, -31.5])
+    # the N-best breaks an acoustic tie
+    tie = lk.combine(_raw([-300.0, -300.0], phonetic=[-2.0, -0.5]), 2)
+    assert np.argmax(tie) == 1
+
+
+def test_product_does_not_count_the_nbest_twice_for_pruned_commands():
+    """A pruned command gets the worst aligned score plus its own phonetic term, once."""
+    lk = AcousticLikelihood(temperature=10.0)
+    out = lk.combine(_raw([-300.0, -310.0], phonetic=[-1.0, -0.5, -6.0], keep=[0, 1]), 3)
+    assert np.allclose(out, [-31.0, -31.5, -31.0 - 6.0])
+    alone = AcousticLikelihood(temperature=10.0, with_phonetic=False)
+    out2 = alone.combine(_raw([-300.0, -310.0], phonetic=[-1.0, -0.5, -6.0], keep=[0, 1]), 3)
+    # without the product a pruned command is below the worst aligned one by its N-best deficit
+    assert np.allclose(out2, [-30.0, -31.0, -31.0 - 5.0])
+
+
+def test_temperature_grows_only_when_alignments_fit_worse_than_free_phones():
+    """T * exp(kappa * max(gap, 0)): a poor fit (noise) softens the alignment term, a good one
+    (gap <= 0) leaves T as calibrated."""
+    base = _raw([-300.0, -330.0])
+    lk = AcousticLikelihood(temperature=10.0, with_phonetic=False, gap_scale=2.0)
+    plain = lk.combine(base, 2)
+    good = lk.combine(RawScores(base.keep, base.items, "key", None, gap=-0.4), 2)
+    poor = lk.combine(RawScores(base.keep, base.items, "key", None, gap=0.5), 2)
+    assert np.allclose(good, plain)
+    assert np.isclose(plain[0] - plain[1], 3.0)
+    assert np.isclose(poor[0] - poor[1], 3.0 / np.e)
+    off = AcousticLikelihood(temperature=10.0, with_phonetic=False, gap_scale=0.0)
+    assert np.allclose(off.combine(RawScores(base.keep, base.items, "key", None, gap=0.5), 2), plain)
+
+
+def test_gap_scale_must_be_non_negative():
+    import pytest
+
+    from siftom.errors import SiftomError
+
+    with pytest.raises(SiftomError, match="gap_scale"):
+        AcousticLikelihood(gap_scale=-1.0)

@@ -111,7 +111,7 @@ def voices_cmd(as_json: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="print the results as JSON")
 @click.option("--out", "out_dir", default="bench-out/asr", show_default=True, help="folder for JSON + PNG")
 @click.option("--quick", is_flag=True, help="2 voices, clean and 10 dB (under a minute)")
-@click.option("--engine", "engines", multiple=True, help="engines (default: all four)")
+@click.option("--engine", "engines", multiple=True, help="engines (default: all registered pocketsphinx engines and whisper)")
 @click.option("--voice", "voices", multiple=True, help="voices (default: 4 incl. one accented)")
 @click.option("--noise", "noises", multiple=True, help="noise specs (default: babble)")
 def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, ...],

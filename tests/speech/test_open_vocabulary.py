@@ -8,9 +8,10 @@ import shutil
 import numpy as np
 import pytest
 
+from siftom.likelihood.asr import distinct_words
 from siftom.observation import Hypothesis
 from siftom.speech.asr.dual import mix_nbest
-from siftom.speech.asr.pocketsphinx import add_background_words, build_arpa, distinct_words
+from siftom.speech.asr.pocketsphinx import add_background_words, build_arpa
 
 FOODS = ("cereal", "milk", "sugar", "coffee", "tea", "pasta", "flour", "bread")
 needs_flite = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")

@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from siftom.observation import Hypothesis
-from siftom.speech.asr.base import Transcript
-from siftom.speech.asr.pocketsphinx import PocketsphinxEngine, open_vocabulary_engine
+from siftom.speech.asr.base import Transcript, get_engine
+from siftom.speech.asr.pocketsphinx import PocketsphinxEngine
 from siftom.speech.audio import as_audio
 
 
@@ -58,7 +58,7 @@ class DualEngine:
     Args:
         vocabulary: the scene's phrasings (as for ``pocketsphinx-vocab``).
         max_seconds: refuse longer audio.
-        open_options: keyword arguments for the open engine (``open_vocabulary_engine``).
+        open_options: keyword arguments for the open engine (the registered ``pocketsphinx-open``).
     """
 
     name = "pocketsphinx-dual"
@@ -67,7 +67,7 @@ class DualEngine:
         """Build both decoders (their LMs and dictionaries are cached on disk)."""
         self.max_seconds = max_seconds
         self.closed = PocketsphinxEngine(vocabulary=vocabulary, max_seconds=max_seconds)
-        self.open = open_vocabulary_engine(vocabulary, max_seconds=max_seconds, **open_options)
+        self.open = get_engine("pocketsphinx-open", vocabulary=vocabulary, max_seconds=max_seconds, **open_options)
         self.unknown_words = self.closed.unknown_words
 
     def transcribe(self, audio: np.ndarray | str | Path, nbest: int = 1) -> Transcript:

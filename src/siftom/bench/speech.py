@@ -43,7 +43,7 @@ FREE_SENTENCES = (
     "the recipe says we need the flour",
     "oh and the butter too",
 )
-ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "pocketsphinx-open", "whisper")  # registered ASR engines compared
+ENGINES = ("pocketsphinx", "pocketsphinx-vocab", "pocketsphinx-open", "pocketsphinx-dual", "whisper")  # registered ASR engines compared
 DEFAULT_VOICES = ("flite-slt", "flite-rms", "espeak-en-us+klatt", "espeak-es")
 QUICK_VOICES = ("flite-slt", "espeak-en-us+klatt")
 DEFAULT_SNRS: tuple[float | None, ...] = (None, 20.0, 10.0, 5.0, 0.0)

@@ -54,7 +54,7 @@ def say_cmd(text: str, voice: str, rate: float, pitch: float, noise: str | None,
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--engine", "-e", default="pocketsphinx", show_default=True, help=f"ASR engine: {ENGINES.help_line()}")
 @click.option("--nbest", "-n", type=int, default=1, show_default=True, help="hypotheses to return")
-@click.option("--vocab", default=None, help="pocketsphinx: phrasings file, or comma-separated words/phrasings")
+@click.option("--vocab", default=None, help="pocketsphinx engines: phrasings file, or comma-separated words/phrasings")
 @click.option("--model-dir", default=None, help="whisper: a local CTranslate2 whisper folder")
 @click.option("--vad/--no-vad", default=True, show_default=True,
               help="detect speech first: silence or noise alone gives 'no speech heard', not words")
@@ -73,8 +73,8 @@ def transcribe_cmd(file: str, engine: str, nbest: int, vocab: str | None, model_
     x = load_audio(file)  # validate before loading a model
     opts: dict[str, object] = {}
     if vocab is not None:
-        if engine != "pocketsphinx":
-            raise SiftomError("--vocab applies to --engine pocketsphinx only")
+        if not engine.startswith("pocketsphinx"):
+            raise SiftomError("--vocab applies to the pocketsphinx engines only (pocketsphinx, -vocab, -open, -dual)")
         opts["vocabulary"] = _vocab(vocab)
     if model_dir is not None:
         if engine != "whisper":
@@ -136,7 +136,7 @@ def voices_cmd(as_json: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="print the results as JSON")
 @click.option("--out", "out_dir", default="bench-out/asr", show_default=True, help="folder for JSON + PNG")
 @click.option("--quick", is_flag=True, help="2 voices, clean and 10 dB (under a minute)")
-@click.option("--engine", "engines", multiple=True, help="engines (default: all four)")
+@click.option("--engine", "engines", multiple=True, help="engines (default: all registered pocketsphinx engines and whisper)")
 @click.option("--voice", "voices", multiple=True, help="voices (default: 4 incl. one accented)")
 @click.option("--noise", "noises", multiple=True, help="noise specs (default: babble)")
 def bench_asr_cmd(as_json: bool, out_dir: str, quick: bool, engines: tuple[str, ...],

@@ -19,12 +19,12 @@ import time
 
 import numpy as np
 
-from siftom.backends.config import LLMConfig
 from siftom.api import get_model, make_instruction
+from siftom.backends.config import LLMConfig
 from siftom.inference.model import Observation
 from siftom.likelihood.llm import FEW_SHOT, LLMLikelihood, build_prefix, make_backend
-from siftom.world.commands import RobotCommand
 from siftom.scenarios.base import get_scenario
+from siftom.world.commands import RobotCommand
 
 BEFORE = (  # the contaminated examples (kept here only to measure the difference)
     ("pass(robot, human, cereal)", "pass me the silver"),

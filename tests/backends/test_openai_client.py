@@ -28,6 +28,8 @@ def test_config_reads_the_environment_and_overrides_win(tmp_path):
     assert LLMConfig.from_env({}).backend == "llama" and not llm_configured({})
     assert LLMConfig.from_env({"SIFTOM_LLM": "llama", "SIFTOM_LLM_GGUF": "/x.gguf"}).model == "/x.gguf"
     assert llm_configured({"SIFTOM_LLM": "llama"})
+    assert LLMConfig.from_env({}).prompt == "sounds"
+    assert LLMConfig.from_env({"SIFTOM_LLM_PROMPT": "Plain"}).prompt == "plain"
 
 
 def test_cache_variable_and_its_deprecated_alias(tmp_path):
@@ -42,6 +44,7 @@ def test_cache_variable_and_its_deprecated_alias(tmp_path):
     ({"SIFTOM_LLM_BACKEND": "lama"}, "llama"),
     ({"SIFTOM_LLM_TIMEOUT": "soon"}, "SIFTOM_LLM_TIMEOUT"),
     ({"SIFTOM_LLM_MAX_RETRIES": "-1"}, "max_retries"),
+    ({"SIFTOM_LLM_PROMPT": "phonemes"}, "SIFTOM_LLM_PROMPT"),
 ])
 def test_bad_settings_say_how_to_fix_them(env, match):
     with pytest.raises((BackendUnavailableError, UnknownNameError), match=match):

@@ -239,4 +239,5 @@ def test_siftom_llm_and_chat_baselines_run_against_an_endpoint(tiny: Path, tmp_p
     assert all(r["models"]["siftom-llm"]["command"].startswith("deliver(fork,") for r in rows)
     assert fake_openai.bodies("chat/completions") and fake_openai.bodies("completions")
     run = json.loads((tmp_path / "r" / "run.json").read_text())
-    assert run["options"]["llm"] == {"backend": "openai", "base_url": fake_openai.url, "model": "m"}
+    assert run["options"]["llm"] == {"backend": "openai", "base_url": fake_openai.url, "model": "m",
+                                     "prompt": "sounds"}

@@ -25,7 +25,7 @@ def fake_logprobs(text: str) -> dict:
         pos += len(t)
     command = text.rsplit("Command:", 1)[1].split("\n", 1)[0]
     heard = text.rsplit("Heard:", 1)[1]
-    item = command.rstrip(")").split(",")[-1].strip()
+    item = command.split("(", 1)[1].split(")", 1)[0].split(",")[2].strip()  # before any [sounds: ...]
     good = item in heard or (item == "cereal" and "silver" in heard)
     heard_start = len(text) - len(heard)
     values = [None] + [(-0.2 if good else -2.0) if o >= heard_start else -1.0 for o in offsets[1:]]

@@ -7,7 +7,7 @@ import pytest
 
 from siftom.bench import llm_baselines
 from siftom.likelihood.lexicon import default_lexicon
-from siftom.likelihood.llm import FEW_SHOT, HEADER, build_prefix
+from siftom.likelihood.llm import FEW_SHOT, HEADER, SOUNDS_NOTE, build_prefix
 from siftom.likelihood.phrasing import FILLER_WORDS, NUMBER_WORDS, command_vocabulary
 from siftom.scenarios.base import get_scenario, scenario_ids
 from siftom.world.domains.kitchen import library
@@ -71,7 +71,8 @@ def test_few_shot_examples_use_no_benchmark_object_or_story(command, heard):
 
 
 def test_prompts_do_not_contain_the_figure_2_pair():
-    for text in (build_prefix(), HEADER, llm_baselines.HEADER, llm_baselines.CHAT_SYSTEM):
+    for text in (build_prefix(), build_prefix(prompt="sounds"), HEADER, SOUNDS_NOTE,
+                 llm_baselines.HEADER, llm_baselines.CHAT_SYSTEM):
         assert "silver" not in text and "cereal" not in text
     # and a contaminated example would be caught
     assert _words("pass me the silver") & STORY_WORDS

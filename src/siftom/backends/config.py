@@ -48,6 +48,8 @@ ENV_API_KEY = "SIFTOM_LLM_API_KEY"
 ENV_TIMEOUT = "SIFTOM_LLM_TIMEOUT"
 ENV_MAX_RETRIES = "SIFTOM_LLM_MAX_RETRIES"
 ENV_CACHE_DIR = "SIFTOM_CACHE_DIR"
+ENV_PROMPT = "SIFTOM_LLM_PROMPT"
+LLM_PROMPTS = ("sounds", "plain")  # siftom.likelihood.llm: pronunciations in the prompt, or words only
 # Deprecated spellings, still honoured (the new name wins when both are set).
 ENV_BACKEND_OLD = "SIFTOM_LLM"
 ENV_CACHE_DIR_OLD = "SIFTOM_CACHE"
@@ -87,6 +89,7 @@ class LLMConfig:
         timeout_s: seconds per HTTP request.
         max_retries: retries after a 429, a 5xx, a timeout or a dropped connection.
         cache_dir: folder of the on-disk response/score cache (default :func:`cache_root`).
+        prompt: the LLM likelihood's prompt, "sounds" (pronunciations shown; default) or "plain".
     """
 
     backend: str
@@ -96,8 +99,11 @@ class LLMConfig:
     timeout_s: float = 30.0
     max_retries: int = 3
     cache_dir: Path | None = None
+    prompt: str = "sounds"
 
     def __post_init__(self) -> None:
+        if self.prompt not in LLM_PROMPTS:
+            raise unknown_name(f"LLM prompt (set {ENV_PROMPT} or prompt=)", str(self.prompt), LLM_PROMPTS)
         if self.backend not in BACKENDS:
             raise unknown_name(f"LLM backend (set {ENV_BACKEND} or --llm-backend)", str(self.backend),
                                BACKENDS)
@@ -168,6 +174,7 @@ class LLMConfig:
             "timeout_s": given.get("timeout_s", _env_number(env, ENV_TIMEOUT, float, 30.0)),
             "max_retries": given.get("max_retries", _env_number(env, ENV_MAX_RETRIES, int, 3)),
             "cache_dir": given.get("cache_dir", cache_root(env)),
+            "prompt": given.get("prompt", (env.get(ENV_PROMPT) or "sounds").strip().lower()),
         }
         return cls(**values)
 
@@ -189,6 +196,7 @@ class LLMConfig:
             "api_key_set": bool(self.api_key),
             "timeout_s": self.timeout_s,
             "max_retries": self.max_retries,
+            "prompt": self.prompt,
         }
 
     def describe(self) -> str:

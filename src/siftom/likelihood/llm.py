@@ -16,6 +16,17 @@ the model scores the heard utterance as its continuation:
 The header and examples are a prefix shared by every candidate, so an in-process model
 evaluates them once (``siftom.backends.llama_cpp``). The examples use objects no benchmark
 scenario has (the paper's own example would leak the answer to its Figure 2 story).
+
+Two prompts (``prompt=``, docs/llm.md):
+
+* ``"sounds"`` (default): every command and every transcript is followed by its pronunciation,
+  ARPAbet phonemes from CMUdict (the dictionary the phonetic likelihood uses), e.g.
+  ``Command: pass(robot, human, stapler) [sounds: S T EY P L AH R]`` /
+  ``Heard: could you pass me the staple her [sounds: ... S T EY P AH L / HH AH R]``. A text-only
+  model does not know that "silver" sounds like "cereal", but even a 135M model copies tokens it
+  has seen: the heard phonemes are likely when they repeat the command's.
+* ``"plain"``: the words only, as in the paper (which relies on a model large enough to know
+  how words sound).
 """
 
 from __future__ import annotations
@@ -25,11 +36,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLMConfig
+from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
-from siftom.likelihood.phonemes import normalize_text
+from siftom.likelihood.phonemes import normalize_text, word_phonemes
+from siftom.likelihood.phrasing import number_word
 from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
@@ -57,6 +69,57 @@ FEW_SHOT: tuple[tuple[str, str], ...] = (
     ("deliver(robot, table, hammers, 1)", "i need a hammock"),
 )
 
+PROMPTS = LLM_PROMPTS
+
+SOUNDS_NOTE = (
+    "After each command and each transcript, [sounds: ...] spells how its words are pronounced "
+    "(ARPAbet phonemes, words separated by /). A misheard word sounds like the word that was "
+    "meant.\n\n"
+)
+
+# Request words that carry no object, left out of the pronunciations to keep them short
+# (generic English, not fitted to any benchmark; numbers and their sound-alikes stay in).
+FUNCTION_WORDS = frozenset((
+    "a", "an", "the", "this", "that", "these", "those", "some", "any", "more", "of", "me", "my",
+    "us", "our", "it", "its", "i", "i'm", "i'd", "we", "we're", "you", "you're", "your", "can",
+    "could", "would", "will", "shall", "please", "just", "and", "or", "also", "now", "too", "here",
+    "there", "is", "are", "be", "need", "needs", "want", "wants", "like", "get", "give", "grab",
+    "hand", "pass", "bring", "fetch", "let's", "let", "hey", "um", "uh", "okay", "oh", "so",
+    "thanks", "thank",
+))
+
+
+def sounds(words: Sequence[str]) -> str:
+    """ARPAbet pronunciation of the content words, ``/`` between words: ``S IH L V AH R``."""
+    return " / ".join(" ".join(word_phonemes(w)) for w in words if w not in FUNCTION_WORDS)
+
+
+def command_words(description: str) -> list[str]:
+    """The words a person says for a command description: ``deliver(robot, table, forks, 3)``
+    -> ``["three", "forks"]``, ``pass(robot, human, wine glass)`` -> ``["wine", "glass"]``."""
+    parts = [p.strip() for p in description.split("(", 1)[-1].rstrip(")").split(",")]
+    words = normalize_text(parts[2]) if len(parts) > 2 else []
+    if len(parts) > 3 and parts[3].isdigit():
+        words = normalize_text(number_word(int(parts[3]))) + words
+    return words
+
+
+def command_line(description: str, prompt: str = "sounds") -> str:
+    """``Command: ...`` as the prompt writes it (with the pronunciation for ``"sounds"``)."""
+    if prompt == "plain":
+        return f"Command: {description}"
+    return f"Command: {description} [sounds: {sounds(command_words(description))}]"
+
+
+def heard_text(text: str, prompt: str = "sounds") -> str:
+    """What follows ``Heard:`` (the scored target), newline-terminated."""
+    words = normalize_text(text)
+    said = " ".join(words) or text.strip()
+    if prompt == "plain":
+        return f" {said}\n"
+    return f" {said} [sounds: {sounds(words)}]\n"
+
+
 def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> str:
     """The command as the prompt writes it: ``pass(robot, human, cereal)``,
     ``deliver(robot, table, forks, 3)``."""
@@ -68,12 +131,19 @@ def describe_command(command: RobotCommand, lexicon: Lexicon | None = None) -> s
     return f"{'pass' if command.verb == 'fetch' else 'deliver'}(robot, {where}, {name}, {command.count})"
 
 
-def build_prefix(examples: Sequence[tuple[str, str]] = FEW_SHOT, header: str = HEADER) -> str:
-    """The shared part of the prompt: header and few-shot examples."""
-    return header + "".join(f"Command: {c}\nHeard: {u}\n\n" for c, u in examples)
+def build_prefix(examples: Sequence[tuple[str, str]] = FEW_SHOT, header: str = HEADER,
+                 prompt: str = "plain") -> str:
+    """The shared part of the prompt: header and few-shot examples (``prompt``: "plain" or
+    "sounds", see the module docstring)."""
+    if prompt not in PROMPTS:
+        raise unknown_name("LLM prompt", prompt, PROMPTS)
+    if prompt == "plain":
+        return header + "".join(f"Command: {c}\nHeard: {u}\n\n" for c, u in examples)
+    return header + SOUNDS_NOTE + "".join(
+        f"{command_line(c, prompt)}\nHeard:{heard_text(u, prompt)}\n" for c, u in examples)
 
 
-_CONFIG_KEYS = ("base_url", "model", "api_key", "timeout_s", "max_retries", "cache_dir")
+_CONFIG_KEYS = ("base_url", "model", "api_key", "timeout_s", "max_retries", "cache_dir", "prompt")
 
 
 def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> TextScorer:
@@ -118,6 +188,8 @@ class LLMLikelihood:
         nbest_limit: how many hypotheses to score (each costs one LM call per command).
         asr_temperature: T_asr for the N-best weights.
         temperature: tau, divides the LM log-probabilities.
+        prompt: "sounds" (pronunciations in the prompt) or "plain" (words only); default: the
+            configuration's (``SIFTOM_LLM_PROMPT``, else "sounds").
         **backend_kwargs: passed to the backend (``model_path``, ``base_url``, ``api_key``,
             ``model``, ``cache_dir`` ...).
     """
@@ -135,6 +207,7 @@ class LLMLikelihood:
         nbest_limit: int = 3,
         asr_temperature: float = 10.0,
         temperature: float = 1.0,
+        prompt: str | None = None,
         **backend_kwargs: object,
     ) -> None:
         if nbest_limit < 1:
@@ -147,7 +220,12 @@ class LLMLikelihood:
             if backend is None or isinstance(backend, str | LLMConfig) else backend
         )
         self.lexicon = lexicon or default_lexicon()
-        self.prefix = build_prefix(examples)
+        if prompt is None:
+            prompt = (backend if isinstance(backend, LLMConfig) else LLMConfig.from_env(backend="llama")).prompt
+        if prompt not in PROMPTS:
+            raise unknown_name("LLM prompt", prompt, PROMPTS)
+        self.prompt = prompt
+        self.prefix = build_prefix(examples, prompt=prompt)
         self.nbest_limit = nbest_limit
         self.asr_temperature = float(asr_temperature)
         self.temperature = float(temperature)
@@ -175,8 +253,8 @@ class LLMLikelihood:
         hyps = instruction.nbest[: self.nbest_limit]
         scores = np.array([h.score for h in hyps]) / self.asr_temperature
         logw = scores - logsumexp(scores)
-        texts = [" " + (" ".join(normalize_text(h.text)) or h.text.strip()) + "\n" for h in hyps]
-        contexts = [f"Command: {describe_command(c, self.lexicon)}\nHeard:" for c in commands]
+        texts = [heard_text(h.text, self.prompt) for h in hyps]
+        contexts = [f"{command_line(describe_command(c, self.lexicon), self.prompt)}\nHeard:" for c in commands]
         items = [(ctx, t) for ctx in contexts for t in texts]
         lp = self._score(items).reshape(len(commands), len(texts)) / self.temperature
         return logsumexp(lp + logw[None, :], axis=1)

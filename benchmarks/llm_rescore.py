@@ -15,15 +15,12 @@ a seed-1 development set) and check them on another before changing a default.
 
 from __future__ import annotations
 
-import json
 import sys
 
 import numpy as np
 
-from siftom.bench.stimuli import load_dataset, scenario_for
-from siftom.bench.trials import is_correct
+from siftom.bench.trials import is_correct, saved_trials
 from siftom.inference.model import ModelConfig, Observation, SIFToM
-from siftom.likelihood.base import Hypothesis, Instruction
 from siftom.likelihood.llm import LLMLikelihood
 from siftom.likelihood.phonetic import PhoneticLikelihood
 
@@ -57,20 +54,13 @@ def main() -> None:
     hits: dict[str, list[bool]] = {k: [] for k in models}
     n = 0
     for dfolder, rfolder in zip(args[::2], args[1::2], strict=True):
-        ds = {s.id: s for s in load_dataset(dfolder, check_audio=False).stimuli}
-        with open(f"{rfolder}/results.jsonl", encoding="utf-8") as f:
-            rows = [json.loads(line) for line in f if line.strip()]
-        for r in rows:
-            s = ds[r["id"]]
-            sc = scenario_for(s)
-            nb = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
-            hyps = tuple(Hypothesis(h["text"], h["score"]) for h in nb if h["text"])
+        for s, sc, r, ins in saved_trials(dfolder, rfolder):
             n += 1
             for k, m in models.items():
-                if not hyps:
+                if ins is None:
                     hits[k].append(bool(r["models"]["siftom"]["correct"]))
                     continue
-                post = m.infer(Observation.from_scenario(sc, Instruction(nbest=hyps)))
+                post = m.infer(Observation.from_scenario(sc, ins))
                 hits[k].append(is_correct(post.command, s.gold_command, sc.verb))
     print(f"n = {n} stimuli")
     for k, v in hits.items():

@@ -11,33 +11,23 @@ import json
 import sys
 from collections import defaultdict
 
-from siftom.bench.stimuli import load_dataset, scenario_for
-from siftom.bench.trials import is_correct
+from siftom.bench.trials import is_correct, saved_trials
 from siftom.inference.model import ModelConfig, Observation, SIFToM
-from siftom.likelihood.base import Hypothesis, Instruction
 from siftom.likelihood.phonetic import PhoneticLikelihood
 
 kw = json.loads(sys.argv[1])
 args = sys.argv[2:]
 for dfolder, rfolder in zip(args[::2], args[1::2], strict=True):
-    ds = {s.id: s for s in load_dataset(dfolder, check_audio=False).stimuli}
     lk = PhoneticLikelihood(**kw)
     models = {"siftom": SIFToM(ModelConfig(mode="full"), lk), "speech-only": SIFToM(ModelConfig(mode="speech-only"), lk)}
     acc: dict[str, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
-    with open(f"{rfolder}/results.jsonl", encoding="utf-8") as f:
-        rows = [json.loads(line) for line in f if line.strip()]
-    for r in rows:
-        s = ds[r["id"]]
-        sc = scenario_for(s)
-        nb = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
-        hyps = tuple(Hypothesis(h["text"], h["score"]) for h in nb if h["text"])
+    for s, sc, r, ins in saved_trials(dfolder, rfolder):
         c = "clean" if r["snr_db"] is None else f"{r['snr_db']:g}"
         for name, m in models.items():
-            if not hyps:
+            if ins is None:
                 ok = name == "siftom" and r["models"]["siftom"]["correct"]
             else:
-                ok = is_correct(m.infer(Observation.from_scenario(sc, Instruction(nbest=hyps))).command,
-                                s.gold_command, sc.verb)
+                ok = is_correct(m.infer(Observation.from_scenario(sc, ins)).command, s.gold_command, sc.verb)
             acc[name][c].append(ok)
     for name, d in acc.items():
         vals = [100 * sum(d[c]) / len(d[c]) for c in ("clean", "20", "10", "5") if d[c]]

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
-from siftom.bench.stimuli import Stimulus, scenario_for
+from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
 from siftom.world.commands import MAX_COUNT
 
@@ -117,6 +117,19 @@ def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
 
     hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
     return Instruction(nbest=hyps) if hyps else None
+
+
+def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any, Any, dict[str, Any], Any]]:
+    """(stimulus, scenario, result row, instruction or None) for each row of an eval results
+    folder, to re-score what was heard with other likelihoods without re-running recognition.
+    The instruction is the saved N-best list (or the 1-best text when no list was kept)."""
+    stimuli = {s.id: s for s in load_dataset(dataset, check_audio=False).stimuli}
+    with open(Path(results) / "results.jsonl", encoding="utf-8") as f:
+        rows = [json.loads(line) for line in f if line.strip()]
+    for r in rows:
+        s = stimuli[r["id"]]
+        nbest = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
+        yield s, scenario_for(s), r, _instruction(nbest)
 
 
 def _wer(reference: str, text: str) -> float:

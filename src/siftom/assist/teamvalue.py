@@ -187,7 +187,7 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
         useful_all = np.zeros((len(live), U), dtype=np.int64)
         for r, j in enumerate(live):
             c, n = D[j]
-            taken = _taken(world, s, ctg_h, target, c, n)
+            taken = _taken(world, s, ctg_h, target, c, n, s.agent_at[ROBOT])
             item_at = tuple(HELD if i in taken else loc for i, loc in enumerate(s.item_at))
             extra.append(ctg_h._class_rows(c, item_at, s.open_mask))
             useful = np.minimum(n, need[:, c])
@@ -212,8 +212,15 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept)
 
 
-def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int) -> set[int]:
-    """The ``n`` objects of class ``c`` the robot fetches: the cheapest round trips (as tabulated)."""
+def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int, start: int | None = None) -> set[int]:
+    """The ``n`` objects of class ``c`` the robot fetches, as its cost-to-go plan chooses them.
+
+    The ``n`` cheapest round trips (ordered as the tables order them), except that the first
+    trip starts where the robot stands (``start``): when an unchosen object near the robot is a
+    cheaper first trip than any chosen one, it replaces the last chosen one (the tables' "swap in
+    an unchosen instance as first"). The team simulation's robot (A*) takes the objects on its
+    optimal plan, which this reproduces; the human plans around them.
+    """
     cands = [i for i in np.flatnonzero(world.item_class_idx == c).tolist()
              if s.item_at[i] not in (HELD, target)]
     dT = world.dist[:, target]
@@ -223,7 +230,22 @@ def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int) -
         return bool(world.places[loc].closable and not s.is_open(loc))
 
     cands.sort(key=lambda i: (int(dT[s.item_at[i]]), closed(i), i))
-    return set(cands[:n])
+    chosen = cands[:n]
+    if start is None or n == 0 or len(cands) <= n:
+        return set(chosen)
+    d = world.dist
+
+    def adj(i: int) -> float:  # first trip from ``start`` instead of a round trip from the target
+        return float(d[start, s.item_at[i]] - dT[s.item_at[i]])
+
+    def w(i: int) -> float:
+        return 2.0 * float(dT[s.item_at[i]]) + 2.0
+
+    best_in = min(adj(i) for i in chosen)
+    j = min(cands[n:], key=lambda i: w(i) + adj(i))
+    if w(j) + adj(j) - w(chosen[-1]) < best_in:
+        chosen = chosen[:-1] + [j]
+    return set(chosen)
 
 
 def command_of(action: str) -> RobotCommand | None:

@@ -46,6 +46,10 @@ DEFAULT_QUESTION_PENALTY = 9.5
 # is worse than one who does nothing); chosen on a development set of another seed
 # (docs/decisions.md; `siftom bench loss-aversion`).
 DEFAULT_LOSS_AVERSION = 3.0
+# what the deciding rules measure a gain in: "steps" saved (L_single - L_team) or "speedup"
+# (L_single / L_team - 1, the benchmark's metric); docs/decisions.md
+UTILITIES = ("steps", "speedup")
+DEFAULT_UTILITY = "steps"
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
 
@@ -108,6 +112,9 @@ class Situation:
     # or one per question kind ({"confirm": 0.95, ...}); the noise is part of the situation
     # (docs/decisions.md)
     answer_reliability: float | Mapping[str, float] = 1.0
+    # steps the human spent before speaking (part of L_single and L_team; only the speedup
+    # utility depends on it)
+    prefix: float = 0.0
 
     def __post_init__(self) -> None:
         r = self.answer_reliability
@@ -123,9 +130,12 @@ class Situation:
     @classmethod
     def from_scenario(cls, scenario: Any, n_actions: int | None = None,
                       answer_reliability: float | Mapping[str, float] = 1.0) -> Situation:
+        from siftom.world.model import cost
+
         states = scenario.states()
-        return cls(scenario.world, states[-1] if n_actions is None else states[n_actions], scenario.target,
-                   answer_reliability)
+        k = len(scenario.actions) if n_actions is None else n_actions
+        prefix = float(sum(cost(scenario.world, s, a) for s, a in zip(states[:k], scenario.actions[:k], strict=True)))
+        return cls(scenario.world, states[k], scenario.target, answer_reliability, prefix)
 
 
 DecisionRule = Callable[[Posterior, Situation], Decision]
@@ -139,7 +149,7 @@ def _joint(post: Posterior) -> JointPosterior:
 
 
 def _values(post: Posterior, where: Situation) -> TeamValues:
-    return team_values(_joint(post), where.world, where.target, where.state)
+    return team_values(_joint(post), where.world, where.target, where.state, where.prefix)
 
 
 def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str, float], ...]:
@@ -147,9 +157,9 @@ def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str,
     return tuple((actions[i], float(eb[i])) for i in order)
 
 
-def _best(tv: TeamValues, loss_aversion: float = 0.0) -> tuple[int, np.ndarray]:
+def _best(tv: TeamValues, loss_aversion: float = 0.0, unit: str = "steps") -> tuple[int, np.ndarray]:
     """The action of highest expected utility (ties go to doing nothing) and every action's E[b]."""
-    eu = tv.expected_utility(loss_aversion)
+    eu = tv.expected_utility(loss_aversion, unit)
     # ties (e.g. several commands worth exactly nothing) go to doing nothing, then to the list order
     best = int(np.argmax(eu))
     if eu[-1] >= eu[best] - 1e-9:
@@ -162,6 +172,11 @@ def _check_steps(obj: Any, *names: str) -> None:
         v = getattr(obj, k)
         if isinstance(v, bool) or not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
             raise ObservationError(f"{k} must be a non-negative finite number, got {v!r}")
+
+
+def _check_utility(unit: Any) -> None:
+    if unit not in UTILITIES:
+        raise ObservationError(f"utility must be one of {', '.join(UTILITIES)}, got {unit!r}")
 
 
 class MapRule:
@@ -192,14 +207,17 @@ class ExpectedBenefitRule:
     """
 
     loss_aversion: float = DEFAULT_LOSS_AVERSION
+    # what a gain is measured in: steps saved, or the speedup L_single / L_team - 1
+    utility: str = DEFAULT_UTILITY
     name: str = "expected-benefit"
 
     def __post_init__(self) -> None:
         _check_steps(self, "loss_aversion")
+        _check_utility(self.utility)
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion)
+        best, eb = _best(tv, self.loss_aversion, self.utility)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
         why = (f"no command is worth its risk (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
@@ -243,7 +261,7 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
 
 def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_aversion: float = 0.0,
                    ask_cost: float = 0.0, kinds: Sequence[str] = KINDS,
-                   pool: int = QUESTION_POOL) -> list[tuple[float, Question]]:
+                   pool: int = QUESTION_POOL, unit: str = "steps") -> list[tuple[float, Question]]:
     """EVI (steps) of every candidate question (assist/questions.py), best first.
 
     Each question's answer is heard with its kind's reliability here
@@ -252,8 +270,8 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
     qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
     if not qs:
         return []
-    v0 = float((tv.prob @ tv.utility(loss_aversion)).max())
-    u_after = tv.utility(loss_aversion, ask_cost)
+    v0 = float((tv.prob @ tv.utility(loss_aversion, unit=unit)).max())
+    u_after = tv.utility(loss_aversion, ask_cost, unit)
     out = [(evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), ask_cost), q)
            for q in qs]
     out.sort(key=lambda t: -t[0])
@@ -307,7 +325,7 @@ RULES = Registry("decision rule", default="map")
 RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
 RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                summary="execute the command (or nothing) that saves the team the most steps in expectation",
-               attrs={"options": ("loss_aversion",)})
+               attrs={"options": ("loss_aversion", "utility")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds")})

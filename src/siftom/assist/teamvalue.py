@@ -63,6 +63,8 @@ class TeamValues:
         row_cmd: the command index (into ``actions``) each row says the human asked for.
         benefit: shape (rows, actions): ``L_single - L_team`` in steps.
         kept_mass: posterior mass of the kept rows before renormalising.
+        single: shape (rows,): the human's time alone from now, ``V_h(now; g)`` (steps).
+        prefix: steps the human had already spent when it spoke (in both L_single and L_team).
     """
 
     actions: tuple[str, ...]
@@ -70,24 +72,46 @@ class TeamValues:
     row_cmd: np.ndarray
     benefit: np.ndarray
     kept_mass: float
+    single: np.ndarray | None = None
+    prefix: float = 0.0
+
+    def speedup(self, cost: float = 0.0) -> np.ndarray:
+        """Per-row speedup ``L_single / L_team - 1`` of each action (the benchmark's metric).
+
+        ``L_single = prefix + single``, ``L_team = L_single - benefit + cost``; doing nothing
+        (without a cost) is 0.
+        """
+        if self.single is None:
+            raise ValueError("these team values carry no L_single; build them with team_values")
+        l_single = self.prefix + self.single[:, None]
+        l_team = l_single - self.benefit + cost
+        return np.where(l_team > 0, l_single / np.maximum(l_team, 1e-9) - 1.0, 0.0)
 
     def expected(self) -> np.ndarray:
         """Expected benefit of each action."""
         return self.prob @ self.benefit
 
-    def utility(self, loss_aversion: float = 0.0, cost: float = 0.0) -> np.ndarray:
-        """Per-row utility ``b - loss_aversion * max(0, -b)`` of ``b = benefit - cost`` (steps).
+    def gain(self, unit: str = "steps", cost: float = 0.0) -> np.ndarray:
+        """Per-row gain of each action: steps saved (``benefit - cost``) or the speedup ratio."""
+        if unit == "speedup":
+            return self.speedup(cost)
+        if unit != "steps":
+            raise ValueError(f"unit must be 'steps' or 'speedup', got {unit!r}")
+        return self.benefit - cost if cost else self.benefit
+
+    def utility(self, loss_aversion: float = 0.0, cost: float = 0.0, unit: str = "steps") -> np.ndarray:
+        """Per-row utility ``b - loss_aversion * max(0, -b)`` of the gain ``b`` (:meth:`gain`).
 
         Losses weigh ``1 + loss_aversion``; ``cost`` is time spent before acting (a question).
         """
-        b = self.benefit - cost if cost else self.benefit
+        b = self.gain(unit, cost)
         if loss_aversion == 0.0:
             return b
         return b - loss_aversion * np.maximum(0.0, -b)
 
-    def expected_utility(self, loss_aversion: float = 0.0) -> np.ndarray:
+    def expected_utility(self, loss_aversion: float = 0.0, unit: str = "steps") -> np.ndarray:
         """``E[b] - loss_aversion * E[max(0, -b)]`` of each action (the risk-neutral one at 0)."""
-        return self.prob @ self.utility(loss_aversion)
+        return self.prob @ self.utility(loss_aversion, unit=unit)
 
     def loss_probability(self) -> np.ndarray:
         """``P(b < 0)`` of each action: how likely it makes the team slower."""
@@ -106,7 +130,8 @@ def _keep_rows(joint: JointPosterior) -> tuple[np.ndarray, np.ndarray, float]:
     return rows, p[rows] / p[rows].sum(), kept
 
 
-def team_values(joint: JointPosterior, world: World, target: int, state: State | None = None) -> TeamValues:
+def team_values(joint: JointPosterior, world: World, target: int, state: State | None = None,
+                prefix: float = 0.0) -> TeamValues:
     """Benefit of every command of the domain (and of doing nothing) under each hypothesis.
 
     Args:
@@ -114,6 +139,7 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
         world: the world the posterior is about.
         target: the place goal objects go to.
         state: the state when the human spoke (default: the posterior's).
+        prefix: steps the human had spent before it spoke (only the speedup ratio uses it).
     """
     s = state if state is not None else joint.state
     if s is None:
@@ -209,7 +235,8 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
         l_team = np.maximum(H, R[:, None]) + wrong * rem_steps
         ben[:, live] = (v_single[None, :] - l_team).T
     benefit = np.concatenate([ben[u_of][:, act_col], np.zeros((len(rows), 1))], axis=1)
-    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept)
+    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept,
+                      np.asarray(v_single, dtype=np.float64)[u_of], float(prefix))
 
 
 def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int, start: int | None = None) -> set[int]:

@@ -157,9 +157,13 @@ def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str,
     return tuple((actions[i], float(eb[i])) for i in order)
 
 
-def _best(tv: TeamValues, loss_aversion: float = 0.0, unit: str = "steps") -> tuple[int, np.ndarray]:
-    """The action of highest expected utility (ties go to doing nothing) and every action's E[b]."""
-    eu = tv.expected_utility(loss_aversion, unit)
+def _best(tv: TeamValues, loss_aversion: float = 0.0, unit: str = "steps",
+          spent: float = 0.0) -> tuple[int, np.ndarray]:
+    """The action of highest expected utility (ties go to doing nothing) and every action's E[b].
+
+    ``spent``: steps the team has already lost (a question asked), counted in every outcome.
+    """
+    eu = tv.prob @ tv.utility(loss_aversion, spent, unit)
     # ties (e.g. several commands worth exactly nothing) go to doing nothing, then to the list order
     best = int(np.argmax(eu))
     if eu[-1] >= eu[best] - 1e-9:
@@ -209,15 +213,19 @@ class ExpectedBenefitRule:
     loss_aversion: float = DEFAULT_LOSS_AVERSION
     # what a gain is measured in: steps saved, or the speedup L_single / L_team - 1
     utility: str = DEFAULT_UTILITY
+    # steps the team has already spent on this request (a question asked and answered): they
+    # count in every outcome, doing nothing included, so a loss-averse robot weighs them as the
+    # question's value assumed it would (ask-or-act's EVI)
+    spent: float = 0.0
     name: str = "expected-benefit"
 
     def __post_init__(self) -> None:
-        _check_steps(self, "loss_aversion")
+        _check_steps(self, "loss_aversion", "spent")
         _check_utility(self.utility)
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion, self.utility)
+        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
         why = (f"no command is worth its risk (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
@@ -325,7 +333,7 @@ RULES = Registry("decision rule", default="map")
 RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
 RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                summary="execute the command (or nothing) that saves the team the most steps in expectation",
-               attrs={"options": ("loss_aversion", "utility")})
+               attrs={"options": ("loss_aversion", "utility", "spent")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds")})

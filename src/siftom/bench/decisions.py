@@ -102,7 +102,8 @@ def run_decision_model(
     r = where.reliability(q.kind)
     ll = answer_log_likelihood_cells(q, [str(c) for c in posterior.joint.commands], h["heard_cell"], r)
     post2 = with_answer(posterior, ll, h["answer_heard"])
-    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam)
+    # the question's time is spent: it counts in every outcome after the answer, as the EVI assumed
+    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam, spent=ask_cost)
     out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
                 "question_kind": q.kind, "evi": round(d.evi, 3), "ask_cost": ask_cost, "command_before": d.command,
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),

@@ -35,7 +35,7 @@ def test_cells_and_heard_answers():
     q = count_question("spoon", [*SPOONS, "deliver(fork,2)"])
     assert q.text == "How many spoons?" and q.options == tuple(SPOONS) and q.n_cells == 5
     assert q.cell("deliver(spoon,3)") == 2 and q.cell("deliver(fork,2)") == 4
-    assert q.heard_cell("three please") == 2 and q.heard_cell("none of them") == 4
+    assert q.heard_cell("three please") == 2 and q.heard_cell("nothing") == 4 and q.heard_cell("i don't need any") == 4
     assert q.heard_cell("please") is None and q.heard_cell("two three") is None  # unclear: no update
     c = choose_question("fetch(cereal)", "fetch(oatmeal)")
     assert c.text == "Which one: the cereal or the oatmeal?"

@@ -11,7 +11,7 @@ recogniser after a question), and the heard text names a cell by its key words, 
 answer is heard as the cell it names, on a development set (another seed than the evaluation
 sets): for a seeded sample of stimuli it asks every kind with the gold command (a "yes"
 confirmation, a "no" one, a choice with the gold option, a choice without it, the gold class's
-count) through exactly this path. The table is :data:`ANSWER_RELIABILITY`.
+count and another class's count, answered "nothing") through exactly this path. The table is :data:`ANSWER_RELIABILITY`.
 """
 
 from __future__ import annotations
@@ -147,8 +147,15 @@ def probe_questions(scenario: Any, gold: str, stimulus_id: str) -> list[tuple[Qu
     if scenario.verb == "deliver":
         from siftom.world.commands import RobotCommand
 
-        q = count_question(RobotCommand.parse(gold_s).obj_class, cmds)
+        gold_cls = RobotCommand.parse(gold_s).obj_class
+        q = count_question(gold_cls, cmds)
         out.append((q, q.cell(gold_s)))
+        # and the count of another class: the truthful answer is the "anything else" cell
+        other = next((RobotCommand.parse(c).obj_class for c in (d1, d2)
+                      if RobotCommand.parse(c).obj_class != gold_cls), None)
+        if other is not None:
+            q = count_question(other, cmds)
+            out.append((q, q.n_cells - 1))
     return out
 
 

@@ -41,7 +41,7 @@ DEFAULT_ASK_COST = 2.0
 # Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
 # Lagrange multiplier of a budget of questions per trial, chosen on a development set of
 # another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 9.5
+DEFAULT_QUESTION_PENALTY = 11.0
 # A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
 # is worse than one who does nothing); chosen on a development set of another seed
 # (docs/decisions.md; `siftom bench loss-aversion`).

@@ -55,3 +55,30 @@ def test_with_the_truth_known_expected_benefit_picks_the_fastest_team():
             d = decide(certain, where, "expected-benefit", loss_aversion=lam, utility=unit)
             got = 0.0 if d.action == NONE else simulate_scenario(sc, d.action).speedup
             assert got == pytest.approx(max(best, 0.0))
+
+
+def test_steps_already_spent_count_in_every_outcome():
+    # after a question the team is 2 steps behind whatever the robot does; a loss-averse robot
+    # then compares u(b - 2) across actions, doing nothing included (-2 is a loss)
+    sc = get_scenario("household-table-v0/3")
+    post = get_model().infer(Observation.from_scenario(sc, Instruction.from_text("get the spoons")))
+    where = Situation.from_scenario(sc)
+    tv = team_values(post.joint, sc.world, sc.target, where.state)
+    for spent in (0.0, 2.0, 6.0):
+        b = tv.benefit - spent
+        u = b - 3.0 * np.maximum(0.0, -b)
+        eu = tv.prob @ u
+        want = tv.actions[-1] if eu[-1] >= eu.max() - 1e-9 else tv.actions[int(np.argmax(eu))]
+        assert decide(post, where, "expected-benefit", loss_aversion=3.0, spent=spent).action == want
+    # here the robot that has spent nothing stands still, one already 2 steps behind acts
+    acts = [decide(post, where, "expected-benefit", loss_aversion=3.0, spent=x).action for x in (0.0, 2.0)]
+    assert acts[0] == NONE and acts[1] != NONE
+
+
+def test_unknown_utility_is_refused_with_the_choices():
+    from siftom.errors import ObservationError
+
+    sc = get_scenario("kitchen-v0/0")
+    post, _pm = _point_mass(sc)
+    with pytest.raises(ObservationError, match="steps, speedup"):
+        decide(post, Situation.from_scenario(sc), "expected-benefit", utility="minutes")

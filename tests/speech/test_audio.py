@@ -7,9 +7,18 @@ import time
 import numpy as np
 import pytest
 import soundfile as sf
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from siftom.errors import AudioError
-from siftom.speech.audio import SAMPLE_RATE, as_audio, load_audio, to_pcm16, write_wav
+from siftom.speech.audio import (
+    SAMPLE_RATE,
+    as_audio,
+    load_audio,
+    to_pcm16,
+    with_noise_floor,
+    write_wav,
+)
 
 
 def _tone(rate: int, seconds: float = 0.5, amp: float = 0.3) -> np.ndarray:
@@ -88,5 +97,30 @@ def test_arrays_are_checked():
 
 def test_pcm16_round_trip():
     x = np.array([0.0, 0.5, -0.5, 1.0], np.float32)
-    pcm = np.frombuffer(to_pcm16(x), "<i2")
+    pcm = np.frombuffer(to_pcm16(x, noise_floor_db=None), "<i2")
     assert pcm.tolist() == [0, 16384, -16384, 32767] or pcm.tolist() == [0, 16383, -16383, 32767]
+
+
+@settings(max_examples=30, deadline=None)
+@given(level=st.floats(1e-3, 0.5), below=st.floats(20.0, 60.0), n=st.integers(4000, 32000))
+def test_noise_floor_sits_below_the_speech_level(level: float, below: float, n: int):
+    t = np.arange(n) / SAMPLE_RATE
+    x = (level * np.sin(2 * np.pi * 220 * t)).astype(np.float32)
+    x[: n // 4] = 0.0  # digital silence, as TTS and gated recordings have
+    y = with_noise_floor(x, below)
+    floor = y[: n // 4]
+    rms = float(np.sqrt(np.mean(x.astype(np.float64) ** 2)))
+    measured = 20 * np.log10(rms / float(np.sqrt(np.mean(floor.astype(np.float64) ** 2))))
+    assert abs(measured - below) < 1.5
+    assert np.array_equal(y, with_noise_floor(x, below))  # seeded: same audio, same bytes
+
+
+def test_noise_floor_leaves_silence_and_pcm_defaults_to_it():
+    assert not with_noise_floor(np.zeros(1600, np.float32)).any()
+    x = np.zeros(1600, np.float32)
+    x[800:] = 0.1
+    pcm = np.frombuffer(to_pcm16(x), "<i2")
+    assert (pcm[:800] != 0).any()  # the decoder never sees digital silence next to speech
+    assert to_pcm16(x) == to_pcm16(x)
+    with pytest.raises(AudioError, match="below the speech level"):
+        with_noise_floor(x, -3.0)

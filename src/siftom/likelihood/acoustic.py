@@ -51,6 +51,10 @@ Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 DEFAULT_TEMPERATURE = 75.0
 # T grows by exp(kappa * gap) when alignments fit worse than free phones (docs/likelihoods.md); chosen on seed-1 sets
 DEFAULT_GAP_SCALE = 4.0
+# the Whisper factor (likelihood/whisper_factor.py): w / T_w, chosen on the seed-1 kitchen set (docs/likelihoods.md)
+DEFAULT_WHISPER_TEMPERATURE = 4.0
+DEFAULT_WHISPER_PAD_S = 3.0
+DEFAULT_WHISPER_PRIOR = 0.0
 
 
 def temperature_for_snr(snr_db: float | None) -> float:
@@ -138,6 +142,7 @@ class RawScores:
     mode: str
     phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
     gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
+    whisper: np.ndarray | None = None  # the Whisper factor w of each kept command (nats), when used
 
     def temperature(self, T: float, scale: float) -> float:
         """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
@@ -182,6 +187,10 @@ class AcousticLikelihood:
         max_candidates: int = 6,
         top_nbest: int = 3,
         gap_scale: float = DEFAULT_GAP_SCALE,
+        whisper: bool | None = None,
+        whisper_temperature: float = DEFAULT_WHISPER_TEMPERATURE,
+        whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
+        whisper_prior: float = DEFAULT_WHISPER_PRIOR,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -200,6 +209,17 @@ class AcousticLikelihood:
         self.prune = prune
         self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
         self.gap_scale = float(gap_scale)
+        if not np.isfinite(whisper_temperature) or whisper_temperature <= 0:
+            raise SiftomError(f"whisper_temperature must be a positive number of nats, got {whisper_temperature}")
+        from siftom.likelihood.whisper_factor import WhisperFactor, whisper_available
+
+        if whisper and not whisper_available():
+            from siftom.errors import missing_extra
+
+            raise missing_extra("whisper", "faster-whisper")
+        self.uses_whisper = whisper_available() if whisper is None else bool(whisper)
+        self.whisper_temperature = float(whisper_temperature)
+        self._whisper = WhisperFactor(whisper_pad_s, whisper_prior) if self.uses_whisper else None
         self._aligner = aligner
         self._loop: Any = None
         self._phonetic: Any = None
@@ -268,6 +288,11 @@ class AcousticLikelihood:
         out[raw.keep] = vals
         if self.with_phonetic and raw.phonetic is not None:
             out = out + raw.phonetic
+        if raw.whisper is not None and len(raw.whisper):
+            # a pruned command gets the worst kept Whisper score (it held almost no mass)
+            w = np.full(n, float(np.min(raw.whisper)))
+            w[raw.keep] = raw.whisper
+            out = out + w / self.whisper_temperature
         return out
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
@@ -306,7 +331,9 @@ class AcousticLikelihood:
                 items = self._align(x, kept, self.phrasings or top_phrasings)
             mode = "sentence"
         self.last_mode = mode
-        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items))
+        wh = (self._whisper.scores(instruction, commands, keep, x)
+              if self._whisper is not None and instruction.nbest else None)
+        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items), wh)
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

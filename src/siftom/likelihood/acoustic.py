@@ -52,7 +52,7 @@ DEFAULT_TEMPERATURE = 75.0
 # T grows by exp(kappa * gap) when alignments fit worse than free phones (docs/likelihoods.md); chosen on seed-1 sets
 DEFAULT_GAP_SCALE = 4.0
 # the Whisper factor (likelihood/whisper_factor.py): w / T_w, chosen on the seed-1 kitchen set (docs/likelihoods.md)
-DEFAULT_WHISPER_TEMPERATURE = 4.0
+DEFAULT_WHISPER_TEMPERATURE = 3.0
 DEFAULT_WHISPER_PAD_S = 3.0
 DEFAULT_WHISPER_PRIOR = 0.0
 
@@ -188,6 +188,7 @@ class AcousticLikelihood:
         top_nbest: int = 3,
         gap_scale: float = DEFAULT_GAP_SCALE,
         whisper: bool | None = None,
+        align: bool | None = None,
         whisper_temperature: float = DEFAULT_WHISPER_TEMPERATURE,
         whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
         whisper_prior: float = DEFAULT_WHISPER_PRIOR,
@@ -219,6 +220,11 @@ class AcousticLikelihood:
             raise missing_extra("whisper", "faster-whisper")
         self.uses_whisper = whisper_available() if whisper is None else bool(whisper)
         self.whisper_temperature = float(whisper_temperature)
+        # pocketsphinx alignment only when asked or when there is no Whisper factor to replace it
+        self.aligns = (not self.uses_whisper) if align is None else bool(align)
+        if not self.aligns and not self.uses_whisper:
+            raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
+                              "with neither there is no acoustic term; keep align=True")
         self._whisper = WhisperFactor(whisper_pad_s, whisper_prior) if self.uses_whisper else None
         self._aligner = aligner
         self._loop: Any = None
@@ -271,6 +277,9 @@ class AcousticLikelihood:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
         if n == 0:
             return np.zeros(0)
+        if not raw.items:  # no alignment (the Whisper factor replaces it): the N-best and w only
+            out = raw.phonetic.copy() if self.with_phonetic and raw.phonetic is not None else np.zeros(n)
+            return out + self._whisper_term(raw, n)
         T = raw.temperature(self.temperature if temperature is None else temperature, self.gap_scale)
         # a failed alignment (the decoder found no path) says nothing about the command: it gets
         # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
@@ -288,12 +297,15 @@ class AcousticLikelihood:
         out[raw.keep] = vals
         if self.with_phonetic and raw.phonetic is not None:
             out = out + raw.phonetic
-        if raw.whisper is not None and len(raw.whisper):
-            # a pruned command gets the worst kept Whisper score (it held almost no mass)
-            w = np.full(n, float(np.min(raw.whisper)))
-            w[raw.keep] = raw.whisper
-            out = out + w / self.whisper_temperature
-        return out
+        return out + self._whisper_term(raw, n)
+
+    def _whisper_term(self, raw: RawScores, n: int) -> np.ndarray | float:
+        """w / T_w per command; a pruned command gets the worst kept w (it held almost no mass)."""
+        if raw.whisper is None or not len(raw.whisper):
+            return 0.0
+        w = np.full(n, float(np.min(raw.whisper)))
+        w[raw.keep] = raw.whisper
+        return w / self.whisper_temperature
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:
@@ -312,28 +324,33 @@ class AcousticLikelihood:
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
         kept = [commands[i] for i in keep]
-        frame = None
-        if self.mode == "key" and instruction.words:
-            key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
-            frame = heard_frame(instruction.words, key_words)
-        if frame is not None:
-            start, end, before, after = frame
-            seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
-            items = self._align(seg, kept,
-                                lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
-            mode = "key"
+        if not self.aligns:
+            mode, seg, items = "whisper", x, []
         else:
-            seg = x
-            heard = instruction.text if instruction.nbest else None
-            if heard is not None and self.phrasings is None:
-                items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+            frame = None
+            if self.mode == "key" and instruction.words:
+                key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
+                frame = heard_frame(instruction.words, key_words)
+            if frame is not None:
+                start, end, before, after = frame
+                seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
+                items = self._align(seg, kept,
+                                    lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
+                mode = "key"
             else:
-                items = self._align(x, kept, self.phrasings or top_phrasings)
-            mode = "sentence"
+                seg = x
+                heard = instruction.text if instruction.nbest else None
+                if heard is not None and self.phrasings is None:
+                    items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+                else:
+                    items = self._align(x, kept, self.phrasings or top_phrasings)
+                mode = "sentence"
         self.last_mode = mode
         wh = (self._whisper.scores(instruction, commands, keep, x)
               if self._whisper is not None and instruction.nbest else None)
-        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items), wh)
+        if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
+            items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
+        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

@@ -1,6 +1,17 @@
 """Acoustic instruction likelihood: score the audio itself against each command's key phrase.
 
-For robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
+**With the whisper extra installed (the default then):**
+
+    log P(a | pi_r) = log P_phonetic(N-best | pi_r) + w(pi_r) / T_w
+
+where w is the Whisper factor (``siftom.likelihood.whisper_factor``): the log-probability
+Whisper tiny.en gives the heard words with each command's key phrase in place of the heard
+object words, by teacher forcing -- an acoustic model independent of pocketsphinx, whose
+N-best the first term scores. T_w = 3 nats (docs/likelihoods.md: chosen on the seed-1 kitchen
+set). The pocketsphinx key-phrase alignment below is then off (``align=None``; ``align=True``
+adds it back): on the seed-1 set it added nothing on top of Whisper and cost most of the time.
+
+**Without Whisper (or ``whisper=False``),** for robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
 cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
     log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]  +  log P_phonetic(N-best | pi_r)

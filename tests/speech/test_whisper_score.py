@@ -67,7 +67,7 @@ def test_the_spoken_sentence_scores_best(scorer, said, voice, snr):
     texts = [said.replace(said_food, f) for f in FOODS]
     scores = scorer.score(x, texts)
     assert np.all(np.isfinite(scores))
-    assert texts[int(np.argmax(scores))] == said, dict(zip(texts, np.round(scores, 1)))
+    assert texts[int(np.argmax(scores))] == said, dict(zip(texts, np.round(scores, 1), strict=True))
 
 
 @needs_whisper

@@ -31,7 +31,10 @@ def main() -> None:
     ap.add_argument("--betas", default="0,0.5,1")
     ap.add_argument("--only", default="", help="comma-separated rule-name prefixes to print")
     a = ap.parse_args()
-    rows = [json.loads(line) for d in a.dumps for line in open(d) if line.strip()]
+    rows = []
+    for d in a.dumps:
+        with open(d, encoding="utf-8") as f:
+            rows += [json.loads(line) for line in f if line.strip()]
     temps = [float(t) for t in a.temps.split(",")]
     acc: dict[str, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
     nll: dict[str, list[float]] = defaultdict(list)
@@ -39,7 +42,8 @@ def main() -> None:
         ctx = np.array(r["ctx"])
         corr = np.array(r["correct"])
 
-        def add(name: str, lik: np.ndarray | None) -> None:
+        def add(name: str, lik: np.ndarray | None, ctx: np.ndarray = ctx, corr: np.ndarray = corr,
+                r: dict = r) -> None:
             q = ctx if lik is None else ctx + lik
             ok = bool(corr[int(np.argmax(q))])
             acc[name][r["snr"]].append(ok)
@@ -62,8 +66,8 @@ def main() -> None:
                     continue
                 wide = np.array(r.get("wide", range(len(phon))))
                 w = np.full(len(phon), -np.inf)
-                w[wide] = [float(logsumexp([s - beta * s0 + lp for (s, lp), (s0, _) in zip(it, it0)]))
-                           for it, it0 in zip(per, w0 or per)]
+                w[wide] = [float(logsumexp([s - beta * s0 + lp for (s, lp), (s0, _) in zip(it, it0, strict=True)]))
+                           for it, it0 in zip(per, w0 or per, strict=True)]
                 if not a.prune:
                     keep = wide
                 wk = np.full(len(w), np.min(w[keep]))

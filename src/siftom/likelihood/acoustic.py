@@ -356,9 +356,11 @@ class AcousticLikelihood:
                 else:
                     items = self._align(x, kept, self.phrasings or top_phrasings)
                 mode = "sentence"
-        self.last_mode = mode
         wh = (self._whisper.scores(instruction, commands, keep, x)
               if self._whisper is not None and instruction.nbest else None)
+        if wh is not None and not self.aligns:
+            mode = f"whisper-{self._whisper.last_mode}"  # "whisper-key" or "whisper-sentence"
+        self.last_mode = mode
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
             items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)

@@ -181,6 +181,12 @@ class AcousticLikelihood:
         gap_scale: kappa in T * exp(kappa * max(gap, 0)), where gap is how many nats per frame
             the best aligned key phrase scores below a free phone loop over the same audio
             (``siftom.speech.phoneloop``); 0 turns the phone loop off (one fewer decode).
+        whisper: add the Whisper factor w / T_w (module doc); None (default): when the whisper
+            extra is installed; True without it raises BackendUnavailableError (install siftom[whisper]).
+        align: pocketsphinx key-phrase alignment; None (default): only without the Whisper factor.
+        whisper_temperature: T_w in nats (> 0).
+        whisper_pad_s: Whisper's feature window, at least this many seconds (``WhisperScorer``).
+        whisper_prior: beta, how much of Whisper's text prior to take out (``WhisperFactor``).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``

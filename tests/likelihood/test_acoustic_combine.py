@@ -85,3 +85,18 @@ def test_whisper_options_are_validated():
 
     with pytest.raises(SiftomError, match="whisper_temperature"):
         AcousticLikelihood(whisper=False, whisper_temperature=0.0)
+
+
+def test_without_the_whisper_extra_the_alignment_product_is_used(monkeypatch):
+    """A user without siftom[whisper] still gets an acoustic likelihood (the alignment product);
+    asking for Whisper then says what to install."""
+    import pytest
+
+    from siftom.errors import BackendUnavailableError
+    from siftom.likelihood import whisper_factor
+
+    monkeypatch.setattr(whisper_factor, "whisper_available", lambda: False)
+    lk = AcousticLikelihood()
+    assert not lk.uses_whisper and lk.aligns
+    with pytest.raises(BackendUnavailableError, match=r"siftom\[whisper\]"):
+        AcousticLikelihood(whisper=True)

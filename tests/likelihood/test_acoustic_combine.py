@@ -65,3 +65,38 @@ def test_gap_scale_must_be_non_negative():
 
     with pytest.raises(SiftomError, match="gap_scale"):
         AcousticLikelihood(gap_scale=-1.0)
+
+
+def test_whisper_factor_enters_at_its_temperature_and_pruned_commands_get_the_worst_kept():
+    """log P = alignment / T + phonetic + w / T_w; a pruned command gets the lowest kept w."""
+    lk = AcousticLikelihood(temperature=10.0, whisper=False, whisper_temperature=4.0)
+    base = _raw([-300.0, -300.0], phonetic=[-1.0, -1.0, -1.0], keep=[0, 1])
+    no_w = lk.combine(base, 3)
+    with_w = lk.combine(RawScores(base.keep, base.items, "key", base.phonetic, whisper=np.array([-8.0, -20.0])), 3)
+    assert np.allclose(with_w - no_w, [-2.0, -5.0, -5.0])
+    # Whisper breaks a tie the pocketsphinx channels leave
+    assert np.argmax(with_w) == 0 and np.isclose(no_w[0], no_w[1])
+
+
+def test_whisper_options_are_validated():
+    import pytest
+
+    from siftom.errors import SiftomError
+
+    with pytest.raises(SiftomError, match="whisper_temperature"):
+        AcousticLikelihood(whisper=False, whisper_temperature=0.0)
+
+
+def test_without_the_whisper_extra_the_alignment_product_is_used(monkeypatch):
+    """A user without siftom[whisper] still gets an acoustic likelihood (the alignment product);
+    asking for Whisper then says what to install."""
+    import pytest
+
+    from siftom.errors import BackendUnavailableError
+    from siftom.likelihood import whisper_factor
+
+    monkeypatch.setattr(whisper_factor, "whisper_available", lambda: False)
+    lk = AcousticLikelihood()
+    assert not lk.uses_whisper and lk.aligns
+    with pytest.raises(BackendUnavailableError, match=r"siftom\[whisper\]"):
+        AcousticLikelihood(whisper=True)

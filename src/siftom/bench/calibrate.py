@@ -3,7 +3,9 @@
 For every stimulus the audio goes through the evaluator's acoustic path (recognition of the whole
 clip, key-phrase alignment, the phone-loop gap) once; the raw alignment scores are kept and the
 full model's posterior is recomputed for each base temperature T on a grid (the likelihood's
-gap rule T * exp(kappa * max(gap, 0)) applies on top). The NLL of the gold command per SNR band
+gap rule T * exp(kappa * max(gap, 0)) applies on top). When the likelihood uses the Whisper
+factor instead of the alignment (the default with the whisper extra), the grid is over its
+temperature T_w (``WHISPER_GRID``) and the Whisper scores are kept instead. The NLL of the gold command per SNR band
 (a proper scoring rule: it is lowest when the posterior is neither over- nor under-confident)
 says which T fits. Use a dataset built with another seed (and other voices and noise) than the
 one you report on.
@@ -21,6 +23,8 @@ from typing import Any
 import numpy as np
 
 GRID = (8.0, 12.0, 20.0, 30.0, 40.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0, 500.0)
+# with the Whisper factor and no alignment the grid is over T_w (likelihood/whisper_factor.py)
+WHISPER_GRID = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 20.0)
 
 
 def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = 5,
@@ -41,6 +45,8 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     asr = _engine(engine, vocab)
     model = get_model(mode, "acoustic")
     lk = model.likelihood
+    if not getattr(lk, "aligns", True):  # the Whisper factor replaces the alignment: fit T_w instead
+        return _collect_whisper(ds, model, asr, nbest, limit)
     original = lk.raw_scores, lk.temperature
     combo_default = lk.with_phonetic
     rows = []
@@ -73,6 +79,38 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     finally:
         lk.raw_scores, lk.temperature = original
         lk.with_phonetic = combo_default
+    return rows
+
+
+def _collect_whisper(ds: Any, model: Any, asr: Any, nbest: int, limit: int | None) -> list[dict[str, Any]]:
+    """``collect`` for the Whisper factor: the posterior per T_w (keys of ``per_t``) from one scoring per clip."""
+    from siftom.bench.acoustic_models import heard
+    from siftom.bench.stimuli import scenario_for
+    from siftom.bench.trials import is_correct
+    from siftom.inference.model import Observation
+
+    lk = model.likelihood
+    original = lk.raw_scores, lk.whisper_temperature
+    rows = []
+    try:
+        for s in ds.stimuli[:limit]:
+            sc = scenario_for(s)
+            instruction, _ = heard(ds.root / s.audio, asr, nbest)
+            if instruction is None:
+                continue
+            lk.raw_scores, lk.whisper_temperature = original
+            raw = lk.raw_scores(instruction, _commands(model, sc), _context(model, sc))
+            lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the scores for every T_w
+            per_t = {}
+            for T in WHISPER_GRID:
+                lk.whisper_temperature = T
+                post = model.infer(Observation.from_scenario(sc, instruction))
+                per_t[T] = (post.prob(s.gold_command), post.commands[0][1],
+                            is_correct(post.command, s.gold_command, sc.verb))
+            rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
+                         "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
+    finally:
+        lk.raw_scores, lk.whisper_temperature = original
     return rows
 
 

@@ -107,6 +107,11 @@ class EvalOptions:
                "likelihood": self.likelihood}
         if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
             out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
+        if any(m.endswith("-acoustic") for m in self.models):
+            from siftom.likelihood.acoustic import DEFAULT_WHISPER_TEMPERATURE
+            from siftom.likelihood.whisper_factor import whisper_available
+
+            out["acoustic"] = {"whisper": whisper_available(), "whisper_temperature": DEFAULT_WHISPER_TEMPERATURE}
         return out
 
 

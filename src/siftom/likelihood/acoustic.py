@@ -1,6 +1,17 @@
 """Acoustic instruction likelihood: score the audio itself against each command's key phrase.
 
-For robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
+**With the whisper extra installed (the default then):**
+
+    log P(a | pi_r) = log P_phonetic(N-best | pi_r) + w(pi_r) / T_w
+
+where w is the Whisper factor (``siftom.likelihood.whisper_factor``): the log-probability
+Whisper tiny.en gives the heard words with each command's key phrase in place of the heard
+object words, by teacher forcing -- an acoustic model independent of pocketsphinx, whose
+N-best the first term scores. T_w = 3 nats (docs/likelihoods.md: chosen on the seed-1 kitchen
+set). The pocketsphinx key-phrase alignment below is then off (``align=None``; ``align=True``
+adds it back): on the seed-1 set it added nothing on top of Whisper and cost most of the time.
+
+**Without Whisper (or ``whisper=False``),** for robot command pi_r with key phrases k (its content words: "cereal", "three forks", "the
 cutlery" -> "cutlery"; ``phrasing.content_prior``) and audio a,
 
     log P(a | pi_r) = logsumexp_k [ s(a_W, k) / T + log P(k | pi_r) ]  +  log P_phonetic(N-best | pi_r)
@@ -51,6 +62,10 @@ Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 DEFAULT_TEMPERATURE = 75.0
 # T grows by exp(kappa * gap) when alignments fit worse than free phones (docs/likelihoods.md); chosen on seed-1 sets
 DEFAULT_GAP_SCALE = 4.0
+# the Whisper factor (likelihood/whisper_factor.py): w / T_w, chosen on the seed-1 kitchen set (docs/likelihoods.md)
+DEFAULT_WHISPER_TEMPERATURE = 3.0
+DEFAULT_WHISPER_PAD_S = 3.0
+DEFAULT_WHISPER_PRIOR = 0.0
 
 
 def temperature_for_snr(snr_db: float | None) -> float:
@@ -138,6 +153,7 @@ class RawScores:
     mode: str
     phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
     gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
+    whisper: np.ndarray | None = None  # the Whisper factor w of each kept command (nats), when used
 
     def temperature(self, T: float, scale: float) -> float:
         """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
@@ -165,6 +181,12 @@ class AcousticLikelihood:
         gap_scale: kappa in T * exp(kappa * max(gap, 0)), where gap is how many nats per frame
             the best aligned key phrase scores below a free phone loop over the same audio
             (``siftom.speech.phoneloop``); 0 turns the phone loop off (one fewer decode).
+        whisper: add the Whisper factor w / T_w (module doc); None (default): when the whisper
+            extra is installed; True without it raises BackendUnavailableError (install siftom[whisper]).
+        align: pocketsphinx key-phrase alignment; None (default): only without the Whisper factor.
+        whisper_temperature: T_w in nats (> 0).
+        whisper_pad_s: Whisper's feature window, at least this many seconds (``WhisperScorer``).
+        whisper_prior: beta, how much of Whisper's text prior to take out (``WhisperFactor``).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -182,6 +204,11 @@ class AcousticLikelihood:
         max_candidates: int = 6,
         top_nbest: int = 3,
         gap_scale: float = DEFAULT_GAP_SCALE,
+        whisper: bool | None = None,
+        align: bool | None = None,
+        whisper_temperature: float = DEFAULT_WHISPER_TEMPERATURE,
+        whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
+        whisper_prior: float = DEFAULT_WHISPER_PRIOR,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -200,6 +227,22 @@ class AcousticLikelihood:
         self.prune = prune
         self.prune_mass, self.max_candidates, self.top_nbest = prune_mass, max_candidates, top_nbest
         self.gap_scale = float(gap_scale)
+        if not np.isfinite(whisper_temperature) or whisper_temperature <= 0:
+            raise SiftomError(f"whisper_temperature must be a positive number of nats, got {whisper_temperature}")
+        from siftom.likelihood.whisper_factor import WhisperFactor, whisper_available
+
+        if whisper and not whisper_available():
+            from siftom.errors import missing_extra
+
+            raise missing_extra("whisper", "faster-whisper")
+        self.uses_whisper = whisper_available() if whisper is None else bool(whisper)
+        self.whisper_temperature = float(whisper_temperature)
+        # pocketsphinx alignment only when asked or when there is no Whisper factor to replace it
+        self.aligns = (not self.uses_whisper) if align is None else bool(align)
+        if not self.aligns and not self.uses_whisper:
+            raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
+                              "with neither there is no acoustic term; keep align=True")
+        self._whisper = WhisperFactor(whisper_pad_s, whisper_prior) if self.uses_whisper else None
         self._aligner = aligner
         self._loop: Any = None
         self._phonetic: Any = None
@@ -251,6 +294,9 @@ class AcousticLikelihood:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
         if n == 0:
             return np.zeros(0)
+        if not raw.items:  # no alignment (the Whisper factor replaces it): the N-best and w only
+            out = raw.phonetic.copy() if self.with_phonetic and raw.phonetic is not None else np.zeros(n)
+            return out + self._whisper_term(raw, n)
         T = raw.temperature(self.temperature if temperature is None else temperature, self.gap_scale)
         # a failed alignment (the decoder found no path) says nothing about the command: it gets
         # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
@@ -268,7 +314,15 @@ class AcousticLikelihood:
         out[raw.keep] = vals
         if self.with_phonetic and raw.phonetic is not None:
             out = out + raw.phonetic
-        return out
+        return out + self._whisper_term(raw, n)
+
+    def _whisper_term(self, raw: RawScores, n: int) -> np.ndarray | float:
+        """w / T_w per command; a pruned command gets the worst kept w (it held almost no mass)."""
+        if raw.whisper is None or not len(raw.whisper):
+            return 0.0
+        w = np.full(n, float(np.min(raw.whisper)))
+        w[raw.keep] = raw.whisper
+        return w / self.whisper_temperature
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:
@@ -287,26 +341,35 @@ class AcousticLikelihood:
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
         kept = [commands[i] for i in keep]
-        frame = None
-        if self.mode == "key" and instruction.words:
-            key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
-            frame = heard_frame(instruction.words, key_words)
-        if frame is not None:
-            start, end, before, after = frame
-            seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
-            items = self._align(seg, kept,
-                                lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
-            mode = "key"
+        if not self.aligns:
+            mode, seg, items = "whisper", x, []
         else:
-            seg = x
-            heard = instruction.text if instruction.nbest else None
-            if heard is not None and self.phrasings is None:
-                items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+            frame = None
+            if self.mode == "key" and instruction.words:
+                key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
+                frame = heard_frame(instruction.words, key_words)
+            if frame is not None:
+                start, end, before, after = frame
+                seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
+                items = self._align(seg, kept,
+                                    lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
+                mode = "key"
             else:
-                items = self._align(x, kept, self.phrasings or top_phrasings)
-            mode = "sentence"
+                seg = x
+                heard = instruction.text if instruction.nbest else None
+                if heard is not None and self.phrasings is None:
+                    items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+                else:
+                    items = self._align(x, kept, self.phrasings or top_phrasings)
+                mode = "sentence"
+        wh = (self._whisper.scores(instruction, commands, keep, x)
+              if self._whisper is not None and instruction.nbest else None)
+        if wh is not None and not self.aligns:
+            mode = f"whisper-{self._whisper.last_mode}"  # "whisper-key" or "whisper-sentence"
         self.last_mode = mode
-        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items))
+        if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
+            items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
+        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

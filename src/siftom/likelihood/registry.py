@@ -24,7 +24,8 @@ LIKELIHOODS.register("llm", "siftom.likelihood.llm:LLMLikelihood",
                      checker="siftom.backends.config:llm_missing",
                      attrs={"needs_text": True, "needs_audio": False})
 LIKELIHOODS.register("acoustic", "siftom.likelihood.acoustic:AcousticLikelihood",
-                     summary="key-phrase forced alignment of each command against the audio",
+                     summary="the audio: Whisper teacher-forced scores of each command (whisper extra) "
+                             "or key-phrase forced alignment, times the N-best",
                      attrs={"needs_text": False, "needs_audio": True})
 
 

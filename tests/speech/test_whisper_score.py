@@ -1,0 +1,91 @@
+"""Whisper teacher-forced scoring: an acoustic model independent of pocketsphinx ranks the words said first."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from siftom.likelihood.whisper_factor import candidate_texts, whisper_available
+from siftom.observation import Hypothesis, Instruction
+from siftom.speech.whisper_score import whisper_text
+from siftom.world.commands import RobotCommand
+
+needs_whisper = pytest.mark.skipif(not whisper_available(), reason="needs the whisper extra")
+needs_flite = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+FOODS = ("cereal", "oatmeal", "milk", "sugar", "coffee", "honey", "flour", "pasta")
+
+
+@pytest.fixture(scope="module")
+def scorer():  # noqa: ANN201
+    from siftom.speech.whisper_score import WhisperScorer
+
+    return WhisperScorer(pad_s=3.0)
+
+
+def test_candidates_are_written_as_whisper_writes():
+    assert whisper_text("can you pass me the cereal") == " Can you pass me the cereal."
+    assert whisper_text("olive_oil please?") == " Olive oil please?"
+    assert whisper_text("  ") == ""
+
+
+def test_only_the_heard_object_words_change_between_commands():
+    """Free carriers: every command is scored in the words that were heard, only the key phrase
+    differs, so the carrier costs every command the same."""
+    heard = Instruction(nbest=(Hypothesis("could you maybe pass me the serial please", -1.0),))
+    cmds = [RobotCommand.parse(f"fetch({f})") for f in ("cereal", "milk", "olive_oil")]
+    texts, mode = candidate_texts(heard, cmds)
+    assert mode == "sentence"  # "serial" is no command's word: each command's closest phrasing
+    heard = Instruction(nbest=(Hypothesis("could you maybe pass me the milk please", -1.0),))
+    texts, mode = candidate_texts(heard, cmds)
+    assert mode == "key"
+    assert texts[0][0][0] == "could you maybe pass me the cereal please"
+    assert texts[1][0][0] == "could you maybe pass me the milk please"
+    assert all(t.startswith("could you maybe pass me the ") and t.endswith(" please")
+               for items in texts for t, _ in items)
+    # pruning: only the kept commands are returned, in the order asked
+    kept, _ = candidate_texts(heard, cmds, [2, 0])
+    assert [items[0][0] for items in kept] == [texts[2][0][0], texts[0][0][0]]
+
+
+@needs_whisper
+@needs_flite
+@pytest.mark.parametrize(("said", "voice", "snr"), [("can you pass me the cereal", "flite-slt", None),
+                                                    ("bring me the sugar", "flite-rms", 10.0),
+                                                    ("i need the coffee", "flite-awb", 10.0)])
+def test_the_spoken_sentence_scores_best(scorer, said, voice, snr):
+    """On real TTS clips (clean and in babble) the sentence said outscores the same carrier with
+    any other food, including near homophones of what a pocketsphinx recogniser confuses."""
+    from siftom.speech.noise import get_noise, mix_at_snr
+    from siftom.speech.tts import synthesize
+
+    x = synthesize(said, voice)
+    if snr is not None:
+        x = mix_at_snr(x, get_noise("babble"), snr, 3)
+    said_food = next(f for f in FOODS if said.endswith(f))
+    texts = [said.replace(said_food, f) for f in FOODS]
+    scores = scorer.score(x, texts)
+    assert np.all(np.isfinite(scores))
+    assert texts[int(np.argmax(scores))] == said, dict(zip(texts, np.round(scores, 1), strict=True))
+
+
+@needs_whisper
+@needs_flite
+def test_padding_does_not_change_the_ranking_much(scorer):
+    """Scores of the encoder on a few seconds of features rank like the 30 s window Whisper was trained on."""
+    from siftom.speech.tts import synthesize
+    from siftom.speech.whisper_score import WhisperScorer
+
+    x = synthesize("pass me the honey", "flite-slt")
+    texts = [f"pass me the {f}" for f in FOODS]
+    short, full = scorer.score(x, texts), WhisperScorer(pad_s=30.0).score(x, texts)
+    assert np.argmax(short) == np.argmax(full) == FOODS.index("honey")
+
+
+def test_bad_padding_is_refused():
+    from siftom.errors import SiftomError
+    from siftom.speech.whisper_score import WhisperScorer
+
+    with pytest.raises(SiftomError, match="pad_s"):
+        WhisperScorer(pad_s=0)

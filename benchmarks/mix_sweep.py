@@ -30,8 +30,13 @@ def _load(folder: str, d: str) -> dict[str, dict[str, Any]]:
     return {r["id"]: r for r in map(json.loads, path.read_text(encoding="utf-8").splitlines())}
 
 
-def mixed(a: dict[str, Any], b: dict[str, Any], w: float, per_list: int, nbest: int) -> dict[str, Any]:
-    """One stimulus' mixed transcript row (same keys as engine_sweep's cache)."""
+def mixed(a: dict[str, Any], b: dict[str, Any], w: float, per_list: int, nbest: int,
+          phrase_words: set[str] | None = None, w_free: float | None = None) -> dict[str, Any]:
+    """One stimulus' mixed transcript row (same keys as engine_sweep's cache). With
+    ``phrase_words`` and ``w_free``: the open list's weight is ``w_free`` when its 1-best holds a
+    word outside the phrasings (the request is free speech), else ``w``."""
+    if phrase_words is not None and w_free is not None and any(t not in phrase_words for t in b["text"].split()):
+        w = w_free
     la = [Hypothesis(h["text"], h["score"]) for h in a["nbest"][:per_list]]
     lb = [Hypothesis(h["text"], h["score"]) for h in b["nbest"][:per_list]]
     if w in (0.0, 1.0):
@@ -70,17 +75,23 @@ def main() -> None:
     ap.add_argument("--per-list", default="5")
     ap.add_argument("--nbest", default="5")
     ap.add_argument("--out", default="runs/mix")
+    ap.add_argument("--w-free", default="", help="open weight(s) when the open 1-best has a non-phrasing word")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
+    from siftom.bench.stimuli import load_dataset
+    from siftom.bench.trials import dataset_vocabulary
+
     for d in a.datasets:
         ca, cb = _load(a.closed, d), _load(a.open, d)
+        pw = {t for p in dataset_vocabulary(load_dataset(d, check_audio=False).stimuli) for t in p.split()}
         for w in map(float, a.weights.split(",")):
+          for wf in ([None] if not a.w_free else [float(x) for x in a.w_free.split(",")]):
             for k in map(int, a.per_list.split(",")):
                 for n in map(int, a.nbest.split(",")):
-                    trs = {sid: mixed(ca[sid], cb[sid], w, k, n) for sid in ca}
+                    trs = {sid: mixed(ca[sid], cb[sid], w, k, n, pw, wf) for sid in ca}
                     r = score(d, trs, out, f"w={w} per_list={k} nbest={n}", quiet=True)
-                    print(f"{Path(d).name:22s} w={w:.2f} per_list={k:2d} nbest={n:2d}  literal {r['literal-asr']:5.1f}"
+                    print(f"{Path(d).name:22s} w={w:.2f} wf={wf} per_list={k:2d} nbest={n:2d}  literal {r['literal-asr']:5.1f}"
                           f"  speech-only {r['speech-only']:5.1f}  siftom {r['siftom']:5.1f}  obj_err {r['object_err']:5.1f}",
                           flush=True)
 

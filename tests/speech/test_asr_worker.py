@@ -106,3 +106,19 @@ def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -
         assert eng.parallel
     finally:
         eng.close()
+
+
+def test_a_process_keeps_at_most_the_allowed_number_of_workers(speech: np.ndarray,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """Engines beyond the limit evict the least recently used worker; its engine restarts one."""
+    monkeypatch.setenv("SIFTOM_ASR_WORKERS", "1")
+    a, b = DualEngine(VOCAB), DualEngine(VOCAB[:6])
+    try:
+        assert a._worker is not None and a._worker.evicted and not a._worker.usable
+        assert b._worker is not None and b._worker.usable
+        expect = DualEngine(VOCAB, parallel=False).transcribe(speech, nbest=5)
+        _same(a.transcribe(speech, nbest=5), expect)  # a starts a worker again, evicting b's
+        assert a.parallel and a._worker.usable and b._worker.evicted
+    finally:
+        a.close()
+        b.close()

@@ -130,6 +130,8 @@ class DualEngine:
                 if self._worker is not None and self._worker.owner != os.getpid():
                     self._worker.close()  # closes this process's copies of the pipes only
                     self._start_worker()  # a process-pool copy of an engine built before the fork
+                elif self._worker is not None and self._worker.evicted:
+                    self._start_worker()  # closed to make room for another engine's worker
                 elif self._worker is not None and not self._worker.usable:
                     self._fail(WorkerError("the worker process ended"))
                 if self._worker is not None:

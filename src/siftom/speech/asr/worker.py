@@ -15,6 +15,8 @@ Ctrl-C (the parent's to handle), and never writes anything but replies to the pr
 ``fork`` (process pools) the copy is unusable (:meth:`usable` is False) and the caller starts
 its own. Every failure (cannot start, child died, timeout, error reply) raises
 :class:`WorkerError`, after which the worker is closed; callers fall back to decoding in-process.
+A process keeps at most ``SIFTOM_ASR_WORKERS`` workers (default MAX_WORKERS = 2; the least
+recently used one is closed for a new one, its engine starts it again when next used);
 ``SIFTOM_ASR_WORKERS=0`` turns worker processes off (:func:`workers_enabled`).
 """
 
@@ -27,6 +29,7 @@ import subprocess
 import sys
 import threading
 import weakref
+from collections import OrderedDict
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -37,6 +40,7 @@ import numpy as np
 from siftom.errors import SiftomError
 from siftom.speech.audio import SAMPLE_RATE
 
+MAX_WORKERS = 2  # per process: the scene's decoder and one more (e.g. an answer grammar's)
 START_TIMEOUT_S = 120.0  # importing siftom + building a decoder; generous for a loaded machine
 DECODE_TIMEOUT_S = 60.0  # on top of 2 s per second of audio
 
@@ -45,9 +49,43 @@ class WorkerError(SiftomError):
     """The worker process could not start, died, or did not answer in time; decode in-process."""
 
 
+def max_workers() -> int:
+    """How many worker processes one process keeps (``SIFTOM_ASR_WORKERS``, default
+    MAX_WORKERS; 0 = none: decode everything in the calling process)."""
+    raw = os.environ.get("SIFTOM_ASR_WORKERS", "").strip().lower()
+    if raw in ("0", "false", "no", "off"):
+        return 0
+    return int(raw) if raw.isdigit() else MAX_WORKERS
+
+
 def workers_enabled() -> bool:
     """False when ``SIFTOM_ASR_WORKERS=0`` (decode everything in the calling process)."""
-    return os.environ.get("SIFTOM_ASR_WORKERS", "1").strip() not in ("0", "false", "no", "off")
+    return max_workers() > 0
+
+
+# the live workers of this process, least recently used first (evicted beyond max_workers())
+_LIVE: OrderedDict[int, weakref.ReferenceType[EngineWorker]] = OrderedDict()
+_LIVE_LOCK = threading.Lock()
+
+
+def _admit(worker: EngineWorker) -> None:
+    """Register a new worker; close the least recently used ones beyond the limit."""
+    with _LIVE_LOCK:
+        for key in [k for k, r in _LIVE.items() if (w := r()) is None or not w.usable]:
+            del _LIVE[key]
+        _LIVE[id(worker)] = weakref.ref(worker)
+        while len(_LIVE) > max(1, max_workers()):
+            _, ref = _LIVE.popitem(last=False)
+            old = ref()
+            if old is not None:
+                old.evicted = True
+                old.close()
+
+
+def _touch(worker: EngineWorker) -> None:
+    with _LIVE_LOCK:
+        if id(worker) in _LIVE:
+            _LIVE.move_to_end(id(worker))
 
 
 def _shutdown(proc: subprocess.Popen, conns: tuple[Connection, ...], owner: int) -> None:
@@ -104,6 +142,8 @@ class EngineWorker:
         self._proc.stdin.close()
         self._proc.stdout.close()
         self._finalizer = weakref.finalize(self, _shutdown, self._proc, (self._send, self._recv), self.owner)
+        self.evicted = False  # closed to make room for a newer worker (not a failure)
+        _admit(self)
         self._request(("load", name, None if vocabulary is None else list(vocabulary), options))
 
     @property
@@ -122,6 +162,7 @@ class EngineWorker:
         self.wait_ready()
         if self._pending:
             raise WorkerError("an ASR worker decodes one utterance at a time; call result() first")
+        _touch(self)
         self._request(("decode", np.ascontiguousarray(audio, dtype=np.float32), int(nbest)))
         self._pending = True
         self._audio_s = audio.size / SAMPLE_RATE

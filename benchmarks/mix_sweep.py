@@ -24,6 +24,8 @@ from engine_sweep import score  # noqa: E402
 from siftom.observation import Hypothesis  # noqa: E402
 from siftom.speech.asr.dual import mix_nbest  # noqa: E402
 
+TEXT_RULE = "mixed"  # the 1-best text: the mixed list's first, or "free-open" (see --text-rule)
+
 
 def _load(folder: str, d: str) -> dict[str, dict[str, Any]]:
     path = Path(folder) / f"{Path(d).name}.jsonl"
@@ -44,6 +46,9 @@ def mixed(a: dict[str, Any], b: dict[str, Any], w: float, per_list: int, nbest: 
     else:
         hyps = _weighted([la, lb], [1 - w, w], nbest)
     text = hyps[0].text if hyps else ""
+    if TEXT_RULE == "free-open" and phrase_words is not None:
+        free = any(t not in phrase_words for t in b["text"].split())
+        text = b["text"] if free else a["text"]
     return {"text": text, "nbest": [{"text": h.text, "score": h.score} for h in hyps],
             "cpu_rtf": a["cpu_rtf"] + b["cpu_rtf"], "rtf": max(a.get("rtf", 0.0), b.get("rtf", 0.0))}
 
@@ -76,7 +81,11 @@ def main() -> None:
     ap.add_argument("--nbest", default="5")
     ap.add_argument("--out", default="runs/mix")
     ap.add_argument("--w-free", default="", help="open weight(s) when the open 1-best has a non-phrasing word")
+    ap.add_argument("--text-rule", default="mixed", choices=["mixed", "free-open"],
+                    help="free-open: the open 1-best when it holds a non-phrasing word, else the closed 1-best")
     a = ap.parse_args()
+    global TEXT_RULE
+    TEXT_RULE = a.text_rule
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     from siftom.bench.stimuli import load_dataset

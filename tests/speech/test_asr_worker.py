@@ -31,8 +31,13 @@ def test_dual_decodes_the_same_in_a_worker_process_as_in_process(speech: np.ndar
     par = DualEngine(VOCAB)
     seq = DualEngine(VOCAB, parallel=False)
     try:
+        assert par._worker is None  # an engine used once starts no process
+        first = par.transcribe(speech, nbest=5)
+        assert par._worker is not None  # started after the first call
         a = par.transcribe(speech, nbest=5)
         assert par.parallel and par._worker is not None and par._worker.usable  # the worker did the open decode
+        assert par._open is not None  # (the first call decoded in-process)
+        _same(a, first)
         _same(a, seq.transcribe(speech, nbest=5))
         assert "cereal" in a.text.split()
         assert seq._worker is None
@@ -42,6 +47,7 @@ def test_dual_decodes_the_same_in_a_worker_process_as_in_process(speech: np.ndar
 
 def test_dual_falls_back_to_in_process_decoding_when_the_worker_dies(speech: np.ndarray) -> None:
     eng = DualEngine(VOCAB)
+    eng.transcribe(speech, nbest=5)
     worker = eng._worker
     assert worker is not None
     worker.wait_ready()
@@ -55,6 +61,7 @@ def test_dual_falls_back_to_in_process_decoding_when_the_worker_dies(speech: np.
 def test_workers_can_be_switched_off(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("SIFTOM_ASR_WORKERS", "0")
     eng = DualEngine(VOCAB)
+    eng.transcribe(np.zeros(8000, dtype=np.float32))
     assert not eng.parallel and eng._worker is None
 
 
@@ -87,6 +94,7 @@ def _decode_in_child(eng: DualEngine, speech: np.ndarray, conn) -> None:  # noqa
     eng.close()
 
 
+@pytest.mark.slow
 def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -> None:
     """evaluate builds the engine, then forks pool workers: the copies must not share the pipes."""
     import multiprocessing as mp
@@ -94,6 +102,7 @@ def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -
     eng = DualEngine(VOCAB)
     try:
         expect = eng.transcribe(speech, nbest=5).text
+        eng.transcribe(speech, nbest=5)
         ctx = mp.get_context("fork")
         a, b = ctx.Pipe()
         p = ctx.Process(target=_decode_in_child, args=(eng, speech, b))
@@ -108,17 +117,20 @@ def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -
         eng.close()
 
 
+@pytest.mark.slow
 def test_a_process_keeps_at_most_the_allowed_number_of_workers(speech: np.ndarray,
                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
     """Engines beyond the limit evict the least recently used worker; its engine restarts one."""
     monkeypatch.setenv("SIFTOM_ASR_WORKERS", "1")
     a, b = DualEngine(VOCAB), DualEngine(VOCAB[:6])
     try:
+        a.transcribe(speech, nbest=5)
+        b.transcribe(speech, nbest=5)
         assert a._worker is not None and a._worker.evicted and not a._worker.usable
         assert b._worker is not None and b._worker.usable
         expect = DualEngine(VOCAB, parallel=False).transcribe(speech, nbest=5)
-        _same(a.transcribe(speech, nbest=5), expect)  # a starts a worker again, evicting b's
-        assert a.parallel and a._worker.usable and b._worker.evicted
+        _same(a.transcribe(speech, nbest=5), expect)  # in-process; a starts a worker again, evicting b's
+        assert a.parallel and a._worker is not None and a._worker.usable and b._worker.evicted
     finally:
         a.close()
         b.close()

@@ -62,10 +62,12 @@ def mix_nbest(lists: Sequence[Sequence[Hypothesis]], nbest: int) -> tuple[Hypoth
 class DualEngine:
     """``pocketsphinx-vocab`` and ``pocketsphinx-open`` on the same audio, N-best lists mixed.
 
-    The open decode runs in a warm worker process (:mod:`siftom.speech.asr.worker`) while this
-    process decodes with the phrasing LM, so the wall-clock cost is about the slower of the two
-    decodes, not their sum. When the worker cannot start or fails (or ``SIFTOM_ASR_WORKERS=0``,
-    or ``parallel=False``) both decodes run here, one after the other, with the same result.
+    From the second call on, the open decode runs in a warm worker process
+    (:mod:`siftom.speech.asr.worker`, started at the end of the first call) while this process
+    decodes with the phrasing LM, so the wall-clock cost is about the slower of the two decodes,
+    not their sum. An engine used once (e.g. for one answer) never starts a process. When the
+    worker cannot start or fails (or ``SIFTOM_ASR_WORKERS=0``, or ``parallel=False``) both
+    decodes run here, one after the other, with the same result.
 
     Args:
         vocabulary: the scene's phrasings (as for ``pocketsphinx-vocab``).
@@ -78,7 +80,7 @@ class DualEngine:
 
     def __init__(self, vocabulary: Sequence[str], max_seconds: float = 120.0, parallel: bool = True,
                  **open_options: Any) -> None:
-        """Start the open decoder's worker (it builds while this process builds the phrasing decoder)."""
+        """Build the phrasing decoder (the open one is built where it is first needed)."""
         self.max_seconds = max_seconds
         self._vocabulary = list(vocabulary)
         self._open_options = {"max_seconds": max_seconds, **open_options}
@@ -86,8 +88,6 @@ class DualEngine:
         self._worker: EngineWorker | None = None
         self._lock = threading.Lock()
         self._open: Any = None
-        if self._parallel:
-            self._start_worker()
         self.closed = PocketsphinxEngine(vocabulary=vocabulary, max_seconds=max_seconds)
         self.unknown_words = self.closed.unknown_words
 
@@ -125,29 +125,28 @@ class DualEngine:
 
     def _open_async(self, x: np.ndarray, nbest: int) -> Callable[[], Transcript]:
         """Start the open decode; return a function that waits for its Transcript."""
-        if self._parallel and self._lock.acquire(blocking=False):  # another thread has the worker: decode here
+        w = self._worker
+        if w is not None and (w.owner != os.getpid() or w.evicted):
+            # a process-pool copy of an engine used before the fork (close only this process's
+            # copies of the pipes), or closed to make room for another engine's worker
+            w.close()
+            self._worker = w = None
+        if w is not None and self._lock.acquire(blocking=False):  # another thread has it: decode here
             try:
-                if self._worker is not None and self._worker.owner != os.getpid():
-                    self._worker.close()  # closes this process's copies of the pipes only
-                    self._start_worker()  # a process-pool copy of an engine built before the fork
-                elif self._worker is not None and self._worker.evicted:
-                    self._start_worker()  # closed to make room for another engine's worker
-                elif self._worker is not None and not self._worker.usable:
-                    self._fail(WorkerError("the worker process ended"))
-                if self._worker is not None:
-                    worker = self._worker
-                    worker.submit(x, nbest)
+                if not w.usable:
+                    raise WorkerError("the worker process ended")
+                w.submit(x, nbest)
 
-                    def wait() -> Transcript:
-                        try:
-                            return worker.result()
-                        except WorkerError as exc:
-                            self._fail(exc)
-                            return self.open.transcribe(x, nbest=nbest)
-                        finally:
-                            self._lock.release()
+                def wait() -> Transcript:
+                    try:
+                        return w.result()
+                    except WorkerError as exc:
+                        self._fail(exc)
+                        return self.open.transcribe(x, nbest=nbest)
+                    finally:
+                        self._lock.release()
 
-                    return wait
+                return wait
             except WorkerError as exc:
                 self._fail(exc)
             self._lock.release()
@@ -168,4 +167,6 @@ class DualEngine:
         text = hyps[0].text if hyps else ""
         words = a.words if text == a.text or text != b.text else b.words
         rtf = (time.perf_counter() - t0) / max(a.audio_s, 1e-6)
+        if self._parallel and self._worker is None:
+            self._start_worker()  # builds while the caller uses this transcript
         return Transcript(text, hyps, words, rtf, self.name, a.audio_s)

@@ -33,9 +33,11 @@ def test_dual_decodes_the_same_in_a_worker_process_as_in_process(speech: np.ndar
     try:
         assert par._worker is None  # an engine used once starts no process
         first = par.transcribe(speech, nbest=5)
+        assert not first.extra["parallel"]
         assert par._worker is not None  # started after the first call
+        par._worker.wait_ready()
         a = par.transcribe(speech, nbest=5)
-        assert par.parallel and par._worker is not None and par._worker.usable  # the worker did the open decode
+        assert a.extra["parallel"]  # the worker did the open decode
         assert par._open is not None  # (the first call decoded in-process)
         _same(a, first)
         _same(a, seq.transcribe(speech, nbest=5))
@@ -89,7 +91,7 @@ def test_a_worker_reports_an_engine_that_cannot_be_built() -> None:
 
 
 def _decode_in_child(eng: DualEngine, speech: np.ndarray, conn) -> None:  # noqa: ANN001
-    tr = eng.transcribe(speech, nbest=5)
+    tr = eng.transcribe(speech, nbest=5)  # in-process: the parent's worker is not this process's
     conn.send((tr.text, eng._worker is not None and eng._worker.owner == os.getpid()))
     eng.close()
 
@@ -102,7 +104,8 @@ def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -
     eng = DualEngine(VOCAB)
     try:
         expect = eng.transcribe(speech, nbest=5).text
-        eng.transcribe(speech, nbest=5)
+        eng._worker.wait_ready()
+        assert eng.transcribe(speech, nbest=5).extra["parallel"]
         ctx = mp.get_context("fork")
         a, b = ctx.Pipe()
         p = ctx.Process(target=_decode_in_child, args=(eng, speech, b))
@@ -111,7 +114,8 @@ def test_a_forked_copy_of_the_engine_starts_its_own_worker(speech: np.ndarray) -
         text, own_worker = a.recv()
         p.join(10)
         assert (text, own_worker) == (expect, True)
-        assert eng.transcribe(speech, nbest=5).text == expect  # the parent's worker still answers
+        again = eng.transcribe(speech, nbest=5)
+        assert again.text == expect and again.extra["parallel"]  # the parent's worker still answers
         assert eng.parallel
     finally:
         eng.close()
@@ -126,6 +130,8 @@ def test_a_process_keeps_at_most_the_allowed_number_of_workers(speech: np.ndarra
     try:
         a.transcribe(speech, nbest=5)
         b.transcribe(speech, nbest=5)
+        b._worker.wait_ready()
+        assert b.transcribe(speech, nbest=5).extra["parallel"]
         assert a._worker is not None and a._worker.evicted and not a._worker.usable
         assert b._worker is not None and b._worker.usable
         expect = DualEngine(VOCAB, parallel=False).transcribe(speech, nbest=5)

@@ -88,6 +88,7 @@ class DualEngine:
         self._worker: EngineWorker | None = None
         self._lock = threading.Lock()
         self._open: Any = None
+        self._used_worker = False
         self.closed = PocketsphinxEngine(vocabulary=vocabulary, max_seconds=max_seconds)
         self.unknown_words = self.closed.unknown_words
 
@@ -135,11 +136,16 @@ class DualEngine:
             try:
                 if not w.usable:
                     raise WorkerError("the worker process ended")
+                if not w.is_ready():  # still starting: decode here this time rather than wait
+                    self._lock.release()
+                    return lambda: self.open.transcribe(x, nbest=nbest)
                 w.submit(x, nbest)
 
                 def wait() -> Transcript:
                     try:
-                        return w.result()
+                        tr = w.result()
+                        self._used_worker = True
+                        return tr
                     except WorkerError as exc:
                         self._fail(exc)
                         return self.open.transcribe(x, nbest=nbest)
@@ -155,9 +161,11 @@ class DualEngine:
     def transcribe(self, audio: np.ndarray | str | Path, nbest: int = 1) -> Transcript:
         """Decode twice (concurrently when a worker runs) and mix the N-best lists; the 1-best
         words come from the list that supplied the mixed 1-best. ``rtf`` is the wall-clock time
-        of the whole call over the audio's duration."""
+        of the whole call over the audio's duration; ``extra["parallel"]`` says whether the open
+        decode ran in the worker process."""
         x = as_audio(audio, max_seconds=self.max_seconds)
         t0 = time.perf_counter()
+        self._used_worker = False
         wait = self._open_async(x, nbest)
         try:
             a = self.closed.transcribe(x, nbest=nbest)
@@ -169,4 +177,4 @@ class DualEngine:
         rtf = (time.perf_counter() - t0) / max(a.audio_s, 1e-6)
         if self._parallel and self._worker is None:
             self._start_worker()  # builds while the caller uses this transcript
-        return Transcript(text, hyps, words, rtf, self.name, a.audio_s)
+        return Transcript(text, hyps, words, rtf, self.name, a.audio_s, extra={"parallel": self._used_worker})

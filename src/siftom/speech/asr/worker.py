@@ -151,6 +151,17 @@ class EngineWorker:
         """Whether this process may use the worker (it started it, and the worker is alive)."""
         return os.getpid() == self.owner and self._finalizer.alive and self._proc.poll() is None
 
+    def is_ready(self) -> bool:
+        """Whether the child has built its engine (never blocks). Raises WorkerError on failure."""
+        try:
+            arrived = not self._ready and self._recv.poll(0)
+        except (OSError, ValueError):
+            raise WorkerError("the ASR worker process was closed") from None
+        if arrived:
+            self._reply(0.0)
+            self._ready = True
+        return self._ready
+
     def wait_ready(self, timeout: float = START_TIMEOUT_S) -> None:
         """Block until the child has built its engine. Raises WorkerError on failure."""
         if not self._ready:

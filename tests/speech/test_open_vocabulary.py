@@ -90,3 +90,18 @@ def test_open_engines_hear_words_outside_the_phrasings_as_other_words():
         heard = tr.text.split()
         assert "milk" in heard, (name, tr.text)
         assert not set(heard) & (set(FOODS) - {"milk"}), (name, tr.text)
+
+
+def test_boost_multiplies_only_the_given_words_unigrams():
+    from siftom.likelihood.asr import meaning_words
+    from siftom.speech.asr.pocketsphinx import boost_unigrams
+
+    arpa = build_arpa(["pass me the milk", "bring me two cups of tea"])
+    before = _unigrams(arpa)
+    words = meaning_words(["pass me the milk", "bring me two cups of tea"])
+    assert words == {"milk", "two", "cups", "tea"}  # filler words (pass, me, the, bring, of) are not boosted
+    after = _unigrams(boost_unigrams(arpa, words, 4.0))
+    for w, lp in before.items():
+        want = lp + math.log10(4.0) if w in words and lp > -99 else lp
+        assert after[w] == pytest.approx(want, abs=1e-4), w
+    assert boost_unigrams(arpa, words, 1.0) == arpa

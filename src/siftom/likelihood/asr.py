@@ -24,8 +24,20 @@ def distinct_words(candidates: Sequence[tuple[str, float]], phrase_words: Iterab
     return tuple((w, lp) for w, lp in candidates if w in meaning.words or meaning.relevance(w) == 0.0)
 
 
-def open_engine(vocabulary: Sequence[str], **options: Any) -> PocketsphinxEngine:
+def meaning_words(vocabulary: Sequence[str]) -> set[str]:
+    """The phrasings' words that can carry meaning (object names, synonyms, category words,
+    counts): every word but the phrasing grammar's filler words."""
+    from siftom.likelihood.phrasing import FILLER_WORDS
+    from siftom.speech.asr.base import normalise_text
+
+    return {w for p in vocabulary for w in normalise_text(p).split()} - FILLER_WORDS
+
+
+def open_engine(vocabulary: Sequence[str], boost: float = 1.0, **options: Any) -> PocketsphinxEngine:
     """``pocketsphinx-open``: the scene's phrasings plus the generic LM's 2000 most frequent
-    words that sound like no meaning word, decoded without the flat-lexicon pass."""
+    words that sound like no meaning word, decoded without the flat-lexicon pass; ``boost``
+    multiplies the unigram probability of the meaning words (:func:`meaning_words`)."""
     options.setdefault("background_filter", distinct_words)
-    return open_vocabulary_engine(vocabulary, **options)
+    if boost != 1.0:
+        options.setdefault("boost_words", sorted(meaning_words(vocabulary)))
+    return open_vocabulary_engine(vocabulary, boost=boost, **options)

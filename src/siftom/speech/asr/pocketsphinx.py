@@ -188,6 +188,29 @@ def add_background_words(arpa: str, words: Sequence[tuple[str, float]], weight: 
     return "\n".join([*head, "\\1-grams:", *uni, "", *lines[end:]]) + "\n"
 
 
+def boost_unigrams(arpa: str, words: Iterable[str], factor: float) -> str:
+    """Multiply the unigram probability of ``words`` by ``factor`` (log10 + log10 factor).
+
+    Only the back-off paths change: after a word the phrasings' n-grams do not continue (free
+    speech), the LM falls back to unigrams, where a boosted object name or count competes better
+    with the background words. The LM is not renormalised (pocketsphinx does not require it).
+    """
+    if factor == 1.0:
+        return arpa
+    boost = math.log10(factor)
+    want = set(words)
+    lines = arpa.splitlines()
+    start = lines.index("\\1-grams:")
+    for i in range(start + 1, len(lines)):
+        if lines[i].startswith("\\"):
+            break
+        parts = lines[i].split()
+        if len(parts) >= 2 and parts[1] in want and float(parts[0]) > -99:
+            parts[0] = f"{float(parts[0]) + boost:.4f}"
+            lines[i] = " ".join(parts)
+    return "\n".join(lines) + "\n"
+
+
 def _atomic_write(path: Path, text: str) -> None:
     tmp = path.with_suffix(path.suffix + f".{os.getpid()}.tmp")
     tmp.write_text(text, encoding="utf-8")
@@ -207,12 +230,16 @@ class PocketsphinxEngine:
         background_filter: ``f(background_words, phrase_words) -> kept words``, e.g.
             ``siftom.likelihood.asr.distinct_words`` (drop words that sound like a meaning word).
         decoder_options: extra pocketsphinx ``Decoder`` settings (e.g. ``{"fwdflat": False}``).
+        boost_words: with a vocabulary, words whose unigram probability is multiplied by ``boost``
+            (e.g. the scene's object names and counts, :func:`boost_unigrams`).
+        boost: that factor (1 = no boost).
     """
 
     def __init__(self, vocabulary: Sequence[str] | None = None, max_seconds: float = 120.0,
                  background_words: int = 0, background_weight: float = OPEN_BACKGROUND_WEIGHT,
                  background_filter: BackgroundFilter | None = None,
-                 decoder_options: dict[str, Any] | None = None) -> None:
+                 decoder_options: dict[str, Any] | None = None, boost_words: Iterable[str] = (),
+                 boost: float = 1.0) -> None:
         """Load the decoder (fast with a vocabulary: the dictionary is trimmed)."""
         ps = _ps()
         self.max_seconds = max_seconds
@@ -243,6 +270,11 @@ class PocketsphinxEngine:
                 self.name = "pocketsphinx-open"
             fname = getattr(background_filter, "__qualname__", "") if background_filter else ""
             tag = f"\nbackground={background_words},{background_weight},{fname}" if open_vocab else ""
+            boosted = sorted(set(boost_words)) if boost != 1.0 else []
+            if boost <= 0:
+                raise SiftomError(f"boost must be > 0, got {boost}")
+            if boosted:
+                tag += f"\nboost={boost}:{' '.join(boosted)}"
             key = hashlib.sha1(("\n".join(self.phrases) + tag).encode()).hexdigest()[:16]
             d = cache_dir()
             lm_path, dict_path = d / f"{key}.arpa", d / f"{key}.dict"
@@ -255,6 +287,7 @@ class PocketsphinxEngine:
                         bg = tuple(background_filter(bg, words))
                     arpa = add_background_words(arpa, bg, background_weight)
                     words |= {w for w, _ in bg}
+                arpa = boost_unigrams(arpa, boosted, boost)
                 write_dictionary(words, dict_path)
                 _atomic_write(lm_path, arpa)
             self._decoder = ps.Decoder(lm=str(lm_path), dict=str(dict_path), loglevel="FATAL",

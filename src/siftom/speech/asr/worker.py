@@ -1,0 +1,260 @@
+"""A registered ASR engine decoding in its own, persistent Python process.
+
+pocketsphinx holds the GIL while it decodes, so two decoders in threads of one process run one
+after the other. :class:`EngineWorker` keeps one engine warm in a child process (started with
+``python -m siftom.speech.asr.worker``) and talks to it over its stdin/stdout pipes:
+
+    worker = EngineWorker("pocketsphinx-open", vocabulary=phrases)   # starts building at once
+    worker.submit(samples, nbest=5)     # returns immediately; the child decodes
+    ...                                 # meanwhile decode something else in this process
+    transcript = worker.result()        # wait for the child's Transcript
+
+Robustness: the child exits when its stdin closes (the parent ended, even by SIGKILL), ignores
+Ctrl-C (the parent's to handle), and never writes anything but replies to the protocol pipe
+(its fd 1 is pointed at stderr). A worker belongs to the process that started it: after a
+``fork`` (process pools) the copy is unusable (:meth:`usable` is False) and the caller starts
+its own. Every failure (cannot start, child died, timeout, error reply) raises
+:class:`WorkerError`, after which the worker is closed; callers fall back to decoding in-process.
+A process keeps at most ``SIFTOM_ASR_WORKERS`` workers (default MAX_WORKERS = 2; the least
+recently used one is closed for a new one, its engine starts it again when next used);
+``SIFTOM_ASR_WORKERS=0`` turns worker processes off (:func:`workers_enabled`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import threading
+import weakref
+from collections import OrderedDict
+from collections.abc import Sequence
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.errors import SiftomError
+from siftom.speech.audio import SAMPLE_RATE
+
+MAX_WORKERS = 2  # per process: the scene's decoder and one more (e.g. an answer grammar's)
+START_TIMEOUT_S = 120.0  # importing siftom + building a decoder; generous for a loaded machine
+DECODE_TIMEOUT_S = 60.0  # on top of 2 s per second of audio
+
+
+class WorkerError(SiftomError):
+    """The worker process could not start, died, or did not answer in time; decode in-process."""
+
+
+def max_workers() -> int:
+    """How many worker processes one process keeps (``SIFTOM_ASR_WORKERS``, default
+    MAX_WORKERS; 0 = none: decode everything in the calling process)."""
+    raw = os.environ.get("SIFTOM_ASR_WORKERS", "").strip().lower()
+    if raw in ("0", "false", "no", "off"):
+        return 0
+    return int(raw) if raw.isdigit() else MAX_WORKERS
+
+
+def workers_enabled() -> bool:
+    """False when ``SIFTOM_ASR_WORKERS=0`` (decode everything in the calling process)."""
+    return max_workers() > 0
+
+
+# the live workers of this process, least recently used first (evicted beyond max_workers())
+_LIVE: OrderedDict[int, weakref.ReferenceType[EngineWorker]] = OrderedDict()
+_LIVE_LOCK = threading.Lock()
+
+
+def _admit(worker: EngineWorker) -> None:
+    """Register a new worker; close the least recently used ones beyond the limit."""
+    with _LIVE_LOCK:
+        for key in [k for k, r in _LIVE.items() if (w := r()) is None or not w.usable]:
+            del _LIVE[key]
+        _LIVE[id(worker)] = weakref.ref(worker)
+        while len(_LIVE) > max(1, max_workers()):
+            _, ref = _LIVE.popitem(last=False)
+            old = ref()
+            if old is not None:
+                old.evicted = True
+                old.close()
+
+
+def _touch(worker: EngineWorker) -> None:
+    with _LIVE_LOCK:
+        if id(worker) in _LIVE:
+            _LIVE.move_to_end(id(worker))
+
+
+def _shutdown(proc: subprocess.Popen, conns: tuple[Connection, ...], owner: int) -> None:
+    """Close the pipes and end the child (a forked copy only closes its copies of the pipes)."""
+    for c in conns:
+        with contextlib.suppress(OSError):
+            c.close()
+    if os.getpid() != owner:
+        return
+    try:
+        proc.wait(timeout=2.0)  # stdin closed: the child leaves its loop by itself
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=5.0)
+    except OSError:
+        pass
+
+
+class EngineWorker:
+    """One registered engine (``get_engine(name, vocabulary, **options)``) in a child process.
+
+    Args:
+        name: registered engine name.
+        vocabulary: the scene's phrasings for a scene engine, else None.
+        options: keyword arguments for the engine (must pickle).
+
+    Raises:
+        WorkerError: the child process cannot be started.
+    """
+
+    def __init__(self, name: str, vocabulary: Sequence[str] | None = None, **options: Any) -> None:
+        """Start the child and send it the engine to build (does not wait for it)."""
+        import siftom
+
+        self.name = name
+        self.owner = os.getpid()
+        self._lock = threading.Lock()
+        self._ready = False
+        self._pending = False
+        self._audio_s = 0.0
+        env = dict(os.environ)
+        root = str(Path(siftom.__file__).resolve().parents[1])  # this siftom, wherever it was imported from
+        env["PYTHONPATH"] = os.pathsep.join([root, *([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])])
+        try:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", "siftom.speech.asr.worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                env=env, start_new_session=True, close_fds=True)
+        except OSError as exc:
+            raise WorkerError(f"cannot start an ASR worker process ({exc}); decoding in this process instead") from None
+        if self._proc.stdin is None or self._proc.stdout is None:  # cannot happen with PIPE; keeps mypy honest
+            raise WorkerError("the ASR worker process has no pipes")
+        self._send = Connection(os.dup(self._proc.stdin.fileno()), readable=False)
+        self._recv = Connection(os.dup(self._proc.stdout.fileno()), writable=False)
+        self._proc.stdin.close()
+        self._proc.stdout.close()
+        self._finalizer = weakref.finalize(self, _shutdown, self._proc, (self._send, self._recv), self.owner)
+        self.evicted = False  # closed to make room for a newer worker (not a failure)
+        _admit(self)
+        self._request(("load", name, None if vocabulary is None else list(vocabulary), options))
+
+    @property
+    def usable(self) -> bool:
+        """Whether this process may use the worker (it started it, and the worker is alive)."""
+        return os.getpid() == self.owner and self._finalizer.alive and self._proc.poll() is None
+
+    def is_ready(self) -> bool:
+        """Whether the child has built its engine (never blocks). Raises WorkerError on failure."""
+        try:
+            arrived = not self._ready and self._recv.poll(0)
+        except (OSError, ValueError):
+            raise WorkerError("the ASR worker process was closed") from None
+        if arrived:
+            self._reply(0.0)
+            self._ready = True
+        return self._ready
+
+    def wait_ready(self, timeout: float = START_TIMEOUT_S) -> None:
+        """Block until the child has built its engine. Raises WorkerError on failure."""
+        if not self._ready:
+            self._reply(timeout)
+            self._ready = True
+
+    def submit(self, audio: np.ndarray, nbest: int = 1) -> None:
+        """Send 16 kHz float samples to decode; collect the Transcript with :meth:`result`."""
+        self.wait_ready()
+        if self._pending:
+            raise WorkerError("an ASR worker decodes one utterance at a time; call result() first")
+        _touch(self)
+        self._request(("decode", np.ascontiguousarray(audio, dtype=np.float32), int(nbest)))
+        self._pending = True
+        self._audio_s = audio.size / SAMPLE_RATE
+
+    def result(self, timeout: float | None = None) -> Any:
+        """The Transcript of the last :meth:`submit` (waits at most ``timeout`` seconds)."""
+        if not self._pending:
+            raise WorkerError("nothing was submitted to the ASR worker")
+        self._pending = False
+        return self._reply(DECODE_TIMEOUT_S + 2.0 * self._audio_s if timeout is None else timeout)
+
+    def transcribe(self, audio: np.ndarray, nbest: int = 1) -> Any:
+        """submit + result, one caller at a time."""
+        with self._lock:
+            self.submit(audio, nbest)
+            return self.result()
+
+    def close(self) -> None:
+        """End the child process (idempotent; also runs when the worker is garbage-collected or at exit)."""
+        self._finalizer()
+
+    def _request(self, msg: tuple[Any, ...]) -> None:
+        if not self.usable:
+            raise WorkerError("the ASR worker process is not running (it ended or belongs to another process)")
+        try:
+            self._send.send(msg)
+        except (OSError, ValueError) as exc:
+            self.close()
+            raise WorkerError(f"the ASR worker process stopped listening ({exc})") from None
+
+    def _reply(self, timeout: float) -> Any:
+        try:
+            if not self._recv.poll(timeout):
+                self.close()
+                raise WorkerError(f"the ASR worker process did not answer within {timeout:.0f} s")
+            status, payload = self._recv.recv()
+        except (EOFError, OSError, ValueError) as exc:
+            self.close()
+            raise WorkerError(f"the ASR worker process ended unexpectedly ({type(exc).__name__})") from None
+        if status != "ok":
+            self.close()
+            raise WorkerError(f"the ASR worker failed: {payload}")
+        return payload
+
+
+def main() -> int:
+    """The child's loop: build the engine, then decode until stdin closes or "quit" arrives."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    out_fd = os.dup(1)
+    os.dup2(2, 1)  # stray prints (Python or C) go to stderr, never into the protocol pipe
+    recv = Connection(os.dup(0), writable=False)
+    send = Connection(out_fd, readable=False)
+    engine: Any = None
+    while True:
+        try:
+            msg = recv.recv()
+        except (EOFError, OSError):
+            return 0
+        try:
+            if msg[0] == "quit":
+                return 0
+            if msg[0] == "load":
+                from siftom.speech.asr.base import get_engine
+
+                _, name, vocabulary, options = msg
+                engine = get_engine(name, vocabulary=vocabulary, **options)
+                send.send(("ok", None))
+            elif msg[0] == "decode":
+                if engine is None:
+                    raise SiftomError("no engine loaded")
+                send.send(("ok", engine.transcribe(msg[1], nbest=msg[2])))
+            else:
+                raise SiftomError(f"unknown request {msg[0]!r}")
+        except (EOFError, OSError, BrokenPipeError):
+            return 0
+        except Exception as exc:  # reported to the parent, which falls back to in-process decoding
+            try:
+                send.send(("error", f"{type(exc).__name__}: {exc}"))
+            except OSError:
+                return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

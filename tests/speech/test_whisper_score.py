@@ -49,6 +49,26 @@ def test_only_the_heard_object_words_change_between_commands():
     assert [items[0][0] for items in kept] == [texts[2][0][0], texts[0][0][0]]
 
 
+
+def test_a_lost_object_is_guessed_after_the_heard_words_or_in_place_of_the_last():
+    """No command's word was heard ("we still need the", "i'm"): besides its closest phrasing,
+    every command is scored with its key phrase after the heard words and in place of the last
+    one, and every command gets the same kinds of guess."""
+    cmds = [RobotCommand.parse(f"fetch({f})") for f in ("onion", "milk")]
+    texts, mode = candidate_texts(Instruction(nbest=(Hypothesis("we still need the", -1.0),)), cmds)
+    assert mode == "sentence"
+    onion = [t for t, _ in texts[0]]
+    assert "we still need the onion" in onion and "we still need onion" in onion
+    assert not any("milk" in t for t in onion)
+    # each kind of guess weighs the same for every command: its key-phrase priors sum to 1
+    for items in texts:
+        assert np.isclose(np.logaddexp.reduce([lp for _, lp in items]), np.log(3.0))
+    texts, _ = candidate_texts(Instruction(nbest=(Hypothesis("i'm", -1.0),)), cmds)
+    assert "onion" in [t for t, _ in texts[0]] and "i'm onion" in [t for t, _ in texts[0]]
+    # nothing heard at all ("no speech" keeps an empty 1-best): only the closest phrasing is scored
+    texts, _ = candidate_texts(Instruction(nbest=(Hypothesis("", -1.0),)), cmds)
+    assert [len(items) for items in texts] == [1, 1]
+
 @needs_whisper
 @needs_flite
 @pytest.mark.parametrize(("said", "voice", "snr"), [("can you pass me the cereal", "flite-slt", None),

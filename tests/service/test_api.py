@@ -214,12 +214,16 @@ def test_say_then_infer_from_audio(client):
 
 def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):
     # in noise the transcript often loses the object word; the audio itself still carries it
+    # (the demo's clip and N-best size: the same answer over HTTP as from `siftom demo`)
     r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "babble", "snr": 10, "seed": 0})
-    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic"},
+    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic", "asr_nbest": "10"},
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()
     assert res.status_code == 200, body
     assert body["likelihood"] == "acoustic" and body["command"] == "fetch(cereal)"
+    phon = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "phonetic", "asr_nbest": "10"},
+                       files={"audio": ("say.wav", r.content, "audio/wav")}).json()
+    assert phon["command"] != "fetch(cereal)"  # the words alone point elsewhere: the audio decided
     uploads = client.app.state.runtime.data_dir / "uploads"
     assert not uploads.exists() or not any(uploads.iterdir())
 

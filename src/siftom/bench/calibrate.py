@@ -37,8 +37,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary, is_correct
-    from siftom.inference.model import Observation
+    from siftom.bench.trials import _engine, dataset_vocabulary
 
     ds = load_dataset(dataset)
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
@@ -60,19 +59,11 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
             raw_cmds = _commands(model, sc)
             raw = lk.raw_scores(instruction, raw_cmds, _context(model, sc))
             lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the alignment for every T
-            per_t = {}
-            for T in GRID:
-                lk.temperature = T
-                post = model.infer(Observation.from_scenario(sc, instruction))
-                per_t[T] = (post.prob(s.gold_command), post.commands[0][1],
-                            is_correct(post.command, s.gold_command, sc.verb))
+            per_t = _per_temperature(model, "temperature", GRID, sc, instruction, s.gold_command)
             if combo:
                 lk.with_phonetic = not combo_default
-                for T in GRID:
-                    lk.temperature = T
-                    post = model.infer(Observation.from_scenario(sc, instruction))
-                    per_t[-T] = (post.prob(s.gold_command), post.commands[0][1],
-                                 is_correct(post.command, s.gold_command, sc.verb))
+                other = _per_temperature(model, "temperature", GRID, sc, instruction, s.gold_command)
+                per_t.update({-T: v for T, v in other.items()})
                 lk.with_phonetic = combo_default
             rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
                          "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
@@ -82,12 +73,24 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     return rows
 
 
+def _per_temperature(model: Any, attr: str, grid: Any, sc: Any, instruction: Any,
+                     gold: str) -> dict[float, tuple[float, float, bool]]:
+    """Per temperature T of the likelihood's ``attr``: (P(gold), P(chosen), chosen is right)."""
+    from siftom.bench.trials import is_correct
+    from siftom.inference.model import Observation
+
+    out = {}
+    for T in grid:
+        setattr(model.likelihood, attr, T)
+        post = model.infer(Observation.from_scenario(sc, instruction))
+        out[T] = (post.prob(gold), post.commands[0][1], is_correct(post.command, gold, sc.verb))
+    return out
+
+
 def _collect_whisper(ds: Any, model: Any, asr: Any, nbest: int, limit: int | None) -> list[dict[str, Any]]:
     """``collect`` for the Whisper factor: the posterior per T_w (keys of ``per_t``) from one scoring per clip."""
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import scenario_for
-    from siftom.bench.trials import is_correct
-    from siftom.inference.model import Observation
 
     lk = model.likelihood
     original = lk.raw_scores, lk.whisper_temperature
@@ -101,12 +104,7 @@ def _collect_whisper(ds: Any, model: Any, asr: Any, nbest: int, limit: int | Non
             lk.raw_scores, lk.whisper_temperature = original
             raw = lk.raw_scores(instruction, _commands(model, sc), _context(model, sc))
             lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the scores for every T_w
-            per_t = {}
-            for T in WHISPER_GRID:
-                lk.whisper_temperature = T
-                post = model.infer(Observation.from_scenario(sc, instruction))
-                per_t[T] = (post.prob(s.gold_command), post.commands[0][1],
-                            is_correct(post.command, s.gold_command, sc.verb))
+            per_t = _per_temperature(model, "whisper_temperature", WHISPER_GRID, sc, instruction, s.gold_command)
             rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
                          "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
     finally:

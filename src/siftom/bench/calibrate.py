@@ -32,7 +32,8 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct).
 
     The likelihood is used as configured (by default the alignment times the N-best phonetic
-    likelihood); ``combo=True`` adds the other choice under negative keys (-T).
+    likelihood); ``combo=True`` adds the other choice under negative keys (-T). With the Whisper
+    factor on, the temperatures are T_w's (``WHISPER_GRID``) and ``combo`` does not apply.
     """
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
@@ -44,31 +45,34 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     asr = _engine(engine, vocab)
     model = get_model(mode, "acoustic")
     lk = model.likelihood
-    if not getattr(lk, "aligns", True):  # the Whisper factor replaces the alignment: fit T_w instead
-        return _collect_whisper(ds, model, asr, nbest, limit)
-    original = lk.raw_scores, lk.temperature
+    # the Whisper factor replaces the alignment: then T_w is fitted instead (and there is no combo)
+    aligns = getattr(lk, "aligns", True)
+    attr, grid = ("temperature", GRID) if aligns else ("whisper_temperature", WHISPER_GRID)
+    combo = combo and aligns
+    original = lk.raw_scores, getattr(lk, attr)
     combo_default = lk.with_phonetic
     rows = []
     try:
         for s in ds.stimuli[:limit]:
             sc = scenario_for(s)
-            instruction, vad = heard(ds.root / s.audio, asr, nbest)
+            instruction, _ = heard(ds.root / s.audio, asr, nbest)
             if instruction is None:
                 continue
-            lk.raw_scores, lk.temperature = original
-            raw_cmds = _commands(model, sc)
-            raw = lk.raw_scores(instruction, raw_cmds, _context(model, sc))
-            lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the alignment for every T
-            per_t = _per_temperature(model, "temperature", GRID, sc, instruction, s.gold_command)
+            lk.raw_scores = original[0]
+            setattr(lk, attr, original[1])
+            raw = lk.raw_scores(instruction, _commands(model, sc), _context(model, sc))
+            lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - one scoring per clip, every T reuses it
+            per_t = _per_temperature(model, attr, grid, sc, instruction, s.gold_command)
             if combo:
                 lk.with_phonetic = not combo_default
-                other = _per_temperature(model, "temperature", GRID, sc, instruction, s.gold_command)
+                other = _per_temperature(model, attr, grid, sc, instruction, s.gold_command)
                 per_t.update({-T: v for T, v in other.items()})
                 lk.with_phonetic = combo_default
             rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
                          "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
     finally:
-        lk.raw_scores, lk.temperature = original
+        lk.raw_scores = original[0]
+        setattr(lk, attr, original[1])
         lk.with_phonetic = combo_default
     return rows
 
@@ -85,31 +89,6 @@ def _per_temperature(model: Any, attr: str, grid: Any, sc: Any, instruction: Any
         post = model.infer(Observation.from_scenario(sc, instruction))
         out[T] = (post.prob(gold), post.commands[0][1], is_correct(post.command, gold, sc.verb))
     return out
-
-
-def _collect_whisper(ds: Any, model: Any, asr: Any, nbest: int, limit: int | None) -> list[dict[str, Any]]:
-    """``collect`` for the Whisper factor: the posterior per T_w (keys of ``per_t``) from one scoring per clip."""
-    from siftom.bench.acoustic_models import heard
-    from siftom.bench.stimuli import scenario_for
-
-    lk = model.likelihood
-    original = lk.raw_scores, lk.whisper_temperature
-    rows = []
-    try:
-        for s in ds.stimuli[:limit]:
-            sc = scenario_for(s)
-            instruction, _ = heard(ds.root / s.audio, asr, nbest)
-            if instruction is None:
-                continue
-            lk.raw_scores, lk.whisper_temperature = original
-            raw = lk.raw_scores(instruction, _commands(model, sc), _context(model, sc))
-            lk.raw_scores = lambda *a, _raw=raw, **k: _raw  # noqa: E731 - reuse the scores for every T_w
-            per_t = _per_temperature(model, "whisper_temperature", WHISPER_GRID, sc, instruction, s.gold_command)
-            rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
-                         "snr_est": instruction.snr_db, "mode": raw.mode, "per_t": per_t})
-    finally:
-        lk.raw_scores, lk.whisper_temperature = original
-    return rows
 
 
 def _commands(model: Any, sc: Any) -> list[Any]:

@@ -19,6 +19,7 @@ from siftom.errors import ObservationError
 from siftom.inference.listen import ENGINES, LOCK, NO_SPEECH, ONLINE, Heard, hear, resolve_scene  # noqa: F401
 from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
+from siftom.speech.asr import DEFAULT_NBEST
 from siftom.world.commands import MAX_COUNT
 
 LikelihoodArg = str | InstructionLikelihood
@@ -145,7 +146,7 @@ def vocabulary_for(world: Any, verb: str, max_count: int = MAX_COUNT) -> list[st
 
 
 def transcribe_for(audio: str | Path, world: Any = None, verb: str = "fetch", engine: str = "pocketsphinx",
-                   nbest: int = 10) -> Any:
+                   nbest: int = DEFAULT_NBEST) -> Any:
     """Transcribe an instruction; pocketsphinx is biased to the world's command phrasings."""
     from siftom.speech.asr.base import get_engine
 
@@ -179,7 +180,7 @@ def listen(
     mode: str = "full",
     likelihood: str = "phonetic",
     engine: str = "pocketsphinx",
-    nbest: int = 10,
+    nbest: int = DEFAULT_NBEST,
     top: int = 10,
 ) -> Heard:
     """Infer the robot command from a recording of the instruction and the human's actions.

@@ -10,6 +10,7 @@ import pytest
 import soundfile as sf
 from fastapi.testclient import TestClient
 
+import siftom
 from siftom.inference.model import MODES
 from siftom.service.app import create_app
 from siftom.service.loadtest import serve_in_thread
@@ -214,18 +215,25 @@ def test_say_then_infer_from_audio(client):
 
 def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):
     # in noise the transcript often loses the object word; the audio itself still carries it
-    # (the demo's clip and N-best size: the same answer over HTTP as from `siftom demo`)
+    # (the demo's clip with the default N-best size: the same answer over HTTP as from `siftom demo`)
     r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "babble", "snr": 10, "seed": 0})
-    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic", "asr_nbest": "10"},
+    res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic"},
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()
     assert res.status_code == 200, body
     assert body["likelihood"] == "acoustic" and body["command"] == "fetch(cereal)"
-    phon = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "phonetic", "asr_nbest": "10"},
+    phon = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "phonetic"},
                        files={"audio": ("say.wav", r.content, "audio/wav")}).json()
     assert phon["command"] != "fetch(cereal)"  # the words alone point elsewhere: the audio decided
     uploads = client.app.state.runtime.data_dir / "uploads"
     assert not uploads.exists() or not any(uploads.iterdir())
+    # the library, with its defaults, hears the same clip the same way (one default N-best size)
+    clip = tmp_path / "say.wav"
+    clip.write_bytes(r.content)
+    for lik, answer in (("acoustic", body), ("phonetic", phon)):
+        heard = siftom.listen(clip, KITCHEN, likelihood=lik)
+        assert [h.text for h in heard.transcript.nbest] == [h["text"] for h in answer["nbest"]], lik
+        assert heard.posterior.command == answer["command"], lik
 
 
 @pytest.mark.parametrize("likelihood", ["phonetic", "acoustic"])

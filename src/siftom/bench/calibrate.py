@@ -22,12 +22,14 @@ from typing import Any
 
 import numpy as np
 
+from siftom.speech.asr import DEFAULT_NBEST
+
 GRID = (8.0, 12.0, 20.0, 30.0, 40.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0, 500.0)
 # with the Whisper factor and no alignment the grid is over T_w (likelihood/whisper_factor.py)
 WHISPER_GRID = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 20.0)
 
 
-def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = 5,
+def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx-vocab", nbest: int = DEFAULT_NBEST,
             limit: int | None = None, combo: bool = False) -> list[dict[str, Any]]:
     """Per stimulus: condition, estimated SNR and, per temperature, (gold prob, top prob, correct).
 

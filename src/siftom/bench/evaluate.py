@@ -57,6 +57,7 @@ from siftom.bench.trials import (
     scenario_key,
 )
 from siftom.errors import DatasetError, unknown_name
+from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.asr.base import is_scene_engine
 
 # run only when a language model is configured (siftom.bench.llm_baselines)
@@ -82,7 +83,7 @@ class EvalOptions:
 
     models: tuple[str, ...] = MODELS
     engine: str = DEFAULT_ENGINE
-    nbest: int = 5
+    nbest: int = DEFAULT_NBEST
     likelihood: str = "phonetic"
     seed: int = 0
     llm: Any = None  # siftom.backends.config.LLMConfig

@@ -12,6 +12,7 @@ import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import DatasetError
+from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.asr.base import ENGINES
 
 
@@ -161,7 +162,7 @@ def check_cmd(folder: str) -> None:
               "speech-only-acoustic (the audio itself, key-phrase alignment)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True,
               help=f"ASR engine: {ENGINES.help_line()}")
-@click.option("--nbest", type=int, default=5, show_default=True, help="ASR hypotheses given to the models")
+@click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")

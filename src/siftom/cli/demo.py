@@ -47,7 +47,7 @@ def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, se
     mixed = mix_at_snr(clean, get_noise(noise), snr, rng=seed)
     wav = write_wav(out_dir / "instruction.wav", mixed)
     con.print(f'\nthe human says "{text}" ({voice}), heard through {noise} noise at {snr:g} dB -> {wav}')
-    tr = transcribe_for(wav, sc.world, sc.verb, "pocketsphinx", nbest=10)
+    tr = transcribe_for(wav, sc.world, sc.verb, "pocketsphinx")  # DEFAULT_NBEST hypotheses
     con.print(f'ASR 1-best: "[bold]{tr.text}[/bold]"   (N-best: {len(tr.nbest)}, real-time factor {tr.rtf:.2f})')
     for h in tr.nbest[:5]:
         con.print(f"    {h.score:8.2f}  {h.text}")

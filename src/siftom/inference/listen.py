@@ -27,6 +27,7 @@ import numpy as np
 from siftom.errors import ObservationError
 from siftom.inference.model import Posterior
 from siftom.observation import Instruction
+from siftom.speech.asr import DEFAULT_NBEST
 
 NO_SPEECH = "no speech heard"
 
@@ -138,7 +139,7 @@ def resolve_scene(scenario: Any, world: Any, actions: Sequence[Any] | None, star
     return Scene(w, s0, gs, vb, tuple(acts), key)
 
 
-def hear(x: np.ndarray, asr: Any, nbest: int = 10) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
+def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
     """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings)."""
     from siftom.speech.vad import detect_speech, trim
 

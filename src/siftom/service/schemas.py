@@ -8,11 +8,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from siftom.assist.clarify import DEFAULT_COST, DEFAULT_THRESHOLD
 from siftom.inference.model import MODES
+from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.tts import DEFAULT_VOICE, VOICES
 
 # Bounds on what one request may ask for; each keeps a request's work small and predictable.
 MAX_TEXT_CHARS = 500  # a spoken instruction is a sentence, not a paragraph
 MAX_NBEST = 20  # ASR engines give a handful of hypotheses; more only costs time
+MAX_ASR_NBEST = 10  # hypotheses the server's recogniser may be asked for (the default is the most)
 MAX_ACTIONS = 200  # far more than any registered scenario's observed actions
 MAX_SCENARIO_ID = 200
 MAX_SAY_CHARS = 300  # about 20 s of speech at the default rate
@@ -177,7 +179,7 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
         "mode": {"type": "string", "enum": list(MODES), "default": "full"},
         "likelihood": {"type": "string", "default": "phonetic"},
         "n_actions": {"type": "integer", "minimum": 0, "maximum": MAX_ACTIONS},
-        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": 10, "default": 5},
+        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST, "default": DEFAULT_NBEST},
         "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
         "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act"], "default": "map"},
     },
@@ -188,5 +190,5 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
 class AudioFields(InferOptions):
     """The non-file fields of the multipart form."""
 
-    asr_nbest: int = Field(default=5, ge=1, le=10)
+    asr_nbest: int = Field(default=DEFAULT_NBEST, ge=1, le=MAX_ASR_NBEST)
 

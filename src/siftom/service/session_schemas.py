@@ -8,6 +8,7 @@ from pydantic import BaseModel, Field, StringConstraints, model_validator
 
 from siftom.assist.clarify import DEFAULT_COST, DEFAULT_THRESHOLD
 from siftom.service.schemas import (
+    MAX_ASR_NBEST,
     MAX_NBEST,
     MAX_TEXT_CHARS,
     ClarificationOut,
@@ -20,6 +21,7 @@ from siftom.service.schemas import (
     RobotPlanOut,
     Strict,
 )
+from siftom.speech.asr import DEFAULT_NBEST
 
 MAX_GOALS = 5000  # the kitchen library has 151 recipes, the household space 252 goals
 MAX_ACTIONS_PER_REQUEST = 200
@@ -98,7 +100,7 @@ class InstructionRequest(Strict):
 class AudioInstructionFields(Strict):
     """The non-file fields of a multipart instruction."""
 
-    asr_nbest: int = Field(default=5, ge=1, le=10)
+    asr_nbest: int = Field(default=DEFAULT_NBEST, ge=1, le=MAX_ASR_NBEST)
     top: int = Field(default=10, ge=1, le=100)
     threshold: float = Field(default=DEFAULT_THRESHOLD, ge=0.0, le=1.0, description="clarify.threshold")
     cost: float = Field(default=DEFAULT_COST, ge=0.0, le=1.0, description="clarify.cost")
@@ -111,7 +113,7 @@ AUDIO_INSTRUCTION_SCHEMA: dict[str, Any] = {
     "required": ["audio"],
     "properties": {
         "audio": {"type": "string", "format": "binary", "description": "the recording"},
-        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": 10, "default": 5},
+        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST, "default": DEFAULT_NBEST},
         "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
         "threshold": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_THRESHOLD},
         "cost": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_COST},

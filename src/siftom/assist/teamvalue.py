@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from siftom.inference.model import JointPosterior
-from siftom.planning.costtogo import ClassTables, CostToGo, SparseGoals
+from siftom.planning.costtogo import CostToGo, SparseGoals
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, State, World
 
@@ -222,12 +222,7 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
             idx_parts.append(np.where(sp.idx == c, C + r, sp.idx))
             cnt_parts.append(sp.cnt - hit * useful[:, None])
             held_parts.append(np.full(U, C + r if hc == c else hc, dtype=np.int64))
-        big = ClassTables(
-            np.concatenate([tabs.cum] + [e[4] for e in extra]),
-            np.concatenate([tabs.opens] + [e[5] for e in extra]),
-            np.concatenate([tabs.delta] + [e[6] for e in extra]),
-            np.concatenate([tabs.at_target, np.array([e[3] for e in extra], dtype=np.int64)]),
-        )
+        big = tabs.extend(extra)
         H = ctg_h._values(big, np.concatenate(idx_parts), np.concatenate(cnt_parts), np.array([at_h]),
                           np.concatenate(held_parts))[0].reshape(len(live), U)
         n_live = np.array([D[j][1] for j in live])[:, None]
@@ -242,37 +237,13 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
 def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int, start: int | None = None) -> set[int]:
     """The ``n`` objects of class ``c`` the robot fetches, as its cost-to-go plan chooses them.
 
-    The ``n`` cheapest round trips (ordered as the tables order them), except that the first
-    trip starts where the robot stands (``start``): when an unchosen object near the robot is a
-    cheaper first trip than any chosen one, it replaces the last chosen one (the tables' "swap in
-    an unchosen instance as first"). The team simulation's robot (A*) takes the objects on its
-    optimal plan, which this reproduces; the human plans around them.
+    The ``n`` cheapest round trips, except that the first trip starts where the robot stands
+    (``start``): the first object comes from the place that minimises the walk plus the
+    containers opened, the rest are the cheapest round trips of the others
+    (``CostToGo.chosen``). The team simulation's robot (A*) takes the objects on its optimal
+    plan, which this reproduces; the human plans around them.
     """
-    cands = [i for i in np.flatnonzero(world.item_class_idx == c).tolist()
-             if s.item_at[i] not in (HELD, target)]
-    dT = world.dist[:, target]
-
-    def closed(i: int) -> bool:
-        loc = s.item_at[i]
-        return bool(world.places[loc].closable and not s.is_open(loc))
-
-    cands.sort(key=lambda i: (int(dT[s.item_at[i]]), closed(i), i))
-    chosen = cands[:n]
-    if start is None or n == 0 or len(cands) <= n:
-        return set(chosen)
-    d = world.dist
-
-    def adj(i: int) -> float:  # first trip from ``start`` instead of a round trip from the target
-        return float(d[start, s.item_at[i]] - dT[s.item_at[i]])
-
-    def w(i: int) -> float:
-        return 2.0 * float(dT[s.item_at[i]]) + 2.0
-
-    best_in = min(adj(i) for i in chosen)
-    j = min(cands[n:], key=lambda i: w(i) + adj(i))
-    if w(j) + adj(j) - w(chosen[-1]) < best_in:
-        chosen = chosen[:-1] + [j]
-    return set(chosen)
+    return set(ctg.chosen(s, c, n, start))
 
 
 def command_of(action: str) -> RobotCommand | None:

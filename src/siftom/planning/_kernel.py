@@ -23,13 +23,24 @@ AVAILABLE = njit is not None
 if AVAILABLE:
 
     @njit(cache=True, nogil=True)
-    def values_kernel(cum_flat, opens_flat, delta2, at_target, d_target, idx, cnt, q, held, k1,
+    def _popcount(x):  # pragma: no cover - compiled
+        n = 0
+        while x:
+            x &= x - 1
+            n += 1
+        return n
+
+    @njit(cache=True, nogil=True)
+    def values_kernel(cum_flat, opens_flat, delta2, fdelta2, fmask2, at_target, d_target, idx, cnt, q, held, k1,
                       relaxed, inf):  # pragma: no cover - compiled
         m, g_n = idx.shape
         q_n = q.shape[0]
         out = np.empty((q_n, g_n))
         fl = np.empty(m, dtype=np.int64)
         pos = np.empty(m, dtype=np.bool_)
+        ow = np.empty(m, dtype=np.int64)
+        others = np.empty(m, dtype=np.int64)
+        n_others = np.empty(m, dtype=np.int64)
         for g in range(g_n):
             hc = held[g]
             body = 0.0
@@ -51,24 +62,33 @@ if AVAILABLE:
                 if e > 0:
                     any_need = True
                 body += cum_flat[f]
-                ob |= opens_flat[f]
-            if not relaxed:
-                bits = 0
-                x = ob
-                while x:
-                    x &= x - 1
-                    bits += 1
-                body += bits
+                ow[j] = opens_flat[f]
+                ob |= ow[j]
+            if not relaxed and any_need and not deliver:
+                # containers the other classes open (this class's own come with its first trip)
+                for j in range(m):
+                    o = np.int64(0)
+                    if pos[j]:
+                        for k in range(m):
+                            if k != j:
+                                o |= ow[k]
+                        n_others[j] = _popcount(o)
+                    others[j] = ~o
             for qi in range(q_n):
                 p = q[qi]
                 if deliver:
                     v = d_target[p] + 1.0 + body
+                    if not relaxed:
+                        v += _popcount(ob)
                 else:
                     ft = inf
                     if any_need:
                         for j in range(m):
                             if pos[j]:
-                                dv = delta2[fl[j], p]
+                                if relaxed:
+                                    dv = delta2[fl[j], p]
+                                else:
+                                    dv = fdelta2[fl[j], p] + n_others[j] + _popcount(fmask2[fl[j], p] & others[j])
                                 if dv < ft:
                                     ft = dv
                     else:

@@ -53,12 +53,18 @@ def goal_matrix(world: World, goals: Sequence[Goal]) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class ClassTables:
-    """Per-class tables for one arrangement of objects (agent position enters via ``delta``).
+    """Per-class tables for one arrangement of objects (agent position enters via the deltas).
 
-    cum[c, k]      cost of the k cheapest round trips of class c (INF if fewer exist)
-    opens[c, k]    bitmask of closed containers among those k instances
-    delta[c, k, q] first-trip correction when the agent starts at place q (<= 0)
-    at_target[c]   objects of class c already on the target
+    cum[c, k]       cost of the k cheapest round trips of class c (INF if fewer exist)
+    opens[c, k]     bitmask of closed containers among those k instances (ties in distance
+                    are broken towards open places, then towards the containers holding most)
+    delta[c, k, q]  first-trip correction when the agent starts at place q, opening costs left
+                    out (the relaxed problem: exact, used by the A* heuristic)
+    fdelta[c, k, q] first-trip correction with opening costs: the first object may come from a
+                    container the k cheapest round trips would not open (and then one of those
+                    is left out); the change in walking and grabbing, opening not included
+    fmask[c, k, q]  the closed containers that choice opens (replaces ``opens[c, k]``)
+    at_target[c]    objects of class c already on the target
 
     Rows are stored so that (class, k) pairs index flat arrays: one ``take`` per table.
     """
@@ -66,7 +72,32 @@ class ClassTables:
     cum: np.ndarray
     opens: np.ndarray
     delta: np.ndarray
+    fdelta: np.ndarray
+    fmask: np.ndarray
     at_target: np.ndarray
+
+    def extend(self, rows: Sequence[tuple], relaxed: bool = False) -> ClassTables:
+        """These tables with class rows (``CostToGo._class_rows`` results) appended after them.
+
+        Without ``relaxed`` the result serves full values only (its ``delta`` is left empty: one
+        copy less on the hot path)."""
+        if not rows:
+            return self
+        fields = ("cum", "opens", "delta", "fdelta", "fmask")
+        out = [np.concatenate([getattr(self, f)] + [r[6 + k] for r in rows]) if relaxed or f != "delta"
+               else self.delta[:0] for k, f in enumerate(fields)]
+        return ClassTables(*out, np.concatenate([self.at_target, np.array([r[5] for r in rows], dtype=np.int64)]))
+
+
+def fetch_order(sites: Sequence[int], size: dict[int, int], closed: dict[int, bool], dT: np.ndarray) -> list[int]:
+    """Locations of a class's objects (one entry per object) in the order the tables take them.
+
+    By round trip (distance to the target) first; within a distance, open places before closed
+    containers and bigger groups before smaller ones, so that every prefix opens as few
+    containers as possible.
+    """
+    order = sorted(sites, key=lambda u: (dT[u], closed[u], -size[u], u))
+    return [u for u in order for _ in range(size[u])]
 
 
 class CostToGo:
@@ -132,29 +163,44 @@ class CostToGo:
         cum = np.full(K + 1, INF)
         opens = np.zeros(K + 1, dtype=np.int64)
         delta = np.full((K + 1, self.P), INF)
+        fdelta = np.full((K + 1, self.P), INF)
+        fmask = np.zeros((K + 1, self.P), dtype=np.int64)
         cum[0] = 0.0
         if avail:
-            closed = [bool(self._closable[loc] and not (open_mask >> loc & 1)) for loc in avail]
-            order = sorted(range(len(avail)), key=lambda j: (self._dT[avail[j]], closed[j]))
-            L = np.array([avail[j] for j in order])
+            sites = sorted(set(avail))
+            size = {u: avail.count(u) for u in sites}
+            closed = {u: bool(self._closable[u] and not (open_mask >> u & 1)) for u in sites}
+            seq = fetch_order(sites, size, closed, self._dT)
+            n = min(K, len(seq))
+            L = np.array(seq[:n])
             w = 2.0 * self._dT[L] + 2.0
-            bits = np.array([(1 << int(avail[j])) if closed[j] else 0 for j in order], dtype=np.int64)
-            n = min(K, len(L))
-            cum[1 : n + 1] = np.cumsum(w[:n])
-            opens[1 : n + 1] = np.bitwise_or.accumulate(bits[:n])
-            adj = self._d[:, L] - self._dT[L][None, :]  # (P, n_avail): first trip from q
-            # best first trip among the k chosen: prefix minimum of adj
-            pref = np.minimum.accumulate(adj, axis=1)
-            # or swap in an unchosen instance j >= k as first: suffix min of (w + adj), minus w[k-1]
-            wa = w[None, :] + adj
-            suf = np.minimum.accumulate(wa[:, ::-1], axis=1)[:, ::-1]
-            for k in range(1, n + 1):
-                best = pref[:, k - 1]
-                if k < len(L):
-                    best = np.minimum(best, suf[:, k] - w[k - 1])
-                delta[k] = best
+            bits = np.array([(1 << u) if closed[u] else 0 for u in seq[:n]], dtype=np.int64)
+            cum[1 : n + 1] = np.cumsum(w)
+            opens[1 : n + 1] = np.bitwise_or.accumulate(bits)
+            pop = np.bitwise_count(opens[1 : n + 1].view(np.uint64)).astype(np.float64)
+            # The first trip starts where the agent stands. For each place u the first object
+            # may come from, the other k - 1 are the cheapest of the rest (u's container is then
+            # open for them): walking + grabbing W_u[k], containers m_u[k]. Relaxed: the best u
+            # by walking alone; full: by walking plus the containers this class opens.
+            best = np.full((n, self.P), np.inf)
+            for u in dict.fromkeys(seq):
+                size_u = dict(size)
+                size_u[u] -= 1
+                rest = fetch_order(sites, size_u, {**closed, u: False}, self._dT)[: n - 1]
+                w_rest = 2.0 * self._dT[np.array(rest, dtype=np.int64)] + 2.0
+                W_u = 2.0 * self._dT[u] + 2.0 + np.concatenate([[0.0], np.cumsum(w_rest)])
+                b_rest = np.array([(1 << v) if closed[v] and v != u else 0 for v in rest], dtype=np.int64)
+                m_u = ((1 << u) if closed[u] else 0) | np.concatenate(
+                    [np.zeros(1, dtype=np.int64), np.bitwise_or.accumulate(b_rest)])
+                rel = (W_u - cum[1 : n + 1])[:, None] + (self._d[:, u] - self._dT[u])[None, :]  # (n, P)
+                np.minimum(delta[1 : n + 1], rel, out=delta[1 : n + 1])
+                tot = rel + (np.bitwise_count(m_u.view(np.uint64)) - pop)[:, None]
+                better = tot < best  # ties keep the earlier place: the cheapest round trips first
+                best = np.where(better, tot, best)
+                fdelta[1 : n + 1] = np.where(better, rel, fdelta[1 : n + 1])
+                fmask[1 : n + 1] = np.where(better, m_u[:, None], fmask[1 : n + 1])
         # rows are also kept with a leading axis, ready to append to a table in one concatenate
-        out = (cum, opens, delta, n_at_t, cum[None], opens[None], delta[None])
+        out = (cum, opens, delta, fdelta, fmask, n_at_t, cum[None], opens[None], delta[None], fdelta[None], fmask[None])
         if len(self._cache) > 200_000:
             self._cache.clear()
         self._cache[key] = self._cache[(c, locs, open_mask)] = out
@@ -171,13 +217,9 @@ class CostToGo:
         return hit
 
     def _build_tables(self, s: State) -> ClassTables:
-        cum = np.empty((self.C, self.kmax + 1))
-        opens = np.empty((self.C, self.kmax + 1), dtype=np.int64)
-        delta = np.empty((self.C, self.kmax + 1, self.P))
-        at_t = np.empty(self.C, dtype=np.int64)
-        for c in range(self.C):
-            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)[:4]
-        return ClassTables(cum, opens, delta, at_t)
+        rows = [self._class_rows(c, s.item_at, s.open_mask) for c in range(self.C)]
+        return ClassTables(*(np.stack([r[k] for r in rows]) for k in range(5)),
+                           np.array([r[5] for r in rows], dtype=np.int64))
 
     def retable(self, base: ClassTables, s: State, classes: Sequence[int]) -> ClassTables:
         """Tables of ``s`` rebuilt only for ``classes`` (the others are unchanged from ``base``)."""
@@ -186,14 +228,58 @@ class CostToGo:
         hit = self._tables.get(s)
         if hit is not None:
             return hit
-        cum, opens, delta, at_t = base.cum.copy(), base.opens.copy(), base.delta.copy(), base.at_target.copy()
+        arrays = [base.cum.copy(), base.opens.copy(), base.delta.copy(), base.fdelta.copy(), base.fmask.copy(),
+                  base.at_target.copy()]
         for c in classes:
-            cum[c], opens[c], delta[c], at_t[c] = self._class_rows(c, s.item_at, s.open_mask)[:4]
-        out = ClassTables(cum, opens, delta, at_t)
+            row = self._class_rows(c, s.item_at, s.open_mask)
+            for k, arr in enumerate(arrays):
+                arr[c] = row[k]
+        out = ClassTables(*arrays)
         if len(self._tables) > 4096:
             self._tables.clear()
         self._tables[s] = out
         return out
+
+    def chosen(self, s: State, c: int, k: int, q: int | None) -> list[int]:
+        """The ``k`` objects of class ``c`` the tables' plan fetches, the first from place ``q``.
+
+        The same choice ``_class_rows`` makes for the full value (class ``c`` alone): the place
+        the first object comes from minimises walking plus the containers opened; the others
+        are the cheapest round trips of the rest. ``q=None``: round trips only (no first trip).
+        """
+        T = self.target
+        items = [i for i in self._cls_items[c].tolist() if s.item_at[i] not in (HELD, T)]
+        if k <= 0 or not items:
+            return []
+        avail = [s.item_at[i] for i in items]
+        sites = sorted(set(avail))
+        size = {u: avail.count(u) for u in sites}
+        closed = {u: bool(self._closable[u] and not s.is_open(u)) for u in sites}
+
+        def take(seq: list[int]) -> list[int]:
+            left = list(items)
+            out = []
+            for u in seq:
+                i = next(i for i in left if s.item_at[i] == u)
+                left.remove(i)
+                out.append(i)
+            return out
+
+        seq = fetch_order(sites, size, closed, self._dT)
+        if q is None:
+            return take(seq[:k])
+        best, pick = np.inf, seq[:k]
+        for u in dict.fromkeys(seq):
+            size_u = dict(size)
+            size_u[u] -= 1
+            order = [u] + fetch_order(sites, size_u, {**closed, u: False}, self._dT)[: k - 1]
+            bits = 0
+            for v in order:
+                bits |= (1 << v) if closed[v] else 0
+            tot = float(sum(2.0 * self._dT[v] + 2.0 for v in order)) + self._d[q, u] - self._dT[u] + bits.bit_count()
+            if tot < best:
+                best, pick = tot, order
+        return take(pick)
 
     # ----- values ----------------------------------------------------------------------------
     def values(
@@ -216,6 +302,8 @@ class CostToGo:
         exceed ``kmax`` (the tables are built up to the largest count). With numba installed
         (``siftom[fast]``), one compiled loop does the same work (planning/_kernel.py)."""
         K1 = self.kmax + 1
+        if relaxed and len(tabs.delta) != len(tabs.cum):
+            raise ValueError("these tables were extended for full values only; extend(..., relaxed=True)")
         # work in (m, G) layout: reductions over a goal's few classes run over the first axis
         idx = np.ascontiguousarray(idx.T)
         cnt = np.ascontiguousarray(cnt.T)
@@ -223,7 +311,8 @@ class CostToGo:
             held = (np.full(idx.shape[1], held_cls, dtype=np.int64) if np.ndim(held_cls) == 0
                     else np.ascontiguousarray(held_cls, dtype=np.int64))
             return _kernel.values_kernel(
-                tabs.cum.reshape(-1), tabs.opens.reshape(-1), tabs.delta.reshape(-1, self.P), tabs.at_target,
+                tabs.cum.reshape(-1), tabs.opens.reshape(-1), tabs.delta.reshape(-1, self.P),
+                tabs.fdelta.reshape(-1, self.P), tabs.fmask.reshape(-1, self.P), tabs.at_target,
                 self._dT, idx, cnt, np.ascontiguousarray(q, dtype=np.int64), held, K1, bool(relaxed), float(INF))
         need = cnt - tabs.at_target[idx]
         np.maximum(need, 0, out=need)
@@ -239,13 +328,23 @@ class CostToGo:
             eff = need - hit
         flat = idx * K1 + eff  # (m, G) indices into the (class, k) rows
         body = tabs.cum.reshape(-1).take(flat).sum(axis=0)
-        if not relaxed:
-            ob = np.bitwise_or.reduce(tabs.opens.reshape(-1).take(flat), axis=0)
-            body += np.bitwise_count(ob.view(np.uint64))
         pos = eff > 0
         any_need = pos.any(axis=0)
-        # first-trip correction for goals that start where the agent stands: min over classes
-        dl = tabs.delta.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
+        # first trip from where the agent stands: min over the classes the goal still needs
+        if relaxed:
+            dl = tabs.delta.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
+        else:
+            # the containers the other classes open, and this class's own with its first trip
+            ow = tabs.opens.reshape(-1).take(flat)  # (m, G)
+            pre = np.bitwise_or.accumulate(ow, axis=0)
+            suf = np.bitwise_or.accumulate(ow[::-1], axis=0)[::-1]
+            zero = np.zeros((1, ow.shape[1]), dtype=np.int64)
+            others = np.concatenate([zero, pre[:-1]]) | np.concatenate([suf[1:], zero])
+            fm = tabs.fmask.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
+            dl = tabs.fdelta.reshape(-1, self.P)[:, q].take(flat, axis=0) + np.bitwise_count(
+                (others[:, :, None] | fm).view(np.uint64))
+            # delivering what it holds brings the agent to the target: round trips only
+            body_d = body + np.bitwise_count(np.bitwise_or.reduce(ow, axis=0).view(np.uint64))
         ft = np.where(pos[:, :, None], dl, INF).min(axis=0).T  # (Q, G)
         ft[:, ~any_need] = 0.0
         if holding is False:
@@ -253,7 +352,8 @@ class CostToGo:
         else:
             # an unneeded object is put down where the first fetch happens: one action
             other = (any_need & holding) + body
-            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + body[None, :], other[None, :] + ft)
+            dbody = body if relaxed else body_d
+            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + dbody[None, :], other[None, :] + ft)
         return np.minimum(out, INF)
 
     def value(self, s: State, goal: Goal | np.ndarray, relaxed: bool = False) -> float:
@@ -389,14 +489,7 @@ def successor_values(
         owners.append((r, rows, float(cost(world, s, a))))
     if not parts_idx:
         return Q
-    if extra_rows:
-        cum = np.concatenate([tabs.cum] + [e[4] for e in extra_rows])
-        opens = np.concatenate([tabs.opens] + [e[5] for e in extra_rows])
-        delta = np.concatenate([tabs.delta] + [e[6] for e in extra_rows])
-        at_t = np.concatenate([tabs.at_target, np.array([e[3] for e in extra_rows], dtype=np.int64)])
-        big = ClassTables(cum, opens, delta, at_t)
-    else:
-        big = tabs
+    big = tabs.extend(extra_rows)
     vals = ctg._values(big, np.concatenate(parts_idx), np.concatenate(parts_cnt), np.array([here]),
                        np.concatenate(parts_held))[0]
     k = 0

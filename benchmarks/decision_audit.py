@@ -9,7 +9,11 @@ compare, for the expected-benefit action and the MAP command:
 
 (b) != (c) is a mismatch between the decision's utility and the simulation.
 
-    PYTHONPATH=src python benchmarks/decision_audit.py /work/datasets/kitchen /work/s3/kitchen --out runs/audit-kitchen.json
+    siftom eval --dataset /work/datasets/kitchen --workers 1 --out runs/k
+    PYTHONPATH=src python benchmarks/decision_audit.py /work/datasets/kitchen runs/k --out runs/audit-kitchen.json
+
+RESULTS must come from an eval with the same code: the team simulation's cache is read from it
+(and the simulation's A* uses the cost-to-go as heuristic, so other code may plan differently).
 """
 
 from __future__ import annotations

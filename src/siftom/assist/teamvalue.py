@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from siftom.inference.model import JointPosterior
+from siftom.planning.choice import chosen
 from siftom.planning.costtogo import CostToGo, SparseGoals
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, State, World
@@ -240,10 +241,10 @@ def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int, s
     The ``n`` cheapest round trips, except that the first trip starts where the robot stands
     (``start``): the first object comes from the place that minimises the walk plus the
     containers opened, the rest are the cheapest round trips of the others
-    (``CostToGo.chosen``). The team simulation's robot (A*) takes the objects on its optimal
+    (``planning.choice.chosen``). The team simulation's robot (A*) takes the objects on its optimal
     plan, which this reproduces; the human plans around them.
     """
-    return set(ctg.chosen(s, c, n, start))
+    return set(chosen(ctg, s, c, n, start))
 
 
 def command_of(action: str) -> RobotCommand | None:

@@ -101,8 +101,9 @@ def plan_for_goal(
     """Optimal plan for one agent to reach ``goal`` (the other agent stays where it is).
 
     ``heuristic="admissible"`` (default) guarantees an optimal plan. ``"fast"`` uses the full
-    fast cost-to-go, which overestimates by one step in rare states (docs/planning.md): the plan
-    is then at most that much above optimal, and A* expands far fewer nodes on large goals.
+    fast cost-to-go, which can overestimate when several classes share containers
+    (docs/planning.md, "Exactness"): the plan may then be a step above optimal, and A* expands
+    far fewer nodes on large goals.
 
     ``prune`` drops actions that can never be on an optimal plan for a fetch-and-place goal
     (docs/planning.md argues why each is safe): closing a container; grabbing an object of a

@@ -240,47 +240,6 @@ class CostToGo:
         self._tables[s] = out
         return out
 
-    def chosen(self, s: State, c: int, k: int, q: int | None) -> list[int]:
-        """The ``k`` objects of class ``c`` the tables' plan fetches, the first from place ``q``.
-
-        The same choice ``_class_rows`` makes for the full value (class ``c`` alone): the place
-        the first object comes from minimises walking plus the containers opened; the others
-        are the cheapest round trips of the rest. ``q=None``: round trips only (no first trip).
-        """
-        T = self.target
-        items = [i for i in self._cls_items[c].tolist() if s.item_at[i] not in (HELD, T)]
-        if k <= 0 or not items:
-            return []
-        avail = [s.item_at[i] for i in items]
-        sites = sorted(set(avail))
-        size = {u: avail.count(u) for u in sites}
-        closed = {u: bool(self._closable[u] and not s.is_open(u)) for u in sites}
-
-        def take(seq: list[int]) -> list[int]:
-            left = list(items)
-            out = []
-            for u in seq:
-                i = next(i for i in left if s.item_at[i] == u)
-                left.remove(i)
-                out.append(i)
-            return out
-
-        seq = fetch_order(sites, size, closed, self._dT)
-        if q is None:
-            return take(seq[:k])
-        best, pick = np.inf, seq[:k]
-        for u in dict.fromkeys(seq):
-            size_u = dict(size)
-            size_u[u] -= 1
-            order = [u] + fetch_order(sites, size_u, {**closed, u: False}, self._dT)[: k - 1]
-            bits = 0
-            for v in order:
-                bits |= (1 << v) if closed[v] else 0
-            tot = float(sum(2.0 * self._dT[v] + 2.0 for v in order)) + self._d[q, u] - self._dT[u] + bits.bit_count()
-            if tot < best:
-                best, pick = tot, order
-        return take(pick)
-
     # ----- values ----------------------------------------------------------------------------
     def values(
         self, tabs: ClassTables, N: np.ndarray | SparseGoals, at: np.ndarray | int, held: int,
@@ -317,22 +276,35 @@ class CostToGo:
         need = cnt - tabs.at_target[idx]
         np.maximum(need, 0, out=need)
         if np.ndim(held_cls) == 0 and held_cls < 0:
-            holding = False
-            deliver = None
-            eff = need
-        else:
-            hc = np.asarray(held_cls)
-            holding = hc >= 0 if hc.ndim else True  # per row, or one agent for all rows
-            hit = (idx == (hc[None, :] if hc.ndim else hc)) & (need > 0)
-            deliver = hit.any(axis=0)
-            eff = need - hit
-        flat = idx * K1 + eff  # (m, G) indices into the (class, k) rows
+            body, ft, _any, _bits = self._trips(tabs, idx * K1 + need, need > 0, q, relaxed)
+            return np.minimum(body[None, :] + ft, INF)
+        hc = np.asarray(held_cls)
+        holding = hc >= 0 if hc.ndim else True  # per row, or one agent for all rows
+        hit = (idx == (hc[None, :] if hc.ndim else hc)) & (need > 0)
+        deliver = hit.any(axis=0)
+        eff = need - hit
+        body, ft, any_need, bits = self._trips(tabs, idx * K1 + eff, eff > 0, q, relaxed)
+        # an unneeded object is put down where the first fetch happens: one action
+        other = (any_need & holding) + body
+        # a needed one is delivered first (then round trips only), or put down here and left
+        # when the rest is cheaper without it (an object carried from far away)
+        dval = (self._dT[q] + 1.0)[:, None] + (body + bits)[None, :]
+        if deliver.any():
+            body2, ft2, _any, _bits = self._trips(tabs, idx * K1 + need, need > 0, q, relaxed)
+            dval = np.minimum(dval, 1.0 + body2[None, :] + ft2)
+        out = np.where(deliver[None, :], dval, other[None, :] + ft)
+        return np.minimum(out, INF)
+
+    def _trips(self, tabs: ClassTables, flat: np.ndarray, pos: np.ndarray, q: np.ndarray,
+               relaxed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Round trips (G,), first-trip term from each place (Q, G), whether anything is needed
+        (G,) and the containers the round trips alone open (G,), for (m, G) row indices."""
         body = tabs.cum.reshape(-1).take(flat).sum(axis=0)
-        pos = eff > 0
         any_need = pos.any(axis=0)
         # first trip from where the agent stands: min over the classes the goal still needs
         if relaxed:
             dl = tabs.delta.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
+            bits = np.zeros_like(body)
         else:
             # the containers the other classes open, and this class's own with its first trip
             ow = tabs.opens.reshape(-1).take(flat)  # (m, G)
@@ -343,18 +315,10 @@ class CostToGo:
             fm = tabs.fmask.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
             dl = tabs.fdelta.reshape(-1, self.P)[:, q].take(flat, axis=0) + np.bitwise_count(
                 (others[:, :, None] | fm).view(np.uint64))
-            # delivering what it holds brings the agent to the target: round trips only
-            body_d = body + np.bitwise_count(np.bitwise_or.reduce(ow, axis=0).view(np.uint64))
+            bits = np.bitwise_count(pre[-1].view(np.uint64)).astype(np.float64)
         ft = np.where(pos[:, :, None], dl, INF).min(axis=0).T  # (Q, G)
         ft[:, ~any_need] = 0.0
-        if holding is False:
-            out = body[None, :] + ft
-        else:
-            # an unneeded object is put down where the first fetch happens: one action
-            other = (any_need & holding) + body
-            dbody = body if relaxed else body_d
-            out = np.where(deliver[None, :], (self._dT[q] + 1.0)[:, None] + dbody[None, :], other[None, :] + ft)
-        return np.minimum(out, INF)
+        return body, ft, any_need, bits
 
     def value(self, s: State, goal: Goal | np.ndarray, relaxed: bool = False) -> float:
         """V*(s; goal) for a single goal (convenience; slower than batched ``values``)."""

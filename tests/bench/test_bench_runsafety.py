@@ -130,7 +130,7 @@ def test_resuming_with_other_options_or_code_refuses(tiny: Path, reference: Path
     if change == "options":
         for r in rows:
             r["provenance"]["options"]["nbest"] = 3
-        expect = r"option nbest \(3 then, 5 now\)"
+        expect = rf"option nbest \(3 then, {FAST.nbest} now\)"
     else:
         for r in rows:
             r["provenance"]["code"]["source_sha1"] = "0000000000000000"

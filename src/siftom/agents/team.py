@@ -59,10 +59,11 @@ _PLANS: dict[tuple, tuple[float, tuple, World]] = {}
 def _solve(world: World, s: State, goal: Goal, agent: int) -> tuple[float, tuple]:
     """Plan cost and plan, cached on the part of the state that matters to the goal.
 
-    A* uses the fast cost-to-go as heuristic (plans within a step of optimal where it
-    overestimates; docs/planning.md) and a node budget rather than a clock, so results do not
-    depend on how busy the machine is. Objects of classes the goal does not need never lie on
-    such a plan, so their positions are not part of the cache key.
+    A* uses the fast cost-to-go as heuristic (exact on the built-in scenarios' states; where
+    it overestimates, a plan can be a step above optimal; docs/planning.md) and a node budget
+    rather than a clock, so results do not depend on how busy the machine is. Objects of
+    classes the goal does not need never lie on such a plan, so their positions are not part
+    of the cache key.
     """
     if not goal.counts or goal.satisfied(world, s):
         return 0.0, ()

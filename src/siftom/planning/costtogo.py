@@ -13,11 +13,15 @@ Searching for each is far too slow, so this module exploits the structure of the
   the first-trip correction is a minimum over one instance. Both are tabulated per class for
   every ``k`` and every standing place ``q``; a goal's value is then a gather and a sum.
 * Closed containers cost one ``open`` the first time; the union of containers to open over the
-  chosen instances is carried as a bitmask and counted with ``popcount``.
+  chosen instances is carried as a bitmask and counted with ``popcount``. The first object may
+  come from a container the round trips would not open: per class and place, the first-trip
+  choice is made with its openings counted (``fdelta``, ``fmask``).
+* A needed object in hand is delivered first, or put down and left when the rest is cheaper.
 
 With opening costs left out (``relaxed=True``) the value is the exact optimum of the relaxed
-problem, a lower bound used as the A* heuristic. With them it is the cost of a concrete plan
-and matches A* on the great majority of states (tests/planning measure this).
+problem, a lower bound used as the A* heuristic. With them it is the cost of a concrete plan;
+it equals A* on every state of the built-in scenarios (benchmarks/costtogo_scenarios.py) and
+can be a step over where two classes could share a container (docs/planning.md).
 """
 
 from __future__ import annotations

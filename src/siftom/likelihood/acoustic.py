@@ -269,6 +269,7 @@ class AcousticLikelihood:
         self._phonetic: Any = None
         self.last_seconds = 0.0
         self.last_candidates = 0
+        self.last_kept = 0
         self.last_mode = ""
 
     @property
@@ -368,6 +369,7 @@ class AcousticLikelihood:
             named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c)))]
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
         kept = [commands[i] for i in keep]
+        self.last_kept = len(kept)
         if not self.aligns:
             mode, seg, items = "whisper", x, []
         else:
@@ -397,6 +399,13 @@ class AcousticLikelihood:
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
             items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)
+
+    def evidence(self) -> dict[str, Any]:
+        """What the last call used besides the N-best: its mode and, with the Whisper factor, Whisper's words."""
+        out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept}
+        if self._whisper is not None and self._whisper.listens:
+            out["whisper_heard"] = " ".join(self._whisper.last_heard)
+        return out
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

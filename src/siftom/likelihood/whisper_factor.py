@@ -14,6 +14,10 @@ its phrasing closest to the 1-best, the 1-best followed by each key phrase, and 
 its last word replaced by it (w is their logsumexp, each with log P(k | pi_r); every command
 gets the same guesses, so none is favoured by how many it has). Chosen on the seed-1 dev sets
 (kitchen +1.0 points, free-phrasing kitchen +0.2; docs/likelihoods.md).
+
+Whisper's own greedy transcript of the clip (``listen``) is a second carrier beside the 1-best:
+each transcript holding a key word gives its b … c to every command, w then sums over carriers
+too; key words match in the plural (``acoustic.key_word_forms``).
 """
 
 from __future__ import annotations

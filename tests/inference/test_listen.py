@@ -58,6 +58,16 @@ def test_no_speech_gives_the_action_only_posterior(which, request):
 def test_listen_hears_the_command(cereal_wav, likelihood):
     heard = listen(cereal_wav, scenario=SCENARIO, likelihood=likelihood)
     assert heard.speech and heard.command == "fetch(cereal)"
+    evidence = heard.to_json()["evidence"]
+    if likelihood == "phonetic":
+        assert evidence == {}
+    else:  # what the acoustic likelihood used is reported: its mode and, with Whisper, Whisper's own words
+        from siftom.likelihood.whisper_factor import whisper_available
+
+        assert evidence["acoustic_mode"] and evidence["commands_scored"] >= 1
+        if whisper_available():
+            assert evidence["acoustic_mode"].startswith("whisper-")
+            assert evidence["whisper_heard"].startswith("can you pass me the")  # "serial" here: a carrier
     assert heard.posterior.likelihood == likelihood
     assert set(heard.timings) >= {"load", "vad", "asr", "infer"}
 

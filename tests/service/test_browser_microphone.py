@@ -79,6 +79,11 @@ def test_recorded_speech_gives_the_transcript_and_the_command(tmp_path):
             assert "sugar" in heard, heard  # the transcript came back from the server's ASR
             assert page.locator("#nbest li").count() >= 1
             assert page.locator("#command").inner_text() == "fetch(sugar)"
+            from siftom.likelihood.whisper_factor import whisper_available
+
+            if whisper_available():  # the page scores the recording itself and says what Whisper heard
+                assert page.locator("#acoustic").is_checked()
+                assert "pass me the" in page.locator("#whisper").inner_text()  # its words, sugar or not
             assert errors == []
         finally:
             browser.close()

@@ -69,6 +69,44 @@ def test_a_lost_object_is_guessed_after_the_heard_words_or_in_place_of_the_last(
     texts, _ = candidate_texts(Instruction(nbest=(Hypothesis("", -1.0),)), cmds)
     assert [len(items) for items in texts] == [1, 1]
 
+def test_another_transcript_gives_its_carrier_when_the_1best_lost_the_object():
+    """pocketsphinx heard "i'm" but Whisper heard the request: every command is scored in
+    Whisper's carrier (the same carrier for all), not only by guesses around "i'm"."""
+    cmds = [RobotCommand.parse(f"fetch({f})") for f in ("onion", "milk")]
+    lost = Instruction(nbest=(Hypothesis("i'm", -1.0),))
+    texts, mode = candidate_texts(lost, cmds, also_heard=[["could", "you", "bring", "me", "an", "onion"]])
+    assert mode == "key"
+    assert "could you bring me an onion" in [t for t, _ in texts[0]]
+    assert "could you bring me an milk" in [t for t, _ in texts[1]]
+    assert all(t.startswith("could you bring me an ") for items in texts for t, _ in items)
+    # both transcripts hold a key word: both carriers, for every command alike
+    heard = Instruction(nbest=(Hypothesis("get me milk", -1.0),))
+    texts, _ = candidate_texts(heard, cmds, also_heard=[["get", "me", "onion", "please"]])
+    assert {"get me onion", "get me onion please"} <= {t for t, _ in texts[0]}
+    assert {"get me milk", "get me milk please"} <= {t for t, _ in texts[1]}
+    # neither holds one: each transcript adds its own guesses
+    texts, mode = candidate_texts(lost, cmds, also_heard=[["has", "me", "some", "will"]])
+    assert mode == "sentence"
+    assert {"i'm onion", "has me some will onion", "has me some onion"} <= {t for t, _ in texts[0]}
+    # a key word heard in the plural still marks where the object was said
+    texts, mode = candidate_texts(lost, [RobotCommand.parse("fetch(orange_juice)"), cmds[1]],
+                                  also_heard=[["i", "still", "need", "the", "oranges"]])
+    assert mode == "key" and "i still need the orange juice" in [t for t, _ in texts[0]]
+    # an empty second transcript changes nothing
+    assert candidate_texts(lost, cmds, also_heard=[[]]) == candidate_texts(lost, cmds)
+
+
+@needs_whisper
+@needs_flite
+def test_whisper_transcribes_a_clear_request(scorer):
+    """Whisper's own words (the second carrier) for a clean TTS request: lowercase, no punctuation."""
+    from siftom.speech.tts import synthesize
+
+    words = scorer.transcribe_encoded(scorer.encode(synthesize("could you bring me some milk", "flite-slt")))
+    assert words[-1] == "milk" and words[:2] == ["could", "you"]
+    assert all(w == w.lower() and w.isalpha() for w in words)
+
+
 @needs_whisper
 @needs_flite
 @pytest.mark.parametrize(("said", "voice", "snr"), [("can you pass me the cereal", "flite-slt", None),

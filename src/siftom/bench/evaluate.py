@@ -112,7 +112,8 @@ class EvalOptions:
             from siftom.likelihood.acoustic import DEFAULT_WHISPER_TEMPERATURE
             from siftom.likelihood.whisper_factor import whisper_available
 
-            out["acoustic"] = {"whisper": whisper_available(), "whisper_temperature": DEFAULT_WHISPER_TEMPERATURE}
+            out["acoustic"] = {"whisper": whisper_available(), "whisper_temperature": DEFAULT_WHISPER_TEMPERATURE,
+                               "whisper_listen": whisper_available()}  # Whisper's own words as a second carrier
         return out
 
 

@@ -197,6 +197,8 @@ def print_posterior(post, console: Console | None = None) -> None:
     if post.transcript:
         con.print(f'heard: "{post.transcript}"   model: {post.mode}, likelihood: {post.likelihood}, '
                   f"{post.n_actions} observed actions")
+    if post.evidence.get("whisper_heard") is not None:
+        con.print(f'Whisper heard: "{post.evidence["whisper_heard"]}" (a second carrier for the key words)')
     t = Table(title="robot commands")
     t.add_column("command")
     t.add_column("P", justify="right")

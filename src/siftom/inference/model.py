@@ -161,6 +161,8 @@ class Posterior:
     seconds: float
     transcript: str = ""
     joint: JointPosterior | None = field(default=None, repr=False, compare=False)
+    # what the instruction likelihood used besides the N-best (``evidence()``), e.g. Whisper's own words
+    evidence: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def prob(self, command: str) -> float:
         return dict(self.commands).get(command, 0.0)
@@ -176,6 +178,7 @@ class Posterior:
             "n_actions": self.n_actions,
             "transcript": self.transcript,
             "seconds": self.seconds,
+            "evidence": dict(self.evidence),
         }
 
 
@@ -304,11 +307,12 @@ class OnlineInference:
                 raw = lk.log_prob(instruction, cmds, context=ctx)  # type: ignore[call-arg]
             else:
                 raw = lk.log_prob(instruction, cmds)
+            evidence = lk.evidence() if hasattr(lk, "evidence") else {}
             instr = np.asarray(raw, dtype=np.float64) * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:
-            instr = np.zeros(len(cmds))
+            instr, evidence = np.zeros(len(cmds)), {}
         if cfg.mode == "speech-only":
             # uniform over the domain's commands, words alone
             lj = instr[unk_cmds] - np.log(len(unk_cmds))
@@ -344,6 +348,7 @@ class OnlineInference:
             transcript=instruction.text if instruction is not None else "",
             joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
                                  self.state),
+            evidence=evidence,
         )
         if self.model.on_step is not None:
             self.model.on_step("posterior", self, post)

@@ -44,7 +44,7 @@ the commands of one call.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -121,6 +121,22 @@ def key_phrases(command: RobotCommand, mass: float = 0.8, most: int = 2) -> list
     return [(c, lp - z) for c, lp in kept]
 
 
+def key_word_forms(phrases: Iterable[str]) -> set[str]:
+    """The words of the key phrases, each also in its plural ("oranges" names orange juice's "orange")."""
+    from siftom.likelihood.lexicon import pluralize
+
+    words = {w for k in phrases for w in k.split()}
+    return words | {pluralize(w) for w in words}
+
+
+def names(said: Sequence[str], phrases: Iterable[str]) -> bool:
+    """Whether the words ``said`` hold one of the key phrases, its last word singular or plural."""
+    from siftom.likelihood.lexicon import pluralize
+
+    text = f" {' '.join(said)} "
+    return any(f" {f} " in text for k in phrases for f in (k, pluralize(k)))
+
+
 def heard_frame(words: Sequence[tuple[str, float, float]], key_words: set[str]
                 ) -> tuple[float, float | None, tuple[str, ...], tuple[str, ...]] | None:
     """Where to put each command's key phrase in what was heard, or None when no key word was heard.
@@ -187,6 +203,9 @@ class AcousticLikelihood:
         whisper_temperature: T_w in nats (> 0).
         whisper_pad_s: Whisper's feature window, at least this many seconds (``WhisperScorer``).
         whisper_prior: beta, how much of Whisper's text prior to take out (``WhisperFactor``).
+        whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
+            computes anyway) and use its words as a second carrier; the commands it names join the
+            pruned set (``WhisperFactor``).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -209,6 +228,7 @@ class AcousticLikelihood:
         whisper_temperature: float = DEFAULT_WHISPER_TEMPERATURE,
         whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
         whisper_prior: float = DEFAULT_WHISPER_PRIOR,
+        whisper_listen: bool = True,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -242,12 +262,14 @@ class AcousticLikelihood:
         if not self.aligns and not self.uses_whisper:
             raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
                               "with neither there is no acoustic term; keep align=True")
-        self._whisper = WhisperFactor(whisper_pad_s, whisper_prior) if self.uses_whisper else None
+        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen)
+                         if self.uses_whisper else None)
         self._aligner = aligner
         self._loop: Any = None
         self._phonetic: Any = None
         self.last_seconds = 0.0
         self.last_candidates = 0
+        self.last_kept = 0
         self.last_mode = ""
 
     @property
@@ -340,13 +362,20 @@ class AcousticLikelihood:
         phon = self._phonetic_lp(instruction, commands) if instruction.nbest and (
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
+        prepared = self._whisper.listen(x) if self._whisper is not None and instruction.nbest else None
+        if prepared is not None and prepared[1] and len(keep) < len(commands):
+            # a command whose key phrase Whisper heard is scored even when the N-best and the actions
+            # alone would have pruned it
+            named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c)))]
+            keep = np.array(sorted(set(keep.tolist()) | set(named)))
         kept = [commands[i] for i in keep]
+        self.last_kept = len(kept)
         if not self.aligns:
             mode, seg, items = "whisper", x, []
         else:
             frame = None
             if self.mode == "key" and instruction.words:
-                key_words = {w for c in kept for k, _ in key_phrases(c) for w in k.split()}
+                key_words = key_word_forms(k for c in kept for k, _ in key_phrases(c))
                 frame = heard_frame(instruction.words, key_words)
             if frame is not None:
                 start, end, before, after = frame
@@ -362,14 +391,21 @@ class AcousticLikelihood:
                 else:
                     items = self._align(x, kept, self.phrasings or top_phrasings)
                 mode = "sentence"
-        wh = (self._whisper.scores(instruction, commands, keep, x)
-              if self._whisper is not None and instruction.nbest else None)
+        wh = (self._whisper.scores(instruction, commands, keep, x, prepared)
+              if prepared is not None else None)
         if wh is not None and not self.aligns:
             mode = f"whisper-{self._whisper.last_mode}"  # "whisper-key" or "whisper-sentence"
         self.last_mode = mode
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
             items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)
+
+    def evidence(self) -> dict[str, Any]:
+        """What the last call used besides the N-best: its mode and, with the Whisper factor, Whisper's words."""
+        out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept}
+        if self._whisper is not None and self._whisper.listens:
+            out["whisper_heard"] = " ".join(self._whisper.last_heard)
+        return out
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

@@ -14,6 +14,10 @@ its phrasing closest to the 1-best, the 1-best followed by each key phrase, and 
 its last word replaced by it (w is their logsumexp, each with log P(k | pi_r); every command
 gets the same guesses, so none is favoured by how many it has). Chosen on the seed-1 dev sets
 (kitchen +1.0 points, free-phrasing kitchen +0.2; docs/likelihoods.md).
+
+Whisper's own greedy transcript of the clip (``listen``) is a second carrier beside the 1-best:
+each transcript holding a key word gives its b … c to every command, w then sums over carriers
+too; key words match in the plural (``acoustic.key_word_forms``).
 """
 
 from __future__ import annotations
@@ -26,27 +30,34 @@ from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 
-def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | None = None
-                    ) -> tuple[list[list[tuple[str, float]]], str]:
+def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | None = None,
+                    also_heard: Sequence[Sequence[str]] = ()) -> tuple[list[list[tuple[str, float]]], str]:
     """Per kept command (default: all), (text, log prior) items to score, and the mode ("key" or "sentence").
 
     The heard key words are the words of any of ``commands``' key phrases, kept or not.
+    ``also_heard``: more transcripts of the same clip (word lists, e.g. Whisper's own), used as
+    carriers beside the 1-best: every transcript that holds a key word gives its b … c to every
+    command; when none does, each transcript gives the sentence-mode guesses.
     """
-    from siftom.likelihood.acoustic import closest_phrasing, key_phrases
+    from siftom.likelihood.acoustic import closest_phrasing, key_phrases, key_word_forms
 
     kept = range(len(commands)) if keep is None else [int(i) for i in keep]
-    words = instruction.text.split() if instruction.nbest else []
-    keys = [key_phrases(c) for c in commands]
-    key_words = {w for ks in keys for k, _ in ks for w in k.split()}
-    idx = [i for i, w in enumerate(words) if w in key_words]
-    if idx:
-        before, after = words[: idx[0]], words[idx[-1] + 1:]
-        return [[(" ".join([*before, k, *after]), lp) for k, lp in keys[i]] for i in kept], "key"
     heard = instruction.text if instruction.nbest else ""
+    transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
+    keys = [key_phrases(c) for c in commands]
+    key_words = key_word_forms(k for ks in keys for k, _ in ks)
+    frames = []
+    for words in transcripts:
+        idx = [i for i, w in enumerate(words) if w in key_words]
+        if idx:
+            frames.append((words[: idx[0]], words[idx[-1] + 1:]))
+    if frames:
+        frames = list(dict.fromkeys((tuple(b), tuple(c)) for b, c in frames))
+        return [[(" ".join([*b, k, *c]), lp) for b, c in frames for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
         items = [closest_phrasing(commands[i], heard)]
-        if words:
+        for words in transcripts:
             # the object was lost: it followed the heard words, or was heard as the last of them
             # (requests end with the object more often than not: "we still need the …" / "i'm")
             items += [(" ".join([*words, k]), lp) for k, lp in keys[i]]
@@ -71,13 +82,18 @@ class WhisperFactor:
             Whisper's own text prior (the same texts scored against digital silence of the clip's
             length) is taken out; 0 keeps it.
         scorer: a WhisperScorer to share (one is created on first use otherwise).
+        listen: also transcribe the clip with Whisper (greedy, ``WhisperScorer.transcribe_encoded``)
+            and use its words as a second carrier (``candidate_texts``' ``also_heard``).
     """
 
-    def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None) -> None:
+    def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None,
+                 listen: bool = True) -> None:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
         self._scorer = scorer
         self.last_mode = ""
+        self.listens = bool(listen)
+        self.last_heard: list[str] = []
 
     @property
     def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
@@ -88,15 +104,24 @@ class WhisperFactor:
             self._scorer = WhisperScorer(pad_s=self.pad_s)
         return self._scorer
 
+    def listen(self, samples: np.ndarray) -> tuple[object, list[str]]:
+        """(encoded clip, Whisper's own words; [] when ``listen`` is off), for :meth:`scores`."""
+        ws = self.scorer
+        enc = ws.encode(samples)
+        self.last_heard = ws.transcribe_encoded(enc) if self.listens else []
+        return enc, self.last_heard
+
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int],
-               samples: np.ndarray) -> np.ndarray:
+               samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> np.ndarray:
         """w of ``commands[keep]`` (in that order), in nats."""
         from siftom.logspace import logsumexp
 
-        texts, self.last_mode = candidate_texts(instruction, commands, keep)
-        uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         ws = self.scorer
-        val = ws.score_encoded(ws.encode(samples), uniq)
+        enc, heard = self.listen(samples) if prepared is None else prepared
+        also = [heard] if heard else []
+        texts, self.last_mode = candidate_texts(instruction, commands, keep, also)
+        uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
+        val = ws.score_encoded(enc, uniq)
         if self.prior_weight:
             val = val - self.prior_weight * ws.score_encoded(ws.encode(np.zeros_like(samples)), uniq)
         of = dict(zip(uniq, val.tolist(), strict=True))

@@ -152,6 +152,8 @@ class PosteriorOut(BaseModel):
     seconds: float
     nbest: list[NBestItem]
     asr: dict[str, Any] | None = None
+    # what the likelihood used besides the N-best, e.g. {"acoustic_mode": ..., "whisper_heard": ...}
+    evidence: dict[str, Any] = Field(default_factory=dict)
 
 
 class InferResponse(PosteriorOut):

@@ -33,6 +33,7 @@ from siftom.speech.audio import SAMPLE_RATE, as_audio
 MAX_S = 30.0
 FRAMES_PER_S = 100  # Whisper's log-Mel hop is 10 ms
 DEFAULT_PAD_S = 30.0
+MAX_TOKENS = 200  # Whisper's decoder holds 448 positions; a 30 s request is far shorter
 
 
 def whisper_text(text: str) -> str:
@@ -126,6 +127,21 @@ class WhisperScorer:
                 out[i] = float(np.sum(np.log(np.maximum(p, 1e-30))))
         self.last_seconds = time.perf_counter() - t0
         return out
+
+    def transcribe_encoded(self, encoded: tuple[Any, int]) -> list[str]:
+        """Whisper's own greedy transcript of an encoded clip, as lowercase words without punctuation.
+
+        Repeated trigrams are blocked and the length is capped by the clip's duration (Whisper
+        tiny.en loops on short noisy clips otherwise); used as a carrier for the candidates, never
+        as the decision itself.
+        """
+        import re
+
+        enc, n = encoded
+        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [self.start], beam_size=1,
+                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)), no_repeat_ngram_size=3)
+        text = self.tokenizer.decode(res[0].sequences_ids[0])
+        return re.sub(r"[^a-z' ]", " ", text.lower().replace("-", " ")).split()
 
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
         """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""

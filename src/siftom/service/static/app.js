@@ -209,6 +209,10 @@ function showResult(res) {
     li.textContent = h.text;
     nb.appendChild(li);
   }
+  const wh = $("whisper");
+  const ev = res.evidence || {};
+  wh.hidden = ev.whisper_heard === undefined;
+  wh.textContent = wh.hidden ? "" : `Whisper heard: “${ev.whisper_heard}” (${ev.acoustic_mode})`;
   bars($("commands-chart"), res.commands, "command");
   bars($("goals-chart"), res.goals, "goal");
   const plan = $("plan");
@@ -240,6 +244,7 @@ async function inferAudio(blob, name) {
   form.append("scenario", state.scenario.id);
   form.append("n_actions", String(state.step));
   form.append("audio", blob, name);
+  if ($("acoustic").checked) form.append("likelihood", "acoustic");
   setStatus("transcribing and inferring…");
   try {
     const res = await api("/v1/infer", { method: "POST", body: form });
@@ -325,5 +330,14 @@ window.addEventListener("DOMContentLoaded", () => {
   $("ask-form").addEventListener("submit", inferText);
   $("say").addEventListener("click", sayAndInfer);
   $("record").addEventListener("click", toggleRecord);
-  loadScenarios().then(() => { document.body.dataset.ready = "1"; }).catch((e) => setStatus(e.message, true));
+  offerAcoustic().then(loadScenarios).then(() => { document.body.dataset.ready = "1"; })
+    .catch((e) => setStatus(e.message, true));
 });
+
+// the acoustic likelihood (the recording itself scored) is offered, and on, when the server has it
+async function offerAcoustic() {
+  const health = await api("/healthz");
+  const has = (health.likelihoods || []).includes("acoustic");
+  $("acoustic-label").hidden = !has;
+  $("acoustic").checked = has;
+}

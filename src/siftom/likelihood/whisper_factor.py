@@ -36,16 +36,18 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
 
     The heard key words are the words of any of ``commands``' key phrases, kept or not.
     ``also_heard``: more transcripts of the same clip (word lists, e.g. Whisper's own), used as
-    carriers beside the 1-best: every transcript that holds a key word gives its b … c to every
-    command; when none does, each transcript gives the sentence-mode guesses.
+    carriers beside the 1-best when they hold a key word: every transcript that does gives its
+    b … c to every command. When none does, the 1-best's sentence-mode guesses are all there is.
     """
     from siftom.likelihood.acoustic import closest_phrasing, key_phrases, key_word_forms
 
     kept = range(len(commands)) if keep is None else [int(i) for i in keep]
     heard = instruction.text if instruction.nbest else ""
-    transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
     keys = [key_phrases(c) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
+    # another transcript counts only where it heard a key word: without one it is as lost as the 1-best
+    also = [list(t) for t in also_heard if any(w in key_words for w in t)]
+    transcripts = [w for w in ([heard.split()] if heard else []) + also if w]
     frames = []
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]

@@ -96,6 +96,7 @@ class WhisperFactor:
         self.last_mode = ""
         self.listens = bool(listen)
         self.last_heard: list[str] = []
+        self.last_used = False
 
     @property
     def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
@@ -122,6 +123,13 @@ class WhisperFactor:
         enc, heard = self.listen(samples) if prepared is None else prepared
         also = [heard] if heard else []
         texts, self.last_mode = candidate_texts(instruction, commands, keep, also)
+        if heard:  # did Whisper's words give a carrier (they hold a key word of some command)?
+            from siftom.likelihood.acoustic import key_phrases, key_word_forms
+
+            forms = key_word_forms(k for c in commands for k, _ in key_phrases(c))
+            self.last_used = any(w in forms for w in heard)
+        else:
+            self.last_used = False
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         val = ws.score_encoded(enc, uniq)
         if self.prior_weight:

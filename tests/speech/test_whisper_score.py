@@ -84,9 +84,10 @@ def test_another_transcript_gives_its_carrier_when_the_1best_lost_the_object():
     texts, _ = candidate_texts(heard, cmds, also_heard=[["get", "me", "onion", "please"]])
     assert {"get me onion", "get me onion please"} <= {t for t, _ in texts[0]}
     assert {"get me milk", "get me milk please"} <= {t for t, _ in texts[1]}
-    # neither holds one: the other transcript is as lost as the 1-best and adds nothing
+    # neither holds one: each transcript adds its own guesses ("has me some will" -> "has me some onion")
     texts, mode = candidate_texts(lost, cmds, also_heard=[["has", "me", "some", "will"]])
-    assert mode == "sentence" and (texts, mode) == candidate_texts(lost, cmds)
+    assert mode == "sentence"
+    assert {"i'm onion", "has me some will onion", "has me some onion"} <= {t for t, _ in texts[0]}
     # a key word heard in the plural still marks where the object was said
     texts, mode = candidate_texts(lost, [RobotCommand.parse("fetch(orange_juice)"), cmds[1]],
                                   also_heard=[["i", "still", "need", "the", "oranges"]])

@@ -198,8 +198,9 @@ def print_posterior(post, console: Console | None = None) -> None:
         con.print(f'heard: "{post.transcript}"   model: {post.mode}, likelihood: {post.likelihood}, '
                   f"{post.n_actions} observed actions")
     if post.evidence.get("whisper_heard") is not None:
-        use = ("a second carrier for the key words" if post.evidence.get("whisper_carrier")
-               else "no object word in it: not used")
+        use = {"carrier": "a second carrier: it placed the object words",
+               "guesses": "no object word heard by either: guesses around its words"}.get(
+            post.evidence.get("whisper_use", ""), "no object word in it: not used")
         con.print(f'Whisper heard: "{post.evidence["whisper_heard"]}" ({use})')
     t = Table(title="robot commands")
     t.add_column("command")

@@ -405,7 +405,7 @@ class AcousticLikelihood:
         out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept}
         if self._whisper is not None and self._whisper.listens:
             out["whisper_heard"] = " ".join(self._whisper.last_heard)
-            out["whisper_carrier"] = self._whisper.last_used  # False: no key word in it, not used
+            out["whisper_use"] = self._whisper.last_use  # "carrier", "guesses" or "none"
         return out
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:

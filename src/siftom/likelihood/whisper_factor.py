@@ -36,8 +36,9 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
 
     The heard key words are the words of any of ``commands``' key phrases, kept or not.
     ``also_heard``: more transcripts of the same clip (word lists, e.g. Whisper's own), used as
-    carriers beside the 1-best when they hold a key word: every transcript that does gives its
-    b … c to every command. When none does, the 1-best's sentence-mode guesses are all there is.
+    carriers beside the 1-best: every transcript that holds a key word gives its b … c to every
+    command; when none does, each transcript gives the sentence-mode guesses (an open-vocabulary
+    transcript's carrier words are often right where the grammar-biased 1-best's are not).
     """
     from siftom.likelihood.acoustic import closest_phrasing, key_phrases, key_word_forms
 
@@ -45,9 +46,7 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
     heard = instruction.text if instruction.nbest else ""
     keys = [key_phrases(c) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
-    # another transcript counts only where it heard a key word: without one it is as lost as the 1-best
-    also = [list(t) for t in also_heard if any(w in key_words for w in t)]
-    transcripts = [w for w in ([heard.split()] if heard else []) + also if w]
+    transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
     frames = []
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]
@@ -96,7 +95,7 @@ class WhisperFactor:
         self.last_mode = ""
         self.listens = bool(listen)
         self.last_heard: list[str] = []
-        self.last_used = False
+        self.last_use = "none"
 
     @property
     def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
@@ -123,13 +122,16 @@ class WhisperFactor:
         enc, heard = self.listen(samples) if prepared is None else prepared
         also = [heard] if heard else []
         texts, self.last_mode = candidate_texts(instruction, commands, keep, also)
-        if heard:  # did Whisper's words give a carrier (they hold a key word of some command)?
+        # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),
+        # "guesses" (no transcript holds one: guesses around them) or "none"
+        self.last_use = "none"
+        if heard and self.last_mode == "sentence":
+            self.last_use = "guesses"
+        elif heard:
             from siftom.likelihood.acoustic import key_phrases, key_word_forms
 
             forms = key_word_forms(k for c in commands for k, _ in key_phrases(c))
-            self.last_used = any(w in forms for w in heard)
-        else:
-            self.last_used = False
+            self.last_use = "carrier" if any(w in forms for w in heard) else "none"
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         val = ws.score_encoded(enc, uniq)
         if self.prior_weight:

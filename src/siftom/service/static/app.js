@@ -212,7 +212,8 @@ function showResult(res) {
   const wh = $("whisper");
   const ev = res.evidence || {};
   wh.hidden = ev.whisper_heard === undefined;
-  const use = ev.whisper_carrier ? "a second carrier for the object words" : "no object word in it: not used";
+  const use = { carrier: "a second carrier: it placed the object words",
+    guesses: "no object word heard by either: guesses around its words" }[ev.whisper_use] || "no object word in it: not used";
   wh.textContent = wh.hidden ? "" : `Whisper heard: “${ev.whisper_heard}” (${use})`;
   bars($("commands-chart"), res.commands, "command");
   bars($("goals-chart"), res.goals, "goal");

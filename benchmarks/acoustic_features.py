@@ -27,11 +27,11 @@ import numpy as np
 
 def main(dataset: str, out: str, wide: int = 8, limit: int | None = None, start: int = 0,
          step: int = 1) -> None:
+    from _stimulus_record import base_record, done_ids  # benchmarks/ (run as a script)
+
     from siftom.api import get_model
-    from siftom.bench.acoustic_models import heard
-    from siftom.bench.calibrate import _commands, _context
-    from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary, is_correct
+    from siftom.bench.stimuli import load_dataset
+    from siftom.bench.trials import _engine, dataset_vocabulary
     from siftom.likelihood.acoustic import heard_frame, key_phrases
     from siftom.likelihood.registry import get_likelihood
     from siftom.observation import Instruction
@@ -46,24 +46,16 @@ def main(dataset: str, out: str, wide: int = 8, limit: int | None = None, start:
     aligner = ForcedAligner()
     loop = PhoneLoop()
     cmu = cmudict()
-    done = set()
     p = Path(out)
-    if p.exists():
-        done = {json.loads(line)["id"] for line in p.read_text().splitlines() if line.strip()}
+    done = done_ids(p)
     t0 = time.time()
     with p.open("a") as f:
         for s in ds.stimuli[start:limit:step]:
             if s.id in done:
                 continue
-            sc = scenario_for(s)
-            instruction, vad = heard(ds.root / s.audio, asr, 5)
-            cmds = _commands(model, sc)
-            ctx = np.asarray(_context(model, sc), dtype=float)
-            rec: dict = {"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
-                         "voice": s.voice, "gold": s.gold_command,
-                         "cmds": [str(c) for c in cmds],
-                         "correct": [is_correct(str(c), s.gold_command, sc.verb) for c in cmds],
-                         "ctx": np.round(ctx, 4).tolist(), "vad_snr": vad.snr_db}
+            _, instruction, vad, cmds, rec = base_record(ds, s, asr, model)
+            ctx = np.asarray(rec["ctx"], dtype=float)
+            rec["vad_snr"] = vad.snr_db
             if instruction is None:
                 rec["speech"] = False
                 f.write(json.dumps(rec) + "\n")

@@ -35,11 +35,11 @@ def main() -> None:
     ap.add_argument("--limit", type=int, default=None)
     ap.add_argument("--wide", type=int, default=10)
     a = ap.parse_args()
+    from _stimulus_record import base_record, done_ids  # benchmarks/ (run as a script)
+
     from siftom.api import get_model
-    from siftom.bench.acoustic_models import heard
-    from siftom.bench.calibrate import _commands, _context
-    from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary, is_correct
+    from siftom.bench.stimuli import load_dataset
+    from siftom.bench.trials import _engine, dataset_vocabulary
     from siftom.likelihood.acoustic import AcousticLikelihood
     from siftom.likelihood.registry import get_likelihood
     from siftom.likelihood.whisper_factor import candidate_texts
@@ -54,21 +54,14 @@ def main() -> None:
     pads = [float(p) for p in a.pads.split(",")]
     scorers = {p: WhisperScorer(pad_s=p, cpu_threads=1) for p in pads}
     p = Path(a.out)
-    done = {json.loads(line)["id"] for line in p.read_text().splitlines() if line.strip()} if p.exists() else set()
+    done = done_ids(p)
     t0 = time.time()
     with p.open("a") as f:
         for s in ds.stimuli[: a.limit]:
             if s.id in done:
                 continue
-            sc = scenario_for(s)
-            instruction, vad = heard(ds.root / s.audio, asr, 5)
-            cmds = _commands(model, sc)
-            ctx = np.asarray(_context(model, sc), dtype=float)
-            rec: dict = {"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
-                         "voice": s.voice, "style": s.style, "gold": s.gold_command,
-                         "cmds": [str(c) for c in cmds],
-                         "correct": [is_correct(str(c), s.gold_command, sc.verb) for c in cmds],
-                         "ctx": np.round(ctx, 4).tolist()}
+            _, instruction, _, cmds, rec = base_record(ds, s, asr, model)
+            ctx = np.asarray(rec["ctx"], dtype=float)
             if instruction is None:
                 rec["speech"] = False
                 f.write(json.dumps(rec) + "\n")

@@ -11,7 +11,7 @@ import siftom.world.domains.household  # noqa: F401
 import siftom.world.domains.kitchen  # noqa: F401
 from siftom.cli import main, root
 
-VIRTUALHOME = Path(__file__).parents[1].parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+VIRTUALHOME = Path(__file__).parents[1] / "data" / "virtualhome" / "apartment_graph.json"
 SILVER = "can you pass me the silver"
 
 

@@ -96,7 +96,7 @@ def test_scenario_frames_are_distinct_pictures_and_steps_are_checked(frames, tmp
     assert "step must be between 0 and 10" in capsys.readouterr().err
 
 
-VIRTUALHOME = Path(__file__).parents[2].parent / "shared" / "data" / "virtualhome"
+VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome"
 
 
 @pytest.mark.skipif(not (VIRTUALHOME / "apartment_graph_2.json").exists(), reason="needs ../shared/data/virtualhome")

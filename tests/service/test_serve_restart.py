@@ -22,7 +22,7 @@ httpx = pytest.importorskip("httpx")
 from siftom.service.loadtest import free_port  # noqa: E402
 
 ROOT = Path(__file__).parents[2]
-VIRTUALHOME = ROOT.parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 LINES = ["<char0> [Walk] <kitchen> (56)", "[Walk] <dishwasher> (159)", "[Open] <dishwasher> (159)",
          "[Grab] <cutleryfork> (1006)", "[Walk] <kitchentable> (130)",
          "[PutBack] <cutleryfork> (1006) <kitchentable> (130)", "[Walk] <dishwasher> (159)",

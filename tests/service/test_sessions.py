@@ -17,7 +17,7 @@ ROOT = Path(__file__).parents[2]
 SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
 SALAD_ACTIONS = [ln for ln in (ROOT / "docs" / "examples" / "salad" / "actions.txt").read_text().splitlines()
                  if ln.strip() and not ln.startswith("#")]
-VIRTUALHOME = ROOT.parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 
 
 def _client(folder: Path, **limits) -> TestClient:

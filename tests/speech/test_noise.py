@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -12,6 +10,7 @@ from hypothesis import strategies as st
 from siftom.errors import AudioError, UnknownNameError
 from siftom.speech.audio import wav_bytes, write_wav
 from siftom.speech.noise import (
+    RECORDED_NOISE_DIR,
     SYNTHETIC_KINDS,
     FolderNoise,
     SyntheticNoise,
@@ -23,7 +22,7 @@ from siftom.speech.noise import (
     scale_noise,
 )
 
-SHARED_NOISE = Path(__file__).resolve().parents[3] / "shared" / "data" / "noise"
+SHARED_NOISE = RECORDED_NOISE_DIR
 
 
 def _burst(seed: int, n: int = 16000) -> np.ndarray:
@@ -106,7 +105,7 @@ def test_flat_and_msnsd_folders(tmp_path):
         get_noise(str(tmp_path / "missing" / "x.wav"))
 
 
-@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="../shared/data/noise not present")
+@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="recorded noise not packaged")
 def test_shared_noise_folder(cereal_clip):
     src = get_noise(f"{SHARED_NOISE}:babble")
     mixed = mix_at_snr(cereal_clip, src, 10.0, 0)

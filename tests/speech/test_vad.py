@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from siftom.speech.noise import RECORDED_NOISE_DIR
 from siftom.speech.vad import detect_speech, trim
 
 needs_flite = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
 
-SHARED_NOISE = Path(__file__).resolve().parents[3] / "shared" / "data" / "noise"
+SHARED_NOISE = RECORDED_NOISE_DIR
 # recorded noises that hold no voice (babble is people talking; cat meows and fire crackle are
 # voiced-like and are known false alarms, docs/speech.md)
 QUIET_KINDS = ("rain_01", "running_water_01", "fan_01", "dishes_01", "exercise_bike_01", "washing_machine_01")
@@ -35,7 +35,7 @@ def test_synthetic_noise_is_not_speech(kind):
     assert not r.speech, (kind, r)
 
 
-@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="../shared/data/noise not present")
+@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="recorded noise not packaged")
 @pytest.mark.parametrize("name", QUIET_KINDS)
 def test_recorded_noise_is_not_speech(name):
     from siftom.speech.audio import load_audio
@@ -46,7 +46,7 @@ def test_recorded_noise_is_not_speech(name):
 
 
 @needs_flite
-@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="../shared/data/noise not present")
+@pytest.mark.skipif(not SHARED_NOISE.is_dir(), reason="recorded noise not packaged")
 @pytest.mark.parametrize("snr", [None, 10.0, 5.0])
 def test_speech_in_recorded_noise_is_speech(cereal_clip, snr):
     from siftom.speech.audio import load_audio

@@ -10,7 +10,7 @@ from siftom.world.io import load_scene, scene_from_json, scene_warnings
 from siftom.world.model import NOTHING
 
 FIXTURE = Path(__file__).parents[1] / "fixtures" / "scene_three_rooms.json"
-VIRTUALHOME = Path(__file__).parents[2].parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome" / "apartment_graph.json"
 
 WORLD = {
     "places": [{"name": "table", "kind": "surface", "room": "dining", "pos": [0, 0]},

@@ -28,7 +28,7 @@ from siftom.world.scenegraph import (
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 HOUSE = FIXTURES / "scene_three_rooms.json"
-VIRTUALHOME = Path(__file__).parents[2].parent / "shared" / "data" / "virtualhome"
+VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome"
 
 needs_virtualhome = pytest.mark.skipif(
     not (VIRTUALHOME / "apartment_graph.json").exists(),

@@ -13,7 +13,7 @@ from siftom.world.model import NOTHING
 from siftom.world.vhscript import is_vh_line, parse_actions
 
 ROOT = Path(__file__).parents[2]
-VIRTUALHOME = ROOT.parent / "shared" / "data" / "virtualhome" / "apartment_graph.json"
+VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 SALAD = ROOT / "docs" / "examples" / "salad"
 needs_graph = pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"needs {VIRTUALHOME}")
 

@@ -16,12 +16,12 @@ SENTENCES = (("can you pass me the cereal", "flite-slt"), ("bring me three forks
              ("i need the milk", "espeak-en-us+klatt"), ("could you grab the olive oil please", "espeak-es"))
 
 
-def main(noise_dir: str = "../shared/data/noise") -> dict:
+def main(noise_dir: str | None = None) -> dict:
     from siftom.speech.audio import load_audio
-    from siftom.speech.noise import mix_at_snr
+    from siftom.speech.noise import RECORDED_NOISE_DIR, mix_at_snr
     from siftom.speech.tts import synthesize
 
-    files = sorted(Path(noise_dir).glob("*.wav"))
+    files = sorted(Path(noise_dir or RECORDED_NOISE_DIR).glob("*.wav"))
     alarms, excerpts = [], 0
     for f in files:
         x = load_audio(f)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
@@ -30,6 +31,8 @@ VAD_RANGE_DB = 40.0
 PEAK_LIMIT = 0.99
 SYNTHETIC_KINDS = ("white", "pink", "brown", "babble", "hum")
 _NOISE_MAX_SECONDS = 900.0
+# Real household recordings shipped with the package (manifest and licences in its README.md).
+RECORDED_NOISE_DIR = Path(str(resources.files("siftom.data").joinpath("noise")))
 
 Rng = np.random.Generator | int | None
 

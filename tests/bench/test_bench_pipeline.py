@@ -75,9 +75,9 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
     assert {"command", "correct", "helpful", "l_single", "l_team", "remedy_steps", "speedup"} <= set(r)
 
 
-def test_asking_model_speaks_the_answer_and_pays_for_the_question(tiny: Path, tmp_path: Path,
-                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("SIFTOM_QUESTION_PENALTY", "0")  # ask whenever a question is worth 2 steps
+def test_asking_model_speaks_the_answer_and_pays_for_the_question(tiny: Path, tmp_path: Path) -> None:
+    from siftom.assist.askcost import QuestionCost
+
     evaluate(tiny, tmp_path / "ask", EvalOptions(models=("siftom-eb", "siftom-ask")))
     rows = load_results(tmp_path / "ask")
     asked = [r for r in rows if r["models"]["siftom-ask"]["asked"]]
@@ -85,7 +85,9 @@ def test_asking_model_speaks_the_answer_and_pays_for_the_question(tiny: Path, tm
     for r in asked:
         a = r["models"]["siftom-ask"]
         assert a["question_kind"] in ("confirm", "choose", "count") and a["question"].endswith("?")
-        assert a["answer"] and a["evi"] > a["ask_cost"]
+        # asked because the question was worth more than its spoken time; it pays the time it took
+        assert a["answer"] and a["evi"] > a["question_cost"]
+        assert a["ask_cost"] == pytest.approx(QuestionCost().steps(a["question"], a["answer"]), abs=1e-3)
         # the question's time is on the team's clock
         assert a["l_team"] == pytest.approx(r["models"]["siftom-eb"]["l_team"] + a["ask_cost"]) or \
             a["command"] != r["models"]["siftom-eb"]["command"]

@@ -8,9 +8,9 @@
   ``u(b) = b - loss_aversion * max(0, -b)``, the team terms counted as the team simulation
   counts them (assist/teamvalue.py).
 * ``ask-or-act``: ask the question (confirm "Shall I bring two plates?", choose "Which one:
-  the cereal or the oatmeal?", count "How many plates?"; assist/questions.py) with the highest
-  expected value of information (EVI, in steps) when it exceeds the question's cost in steps,
-  otherwise act by ``expected-benefit``. The answer names a cell of the question's partition,
+  the cereal or the oatmeal?", count "How many plates?"; assist/questions.py) whose expected
+  value of information (EVI, in steps) exceeds its cost by the most, when one does: the cost
+  is the time of the spoken exchange (assist/askcost.py); otherwise act by ``expected-benefit``. The answer names a cell of the question's partition,
   heard right with the kind's probability ``Situation.reliability(kind)``:
 
       EVI = sum_heard max_a E[u(b(a) - ask_cost) ; heard] - max_a E[u(b(a))] + ask_cost.
@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from siftom.assist.askcost import QuestionCost
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.errors import ObservationError
@@ -34,14 +35,14 @@ from siftom.inference.model import JointPosterior, Posterior, logsumexp
 from siftom.registry import Registry
 from siftom.world.model import State, World
 
-# One spoken exchange (the robot asks, the human answers) costs the team this many steps: the
-# human stops working to listen and answer (about two of the world's unit actions), and the
-# robot waits for the answer before it moves. docs/decisions.md.
+# The time of one spoken exchange when a caller fixes it (``ask_cost=``) and for the simple pair
+# questions of question_values; ``ask-or-act`` prices each question by its words instead
+# (assist/askcost.py: speaking rate, turn gaps, the robot's recognition; docs/decisions.md).
 DEFAULT_ASK_COST = 2.0
-# Asking also interrupts the person: a penalty in step-equivalents on top of the time, the
-# Lagrange multiplier of a budget of questions per trial, chosen on a development set of
-# another seed (docs/decisions.md; `siftom bench ask-penalty`).
-DEFAULT_QUESTION_PENALTY = 11.0
+# An interruption cost in steps on top of the exchange's time: none by default (a question is
+# worth asking when its value beats its time); a deployment whose people should be asked less
+# may set one.
+DEFAULT_QUESTION_PENALTY = 0.0
 # A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
 # is worse than one who does nothing); chosen on a development set of another seed
 # (docs/decisions.md; `siftom bench loss-aversion`).
@@ -267,23 +268,35 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
     return out
 
 
+def question_cost(q: Question, ask_cost: float | None = None, cost_model: QuestionCost | None = None) -> float:
+    """Steps a question costs the team: ``ask_cost`` when given, else its spoken length (askcost)."""
+    if ask_cost is not None:
+        return float(ask_cost)
+    return (cost_model or QuestionCost()).expected_steps(q.text, q.answers)
+
+
 def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_aversion: float = 0.0,
-                   ask_cost: float = 0.0, kinds: Sequence[str] = KINDS,
-                   pool: int = QUESTION_POOL, unit: str = "steps") -> list[tuple[float, Question]]:
-    """EVI (steps) of every candidate question (assist/questions.py), best first.
+                   ask_cost: float | None = 0.0, kinds: Sequence[str] = KINDS,
+                   pool: int = QUESTION_POOL, unit: str = "steps",
+                   cost_model: QuestionCost | None = None) -> list[tuple[float, Question]]:
+    """EVI (steps) of every candidate question (assist/questions.py), best net value first.
 
     Each question's answer is heard with its kind's reliability here
-    (``where.reliability(kind)``); see :func:`siftom.assist.questions.evi`.
+    (``where.reliability(kind)``); see :func:`siftom.assist.questions.evi`. Its time is
+    ``ask_cost`` steps, or (``ask_cost=None``) its spoken length under ``cost_model``; the
+    list is ordered by EVI minus that time.
     """
     qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
     if not qs:
         return []
     v0 = float((tv.prob @ tv.utility(loss_aversion, unit=unit)).max())
-    u_after = tv.utility(loss_aversion, ask_cost, unit)
-    out = [(evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), ask_cost), q)
-           for q in qs]
+    out = []
+    for q in qs:
+        c = question_cost(q, ask_cost, cost_model)
+        u_after = tv.utility(loss_aversion, c, unit)
+        out.append((evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), c) - c, c, q))
     out.sort(key=lambda t: -t[0])
-    return out
+    return [(net + c, q) for net, c, q in out]
 
 
 @dataclass(frozen=True)
@@ -292,40 +305,49 @@ class AskOrActRule:
 
     The candidates are confirmations, choices between two and count questions about the most
     probable commands (``kinds``); each EVI is weighted by how reliably that kind's answer is
-    heard here (``Situation.reliability``).
+    heard here (``Situation.reliability``). A question costs the time of its spoken exchange
+    (``cost_model``, assist/askcost.py), or ``ask_cost`` steps when that is given, plus
+    ``penalty`` steps of interruption (none by default).
     """
 
-    ask_cost: float = DEFAULT_ASK_COST
+    ask_cost: float | None = None
     penalty: float = DEFAULT_QUESTION_PENALTY
     loss_aversion: float = DEFAULT_LOSS_AVERSION
     kinds: tuple[str, ...] = KINDS
+    cost_model: QuestionCost = field(default_factory=QuestionCost)
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
-        _check_steps(self, "ask_cost", "penalty", "loss_aversion")
+        _check_steps(self, "penalty", "loss_aversion")
+        if self.ask_cost is not None:
+            _check_steps(self, "ask_cost")
         bad = [k for k in self.kinds if k not in KINDS]
         if bad or not self.kinds:
             raise ObservationError(f"unknown question kinds {bad or list(self.kinds)!r}; choose from {', '.join(KINDS)}")
+        if not isinstance(self.cost_model, QuestionCost):
+            raise ObservationError(f"cost_model must be a QuestionCost, got {type(self.cost_model).__name__}")
 
-    @property
-    def threshold(self) -> float:
-        """EVI (steps) a question must beat: its time plus the interruption penalty."""
-        return self.ask_cost + self.penalty
+    def cost(self, q: Question) -> float:
+        """Steps question ``q`` costs: its time plus the interruption penalty."""
+        return question_cost(q, self.ask_cost, self.cost_model) + self.penalty
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
         best, eb = _best(tv, self.loss_aversion)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds)
+        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds,
+                            cost_model=self.cost_model)
         top = _top(tv.actions, eb)
-        if qs and qs[0][0] > self.threshold:
+        if qs and qs[0][0] > self.cost(qs[0][1]):
             value, q = qs[0]
-            return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, self.ask_cost,
-                            f"asking is worth {value:.1f} steps > its cost {self.threshold:g}", top, q.kind, q)
+            t = question_cost(q, self.ask_cost, self.cost_model)
+            return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, t,
+                            f"asking is worth {value:.1f} steps > its cost {self.cost(q):.1f}", top, q.kind, q)
         value = qs[0][0] if qs else 0.0
-        return Decision(self.name, a, a, p, float(eb[best]), "", (), value, self.ask_cost,
-                        f"acting: the best question is worth {value:.1f} steps <= its cost {self.threshold:g}; "
+        cost = self.cost(qs[0][1]) if qs else 0.0
+        return Decision(self.name, a, a, p, float(eb[best]), "", (), value, cost,
+                        f"acting: the best question is worth {value:.1f} steps <= its cost {cost:.1f}; "
                         + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
 
 
@@ -336,7 +358,7 @@ RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                attrs={"options": ("loss_aversion", "utility", "spent")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
-               attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds")})
+               attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:

@@ -1,6 +1,6 @@
 """Spoken answers to the robot's questions in the benchmark, and how reliably they are heard.
 
-When ``siftom-ask`` asks (assist/questions.py), the simulated human answers truthfully: it
+When an asking model (``siftom-ask``) asks (assist/questions.py), the simulated human answers truthfully: it
 says a phrase of the cell its command is in ("yes", "three please", "the oatmeal", "neither"),
 in the stimulus's voice (TTS with the speaker's rate and pitch), mixed with the stimulus's
 noise type at its SNR. The recogniser listens with the question's answer grammar (a
@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
@@ -61,9 +60,6 @@ def _interp(table: tuple[tuple[float, float], ...], snr_db: float | None) -> flo
 
 def answer_reliability(snr_db: float | None, kind: str = "choose") -> float:
     """The probability that an answer to a ``kind`` question is heard right at this SNR (None: clean)."""
-    env = os.environ.get("SIFTOM_ANSWER_RELIABILITY")
-    if env:  # tuning runs measure recognition with the EVI unweighted
-        return float(env)
     return _interp(ANSWER_RELIABILITY[kind], snr_db)
 
 

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from siftom.bench.decisions import DECISION_MODELS
 from siftom.bench.results_io import (
     TIMINGS,
     AtomicAppender,
@@ -91,9 +92,10 @@ class EvalOptions:
     def __post_init__(self) -> None:
         if not self.models:
             raise DatasetError(f"give at least one model; available: {', '.join(MODELS)}")
+        known = tuple(dict.fromkeys(MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS + tuple(DECISION_MODELS)))
         for m in self.models:
-            if m not in MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS:
-                raise unknown_name("model", m, MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS)
+            if m not in known:
+                raise unknown_name("model", m, known)
         if len(set(self.models)) != len(self.models):
             raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
         from siftom.speech.asr.base import ENGINES
@@ -108,7 +110,7 @@ class EvalOptions:
                "likelihood": self.likelihood}
         if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
             out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
-        if any(m.endswith("-acoustic") for m in self.models):
+        if any(m.endswith("-acoustic") or DECISION_MODELS.get(m, ("",))[0] == "acoustic" for m in self.models):
             from siftom.likelihood.acoustic import DEFAULT_WHISPER_TEMPERATURE
             from siftom.likelihood.whisper_factor import whisper_available
 

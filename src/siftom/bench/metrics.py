@@ -13,6 +13,9 @@
   >= 0.8 and was wrong (doing nothing is never confident-wrong);
 * no-speedup trials: a trial whose team simulation ran out of planning budget has no speedup
   and is left out of the speedup mean and the negative share; they are counted, with the reason;
+* regret: the goal-known oracle's mean speedup (the best action for the true goal, which may be
+  another action than the requested command; every row's ``oracle``) minus the model's, over
+  the trials where both have a speedup (0 for a model that always acts as the oracle);
 * 95 % confidence intervals by the percentile bootstrap over trials (1,000 resamples, seeded).
 """
 
@@ -127,9 +130,33 @@ def summarise_model(trials: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: 
         accuracy_after_answer=(float(np.mean([bool(t["correct"]) for t in asked])) if asked
                                else (None if not any("asked" in t for t in trials) else float("nan"))),
         no_speedup_reasons=tuple(sorted(reasons.items())),
-        map_accuracy=(float(np.mean([bool(t["map_correct"]) for t in trials]))
-                      if trials and all("map_correct" in t for t in trials) else None),
+        # a model that executes its most probable command has MAP accuracy = its accuracy
+        map_accuracy=(float(np.mean([bool(t.get("map_correct", t["correct"])) for t in trials]))
+                      if trials else None),
     )
+
+
+def regret(rows: Sequence[Mapping[str, Any]], model: str, seed: int = 0,
+           n_boot: int = N_BOOT) -> tuple[float, tuple[float, float], int]:
+    """(mean regret, its 95 % CI, trials): oracle speedup minus the model's, per trial."""
+    d = np.array([float(r["oracle"]["speedup"]) - float(r["models"][model]["speedup"]) for r in rows
+                  if model in r["models"] and r["models"][model].get("speedup") is not None
+                  and (r.get("oracle") or {}).get("speedup") is not None], dtype=np.float64)
+    if not len(d):
+        return float("nan"), (float("nan"), float("nan")), 0
+    return float(d.mean()), bootstrap_ci(d, n_boot, seed + 2), len(d)
+
+
+def oracle_summary(rows: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any] | None:
+    """Mean speedup (with CI) and negative share of the goal-known oracle, or None without one."""
+    sp = np.array([float(r["oracle"]["speedup"]) for r in rows if (r.get("oracle") or {}).get("speedup") is not None])
+    if not len(sp):
+        return None
+    lo, hi = bootstrap_ci(sp, n_boot, seed + 1)
+    return {"speedup": _round(float(sp.mean())), "speedup_ci": [_round(lo), _round(hi)],
+            "neg_speedup_share": _round(float((sp < -1e-9).mean())), "n": len(sp),
+            "gold_is_best": _round(float(np.mean([r["oracle"]["command"] == r.get("gold_command") for r in rows
+                                                    if (r.get("oracle") or {}).get("speedup") is not None])))}
 
 
 def _reason(error: str | None) -> str:

@@ -16,7 +16,15 @@ from typing import Any
 import numpy as np
 
 from siftom.bench.evaluate import ACOUSTIC_MODELS, MODELS, OPTIONAL_MODELS, RUN, load_results
-from siftom.bench.metrics import N_BOOT, breakdown, group_key, label_order, summarise_model
+from siftom.bench.metrics import (
+    N_BOOT,
+    breakdown,
+    group_key,
+    label_order,
+    oracle_summary,
+    regret,
+    summarise_model,
+)
 from siftom.errors import DatasetError
 
 SUMMARY = "summary.json"
@@ -25,6 +33,7 @@ FIG_MAIN = "accuracy_speedup.png"
 FIG_HIST = "speedup_hist.png"
 FIG_SNR = "accuracy_by_snr.png"
 FIG_ASK = "speedup_vs_questions.png"
+FIG_PARETO = "speedup_vs_negative.png"
 BREAKDOWNS = ("noise", "snr", "voice")
 # The paper's numbers (Simulated Experiment, Results) for comparison in the report.
 PAPER = {
@@ -56,6 +65,10 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     for m in models:
         trials = [r["models"][m] for r in rows if m in r["models"]]
         out["models"][m] = summarise_model(trials, seed=seed, n_boot=n_boot).to_json()
+        rg, rg_ci, n_rg = regret(rows, m, seed, n_boot)
+        out["models"][m].update({"regret": None if not np.isfinite(rg) else round(rg, 4),
+                                 "regret_ci": [None if not np.isfinite(c) else round(c, 4) for c in rg_ci]})
+    out["goal_oracle"] = oracle_summary(rows, seed, n_boot)
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
     out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
@@ -84,7 +97,7 @@ def _ci(ci: Sequence[float | None], pct: bool = True) -> str:
 
 def main_table(summary: dict[str, Any]) -> str:
     """The Markdown table of the main metrics, one row per model."""
-    lines = ["| model | accuracy [95 % CI] | speedup [95 % CI] | negative speedup | helpful errors | n |",
+    lines = ["| model | executed-command accuracy [95 % CI] | speedup [95 % CI] | negative speedup | helpful errors | n |",
              "|---|---|---|---|---|---|"]
     for m, s in summary["models"].items():
         sp = "–" if s["speedup"] is None else f"{s['speedup']:+.3f}"
@@ -95,17 +108,55 @@ def main_table(summary: dict[str, Any]) -> str:
 
 
 def decision_table(summary: dict[str, Any]) -> str:
-    """Questions, confident errors and trials without a speedup, one row per model."""
-    lines = ["| model | questions / trial | accuracy after the answer | MAP accuracy | confident wrong (P >= 0.8) "
-             "| no speedup (why) |", "|---|---|---|---|---|---|"]
+    """What decisions are for, one row per model and the goal-known oracle: speedup (CI), negative
+    share, questions, confident errors, MAP accuracy, regret; executed-command accuracy labelled."""
+    lines = ["| model | mean speedup [95 % CI] | negative speedup | questions / trial | confident wrong (P >= 0.8) "
+             "| MAP accuracy (after the answer) | regret [95 % CI] | executed-command accuracy "
+             "| accuracy after the answer | no speedup (why) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for m, s in summary["models"].items():
         acc = s.get("accuracy_after_answer")
         why = "; ".join(f"{k}: {v}" for k, v in (s.get("no_speedup_reasons") or {}).items())
         q = s.get("questions_per_trial")
-        lines.append(f"| {m} | {'–' if q is None else f'{q:.3f}'} | {_pct(acc)} | {_pct(s.get('map_accuracy'))} "
-                     f"| {_pct(s.get('confident_wrong_share'))} | {s.get('no_speedup', 0)}"
-                     + (f" ({why})" if why else "") + " |")
+        sp = "–" if s["speedup"] is None else f"{s['speedup']:+.3f}"
+        rg = s.get("regret")
+        lines.append(f"| {m} | {sp} {_ci(s['speedup_ci'], False)} | {_pct(s['neg_speedup_share'])} "
+                     f"| {'–' if q is None else f'{q:.3f}'} | {_pct(s.get('confident_wrong_share'))} "
+                     f"| {_pct(s.get('map_accuracy'))} | {'–' if rg is None else f'{rg:+.3f}'} "
+                     f"{_ci(s.get('regret_ci', [None, None]), False)} | {_pct(s['accuracy'])} | {_pct(acc)} "
+                     f"| {s.get('no_speedup', 0)}" + (f" ({why})" if why else "") + " |")
+    o = summary.get("goal_oracle")
+    if o:
+        lines.append(f"| *goal-known oracle* | {o['speedup']:+.3f} {_ci(o['speedup_ci'], False)} "
+                     f"| {_pct(o['neg_speedup_share'])} | – | – | – | 0 | (the requested command is the best "
+                     f"action in {_pct(o.get('gold_is_best'))}) | – | |")
     return "\n".join(lines)
+
+
+def _pareto_figure(summary: dict[str, Any], colors: Any, path: Path) -> Path | None:
+    """Mean speedup against negative-speedup share, every model and the goal-known oracle."""
+    import matplotlib.pyplot as plt
+
+    S = summary["models"]
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for k, (m, s) in enumerate(S.items()):
+        if s["speedup"] is None or s["neg_speedup_share"] is None:
+            continue
+        lo, hi = (s["speedup"] if c is None else c for c in s["speedup_ci"])
+        x, y = 100 * s["neg_speedup_share"], s["speedup"]
+        ax.errorbar([x], [y], yerr=[[y - lo], [hi - y]], fmt="o", color=colors[k], capsize=3, label=m)
+    o = summary.get("goal_oracle")
+    if o:
+        ax.plot([100 * o["neg_speedup_share"]], [o["speedup"]], marker="*", markersize=14, color="black",
+                linestyle="none", label="goal-known oracle")
+    ax.set_xlabel("negative-speedup share (%)")
+    ax.set_ylabel("mean speedup (95 % CI)")
+    ax.set_title("up and to the left is better", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def _breakdown_table(bd: dict[str, dict[str, dict[str, Any]]], models: Sequence[str], key: str) -> str:
@@ -191,6 +242,8 @@ def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out:
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
+    paths.append(_pareto_figure(summary, colors, out / FIG_PARETO))
+
     bd = summary["breakdowns"]["snr"]
     labels = list(bd)
     if len(labels) > 1:
@@ -235,12 +288,17 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
     if FIG_HIST in names:
         parts += [f"![speedup histograms]({FIG_HIST})", ""]
     parts += ["## Decisions and questions", "",
+              "Scored by what decisions are for: the team's speedup and how often the robot made the team "
+              "slower. Regret: the goal-known oracle's mean speedup (the best action for the true goal, which "
+              "may be another action than the requested command) minus the model's. "
               "Questions: trials where the robot asked before acting (the answer is spoken and recognised "
               "like the instruction; the exchange costs the team steps). Confident wrong: the robot acted on "
               "a command it gave probability >= 0.8 and was wrong. MAP accuracy (decision-rule models): the most "
               "probable command after the answer is right, whatever the robot executed. No speedup: trials whose team simulation "
               "ran out of planning budget; they are left out of the speedup mean and the negative share.", "",
               decision_table(summary), ""]
+    if FIG_PARETO in names:
+        parts += [f"![mean speedup vs negative-speedup share]({FIG_PARETO})", ""]
     if FIG_ASK in names:
         parts += [f"![speedup vs questions asked]({FIG_ASK})", ""]
     wer = summary.get("asr_wer", {})

@@ -15,7 +15,15 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
+import numpy as np
+
+from siftom.bench.decisions import (
+    DECISION_MODELS,
+    decision_fields,
+    decision_posterior,
+    oracle_action,
+    run_decision_model,
+)
 from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
 from siftom.world.commands import MAX_COUNT
@@ -162,6 +170,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
         for c, r in task.team.items():
             _TEAM.setdefault((skey, c), r)
     memo: dict[tuple[str, str, str], tuple[str, float, float]] = {}
+    oracles: dict[tuple[str, str], str] = {}
     for s in task.stimuli:
         sc = scenario_for(s)
         skey = scenario_key(s)
@@ -175,6 +184,15 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                   "rtf": round(t.rtf, 4), "audio_s": round(t.audio_s, 3)}
             new_tr = tr
         instr = _instruction(tr["nbest"]) if tr["nbest"] else _instruction([{"text": tr["text"], "score": 0.0}])
+        audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
+        posts: dict[str, Any] = {}  # this stimulus's posterior per likelihood, shared by its decision models
+
+        def posterior(lk: str, sc: Any = sc, instr: Any = instr, audio: Path = audio,
+                      posts: dict[str, Any] = posts) -> Any:
+            if lk not in posts:
+                posts[lk] = decision_posterior(lk, sc, instr, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
+            return posts[lk]
+
         before = set(_TEAM)
         models: dict[str, Any] = {}
         for m in opts.models:
@@ -184,6 +202,9 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if m == "literal-asr":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
+            elif m == "siftom-acoustic":  # the MAP rule on the acoustic posterior (bench/acoustic_models.py)
+                post = posterior("acoustic")
+                command, prob = post.command, float(post.commands[0][1])
             elif m in ACOUSTIC_MODELS:  # siftom.api.listen's path: VAD, ASR word times, key-phrase alignment
                 from siftom.bench.acoustic_models import acoustic_choice
                 command, prob = acoustic_choice(m, sc, Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio,
@@ -196,8 +217,8 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
-            elif m in DECISION_MODELS:  # decision rules and questions: bench/decisions.py
-                extra = run_decision_model(m, s, sc, instr, opts.likelihood, task.root,
+            elif m in DECISION_MODELS:  # a decision rule on a likelihood's posterior: bench/decisions.py
+                extra = run_decision_model(m, s, sc, posterior(DECISION_MODELS[m][0]), task.root,
                                            lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
                                            .transcribe(x, nbest=opts.nbest))
                 command, prob = extra.pop("command"), float(extra.pop("prob"))
@@ -235,11 +256,19 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             if team.get("error"):  # no speedup: say why (summary.json counts these)
                 models[m]["speedup_error"] = team["error"]
         gold = _simulate(skey, sc, s.gold_command)
+        # the goal-known oracle: the best action for the true goal (the report's regret)
+        if (skey, s.gold_command) not in oracles:
+            oracles[(skey, s.gold_command)] = oracle_action(sc, s.gold_command)
+        best = max(((c, _simulate(skey, sc, c)) for c in dict.fromkeys((oracles[(skey, s.gold_command)],
+                                                                          s.gold_command, "none"))),
+                   key=lambda ct: -np.inf if ct[1]["speedup"] is None else ct[1]["speedup"])
         row = {
             "id": s.id, "scenario": s.scenario, "speaker": s.speaker, "voice": s.voice,
             "noise": s.noise, "snr_db": s.snr_db, "condition": s.condition, "style": s.style,
             "reference": s.reference, "gold_command": s.gold_command, "gold_goal": s.gold_goal.get("name", ""),
             "gold_speedup": None if gold["speedup"] is None else round(gold["speedup"], 6),
+            "oracle": {"command": best[0],
+                       "speedup": None if best[1]["speedup"] is None else round(best[1]["speedup"], 6)},
             "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
                            "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
             "models": models,

@@ -240,9 +240,8 @@ def register(root: click.Group) -> None:
     from siftom.bench.decide_speed import bench_decide_cmd
 
     bench.add_command(bench_decide_cmd)
-    from siftom.bench.decisions import answer_reliability_cmd, ask_penalty_cmd
+    from siftom.bench.decisions import answer_reliability_cmd
 
-    bench.add_command(ask_penalty_cmd)
     bench.add_command(answer_reliability_cmd)
     from siftom.bench.answers import answer_grammar_cmd
 

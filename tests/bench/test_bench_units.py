@@ -172,26 +172,37 @@ def test_summary_counts_questions_confident_errors_and_missing_speedups() -> Non
     assert plain["accuracy_after_answer"] is None and plain["questions_per_trial"] == 0
 
 
-def test_penalty_curve_asks_only_above_time_plus_penalty() -> None:
-    from siftom.bench.decisions import penalty_curve
+def test_decision_models_are_every_rule_on_every_likelihood() -> None:
+    from siftom.assist.decide import RULES
+    from siftom.bench.decisions import DECISION_MODELS, LIKELIHOOD_TAGS, RULE_TAGS
+    from siftom.likelihood.registry import LIKELIHOODS
 
-    def row(evi: float, ask_ok: bool, eb_ok: bool) -> dict:
-        return {"models": {
-            "siftom-ask": {"asked": True, "evi": evi, "ask_cost": 2.0, "penalty": 0.0, "correct": ask_ok, "speedup": 0.2},
-            "siftom-eb": {"correct": eb_ok, "speedup": -0.1}}}
-
-    rows = [row(3.0, True, False), row(9.0, True, False), row(20.0, False, True)]
-    c = {p["penalty"]: p for p in penalty_curve(rows, [0.0, 5.0, 30.0])}
-    assert [c[x]["questions_per_trial"] for x in (0.0, 5.0, 30.0)] == pytest.approx([1.0, 2 / 3, 0.0])
-    assert c[5.0]["accuracy"] == pytest.approx(1 / 3)  # asks on 9 and 20: right, wrong; acts on 3: wrong
-    assert c[30.0]["neg_speedup_share"] == 1.0
+    assert set(DECISION_MODELS.values()) == {(lk, r) for lk in LIKELIHOOD_TAGS for r in RULE_TAGS}
+    assert DECISION_MODELS["siftom-ask"] == ("acoustic", "ask-or-act")
+    assert DECISION_MODELS["siftom-phonetic-eb"] == ("phonetic", "expected-benefit")
+    assert set(RULE_TAGS) | {"map"} == set(RULES.names())
+    assert set(LIKELIHOOD_TAGS) <= set(LIKELIHOODS.names())
 
 
-def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_regret_is_the_oracle_speedup_minus_the_model_speedup() -> None:
+    from siftom.bench.metrics import oracle_summary, regret
+
+    rows = [{"gold_command": "fetch(milk)", "oracle": {"command": "fetch(milk)", "speedup": 0.5},
+             "models": {"m": {"speedup": 0.5}}},
+            {"gold_command": "deliver(plate,3)", "oracle": {"command": "deliver(plate,2)", "speedup": 0.4},
+             "models": {"m": {"speedup": -0.1}}},
+            {"gold_command": "fetch(milk)", "oracle": {"command": "none", "speedup": None},
+             "models": {"m": {"speedup": 0.2}}}]
+    r, ci, n = regret(rows, "m")
+    assert n == 2 and r == pytest.approx(0.25) and ci[0] <= r <= ci[1]
+    o = oracle_summary(rows)
+    assert o["speedup"] == pytest.approx(0.45) and o["gold_is_best"] == pytest.approx(0.5)
+
+
+def test_answer_reliability_follows_the_measured_table() -> None:
     from siftom.assist.questions import KINDS
     from siftom.bench.decisions import ANSWER_RELIABILITY, answer_reliability, reliability_table
 
-    monkeypatch.delenv("SIFTOM_ANSWER_RELIABILITY", raising=False)
     assert set(ANSWER_RELIABILITY) == set(KINDS)
     for kind, rows in ANSWER_RELIABILITY.items():
         table = dict(rows)
@@ -199,8 +210,6 @@ def test_answer_reliability_follows_the_measured_table(monkeypatch: pytest.Monke
         assert answer_reliability(5.0, kind) == table[5.0] and answer_reliability(0.0, kind) == table[5.0]
         assert answer_reliability(7.5, kind) == pytest.approx((table[5.0] + table[10.0]) / 2)
         assert all(0 <= r <= 1 for r in table.values())
-    monkeypatch.setenv("SIFTOM_ANSWER_RELIABILITY", "1")
-    assert answer_reliability(5.0) == 1.0
     rows = [{"snr_db": 5.0, "models": {"siftom-ask": {"asked": True, "answer_cell_ok": ok}}} for ok in (True, False)]
     rows.append({"snr_db": None, "models": {"siftom-ask": {"asked": False}}})
     assert reliability_table(rows) == [{"snr_db": 5.0, "n": 2, "heard": 0.5}]

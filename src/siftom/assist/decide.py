@@ -278,13 +278,17 @@ def question_cost(q: Question, ask_cost: float | None = None, cost_model: Questi
 def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_aversion: float = 0.0,
                    ask_cost: float | None = 0.0, kinds: Sequence[str] = KINDS,
                    pool: int = QUESTION_POOL, unit: str = "steps",
-                   cost_model: QuestionCost | None = None) -> list[tuple[float, Question]]:
+                   cost_model: QuestionCost | None = None,
+                   time_as_loss: bool = True) -> list[tuple[float, Question]]:
     """EVI (steps) of every candidate question (assist/questions.py), best net value first.
 
     Each question's answer is heard with its kind's reliability here
     (``where.reliability(kind)``); see :func:`siftom.assist.questions.evi`. Its time is
     ``ask_cost`` steps, or (``ask_cost=None``) its spoken length under ``cost_model``; the
-    list is ordered by EVI minus that time.
+    list is ordered by EVI minus that time. ``time_as_loss``: the time is inside the
+    loss-averse utility of every outcome after the question (a question followed by doing
+    nothing is a loss, weighed ``1 + loss_aversion``); otherwise it is a sure price paid at
+    face value, the outcomes after the answer valued from there (the classic EVI).
     """
     qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
     if not qs:
@@ -293,9 +297,14 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
     out = []
     for q in qs:
         c = question_cost(q, ask_cost, cost_model)
-        u_after = tv.utility(loss_aversion, c, unit)
-        out.append((evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), c) - c, c, q))
+        u_after = tv.utility(loss_aversion, c if time_as_loss else 0.0, unit)
+        # the gain of asking over acting now, in the utility's unit (the time inside it, or paid after)
+        net = evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), 0.0)
+        if not time_as_loss:
+            net -= c if unit == "steps" else float(tv.prob @ (tv.speedup() - tv.speedup(c)).max(axis=1))
+        out.append((net, c, q))
     out.sort(key=lambda t: -t[0])
+    # reported as EVI in steps beside the question's time: the question pays when EVI > time
     return [(net + c, q) for net, c, q in out]
 
 
@@ -315,6 +324,11 @@ class AskOrActRule:
     loss_aversion: float = DEFAULT_LOSS_AVERSION
     kinds: tuple[str, ...] = KINDS
     cost_model: QuestionCost = field(default_factory=QuestionCost)
+    # the question's time as a loss inside the loss-averse utility, or a sure price at face value
+    # (best_questions; docs/decisions.md)
+    time_as_loss: bool = True
+    # what a gain is measured in, as for expected-benefit: steps saved or the speedup ratio
+    utility: str = DEFAULT_UTILITY
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
@@ -324,6 +338,7 @@ class AskOrActRule:
         bad = [k for k in self.kinds if k not in KINDS]
         if bad or not self.kinds:
             raise ObservationError(f"unknown question kinds {bad or list(self.kinds)!r}; choose from {', '.join(KINDS)}")
+        _check_utility(self.utility)
         if not isinstance(self.cost_model, QuestionCost):
             raise ObservationError(f"cost_model must be a QuestionCost, got {type(self.cost_model).__name__}")
 
@@ -333,11 +348,11 @@ class AskOrActRule:
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion)
+        best, eb = _best(tv, self.loss_aversion, self.utility)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds,
-                            cost_model=self.cost_model)
+        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds, unit=self.utility,
+                            cost_model=self.cost_model, time_as_loss=self.time_as_loss)
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.cost(qs[0][1]):
             value, q = qs[0]
@@ -358,7 +373,8 @@ RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                attrs={"options": ("loss_aversion", "utility", "spent")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
-               attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model")})
+               attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",
+                                   "time_as_loss", "utility")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:

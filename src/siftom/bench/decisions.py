@@ -34,6 +34,7 @@ from siftom.assist.decide import (
     DEFAULT_LOSS_AVERSION,
     Situation,
     decide,
+    get_rule,
     with_answer,
 )
 from siftom.assist.questions import answer_log_likelihood_cells
@@ -131,7 +132,8 @@ def run_decision_model(
     opts: dict[str, Any] = {"loss_aversion": lam}
     if rule == "ask-or-act":
         opts.update(ask_cost=ask_cost, cost_model=cm)
-    d = decide(posterior, where, rule, **opts)
+    chooser = get_rule(rule, **opts)
+    d = chooser(posterior, where)
     # what the robot believes was asked for (the MAP command), next to what it does
     out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
                            "expected_benefit": round(d.expected_benefit, 3), "map_command": posterior.command,
@@ -152,8 +154,10 @@ def run_decision_model(
     r = where.reliability(q.kind)
     ll = answer_log_likelihood_cells(q, [str(c) for c in posterior.joint.commands], h["heard_cell"], r)
     post2 = with_answer(posterior, ll, h["answer_heard"])
-    # the question's time is spent: it counts in every outcome after the answer, as the EVI assumed
-    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam, spent=spent)
+    # the question's time is spent; when the EVI weighed it as a loss (``time_as_loss``) it counts
+    # in every outcome after the answer, as the EVI assumed; else the robot decides from there
+    as_loss = getattr(chooser, "time_as_loss", True)
+    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam, spent=spent if as_loss else 0.0)
     out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
                 "question_kind": q.kind, "evi": round(d.evi, 3), "ask_cost": round(spent, 4),
                 "command_before": d.command,

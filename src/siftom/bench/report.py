@@ -132,7 +132,7 @@ def decision_table(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _pareto_figure(summary: dict[str, Any], colors: Any, path: Path) -> Path | None:
+def _pareto_figure(summary: dict[str, Any], colors: Any, path: Path, domain: str = "") -> Path | None:
     """Mean speedup against negative-speedup share, every model and the goal-known oracle."""
     import matplotlib.pyplot as plt
 
@@ -150,7 +150,8 @@ def _pareto_figure(summary: dict[str, Any], colors: Any, path: Path) -> Path | N
                 linestyle="none", label="goal-known oracle")
     ax.set_xlabel("negative-speedup share (%)")
     ax.set_ylabel("mean speedup (95 % CI)")
-    ax.set_title("up and to the left is better", fontsize=9)
+    ax.set_title(f"{domain + ': ' if domain else ''}{summary['n_stimuli']} stimuli; up and to the left is better",
+                 fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
@@ -242,7 +243,8 @@ def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out:
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
-    paths.append(_pareto_figure(summary, colors, out / FIG_PARETO))
+    domains = sorted({str(r.get("scenario", "")).split("/")[0] for r in rows} - {""})
+    paths.append(_pareto_figure(summary, colors, out / FIG_PARETO, ", ".join(domains)))
 
     bd = summary["breakdowns"]["snr"]
     labels = list(bd)

@@ -66,6 +66,7 @@ def run_variant(dataset: str, results: str, posts: dict[str, Any], opts: dict[st
         post = posts[s.id]
         rel = ans.answer_reliabilities(s.snr_db)
         where = Situation.from_scenario(sc, answer_reliability=rel)
+        k = 0
         if rule == "map":
             cmd, prob, asked, spent, mapc = post.command, post.commands[0][1], False, 0.0, post.command
         else:
@@ -77,36 +78,44 @@ def run_variant(dataset: str, results: str, posts: dict[str, Any], opts: dict[st
                 kw.update(utility=unit)
             d = decide(post, where, rule, **kw)
             cmd, prob, asked, spent, mapc = d.command, d.prob, False, 0.0, post.command
-            if d.ask and d.asked is not None:
+            max_q = int(opts.get("max_questions", 1))
+            k = 0
+            while d.ask and d.asked is not None:
                 q = d.asked
-                cell = next((k for k, o in enumerate(q.options) if tr.is_correct(o, s.gold_command, sc.verb)),
+                cell = next((j for j, o in enumerate(q.options) if tr.is_correct(o, s.gold_command, sc.verb)),
                             q.n_cells - 1)
-                key = (s.id, q.text)
+                key = (s.id, q.text) if k == 0 else (s.id, q.text, k)
                 if key not in heard_cache:
                     def listen(x: Any, grammar: tuple[str, ...]) -> Any:
                         return tr._engine("pocketsphinx-vocab", grammar).transcribe(x, nbest=10)
-                    heard_cache[key] = ans.ask_and_hear(q, cell, s, dataset, listen)
+                    heard_cache[key] = ans.ask_and_hear(q, cell, s, dataset, listen, salt=k)
                 h = heard_cache[key]
-                spent = cm.steps(q.text, h["answer"])
+                spent += cm.steps(q.text, h["answer"])
                 ll = answer_log_likelihood_cells(q, [str(c) for c in post.joint.commands], h["heard_cell"],
                                                  where.reliability(q.kind))
-                post2 = with_answer(post, ll)
-                d2 = decide(post2, where, "expected-benefit", loss_aversion=lam, utility=unit,
-                            spent=spent if opts.get("time_as_loss", "1") == "1" else 0.0)
-                cmd, prob, asked, mapc = d2.command, d2.prob, True, post2.command
+                post = with_answer(post, ll)
+                k += 1
+                asked = True
+                as_loss = opts.get("time_as_loss", "1") == "1"
+                if k < max_q:
+                    d = decide(post, where, "ask-or-act", **{**kw, "spent": spent if as_loss else 0.0})
+                else:
+                    d = decide(post, where, "expected-benefit", loss_aversion=lam, utility=unit,
+                               spent=spent if as_loss else 0.0)
+                cmd, prob, mapc = d.command, d.prob, post.command
         t = tr._simulate(tr.scenario_key(s), sc, cmd)
         if t["l_team"] is None:
             continue
         l_team = t["l_team"] + spent
         sp = t["l_single"] / l_team - 1.0
-        rows.append({"sp": sp, "asked": asked, "cw": cmd != "none" and prob >= 0.8
+        rows.append({"sp": sp, "asked": asked, "nq": k if rule == "ask-or-act" else 0, "cw": cmd != "none" and prob >= 0.8
                      and not tr.is_correct(cmd, s.gold_command, sc.verb),
                      "map_ok": tr.is_correct(mapc, s.gold_command, sc.verb),
                      "regret": (r["oracle"]["speedup"] - sp) if (r.get("oracle") or {}).get("speedup") is not None
                      else np.nan})
     sp = np.array([x["sp"] for x in rows])
     return {"speedup": float(sp.mean()), "neg": float((sp < -1e-9).mean()),
-            "q": float(np.mean([x["asked"] for x in rows])), "cw": float(np.mean([x["cw"] for x in rows])),
+            "q": float(np.mean([x["nq"] for x in rows])), "cw": float(np.mean([x["cw"] for x in rows])),
             "map_acc": float(np.mean([x["map_ok"] for x in rows])),
             "regret": float(np.nanmean([x["regret"] for x in rows])), "n": len(rows)}
 

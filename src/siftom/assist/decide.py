@@ -279,7 +279,7 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
                    ask_cost: float | None = 0.0, kinds: Sequence[str] = KINDS,
                    pool: int = QUESTION_POOL, unit: str = "steps",
                    cost_model: QuestionCost | None = None,
-                   time_as_loss: bool = True) -> list[tuple[float, Question]]:
+                   time_as_loss: bool = True, spent: float = 0.0) -> list[tuple[float, Question]]:
     """EVI (steps) of every candidate question (assist/questions.py), best net value first.
 
     Each question's answer is heard with its kind's reliability here
@@ -288,16 +288,17 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
     list is ordered by EVI minus that time. ``time_as_loss``: the time is inside the
     loss-averse utility of every outcome after the question (a question followed by doing
     nothing is a loss, weighed ``1 + loss_aversion``); otherwise it is a sure price paid at
-    face value, the outcomes after the answer valued from there (the classic EVI).
+    face value, the outcomes after the answer valued from there (the classic EVI). ``spent``:
+    steps already spent on earlier questions about this request (in every outcome).
     """
     qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
     if not qs:
         return []
-    v0 = float((tv.prob @ tv.utility(loss_aversion, unit=unit)).max())
+    v0 = float((tv.prob @ tv.utility(loss_aversion, spent, unit)).max())
     out = []
     for q in qs:
         c = question_cost(q, ask_cost, cost_model)
-        u_after = tv.utility(loss_aversion, c if time_as_loss else 0.0, unit)
+        u_after = tv.utility(loss_aversion, spent + (c if time_as_loss else 0.0), unit)
         # the gain of asking over acting now, in the utility's unit (the time inside it, or paid after)
         net = evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), 0.0)
         if not time_as_loss:
@@ -329,10 +330,13 @@ class AskOrActRule:
     time_as_loss: bool = True
     # what a gain is measured in, as for expected-benefit: steps saved or the speedup ratio
     utility: str = DEFAULT_UTILITY
+    # steps already spent on earlier questions about this request (a follow-up question weighs
+    # its outcomes from there, as expected-benefit's ``spent`` does)
+    spent: float = 0.0
     name: str = "ask-or-act"
 
     def __post_init__(self) -> None:
-        _check_steps(self, "penalty", "loss_aversion")
+        _check_steps(self, "penalty", "loss_aversion", "spent")
         if self.ask_cost is not None:
             _check_steps(self, "ask_cost")
         bad = [k for k in self.kinds if k not in KINDS]
@@ -348,11 +352,11 @@ class AskOrActRule:
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion, self.utility)
+        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
         qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds, unit=self.utility,
-                            cost_model=self.cost_model, time_as_loss=self.time_as_loss)
+                            cost_model=self.cost_model, time_as_loss=self.time_as_loss, spent=self.spent)
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.cost(qs[0][1]):
             value, q = qs[0]
@@ -374,7 +378,7 @@ RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",
-                                   "time_as_loss", "utility")})
+                                   "time_as_loss", "utility", "spent")})
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:

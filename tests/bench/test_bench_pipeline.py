@@ -194,12 +194,14 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
     assert set(summary["models"]) == {"siftom", *lb.LLM_MODELS}
 
 
-def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny_results: Path) -> None:
+def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny: Path, tmp_path: Path) -> None:
     from siftom.assist.decide import DEFAULT_LOSS_AVERSION
     from siftom.bench.decision_tuning import loss_aversion_curve
 
-    curve = loss_aversion_curve(tiny_results, lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
-    rows = load_results(tiny_results)
+    # the curve re-infers with the run's (phonetic) likelihood: compare with the phonetic models
+    evaluate(tiny, tmp_path / "la", EvalOptions(models=("siftom", "siftom-phonetic-eb")))
+    curve = loss_aversion_curve(tmp_path / "la", lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
+    rows = load_results(tmp_path / "la")
 
     def mean(model: str) -> float:
         return sum(r["models"][model]["speedup"] for r in rows) / len(rows)
@@ -207,7 +209,7 @@ def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny_results: Path)
     assert curve["n"] == len(rows)
     # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator
     assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom"))
-    assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-eb"))
+    assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-phonetic-eb"))
     # no chance constraint (alpha = 1) is the risk-neutral rule
     assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])
 

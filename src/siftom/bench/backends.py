@@ -55,7 +55,7 @@ class LocalBackend:
             for i, it in enumerate(items):
                 yield i, fn(it, shared)
             return
-        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+        ctx = multiprocessing.get_context(_start_method())
         self._pool = ctx.Pool(min(self.workers, len(items)), initializer=_init_worker, initargs=(fn, shared))
         try:
             yield from self._pool.imap_unordered(_call, list(enumerate(items)))
@@ -73,6 +73,19 @@ class LocalBackend:
 
 
 _WORK: tuple[Work, Any] | None = None
+# native runtimes that start threads of their own (Whisper's, the neural VAD's): a process that
+# has loaded one must not fork (a child can inherit a held lock and hang)
+_THREADED_RUNTIMES = ("ctranslate2", "onnxruntime", "torch")
+
+
+def _start_method() -> str:
+    """``fork`` (cheap, shares what the parent built) unless a threaded runtime is loaded here."""
+    import sys
+
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and not any(m in sys.modules for m in _THREADED_RUNTIMES):
+        return "fork"
+    return "forkserver" if "forkserver" in methods else "spawn"
 
 
 def _init_worker(fn: Work, shared: Any) -> None:

@@ -157,9 +157,11 @@ def check_cmd(folder: str) -> None:
 @click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
 @click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
-              "siftom-oracle-text, plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
+              "siftom-oracle-text,siftom-eb,siftom-ask (decision rules on the acoustic likelihood, "
+              "docs/decisions.md), plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
               "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic, "
-              "speech-only-acoustic (the audio itself, key-phrase alignment)")
+              "speech-only-acoustic (the audio itself, key-phrase alignment), siftom-phonetic-eb, "
+              "siftom-phonetic-ask (the rules on the phonetic likelihood)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True,
               help=f"ASR engine: {ENGINES.help_line()}")
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")

@@ -16,7 +16,7 @@ three seconds of silence into "dog"). No model to download: two measurements per
 
 A frame is speech when both hold; the recording holds speech when at least ``min_speech_s``
 seconds of frames are speech. Speech regions are the speech frames grown by ``pad_s`` and
-merged; ``trim`` cuts only audio more than 0.5 s away from any speech frame. Measured on the recorded noises in ../shared/data/noise
+merged; ``trim`` cuts only audio more than 0.5 s away from any speech frame. Measured on the recorded noises shipped with siftom
 and on TTS speech mixed with them at 0-20 dB (tests/speech/test_vad.py, docs/speech.md).
 """
 

@@ -25,6 +25,7 @@ _AREAS = (
     "siftom.cli.perception",
     "siftom.cli.demo",
     "siftom.cli.plugins",
+    "siftom.cli.results",
 )
 
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import tempfile
-from pathlib import Path
 from typing import Any
 
 PAGE = "reference/http.md"
@@ -50,9 +49,12 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
     return markdown.replace(MARK, endpoint_table(_SCHEMA))
 
 
-def on_post_build(config: Any) -> None:
-    """Ship the full schema with the site (``reference/openapi.json``)."""
-    schema = _SCHEMA if _SCHEMA is not None else openapi_schema()
-    out = Path(config["site_dir"]) / SCHEMA
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(schema, indent=2) + "\n", encoding="utf-8")
+def on_files(files: Any, config: Any) -> Any:
+    """Ship the full schema with the site (``reference/openapi.json``), generated, never committed."""
+    global _SCHEMA
+    from mkdocs.structure.files import File
+
+    if _SCHEMA is None:
+        _SCHEMA = openapi_schema()
+    files.append(File.generated(config, SCHEMA, content=json.dumps(_SCHEMA, indent=2) + "\n"))
+    return files

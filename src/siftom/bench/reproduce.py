@@ -13,8 +13,8 @@ A plan (TOML) lists evaluation sets::
     noise_dir = "recorded"          # the recordings shipped with siftom; omit for synthetic noise
     # voices, noises, phrasings, scenarios, speakers, snr: as `siftom dataset build`
 
-For each set :func:`reproduce` builds the dataset (``OUT/work/NAME/dataset``), evaluates it
-(``OUT/work/NAME/results``, resumable) and writes ``OUT/NAME.json``: the evaluator's summary
+For each set :func:`reproduce` builds the dataset (``OUT/runs/NAME/dataset``), evaluates it
+(``OUT/runs/NAME/results``, resumable) and writes ``OUT/NAME.json``: the evaluator's summary
 stamped with the package version, the dataset's fingerprint (a hash of its manifest), the
 machine (CPU count, platform) and the commands that made it. ``siftom.bench.pages`` turns
 those files into the documentation's results pages and the README's table.
@@ -136,7 +136,7 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions, load_dataset
 
     say = progress or (lambda _m: None)
-    work = out / "work" / s.name
+    work = out / "runs" / s.name
     ds_dir, res_dir = work / "dataset", work / "results"
     opts = BuildOptions(domain=s.domain, scenarios=s.scenarios, speakers=s.speakers, voices=s.voices or DEFAULT_VOICES,
                         noise_dir=s.noise_dir, noises=s.noises, snrs=s.snr, seed=s.seed, phrasings=s.phrasings)

@@ -12,7 +12,7 @@ from siftom.cli.inference import _bench_group
 @click.option("--plan", "plan_path", type=click.Path(dir_okay=False), default="results/plan.toml", show_default=True,
               help="TOML plan: the evaluation sets (domain, seed, voices, noises, phrasings, models)")
 @click.option("--out", "out", type=click.Path(file_okay=False), default="results", show_default=True,
-              help="results folder: NAME.json per set (datasets and raw results go to OUT/work/)")
+              help="results folder: NAME.json per set (datasets and raw results go to OUT/runs/)")
 @click.option("--only", default=None, help="comma-separated set names (default: every set)")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options

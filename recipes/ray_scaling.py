@@ -1,6 +1,6 @@
 """Eval wall time with 1, 2, ... workers on the Ray (or local) backend, and the speedup.
 
-Run: .venv/bin/python benchmarks/ray_scaling.py [--dataset DIR] [--workers 1,2] [--backend ray]
+Run: .venv/bin/python recipes/ray_scaling.py [--dataset DIR] [--workers 1,2] [--backend ray]
 
 Builds a 48-stimulus dataset (12 household scenarios x 2 flite speakers x clean + pink 10 dB,
 seed 0) in ``runs/scaling/dataset`` unless --dataset is given, then evaluates it from scratch

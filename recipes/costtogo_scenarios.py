@@ -1,6 +1,6 @@
 """The fast cost-to-go against A* on the built-in scenarios of both domains.
 
-Run: PYTHONPATH=src python benchmarks/costtogo_scenarios.py [--goals now|all|none] [--json OUT]
+Run: python recipes/costtogo_scenarios.py [--goals now|all|none] [--json OUT]
 
 States: every state an observed action sequence of a built-in scenario visits (``sc.states()``,
 start to the moment the human speaks), seen by either agent (the human and the robot plan from

@@ -66,6 +66,10 @@ def test_reproduce_a_tiny_plan_then_pages(tmp_path: Path) -> None:
     before = {p.name: p.read_bytes() for p in docs.iterdir()}
     assert main(["bench", "pages", "--results", str(out), "--docs", str(docs), "--readme", str(readme)]) == 0
     assert {p.name: p.read_bytes() for p in docs.iterdir()} == before
+    # other options (or other code) than the rows already there: the set is evaluated again
+    plan.write_text(TINY.replace('["literal-asr", "siftom"]', '["siftom"]'), encoding="utf-8")
+    assert main(["bench", "reproduce", "--plan", str(plan), "--out", str(out), "--workers", "1", "--docs", ""]) == 0
+    assert set(json.loads((out / "tiny.json").read_text())["summary"]["models"]) == {"siftom"}
 
 
 def test_committed_results_pages_match_the_committed_results(tmp_path: Path) -> None:

@@ -133,6 +133,7 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     from siftom.bench.dataset import build_dataset
     from siftom.bench.evaluate import EvalOptions, evaluate
     from siftom.bench.report import write_report
+    from siftom.bench.results_io import code_version, provenance
     from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions, load_dataset
 
     say = progress or (lambda _m: None)
@@ -148,12 +149,16 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
         say(f"{s.name}: building the dataset")
         ds = build_dataset(opts, ds_dir, backend=backend)
     t_build = time.perf_counter() - t0
+    eval_opts = EvalOptions(models=s.models, engine=s.engine)
+    stale = _stale(res_dir, provenance(eval_opts.to_json(), ds.fingerprint))
+    if stale:
+        say(f"{s.name}: earlier results differ in {stale}; evaluating again from scratch")
     say(f"{s.name}: evaluating {len(ds.stimuli)} stimuli")
-    evaluate(ds, res_dir, EvalOptions(models=s.models, engine=s.engine), backend=backend)
+    evaluate(ds, res_dir, eval_opts, backend=backend, overwrite=bool(stale))
     summary = write_report(res_dir, figures=False)
     result = {
         "format": RESULT_FORMAT,
-        "set": s.name, "title": s.title, "siftom": __version__,
+        "set": s.name, "title": s.title, "siftom": __version__, "source_sha1": code_version()["source_sha1"],
         "dataset": {"fingerprint": ds.fingerprint, "stimuli": len(ds.stimuli), "domain": s.domain, "seed": s.seed},
         "machine": machine(),
         "commands": [s.build_command("DATASET"), s.eval_command("DATASET", "RESULTS")],
@@ -162,6 +167,22 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     }
     (out / f"{s.name}.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     return result
+
+
+def _stale(res_dir: Path, prov: dict[str, Any]) -> str:
+    """What differs between the rows already in ``res_dir`` and this run ('' when none or the same)."""
+    from siftom.bench.results_io import provenance_mismatch
+
+    path = res_dir / "results.jsonl"
+    if not path.is_file():
+        return ""
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        return "; ".join(provenance_mismatch(row.get("provenance"), prov))
+    return ""
 
 
 def reproduce(plan: Plan, out: str | Path, backend: Any, only: tuple[str, ...] = (),

@@ -1,8 +1,9 @@
-"""Every block marked ``<!-- run -->`` in docs/tutorials/*.md runs, in order, in a fresh folder.
+"""Every block marked ``<!-- run -->`` in docs/tutorials/*.md and README.md runs, in order, in a fresh folder.
 
 ``python`` blocks run in one interpreter per page (later blocks see earlier files); ``console``
 blocks run each ``$ `` line in bash with this interpreter's ``siftom`` and ``python`` first on
-the PATH. ``SRC`` in a command stands for the repository root.
+the PATH; a line ending in a backslash continues on the next. ``SRC`` in a command stands for
+the repository root. README.md's blocks run in a folder that sees the repository's docs/ and data/.
 """
 
 from __future__ import annotations
@@ -24,6 +25,17 @@ BLOCK = re.compile(r"<!-- run -->\s*\n```(python|console)\n(.*?)\n```", re.DOTAL
 def runnable_blocks(text: str) -> list[tuple[str, str]]:
     """(language, code) of each block marked to run, in page order."""
     return [(m.group(1), m.group(2)) for m in BLOCK.finditer(text)]
+
+
+def console_commands(code: str) -> list[str]:
+    """The ``$ `` commands of a console block, continuation lines joined."""
+    out: list[str] = []
+    for line in code.splitlines():
+        if out and out[-1].endswith("\\"):
+            out[-1] = out[-1][:-1] + " " + line.strip()
+        elif line.startswith("$ "):
+            out.append(line[2:])
+    return out
 
 
 def _env(bindir: Path) -> dict[str, str]:
@@ -51,10 +63,13 @@ def test_every_tutorial_has_runnable_blocks() -> None:
 
 
 @pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
-@pytest.mark.parametrize("page", TUTORIALS, ids=[p.stem for p in TUTORIALS])
+@pytest.mark.parametrize("page", [*TUTORIALS, ROOT / "README.md"], ids=[*(p.stem for p in TUTORIALS), "README"])
 def test_tutorial_blocks_run(page: Path, tmp_path: Path) -> None:
     work = tmp_path / "work"
     work.mkdir()
+    if page.name == "README.md":
+        for name in ("docs", "data"):
+            (work / name).symlink_to(ROOT / name)
     env = _env(_bindir(tmp_path))
     for k, (lang, code) in enumerate(runnable_blocks(page.read_text(encoding="utf-8"))):
         if lang == "python":
@@ -62,9 +77,7 @@ def test_tutorial_blocks_run(page: Path, tmp_path: Path) -> None:
                                  text=True, timeout=300)
             assert res.returncode == 0, f"{page.name} block {k} (python) failed:\n{code}\n{res.stderr[-2000:]}"
             continue
-        for line in code.splitlines():
-            if not line.startswith("$ "):
-                continue
-            cmd = line[2:].replace("SRC", str(ROOT))
+        for line in console_commands(code):
+            cmd = line.replace("SRC", str(ROOT))
             res = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True, text=True, timeout=300)
             assert res.returncode == 0, f"{page.name} block {k}: `{cmd}` failed:\n{res.stderr[-2000:]}"

@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-HISTORY = re.compile(r"session [0-9]|/work/|another engineer|issue #?[0-9]", re.IGNORECASE)
+HISTORY = re.compile(r"session[ -]?[0-9]|/work/|another engineer|issue #?[0-9]", re.IGNORECASE)
 TEXT_SUFFIXES = {".md", ".py", ".toml", ".json", ".txt", ".html", ".js", ".css", ".yml", ".yaml", ".tsv"}
 
 
@@ -23,8 +23,8 @@ def find_history(text: str) -> list[str]:
 
 
 def test_the_pattern_catches_history() -> None:
-    sample = "Measured in Session 5.\nsee issue #12\nissue 9 changed it\n/work/datasets/x\nanother engineer's run\nfine"
-    assert len(find_history(sample)) == 5
+    sample = "Measured in Session 5.\nthe session-4 code\nsee issue #12\nissue 9 changed it\n/work/datasets/x\nanother engineer's run\nfine"
+    assert len(find_history(sample)) == 6
 
 
 def test_no_history_in_readme_docs_or_sources() -> None:

@@ -30,7 +30,7 @@ def endpoint_table(schema: dict[str, Any]) -> str:
         for method, op in ops.items():
             if method.startswith("x-") or not isinstance(op, dict):
                 continue
-            summary = (op.get("summary") or op.get("description") or "").strip().splitlines()
+            summary = (op.get("description") or op.get("summary") or "").strip().splitlines()
             text = (summary[0] if summary else "").replace("|", "\\|")
             rows.append(f"| `{method.upper()}` | `{path}` | {text} |")
     return "\n".join(rows)

@@ -53,11 +53,23 @@ def versions(results: Sequence[dict[str, Any]]) -> list[str]:
     return sorted({str(r.get("siftom", "?")) for r in results})
 
 
+def model_order(result: dict[str, Any]) -> list[str]:
+    """The set's models in the plan's order (the ``--models`` of its eval command), then any others."""
+    planned: list[str] = []
+    for cmd in result.get("commands", []):
+        m = re.search(r"--models (\S+)", cmd)
+        if m:
+            planned = m.group(1).split(",")
+    have = result["summary"]["models"]
+    return [m for m in planned if m in have] + sorted(m for m in have if m not in planned)
+
+
 def set_table(result: dict[str, Any]) -> str:
-    """One set's table: a row per model."""
+    """One set's table: a row per model, in the plan's order."""
     lines = ["| model | accuracy [95 % CI] | speedup [95 % CI] | negative speedup | helpful errors | n |",
              "|---|---|---|---|---|---|"]
-    for m, s in result["summary"]["models"].items():
+    for m in model_order(result):
+        s = result["summary"]["models"][m]
         sci = s.get("speedup_ci") or [None, None]
         spci = "" if sci[0] is None else f" [{sci[0]:+.3f}, {sci[1]:+.3f}]"
         lines.append(f"| {m} | {_pct(s['accuracy'])}{_ci(s.get('accuracy_ci'))} | {_sp(s['speedup'])}{spci} "

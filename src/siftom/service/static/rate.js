@@ -43,7 +43,7 @@ async function send(ev) {
   const scores = [];
   for (let k = 0; k < statements.length; k++) {
     const r = document.querySelector(`input[name="s${k}"]:checked`);
-    if (!r) { showError(`Choose a rating for statement ${k + 1}.`); document.getElementById(`s${k}-4`).focus(); return; }
+    if (!r) { showError(`Choose a rating for statement ${k + 1}.`); document.getElementById(`s${k}-1`).focus(); return; }
     scores.push(Number(r.value));
   }
   const body = { scores };

@@ -1,0 +1,296 @@
+"""People in the loop, in headless Debian chromium (Playwright), driven like a participant would.
+
+* A participant records two scenarios through the collection page with the keyboard alone;
+  the microphone is Chromium's fake capture device playing a WAV made by `siftom say`.
+  The folder passes `siftom dataset check`, `siftom dataset mix` adds noisy copies and
+  `siftom eval` evaluates it unchanged.
+* An annotator answers through the annotation page; `siftom report --human` then shows a
+  `human` row next to the models, with its transcription WER.
+* A participant rates a session's trial on the rating page; `siftom report --ratings` shows
+  the mean rating of the session's model.
+* With the microphone permission denied, the page says what went wrong and how to fix it.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from siftom.bench.collect import CollectOptions
+from siftom.bench.human import AnnotateOptions
+from siftom.cli import main as siftom
+from siftom.service.annotate_app import create_annotate_app
+from siftom.service.collect_app import create_collect_app
+from siftom.service.loadtest import serve_in_thread
+
+CHROMIUM = "/usr/bin/chromium"  # as in test_browser.py
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ROOT = Path(__file__).parents[2]
+SPOKEN = "could you bring me the milk please"
+TAKE_S = 2.0  # seconds each recording runs
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists() and shutil.which("chromium") is None,
+                       reason=f"needs Debian chromium at {CHROMIUM}: sudo apt-get install -y chromium"),
+]
+
+
+def _say(text: str, out: Path) -> None:
+    """`siftom say TEXT -o OUT` (in this process), with a short silence around it."""
+    import soundfile as sf
+
+    if siftom(["say", text, "-o", str(out)]) != 0:
+        pytest.skip("siftom say failed (no TTS voice?)")
+    x, rate = sf.read(out, dtype="float32")
+    pad = np.zeros(rate // 4, dtype=np.float32)
+    sf.write(out, np.concatenate([pad, x, pad]), rate, subtype="PCM_16")
+
+
+def _cli(*args: str, capsys: pytest.CaptureFixture[str]) -> str:
+    capsys.readouterr()
+    code = siftom(list(args))
+    out = capsys.readouterr()
+    assert code == 0, f"siftom {' '.join(args)} exited {code}: {out.err[-500:]}"
+    return out.out
+
+
+def tab_to(page, element_id: str, limit: int = 40, selector: str | None = None) -> None:
+    """Press Tab until the element (or one matching ``selector``) has the focus: it is reachable
+    with the keyboard alone."""
+    target = page.locator(selector or f"#{element_id}")
+    for _ in range(limit):
+        if target.evaluate_all("els => els.includes(document.activeElement)"):
+            return
+        page.keyboard.press("Tab")
+    raise AssertionError(f"{selector or '#' + element_id} is not reachable with Tab")
+
+
+def _launch(pw, *extra: str):
+    return pw.chromium.launch(executable_path=CHROMIUM, args=[*CHROMIUM_ARGS, *extra], headless=True)
+
+
+def _watch(page) -> list[str]:
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    return errors
+
+
+@pytest.fixture(scope="module")
+def sync_api():
+    return pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install playwright")
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory, sync_api):
+    """A participant records two kitchen scenarios with the keyboard alone; the dataset folder."""
+    tmp = tmp_path_factory.mktemp("people")
+    wav = tmp / "voice.wav"
+    _say(SPOKEN, wav)
+    out = tmp / "recorded"
+    expect = sync_api.expect
+    app = create_collect_app(out, CollectOptions(domain="kitchen-v0", scenarios=2))
+    with serve_in_thread(app) as url, sync_api.sync_playwright() as pw:
+        browser = _launch(pw, "--use-fake-device-for-media-stream", "--use-fake-ui-for-media-stream",
+                          f"--use-file-for-fake-audio-capture={wav}")
+        try:
+            page = browser.new_context(permissions=["microphone"]).new_page()
+            errors = _watch(page)
+            page.goto(url)
+            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+            assert "recorded on this computer only" in page.locator("#consent-text").inner_text()
+            tab_to(page, "participant")
+            page.keyboard.type("p01")
+            tab_to(page, "agree")
+            page.keyboard.press("Space")
+            tab_to(page, "start")
+            page.keyboard.press("Enter")
+            for k in range(2):
+                expect(page.locator("#task-title")).to_have_text(f"Scenario {k + 1} of 2", timeout=10_000)
+                expect(page.locator("#task-title")).to_be_focused()  # the new scenario takes the focus
+                assert page.locator("#goal").inner_text().startswith("Your goal: Make")
+                assert "robot to bring" in page.locator("#ask").inner_text()
+                assert page.locator("#scene-actions li").count() >= 3
+                frame = page.locator("#scene-frame")
+                expect(frame).to_have_attribute("src", re.compile(r"/frames/\d+\.png$"))
+                _wait_image(page, frame)
+                tab_to(page, "record")
+                page.keyboard.press("Enter")
+                expect(page.locator("#record")).to_have_text(re.compile("Stop"), timeout=10_000)
+                time.sleep(TAKE_S)
+                page.keyboard.press("Enter")  # the focus stayed on the button: Stop
+                expect(page.locator("#take")).to_be_visible(timeout=10_000)
+                expect(page.locator("#said")).to_be_focused()
+                assert page.locator("#playback").get_attribute("src").startswith("blob:")  # playback offered
+                page.keyboard.type(SPOKEN)
+                page.keyboard.press("Enter")
+            expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+            assert errors == []
+        finally:
+            browser.close()
+    return out
+
+
+def _wait_image(page, frame) -> None:
+    """Wait until the frame PNG has loaded (rendered on the server on first request)."""
+    deadline = time.monotonic() + 30
+    while not frame.evaluate("e => e.complete && e.naturalWidth > 0"):
+        assert time.monotonic() < deadline, "the scene frame did not load"
+        time.sleep(0.1)
+
+
+@pytest.fixture(scope="module")
+def evaluated(recorded, tmp_path_factory):
+    """The recorded folder mixed with noise and evaluated (fast models); the results folder."""
+    from siftom.bench.evaluate import EvalOptions, evaluate
+    from siftom.bench.mix import MixOptions, mix_dataset
+
+    ds, written = mix_dataset(recorded, MixOptions(snrs=(20.0, 10.0, 5.0), seed=3))
+    assert written == 6 and len(ds.stimuli) == 8
+    res = tmp_path_factory.mktemp("results")
+    evaluate(recorded, res, EvalOptions(models=("action-only", "literal-asr")))
+    return res
+
+
+def test_recordings_form_a_dataset_that_checks_mixes_and_evaluates(recorded, evaluated, capsys):
+    import soundfile as sf
+
+    lines = [json.loads(x) for x in (recorded / "manifest.jsonl").read_text().splitlines()]
+    clean = [d for d in lines if d["noise"] is None]
+    assert [d["id"] for d in clean] == ["000-p01-clean", "001-p01-clean"]
+    for d in clean:
+        assert d["speaker"] == "p01" and d["reference"] == SPOKEN
+        assert d["gold_command"].startswith("fetch(") and d["observed_actions"]
+        x, rate = sf.read(recorded / d["audio"], dtype="float32")
+        info = sf.info(recorded / d["audio"])
+        assert rate == 16000 and info.channels == 1 and info.subtype == "PCM_16"
+        assert TAKE_S - 0.6 < len(x) / rate < TAKE_S + 2.0, len(x) / rate  # about as long as the take
+        assert np.sqrt(np.mean(x ** 2)) > 0.01  # the fake microphone's speech, not silence
+    consent = [json.loads(x) for x in (recorded / "participants.jsonl").read_text().splitlines()]
+    assert consent[0]["participant"] == "p01" and consent[0]["agreed"] and "recorded" in consent[0]["consent"]
+    assert "ok: 8 stimuli, 2 scenarios, 1 speakers" in _cli("dataset", "check", str(recorded), capsys=capsys)
+    out = _cli("report", str(evaluated), "--json", capsys=capsys)
+    summary = json.loads(out)
+    assert set(summary["models"]) == {"action-only", "literal-asr"} and summary["n_stimuli"] == 8
+    assert set(summary["breakdowns"]["snr"]) == {"clean", "20 dB", "10 dB", "5 dB"}
+
+
+def test_annotators_in_the_browser_give_a_human_row(recorded, evaluated, tmp_path, sync_api, capsys):
+    ann = tmp_path / "annotation"
+    app = create_annotate_app(recorded, ann, AnnotateOptions(per_stimulus=1, per_annotator=4, seed=5))
+    expect = sync_api.expect
+    with serve_in_thread(app) as url, sync_api.sync_playwright() as pw:
+        browser = _launch(pw, "--autoplay-policy=no-user-gesture-required")
+        try:
+            for who in range(2):  # two annotators share the 8 stimuli
+                page = browser.new_context().new_page()
+                errors = _watch(page)
+                page.goto(url)
+                page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+                tab_to(page, "agree")
+                page.keyboard.press("Space")
+                tab_to(page, "start")
+                page.keyboard.press("Enter")
+                for k in range(4):
+                    expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 4", timeout=10_000)
+                    assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
+                    assert page.locator("#goal").count() == 0  # the annotator infers the goal
+                    tab_to(page, "play")
+                    page.keyboard.press("Enter")
+                    tab_to(page, "typed")
+                    page.keyboard.type(SPOKEN if k % 2 == 0 else "could you bring me the")
+                    tab_to(page, "item")
+                    page.get_by_label("What would you bring?").select_option("milk")
+                    assert page.locator("#count").is_hidden()  # fetch: no count to choose
+                    tab_to(page, "submit")
+                    page.keyboard.press("Enter")
+                expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+                assert f"annotator a{who + 1}" in page.locator("#done-text").inner_text()
+                assert errors == []
+        finally:
+            browser.close()
+    answers = [json.loads(x) for x in (ann / "answers.jsonl").read_text().splitlines()]
+    assert len(answers) == 8 and len({a["id"] for a in answers}) == 8  # every stimulus once
+    summary = json.loads(_cli("report", str(evaluated), "--human", str(ann), "--json", capsys=capsys))
+    human = summary["models"]["human"]
+    assert human["n"] == 8
+    gold = [json.loads(x)["gold_command"] for x in (recorded / "manifest.jsonl").read_text().splitlines()]
+    assert human["accuracy"] == pytest.approx(sum(g == "fetch(milk)" for g in gold) / 8)
+    assert human["speedup"] is not None and human["accuracy_ci"][0] <= human["accuracy"] <= human["accuracy_ci"][1]
+    assert summary["human"]["answers"] == 8 and 0 < summary["human"]["wer"] < 0.5  # half typed with 2 words missing
+    report = (evaluated / "report.md").read_text()
+    assert re.search(r"^\| human \| ", report, re.M) and "## The human baseline" in report
+
+
+def test_a_rating_after_a_trial_reaches_the_report(evaluated, tmp_path, sync_api, capsys):
+    import httpx
+
+    from siftom.service.app import create_app
+
+    world = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
+    data = tmp_path / "serve"
+    expect = sync_api.expect
+    with serve_in_thread(create_app(data)) as url, sync_api.sync_playwright() as pw:
+        api = httpx.Client(base_url=url, timeout=60)
+        sid = api.post("/v1/sessions", json={"world": world}).raise_for_status().json()["id"]
+        api.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the tomato"}).raise_for_status()
+        browser = _launch(pw)
+        try:
+            page = browser.new_page()
+            errors = _watch(page)
+            page.goto(f"{url}/rate?session={sid}")
+            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+            assert page.locator("#trial").inner_text().startswith("The robot did: fetch(")
+            assert page.locator("legend").nth(1).inner_text() == "2. The robot understood what I needed."
+            tab_to(page, "send")
+            page.keyboard.press("Enter")  # nothing chosen: the page says what is missing
+            expect(page.locator("#alert")).to_have_text("Choose a rating for statement 1.")
+            for k, value in enumerate((6, 5, 7)):
+                tab_to(page, "", selector=f"input[name=s{k}]")  # a radio group is one tab stop
+                expect(page.locator(f"#s{k}-1")).to_be_focused()
+                for _ in range(value - 1):
+                    page.keyboard.press("ArrowRight")  # radio buttons: arrows move and choose
+                expect(page.locator(f"#s{k}-{value}")).to_be_checked()
+            tab_to(page, "send")
+            page.keyboard.press("Enter")
+            expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+            assert errors == []
+        finally:
+            browser.close()
+    summary = json.loads(_cli("report", str(evaluated), "--ratings", str(data / "ratings.jsonl"), "--json",
+                              capsys=capsys))
+    assert summary["ratings"]["siftom"]["n"] == 1 and summary["ratings"]["siftom"]["mean"] == pytest.approx(6.0)
+    assert "## Ratings after trials with the robot" in (evaluated / "report.md").read_text()
+
+
+def test_a_denied_microphone_is_explained(tmp_path, sync_api):
+    app = create_collect_app(tmp_path / "denied", CollectOptions(domain="kitchen-v0", scenarios=1, participant="p9"))
+    expect = sync_api.expect
+    with serve_in_thread(app) as url, sync_api.sync_playwright() as pw:
+        browser = _launch(pw, "--use-fake-device-for-media-stream")  # a device, but no permission granted
+        try:
+            context = browser.new_context()
+            page = context.new_page()
+            page.goto(url)
+            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+            assert page.locator("#participant").input_value() == "p9"
+            page.locator("#agree").check()
+            page.locator("#start").click()
+            expect(page.locator("#task-title")).to_have_text("Scenario 1 of 1", timeout=10_000)
+            page.locator("#record").click()
+            alert = page.locator("#alert")
+            expect(alert).to_be_visible(timeout=10_000)
+            expect(alert).to_have_text(re.compile(r"microphone is blocked.*Allow the microphone.*press Record again"))
+            assert alert.get_attribute("role") == "alert"
+            assert page.locator("#take").is_hidden()  # nothing to save
+            assert not (tmp_path / "denied" / "manifest.jsonl").exists()
+        finally:
+            browser.close()

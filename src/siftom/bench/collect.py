@@ -61,11 +61,12 @@ def check_participant(pid: str) -> str:
     return pid
 
 
-def _plural(word: str, n: int) -> str:
-    w = word.replace("_", " ")
-    if n == 1:
-        return w
-    return w + ("es" if w.endswith(("s", "x", "ch", "sh")) else "s")
+def _plural(obj_class: str, n: int) -> str:
+    """The class's everyday name (``wine glass``), in the plural when ``n`` > 1."""
+    from siftom.likelihood.lexicon import default_lexicon
+
+    e = default_lexicon().entry(obj_class)
+    return e.plural if n > 1 else e.singular
 
 
 def _join(parts: list[str]) -> str:

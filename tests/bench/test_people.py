@@ -187,3 +187,32 @@ def test_importing_ratings_twice_adds_them_once(tmp_path):
     src.write_text(json.dumps({"id": "r2", "model": "siftom", "scores": [9, 7, 6]}) + "\n")
     with pytest.raises(DatasetError, match="from 1"):
         import_ratings(src, tmp_path / "res")
+
+
+def test_the_tutorials_commands_parse(monkeypatch):
+    """Every `siftom ...` line of docs/tutorials/own-participants.md names real commands and options."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    import click
+
+    from siftom.cli import root
+
+    doc = (Path(__file__).parents[2] / "docs" / "tutorials" / "own-participants.md").read_text()
+    lines = [ln.strip().rstrip("&").strip() for block in re.findall(r"```bash\n(.*?)```", doc, re.S)
+             for ln in block.replace("\\\n", " ").splitlines() if ln.strip().startswith("siftom ")]
+    assert len(lines) >= 12
+    ran: list[str] = []
+
+    def stub(group: click.Group) -> None:
+        for name, cmd in group.commands.items():
+            if isinstance(cmd, click.Group):
+                stub(cmd)
+            else:
+                monkeypatch.setattr(cmd, "callback", lambda _n=name, **kw: ran.append(_n))
+
+    stub(root)
+    for line in lines:
+        root.main(args=shlex.split(line)[1:], prog_name="siftom", standalone_mode=False)
+    assert set(ran) >= {"collect", "mix", "check", "eval", "annotate", "report", "serve", "say"}

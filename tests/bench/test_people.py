@@ -216,3 +216,14 @@ def test_the_tutorials_commands_parse(monkeypatch):
     for line in lines:
         root.main(args=shlex.split(line)[1:], prog_name="siftom", standalone_mode=False)
     assert set(ran) >= {"collect", "mix", "check", "eval", "annotate", "report", "serve", "say"}
+
+
+def test_actions_in_words():
+    from siftom.bench.collect import action_words
+
+    sc = resolve_scenario("household-table-v0/0", "household-table-v0", None)
+    words = [action_words(sc.world, a) for a in sc.actions]
+    assert words[:3] == ["You walked to the living cabinet.", "You opened the living cabinet.",
+                         "You took a knife from the living cabinet."]
+    assert words[5] == "You put a knife on the dining table."
+    assert action_words(sc.world, sc.actions[0], "The person") == "The person walked to the living cabinet."

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import time
@@ -33,6 +34,7 @@ CHROMIUM = "/usr/bin/chromium"  # as in test_browser.py
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 ROOT = Path(__file__).parents[2]
+DOCS_IMG = ROOT / "docs" / "img"
 SPOKEN = "could you bring me the milk please"
 TAKE_S = 2.0  # seconds each recording runs
 
@@ -71,6 +73,14 @@ def tab_to(page, element_id: str, limit: int = 40, selector: str | None = None) 
             return
         page.keyboard.press("Tab")
     raise AssertionError(f"{selector or '#' + element_id} is not reachable with Tab")
+
+
+def _screenshot(page, name: str, tmp: Path) -> None:
+    """A picture of the page: docs/img/NAME with SIFTOM_UPDATE_DOCS=1, else a temporary file."""
+    shot = DOCS_IMG / name if os.environ.get("SIFTOM_UPDATE_DOCS") == "1" else tmp / name
+    page.set_viewport_size({"width": 1100, "height": 1000})
+    page.screenshot(path=str(shot), full_page=True)
+    assert shot.stat().st_size > 10_000  # a real picture of the page
 
 
 def _launch(pw, *extra: str):
@@ -130,6 +140,8 @@ def recorded(tmp_path_factory, sync_api):
                 expect(page.locator("#take")).to_be_visible(timeout=10_000)
                 expect(page.locator("#said")).to_be_focused()
                 assert page.locator("#playback").get_attribute("src").startswith("blob:")  # playback offered
+                if k == 0:
+                    _screenshot(page, "collect-page.png", tmp)
                 page.keyboard.type(SPOKEN)
                 page.keyboard.press("Enter")
             expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
@@ -208,7 +220,10 @@ def test_annotators_in_the_browser_give_a_human_row(recorded, evaluated, tmp_pat
                     tab_to(page, "typed")
                     page.keyboard.type(SPOKEN if k % 2 == 0 else "could you bring me the")
                     tab_to(page, "item")
-                    page.get_by_label("What would you bring?").select_option("milk")
+                    page.keyboard.type("milk")  # a focused list picks the option typed
+                    expect(page.get_by_label("What would you bring?")).to_have_value("milk")
+                    if who == 0 and k == 0:
+                        _screenshot(page, "annotate-page.png", tmp_path)
                     assert page.locator("#count").is_hidden()  # fetch: no count to choose
                     tab_to(page, "submit")
                     page.keyboard.press("Enter")

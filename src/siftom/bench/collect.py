@@ -91,6 +91,25 @@ def ask_words(scenario: Any) -> str:
     return f"You want the robot to bring you the {_plural(cmd.obj_class, 1)}."
 
 
+def action_words(world: Any, action: Any, subject: str = "You") -> str:
+    """An observed action in plain words: ``You took a bowl from the kitchen cabinet.``"""
+    place = world.places[action.place].name.replace("_", " ") if action.place >= 0 else ""
+    if action.kind in ("walk", "open", "close"):
+        verb = {"walk": "walked to", "open": "opened", "close": "closed"}[action.kind]
+        return f"{subject} {verb} the {place}."
+    item = world.items[action.obj]
+    from siftom.likelihood.lexicon import default_lexicon
+
+    what = default_lexicon().entry(item.cls).singular
+    what = f"{'an' if what[0] in 'aeiou' else 'a'} {what}"
+    if action.kind == "grab":
+        return f"{subject} took {what}" + (f" from the {place}." if place else ".")
+    if action.kind == "put":
+        prep = "in" if world.places[action.place].closable else "on"
+        return f"{subject} put {what} {prep} the {place}."
+    return f"{subject} handed over {what}."
+
+
 @dataclass(frozen=True)
 class CollectOptions:
     """What to collect. Validated at construction.
@@ -131,12 +150,14 @@ class Prompt:
     scenario: str
     scenario_seed: int | None
     actions: tuple[str, ...]
+    words: tuple[str, ...]
     goal: str
     ask: str
 
     def to_json(self) -> dict[str, Any]:
-        return {"index": self.index, "scenario": self.scenario, "actions": list(self.actions),
-                "steps": len(self.actions), "goal": self.goal, "ask": self.ask}
+        return {"index": self.index, "scenario": self.scenario, "actions": list(self.words),
+                "observed_actions": list(self.actions), "steps": len(self.actions), "goal": self.goal,
+                "ask": self.ask}
 
 
 class Collection:
@@ -168,7 +189,8 @@ class Collection:
 
     def _prompt(self, k: int, sid: str, seed: int | None) -> Prompt:
         sc = resolve_scenario(sid, self.options.domain, seed)
-        return Prompt(k, sc.id, seed, tuple(sc.world.format_action(a) for a in sc.actions), goal_words(sc), ask_words(sc))
+        return Prompt(k, sc.id, seed, tuple(sc.world.format_action(a) for a in sc.actions),
+                      tuple(action_words(sc.world, a) for a in sc.actions), goal_words(sc), ask_words(sc))
 
     def prompt(self, index: int) -> Prompt:
         """The prompt at ``index``; DatasetError when out of range."""

@@ -78,11 +78,19 @@ def _stable(s: str) -> int:
 
 def mix_dataset(folder: str | Path, options: MixOptions | None = None) -> tuple[Dataset, int]:
     """Add noisy copies of every clean stimulus in ``folder``; return (the dataset, copies written)."""
+    from siftom.bench.runlock import RunLock
+
+    if not Path(folder).is_dir():
+        load_dataset(folder)  # says how to make one
+    with RunLock(folder):  # not while siftom collect records into the folder
+        return _mix(folder, options or MixOptions())
+
+
+def _mix(folder: str | Path, opts: MixOptions) -> tuple[Dataset, int]:
     from siftom.bench.dataset import noise_categories
     from siftom.speech.audio import load_audio, write_wav
     from siftom.speech.noise import FolderNoise, mix_at_snr
 
-    opts = options or MixOptions()
     ds = load_dataset(folder)
     cats = noise_categories(opts.folder)
     names = list(opts.noises) or cats

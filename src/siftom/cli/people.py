@@ -59,11 +59,14 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
     what they said. Then: siftom dataset mix OUT, siftom dataset check OUT, siftom eval.
     """
     from siftom.bench.collect import CONSENT_TEXT, CollectOptions
+    from siftom.bench.runlock import RunLock
     from siftom.service.collect_app import create_collect_app
 
     opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
                           consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
-    _serve(create_collect_app(out, opts), host, port, f"recording page for {out}")
+    Path(out).mkdir(parents=True, exist_ok=True)
+    with RunLock(out):  # one server per folder: several participants may share it, two servers may not
+        _serve(create_collect_app(out, opts), host, port, f"recording page for {out}")
 
 
 @click.command("annotate")
@@ -91,8 +94,12 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
 
     opts = AnnotateOptions(per_stimulus=per_stimulus, per_annotator=per_annotator, seed=seed,
                            consent=_consent(consent, ANNOTATOR_CONSENT))
-    app = create_annotate_app(dataset, out, opts)
-    _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)")
+    from siftom.bench.runlock import RunLock
+
+    Path(out).mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        app = create_annotate_app(dataset, out, opts)
+        _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)")
 
 
 @click.command("mix")

@@ -17,6 +17,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
+from siftom.bench.collect import action_words
 from siftom.bench.human import ANNOTATOR_ID, AnnotateOptions, Annotation, answer_form
 from siftom.bench.stimuli import scenario_for
 from siftom.service.people import Frames, page_app, png_response
@@ -52,7 +53,7 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
             return {**base, "done": True}
         sc = scenario_for(ann.stimulus_at(aid, pos))
         return {**base, "done": False, "position": pos,
-                "actions": [sc.world.format_action(a) for a in sc.actions], "steps": len(sc.actions),
+                "actions": [action_words(sc.world, a, "The person") for a in sc.actions], "steps": len(sc.actions),
                 "form": answer_form(sc)}
 
     @app.get("/api/annotation")

@@ -81,8 +81,22 @@ class Frames:
                 title = "before the first action" if step == 0 else f"after action {step} of {n}"
                 tmp = self.folder / f".{key}.{threading.get_ident()}.png"
                 render_scenario(scenario, tmp, step=step, title=title)
+                _crop(tmp)
                 tmp.replace(path)
         return path
+
+
+def _crop(path: Path, margin: int = 12) -> None:
+    """Cut the white border of a rendered map so that its labels are shown larger."""
+    from PIL import Image, ImageChops
+
+    with Image.open(path) as im:
+        rgb = im.convert("RGB")
+    box = ImageChops.difference(rgb, Image.new("RGB", rgb.size, (255, 255, 255))).getbbox()
+    if box:
+        x0, y0, x1, y1 = box
+        rgb.crop((max(0, x0 - margin), max(0, y0 - margin), min(rgb.width, x1 + margin),
+                  min(rgb.height, y1 + margin))).save(path)
 
 
 def png_response(path: Path) -> FileResponse:

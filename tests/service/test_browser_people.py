@@ -99,10 +99,8 @@ def sync_api():
     return pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install playwright")
 
 
-@pytest.fixture(scope="module")
-def recorded(tmp_path_factory, sync_api):
+def _record(tmp: Path, sync_api) -> Path:
     """A participant records two kitchen scenarios with the keyboard alone; the dataset folder."""
-    tmp = tmp_path_factory.mktemp("people")
     wav = tmp / "voice.wav"
     _say(SPOKEN, wav)
     out = tmp / "recorded"
@@ -159,20 +157,29 @@ def _wait_image(page, frame) -> None:
         time.sleep(0.1)
 
 
-@pytest.fixture(scope="module")
-def evaluated(recorded, tmp_path_factory):
+def _mix_and_evaluate(recorded: Path, tmp: Path) -> Path:
     """The recorded folder mixed with noise and evaluated (fast models); the results folder."""
     from siftom.bench.evaluate import EvalOptions, evaluate
     from siftom.bench.mix import MixOptions, mix_dataset
 
     ds, written = mix_dataset(recorded, MixOptions(snrs=(20.0, 10.0, 5.0), seed=3))
     assert written == 6 and len(ds.stimuli) == 8
-    res = tmp_path_factory.mktemp("results")
+    res = tmp / "results"
     evaluate(recorded, res, EvalOptions(models=("action-only", "literal-asr")))
     return res
 
 
-def test_recordings_form_a_dataset_that_checks_mixes_and_evaluates(recorded, evaluated, capsys):
+def test_people_in_the_loop(tmp_path, sync_api, capsys):
+    """Record, check, mix, evaluate; annotate (a human row); rate a trial (ratings in the report)."""
+    recorded = _record(tmp_path, sync_api)
+    evaluated = _mix_and_evaluate(recorded, tmp_path)
+    _check_dataset(recorded, evaluated, capsys)
+    _annotate(recorded, evaluated, tmp_path, sync_api, capsys)
+    _rate(evaluated, tmp_path, sync_api, capsys)
+
+
+def _check_dataset(recorded: Path, evaluated: Path, capsys) -> None:
+    """The recordings are 16 kHz mono speech with their manifest lines; check, mix and eval work."""
     import soundfile as sf
 
     lines = [json.loads(x) for x in (recorded / "manifest.jsonl").read_text().splitlines()]
@@ -195,7 +202,8 @@ def test_recordings_form_a_dataset_that_checks_mixes_and_evaluates(recorded, eva
     assert set(summary["breakdowns"]["snr"]) == {"clean", "20 dB", "10 dB", "5 dB"}
 
 
-def test_annotators_in_the_browser_give_a_human_row(recorded, evaluated, tmp_path, sync_api, capsys):
+def _annotate(recorded: Path, evaluated: Path, tmp_path: Path, sync_api, capsys) -> None:
+    """Two annotators answer in the browser; the report shows a human row."""
     ann = tmp_path / "annotation"
     app = create_annotate_app(recorded, ann, AnnotateOptions(per_stimulus=1, per_annotator=4, seed=5))
     expect = sync_api.expect
@@ -245,7 +253,8 @@ def test_annotators_in_the_browser_give_a_human_row(recorded, evaluated, tmp_pat
     assert re.search(r"^\| human \| ", report, re.M) and "## The human baseline" in report
 
 
-def test_a_rating_after_a_trial_reaches_the_report(evaluated, tmp_path, sync_api, capsys):
+def _rate(evaluated: Path, tmp_path: Path, sync_api, capsys) -> None:
+    """A participant rates a session's trial with the keyboard; the report shows the mean rating."""
     import httpx
 
     from siftom.service.app import create_app

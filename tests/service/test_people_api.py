@@ -76,3 +76,20 @@ def test_rating_endpoint(client):
     assert r.status_code == 201 and r.json()["model"] == "siftom" and r.json()["mean"] == 6.0
     assert r.json()["command"].startswith("fetch(")
     assert client.get("/rate").headers["content-type"].startswith("text/html")
+
+
+def test_annotating_a_table_setting_asks_how_many(tmp_path):
+    c = TestClient(create_collect_app(tmp_path / "ds", CollectOptions(domain="household-table-v0", scenarios=1)))
+    c.post("/api/participants", json={"participant": "p1", "agree": True})
+    c.post("/api/recordings", data={"participant": "p1", "index": "0", "reference": "four bowls please"},
+           files={"audio": ("r.wav", _voice())})
+    a = TestClient(create_annotate_app(tmp_path / "ds", tmp_path / "ann", AnnotateOptions(per_stimulus=1)))
+    v = a.post("/api/annotators", json={"annotator": "ann-7", "agree": True}).json()
+    assert v["annotator"] == "ann-7" and v["form"]["verb"] == "deliver" and v["form"]["max_count"] == 4
+    assert v["actions"][0] == "The person walked to the living cabinet."
+    _problem(a.post("/api/annotators/ann-7/answers", json={"position": 0, "typed": "bowls", "item": "bowl"}), 422,
+             "how many")
+    r = a.post("/api/annotators/ann-7/answers", json={"position": 0, "typed": "bowls", "item": "bowl", "count": 4})
+    assert r.status_code == 201
+    answers = [json.loads(x) for x in (tmp_path / "ann" / "answers.jsonl").read_text().splitlines()]
+    assert answers == [{**answers[0], "annotator": "ann-7", "id": "000-p1-clean", "command": "deliver(bowl,4)"}]

@@ -66,7 +66,6 @@ function show(v) {
   const counted = v.form.verb === "deliver";
   $("count-label").hidden = !counted;
   count.hidden = !counted;
-  count.required = counted;
   if (counted) {
     option(count, "", "choose…");
     for (let n = 1; n <= v.form.max_count; n++) option(count, String(n), String(n));

@@ -227,3 +227,13 @@ def test_actions_in_words():
                          "You took a knife from the living cabinet."]
     assert words[5] == "You put a knife on the dining table."
     assert action_words(sc.world, sc.actions[0], "The person") == "The person walked to the living cabinet."
+
+
+def test_answers_of_another_version_of_the_dataset_are_refused(collection, tmp_path):
+    ann = Annotation(collection.root, tmp_path / "ann", AnnotateOptions(per_stimulus=1))
+    who = ann.join("x1")["annotator"]
+    ann.answer(who, 0, "milk", "milk", None)
+    assert len(score_answers(tmp_path / "ann", tmp_path / "res")) == 1
+    collection.save("p1", 0, wav_bytes(_tone(1.5)), "another take")  # the manifest changes
+    with pytest.raises(DatasetError, match="not the one annotated"):
+        score_answers(tmp_path / "ann", tmp_path / "res")

@@ -206,11 +206,12 @@ class Annotation:
 
 # -- scoring -----------------------------------------------------------------------------------
 
-def score_answers(annotation: str | Path, results: str | Path) -> list[dict[str, Any]]:
+def score_answers(annotation: str | Path, results: str | Path, dataset: str | Path | None = None) -> list[dict[str, Any]]:
     """Score ``ANNOTATION/answers.jsonl`` as trials of the model ``human``; write ``RESULTS/human.jsonl``.
 
-    The dataset is the one the annotation was planned on; ``RESULTS`` must be an evaluation of
-    the same dataset (its team simulations are reused).
+    The dataset is the one the annotation was planned on (``dataset`` when given, else the folder
+    recorded in the plan, else the one ``RESULTS`` evaluated: a moved folder is found); ``RESULTS``
+    must be an evaluation of the same dataset (its team simulations are reused).
     """
     from siftom.bench import trials
     from siftom.speech.metrics import wer
@@ -220,16 +221,17 @@ def score_answers(annotation: str | Path, results: str | Path) -> list[dict[str,
     if not plan_path.is_file():
         raise DatasetError(f"{str(ann)!r} has no {PLAN}; give the --out folder of 'siftom annotate'")
     plan = json.loads(plan_path.read_text(encoding="utf-8"))
-    ds = load_dataset(plan["dataset"], check_audio=False)
-    if ds.fingerprint != plan["dataset_fingerprint"]:
-        raise DatasetError(f"the dataset {plan['dataset']} changed since it was annotated (its manifest differs); "
-                           "annotate the new version into another folder")
     run_path = res / "run.json"
-    if run_path.is_file():
-        run = json.loads(run_path.read_text(encoding="utf-8"))
-        if run.get("dataset_fingerprint") not in (None, ds.fingerprint):
-            raise DatasetError(f"{res} evaluates another dataset than the one annotated in {ann} ({plan['dataset']}); "
-                               "give the results of 'siftom eval --dataset' on that dataset")
+    run = json.loads(run_path.read_text(encoding="utf-8")) if run_path.is_file() else {}
+    where = next((str(p) for p in (dataset, plan.get("dataset"), run.get("dataset"))
+                  if p is not None and Path(p).is_dir()), str(dataset or plan.get("dataset")))
+    ds = load_dataset(where, check_audio=False)
+    if ds.fingerprint != plan["dataset_fingerprint"]:
+        raise DatasetError(f"the dataset {where} is not the one annotated in {ann} (its manifest differs: a new "
+                           "recording or another mix); annotate this version into another folder")
+    if run.get("dataset_fingerprint") not in (None, ds.fingerprint):
+        raise DatasetError(f"{res} evaluates another dataset than the one annotated in {ann} ({where}); "
+                           "give the results of 'siftom eval --dataset' on that dataset")
     for t in read_jsonl(res / "team_cache.jsonl"):  # the models' team simulations, reused
         trials._TEAM.setdefault((t["key"], t["command"]), t)
     stim = {s.id: s for s in ds.stimuli}
@@ -239,7 +241,7 @@ def score_answers(annotation: str | Path, results: str | Path) -> list[dict[str,
     for a in sorted(answers, key=lambda a: (order.get(a["id"], len(order)), a["annotator"])):
         s = stim.get(a["id"])
         if s is None:
-            raise DatasetError(f"{ann / ANSWERS}: stimulus {a['id']!r} is not in {plan['dataset']}")
+            raise DatasetError(f"{ann / ANSWERS}: stimulus {a['id']!r} is not in {where}")
         sc = scenario_for(s)
         cmd = a["command"]
         team = trials._simulate(trials.scenario_key(s), sc, cmd)

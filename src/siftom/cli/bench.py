@@ -197,7 +197,7 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
         if human is not None:
             from siftom.bench.human import score_answers
 
-            score_answers(human, out)
+            score_answers(human, out, dataset)
         summary = write_report(out)
     if as_json:
         click.echo(json.dumps(summary, indent=2))

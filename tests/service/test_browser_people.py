@@ -36,7 +36,7 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
 ROOT = Path(__file__).parents[2]
 DOCS_IMG = ROOT / "docs" / "img"
 SPOKEN = "could you bring me the milk please"
-TAKE_S = 2.5  # seconds each recording runs
+TAKE_S = 1.8  # seconds each recording runs
 
 pytestmark = [
     pytest.mark.browser,
@@ -99,59 +99,53 @@ def sync_api():
     return pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install playwright")
 
 
-def _record(tmp: Path, sync_api) -> Path:
+def _record(tmp: Path, browser, expect) -> Path:
     """A participant records two kitchen scenarios with the keyboard alone; the dataset folder."""
-    wav = tmp / "voice.wav"
-    _say(SPOKEN, wav)
     out = tmp / "recorded"
-    expect = sync_api.expect
     app = create_collect_app(out, CollectOptions(domain="kitchen-v0", scenarios=2))
-    with serve_in_thread(app) as url, sync_api.sync_playwright() as pw:
-        browser = _launch(pw, "--use-fake-device-for-media-stream", "--use-fake-ui-for-media-stream",
-                          f"--use-file-for-fake-audio-capture={wav}")
-        try:
-            page = browser.new_context(permissions=["microphone"]).new_page()
-            errors = _watch(page)
-            page.goto(url)
-            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
-            assert "recorded on this computer only" in page.locator("#consent-text").inner_text()
-            tab_to(page, "participant")
-            page.keyboard.type("p01")
-            tab_to(page, "agree")
-            page.keyboard.press("Space")
-            tab_to(page, "start")
-            page.keyboard.press("Enter")
-            for k in range(2):
-                expect(page.locator("#task-title")).to_have_text(f"Scenario {k + 1} of 2", timeout=10_000)
-                expect(page.locator("#task-title")).to_be_focused()  # the new scenario takes the focus
-                assert page.locator("#goal").inner_text().startswith("Your goal: Make")
-                assert "robot to bring" in page.locator("#ask").inner_text()
-                assert page.locator("#scene-actions li").count() >= 3
-                frame = page.locator("#scene-frame")
-                expect(frame).to_have_attribute("src", re.compile(r"/frames/\d+\.png$"))
-                _wait_image(page, frame)
-                for take in (0.5, TAKE_S) if k == 1 else (TAKE_S,):  # the second scenario is recorded again
-                    tab_to(page, "record")
-                    page.keyboard.press("Enter")
-                    expect(page.locator("#record")).to_have_text(re.compile("Stop"), timeout=10_000)
-                    time.sleep(take)
-                    page.keyboard.press("Enter")  # the focus stayed on the button: Stop
-                    expect(page.locator("#record")).to_have_text(re.compile("Record again"), timeout=10_000)
-                    expect(page.locator("#take")).to_be_visible(timeout=10_000)
-                    expect(page.locator("#said")).to_be_focused()
-                assert page.locator("#playback").get_attribute("src").startswith("blob:")  # playback offered
-                if k == 0:
-                    _screenshot(page, "collect-page.png", tmp)
-                page.keyboard.type(SPOKEN)
+    with serve_in_thread(app) as url:
+        context = browser.new_context(permissions=["microphone"])
+        page = context.new_page()
+        errors = _watch(page)
+        page.goto(url)
+        page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+        assert "recorded on this computer only" in page.locator("#consent-text").inner_text()
+        tab_to(page, "participant")
+        page.keyboard.type("p01")
+        tab_to(page, "agree")
+        page.keyboard.press("Space")
+        tab_to(page, "start")
+        page.keyboard.press("Enter")
+        for k in range(2):
+            expect(page.locator("#task-title")).to_have_text(f"Scenario {k + 1} of 2", timeout=10_000)
+            expect(page.locator("#task-title")).to_be_focused()  # the new scenario takes the focus
+            assert page.locator("#goal").inner_text().startswith("Your goal: Make")
+            assert "robot to bring" in page.locator("#ask").inner_text()
+            assert page.locator("#scene-actions li").first.inner_text().startswith("You walked to the ")
+            frame = page.locator("#scene-frame")
+            expect(frame).to_have_attribute("src", re.compile(r"/frames/\d+\.png$"))
+            _wait_image(frame)
+            for take in (0.3, TAKE_S) if k == 1 else (TAKE_S,):  # the second scenario is recorded again
+                tab_to(page, "record")
                 page.keyboard.press("Enter")
-            expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
-            assert errors == []
-        finally:
-            browser.close()
+                expect(page.locator("#record")).to_have_text(re.compile("Stop"), timeout=10_000)
+                time.sleep(take)
+                page.keyboard.press("Enter")  # the focus stayed on the button: Stop
+                expect(page.locator("#record")).to_have_text(re.compile("Record again"), timeout=10_000)
+                expect(page.locator("#take")).to_be_visible(timeout=10_000)
+                expect(page.locator("#said")).to_be_focused()
+            assert page.locator("#playback").get_attribute("src").startswith("blob:")  # playback offered
+            if k == 0:
+                _screenshot(page, "collect-page.png", tmp)
+            page.keyboard.type(SPOKEN)
+            page.keyboard.press("Enter")
+        expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+        assert errors == []
+        context.close()
     return out
 
 
-def _wait_image(page, frame) -> None:
+def _wait_image(frame) -> None:
     """Wait until the frame PNG has loaded (rendered on the server on first request)."""
     deadline = time.monotonic() + 30
     while not frame.evaluate("e => e.complete && e.naturalWidth > 0"):
@@ -172,129 +166,128 @@ def _mix_and_evaluate(recorded: Path, tmp: Path) -> Path:
 
 
 def test_people_in_the_loop(tmp_path, sync_api, capsys):
-    """Record, check, mix, evaluate; annotate (a human row); rate a trial (ratings in the report)."""
-    recorded = _record(tmp_path, sync_api)
-    evaluated = _mix_and_evaluate(recorded, tmp_path)
-    _check_dataset(recorded, evaluated, capsys)
-    _annotate(recorded, evaluated, tmp_path, sync_api, capsys)
-    _rate(evaluated, tmp_path, sync_api, capsys)
+    """Record, check, mix, evaluate; annotate and rate; one report shows the models, human and ratings."""
+    wav = tmp_path / "voice.wav"
+    _say(SPOKEN, wav)
+    with sync_api.sync_playwright() as pw:
+        browser = _launch(pw, "--use-fake-device-for-media-stream", "--use-fake-ui-for-media-stream",
+                          f"--use-file-for-fake-audio-capture={wav}", "--autoplay-policy=no-user-gesture-required")
+        try:
+            recorded = _record(tmp_path, browser, sync_api.expect)
+            _check_recordings(recorded, capsys)
+            evaluated = _mix_and_evaluate(recorded, tmp_path)
+            assert "ok: 8 stimuli, 2 scenarios, 1 speakers" in _cli("dataset", "check", str(recorded), capsys=capsys)
+            ann = _annotate(recorded, tmp_path, browser, sync_api.expect)
+            ratings = _rate(tmp_path, browser, sync_api.expect)
+        finally:
+            browser.close()
+    summary = json.loads(_cli("report", str(evaluated), "--human", str(ann), "--ratings", str(ratings), "--json",
+                              "--no-figures", capsys=capsys))
+    assert list(summary["models"]) == ["literal-asr", "action-only", "human"] and summary["n_stimuli"] == 8
+    assert set(summary["breakdowns"]["snr"]) == {"clean", "20 dB", "10 dB", "5 dB"}
+    human = summary["models"]["human"]
+    gold = [json.loads(x)["gold_command"] for x in (recorded / "manifest.jsonl").read_text().splitlines()]
+    assert human["n"] == 8 and human["accuracy"] == pytest.approx(sum(g == "fetch(milk)" for g in gold) / 8)
+    assert human["speedup"] is not None and human["accuracy_ci"][0] <= human["accuracy"] <= human["accuracy_ci"][1]
+    assert summary["human"]["answers"] == 8 and 0 < summary["human"]["wer"] < 0.5  # half typed with 2 words missing
+    assert summary["ratings"]["siftom"]["n"] == 1 and summary["ratings"]["siftom"]["mean"] == pytest.approx(6.0)
+    report = (evaluated / "report.md").read_text()
+    assert re.search(r"^\| human \| ", report, re.M) and "## The human baseline" in report
+    assert "## Ratings after trials with the robot" in report
 
 
-def _check_dataset(recorded: Path, evaluated: Path, capsys) -> None:
-    """The recordings are 16 kHz mono speech with their manifest lines; check, mix and eval work."""
+def _check_recordings(recorded: Path, capsys) -> None:
+    """The recordings are 16 kHz mono speech (the last take) with their manifest lines and consent."""
     import soundfile as sf
 
     lines = [json.loads(x) for x in (recorded / "manifest.jsonl").read_text().splitlines()]
-    clean = [d for d in lines if d["noise"] is None]
-    assert [d["id"] for d in clean] == ["000-p01-clean", "001-p01-clean"]
-    for d in clean:
+    assert [d["id"] for d in lines] == ["000-p01-clean", "001-p01-clean"]
+    for d in lines:
         assert d["speaker"] == "p01" and d["reference"] == SPOKEN
         assert d["gold_command"].startswith("fetch(") and d["observed_actions"]
         x, rate = sf.read(recorded / d["audio"], dtype="float32")
         info = sf.info(recorded / d["audio"])
         assert rate == 16000 and info.channels == 1 and info.subtype == "PCM_16"
-        assert TAKE_S - 0.6 < len(x) / rate < TAKE_S + 2.0, len(x) / rate  # the last take, not the 0.5 s one
+        assert TAKE_S - 0.6 < len(x) / rate < TAKE_S + 2.0, len(x) / rate  # the last take, not the 0.3 s one
         assert np.sqrt(np.mean(x ** 2)) > 0.01  # the fake microphone's speech, not silence
     consent = [json.loads(x) for x in (recorded / "participants.jsonl").read_text().splitlines()]
     assert consent[0]["participant"] == "p01" and consent[0]["agreed"] and "recorded" in consent[0]["consent"]
-    assert "ok: 8 stimuli, 2 scenarios, 1 speakers" in _cli("dataset", "check", str(recorded), capsys=capsys)
-    out = _cli("report", str(evaluated), "--json", capsys=capsys)
-    summary = json.loads(out)
-    assert set(summary["models"]) == {"action-only", "literal-asr"} and summary["n_stimuli"] == 8
-    assert set(summary["breakdowns"]["snr"]) == {"clean", "20 dB", "10 dB", "5 dB"}
 
 
-def _annotate(recorded: Path, evaluated: Path, tmp_path: Path, sync_api, capsys) -> None:
-    """Two annotators answer in the browser; the report shows a human row."""
-    ann = tmp_path / "annotation"
+def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
+    """Two annotators answer every stimulus once with the keyboard; the annotation folder."""
+    ann = tmp / "annotation"
     app = create_annotate_app(recorded, ann, AnnotateOptions(per_stimulus=1, per_annotator=4, seed=5))
-    expect = sync_api.expect
-    with serve_in_thread(app) as url, sync_api.sync_playwright() as pw:
-        browser = _launch(pw, "--autoplay-policy=no-user-gesture-required")
-        try:
-            for who in range(2):  # two annotators share the 8 stimuli
-                page = browser.new_context().new_page()
-                errors = _watch(page)
-                page.goto(url)
-                page.wait_for_selector("body[data-ready='1']", timeout=20_000)
-                tab_to(page, "agree")
-                page.keyboard.press("Space")
-                tab_to(page, "start")
+    with serve_in_thread(app) as url:
+        for who in range(2):  # two annotators share the 8 stimuli
+            context = browser.new_context()
+            page = context.new_page()
+            errors = _watch(page)
+            page.goto(url)
+            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+            tab_to(page, "agree")
+            page.keyboard.press("Space")
+            tab_to(page, "start")
+            page.keyboard.press("Enter")
+            for k in range(4):
+                expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 4", timeout=10_000)
+                assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
+                assert page.locator("#goal").count() == 0  # the annotator infers the goal
+                tab_to(page, "play")
                 page.keyboard.press("Enter")
-                for k in range(4):
-                    expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 4", timeout=10_000)
-                    assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
-                    assert page.locator("#goal").count() == 0  # the annotator infers the goal
-                    tab_to(page, "play")
-                    page.keyboard.press("Enter")
-                    tab_to(page, "typed")
-                    page.keyboard.type(SPOKEN if k % 2 == 0 else "could you bring me the")
-                    tab_to(page, "item")
-                    page.keyboard.type("milk")  # a focused list picks the option typed
-                    expect(page.get_by_label("What would you bring?")).to_have_value("milk")
-                    if who == 0 and k == 0:
-                        _screenshot(page, "annotate-page.png", tmp_path)
-                    assert page.locator("#count").is_hidden()  # fetch: no count to choose
-                    tab_to(page, "submit")
-                    page.keyboard.press("Enter")
-                expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
-                assert f"annotator a{who + 1}" in page.locator("#done-text").inner_text()
-                assert errors == []
-        finally:
-            browser.close()
+                tab_to(page, "typed")
+                page.keyboard.type(SPOKEN if k % 2 == 0 else "could you bring me the")
+                tab_to(page, "item")
+                page.keyboard.type("milk")  # a focused list picks the option typed
+                expect(page.get_by_label("What would you bring?")).to_have_value("milk")
+                if who == 0 and k == 0:
+                    _screenshot(page, "annotate-page.png", tmp)
+                assert page.locator("#count").is_hidden()  # fetch: no count to choose
+                tab_to(page, "submit")
+                page.keyboard.press("Enter")
+            expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+            assert f"annotator a{who + 1}" in page.locator("#done-text").inner_text()
+            assert errors == []
+            context.close()
     answers = [json.loads(x) for x in (ann / "answers.jsonl").read_text().splitlines()]
     assert len(answers) == 8 and len({a["id"] for a in answers}) == 8  # every stimulus once
-    summary = json.loads(_cli("report", str(evaluated), "--human", str(ann), "--json", capsys=capsys))
-    human = summary["models"]["human"]
-    assert human["n"] == 8
-    gold = [json.loads(x)["gold_command"] for x in (recorded / "manifest.jsonl").read_text().splitlines()]
-    assert human["accuracy"] == pytest.approx(sum(g == "fetch(milk)" for g in gold) / 8)
-    assert human["speedup"] is not None and human["accuracy_ci"][0] <= human["accuracy"] <= human["accuracy_ci"][1]
-    assert summary["human"]["answers"] == 8 and 0 < summary["human"]["wer"] < 0.5  # half typed with 2 words missing
-    report = (evaluated / "report.md").read_text()
-    assert re.search(r"^\| human \| ", report, re.M) and "## The human baseline" in report
+    return ann
 
 
-def _rate(evaluated: Path, tmp_path: Path, sync_api, capsys) -> None:
-    """A participant rates a session's trial with the keyboard; the report shows the mean rating."""
+def _rate(tmp: Path, browser, expect) -> Path:
+    """A participant rates a session's trial with the keyboard; the service's ratings.jsonl."""
     import httpx
 
     from siftom.service.app import create_app
 
     world = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
-    data = tmp_path / "serve"
-    expect = sync_api.expect
-    with serve_in_thread(create_app(data)) as url, sync_api.sync_playwright() as pw:
+    data = tmp / "serve"
+    with serve_in_thread(create_app(data)) as url:
         api = httpx.Client(base_url=url, timeout=60)
         sid = api.post("/v1/sessions", json={"world": world}).raise_for_status().json()["id"]
         api.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the tomato"}).raise_for_status()
-        browser = _launch(pw)
-        try:
-            page = browser.new_page()
-            errors = _watch(page)
-            page.goto(f"{url}/rate?session={sid}")
-            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
-            assert page.locator("#trial").inner_text().startswith("The robot did: fetch(")
-            assert page.locator("legend").nth(1).inner_text() == "2. The robot understood what I needed."
-            tab_to(page, "send")
-            page.keyboard.press("Enter")  # nothing chosen: the page says what is missing
-            expect(page.locator("#alert")).to_have_text("Choose a rating for statement 1.")
-            for k, value in enumerate((6, 5, 7)):
-                tab_to(page, "", selector=f"input[name=s{k}]")  # a radio group is one tab stop
-                expect(page.locator(f"#s{k}-1")).to_be_focused()
-                for _ in range(value - 1):
-                    page.keyboard.press("ArrowRight")  # radio buttons: arrows move and choose
-                expect(page.locator(f"#s{k}-{value}")).to_be_checked()
-            tab_to(page, "send")
-            page.keyboard.press("Enter")
-            expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
-            assert errors == []
-        finally:
-            browser.close()
-    summary = json.loads(_cli("report", str(evaluated), "--ratings", str(data / "ratings.jsonl"), "--json",
-                              capsys=capsys))
-    assert summary["ratings"]["siftom"]["n"] == 1 and summary["ratings"]["siftom"]["mean"] == pytest.approx(6.0)
-    assert "## Ratings after trials with the robot" in (evaluated / "report.md").read_text()
+        context = browser.new_context()
+        page = context.new_page()
+        errors = _watch(page)
+        page.goto(f"{url}/rate?session={sid}")
+        page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+        assert page.locator("#trial").inner_text().startswith("The robot did: fetch(")
+        assert page.locator("legend").nth(1).inner_text() == "2. The robot understood what I needed."
+        tab_to(page, "send")
+        page.keyboard.press("Enter")  # nothing chosen: the page says what is missing
+        expect(page.locator("#alert")).to_have_text("Choose a rating for statement 1.")
+        for k, value in enumerate((6, 5, 7)):
+            tab_to(page, "", selector=f"input[name=s{k}]")  # a radio group is one tab stop
+            expect(page.locator(f"#s{k}-1")).to_be_focused()
+            for _ in range(value - 1):
+                page.keyboard.press("ArrowRight")  # radio buttons: arrows move and choose
+            expect(page.locator(f"#s{k}-{value}")).to_be_checked()
+        tab_to(page, "send")
+        page.keyboard.press("Enter")
+        expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
+        assert errors == []
+        context.close()
+    return data / "ratings.jsonl"
 
 
 def test_a_denied_microphone_is_explained(tmp_path, sync_api):

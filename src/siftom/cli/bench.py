@@ -215,7 +215,9 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
               help="an annotation folder (siftom annotate --out): score its answers as the model 'human'")
 @click.option("--ratings", "ratings", type=click.Path(), multiple=True,
               help="a ratings.jsonl of 'siftom serve --data-dir DIR' (or DIR): add people's ratings per model")
-def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None, ratings: tuple[str, ...]) -> None:
+@click.option("--no-figures", is_flag=True, help="write summary.json and report.md only (faster)")
+def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None, ratings: tuple[str, ...],
+               no_figures: bool) -> None:
     """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl
     (and RESULTS/human.jsonl, RESULTS/ratings.jsonl when present)."""
     from siftom.bench.report import main_table, write_report
@@ -230,7 +232,7 @@ def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None,
             from siftom.bench.ratings import import_ratings
 
             import_ratings(r, results)
-        summary = write_report(results, seed=seed)
+        summary = write_report(results, seed=seed, figures=not no_figures)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 

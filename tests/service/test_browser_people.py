@@ -75,6 +75,14 @@ def tab_to(page, element_id: str, limit: int = 40, selector: str | None = None) 
     raise AssertionError(f"{selector or '#' + element_id} is not reachable with Tab")
 
 
+def _unlabelled(page) -> list[str]:
+    """Visible form controls and players without an accessible name (a label or aria-label)."""
+    return page.locator("input, select, textarea, audio, button").evaluate_all(
+        "els => els.filter(e => e.offsetParent !== null && !(e.labels && e.labels.length)"
+        " && !e.getAttribute('aria-label') && !(e.tagName === 'BUTTON' && e.textContent.trim()))"
+        ".map(e => e.id || e.outerHTML.slice(0, 60))")
+
+
 def _screenshot(page, name: str, tmp: Path) -> None:
     """A picture of the page: docs/img/NAME with SIFTOM_UPDATE_DOCS=1, else a temporary file."""
     shot = DOCS_IMG / name if os.environ.get("SIFTOM_UPDATE_DOCS") == "1" else tmp / name
@@ -110,6 +118,7 @@ def _record(tmp: Path, browser, expect) -> Path:
         page.goto(url)
         page.wait_for_selector("body[data-ready='1']", timeout=20_000)
         assert "recorded on this computer only" in page.locator("#consent-text").inner_text()
+        assert _unlabelled(page) == []
         tab_to(page, "participant")
         page.keyboard.type("p01")
         tab_to(page, "agree")
@@ -136,6 +145,7 @@ def _record(tmp: Path, browser, expect) -> Path:
                 expect(page.locator("#said")).to_be_focused()
             assert page.locator("#playback").get_attribute("src").startswith("blob:")  # playback offered
             if k == 0:
+                assert _unlabelled(page) == []
                 _screenshot(page, "collect-page.png", tmp)
             page.keyboard.type(SPOKEN)
             page.keyboard.press("Enter")
@@ -241,6 +251,7 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
                 page.keyboard.type("milk")  # a focused list picks the option typed
                 expect(page.get_by_label("What would you bring?")).to_have_value("milk")
                 if who == 0 and k == 0:
+                    assert _unlabelled(page) == []
                     _screenshot(page, "annotate-page.png", tmp)
                 assert page.locator("#count").is_hidden()  # fetch: no count to choose
                 tab_to(page, "submit")
@@ -273,6 +284,7 @@ def _rate(tmp: Path, browser, expect) -> Path:
         page.wait_for_selector("body[data-ready='1']", timeout=20_000)
         assert page.locator("#trial").inner_text().startswith("The robot did: fetch(")
         assert page.locator("legend").nth(1).inner_text() == "2. The robot understood what I needed."
+        assert _unlabelled(page) == [] and page.locator("input[type=radio]").count() == 21
         tab_to(page, "send")
         page.keyboard.press("Enter")  # nothing chosen: the page says what is missing
         expect(page.locator("#alert")).to_have_text("Choose a rating for statement 1.")

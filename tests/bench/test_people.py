@@ -80,6 +80,11 @@ def test_no_recording_without_consent_or_with_a_dead_microphone(collection):
         collection.agree("Jane Doe")
     with pytest.raises(DatasetError, match="holds recordings of kitchen-v0"):
         Collection(collection.root, CollectOptions(domain="household-table-v0", scenarios=1))
+    built = collection.root.parent / "built"
+    built.mkdir()
+    (built / "dataset.json").write_text(json.dumps({"options": {"domain": "kitchen-v0", "voices": ["flite-slt"]}}))
+    with pytest.raises(DatasetError, match="built by 'siftom dataset build'"):
+        Collection(built, CollectOptions(domain="kitchen-v0", scenarios=1))
 
 
 def test_mix_adds_noisy_copies_at_the_snr_and_is_repeatable(collection):

@@ -243,6 +243,7 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
                 expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 4", timeout=10_000)
                 assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
                 assert page.locator("#goal").count() == 0  # the annotator infers the goal
+                assert f"annotator id is a{who + 1}" in page.locator("#who").inner_text()
                 tab_to(page, "play")
                 page.keyboard.press("Enter")
                 tab_to(page, "typed")

@@ -176,8 +176,9 @@ class Collection:
             if old is not None and old != options.domain:
                 raise DatasetError(f"{self.root} holds recordings of {old}, not {options.domain}; "
                                    "use another --out folder")
-            if old is None and spec.get("options", {}).get("domain", options.domain) != options.domain:
-                raise DatasetError(f"{self.root} holds another dataset; use another --out folder")
+            if old is None and "voices" in spec.get("options", {}):
+                raise DatasetError(f"{self.root} holds a dataset built by 'siftom dataset build'; record into "
+                                   "another --out folder")
         else:
             spec = {"format_version": FORMAT_VERSION, "kind": "recorded"}
         spec["collection"] = {"domain": options.domain, "scenarios": max(options.scenarios,

@@ -53,6 +53,7 @@ function show(v) {
   }
   const base = `/api/annotators/${encodeURIComponent(st.annotator)}/${v.position}`;
   $("task-title").textContent = `Recording ${v.answered + 1} of ${v.total}`;
+  $("who").textContent = `Your annotator id is ${v.annotator}: type it on the first page to continue later.`;
   st.viewer.load((step) => `${base}/frames/${step}.png`, v.actions);
   $("player").src = `${base}/audio.wav`;
   $("typed").value = "";

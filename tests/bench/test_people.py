@@ -114,14 +114,19 @@ def test_mix_refuses_unknown_noise(collection):
         MixOptions(snrs=())
 
 
-@pytest.mark.parametrize("per_annotator", [None, 3])
-def test_every_stimulus_gets_k_annotators_never_twice_the_same(per_annotator):
-    ids = [f"s{i}" for i in range(10)]
-    plan = plan_assignments(ids, 3, per_annotator, seed=7)
-    assert Counter(i for a in plan for i in a) == {i: 3 for i in ids}
-    assert all(len(set(a)) == len(a) for a in plan)
-    assert plan == plan_assignments(ids, 3, per_annotator, seed=7)
-    assert plan != plan_assignments(ids, 3, per_annotator, seed=8)
+@pytest.mark.parametrize("per_annotator", [None, 2])
+def test_every_stimulus_gets_k_annotators_never_the_same_recording_twice(per_annotator):
+    # 5 recordings: 4 in 4 conditions, one clean only
+    items = [(f"r{r}-c{c}", f"r{r}") for r in range(4) for c in range(4)] + [("r4-c0", "r4")]
+    plan = plan_assignments(items, 3, per_annotator, seed=7)
+    assert Counter(i for a in plan for i in a) == {i: 3 for i, _ in items}
+    assert all(len({i.split("-")[0] for i in a}) == len(a) for a in plan)  # a recording at most once
+    if per_annotator is None:
+        assert sorted(len(a) for a in plan) == [4] * 9 + [5] * 3  # one layer per condition and round
+    else:
+        assert max(len(a) for a in plan) == 2
+    assert plan == plan_assignments(items, 3, per_annotator, seed=7)
+    assert plan != plan_assignments(items, 3, per_annotator, seed=8)
 
 
 def test_answers_are_commands_of_the_scene():
@@ -141,19 +146,20 @@ def test_scored_answers_are_a_human_model(collection, tmp_path):
 
     ds, _ = mix_dataset(collection.root, MixOptions(snrs=(10.0,), seed=1))
     ann = Annotation(ds, tmp_path / "ann", AnnotateOptions(per_stimulus=2, seed=3))
-    for _ in range(2):
+    assert len(ann.assignments) == 4  # 2 rounds x 2 layers (clean, 10 dB), each with both recordings
+    for _ in range(4):
         who = ann.join(None)["annotator"]
         while (pos := ann.next_position(who)) is not None:
             s = ann.stimulus_at(who, pos)
             item = scenario_for(s).command.obj_class if s.scenario.endswith("/0") else "milk"
-            ann.answer(who, pos, s.reference if who == "a1" else "bring me", item, None)
+            ann.answer(who, pos, s.reference if who in ("a1", "a3") else "bring me", item, None)
     with pytest.raises(DatasetError, match="every assignment is taken"):
         ann.join(None)
     with pytest.raises(DatasetError, match="already answered"):
         ann.answer("a1", 0, "x", "milk", None)
     res = tmp_path / "res"
     rows = score_answers(tmp_path / "ann", res)
-    assert len(rows) == 8 and {r["annotator"] for r in rows} == {"a1", "a2"}
+    assert len(rows) == 8 and {r["annotator"] for r in rows} == {"a1", "a2", "a3", "a4"}
     # right on scenario 0 (its gold class), wrong on scenario 1 ("milk" is not in its goal: not helpful)
     assert all(r["models"]["human"]["correct"] == r["scenario"].endswith("/0") for r in rows)
     assert not any(r["models"]["human"]["helpful"] for r in rows if r["scenario"].endswith("/1"))

@@ -225,11 +225,11 @@ def _check_recordings(recorded: Path, capsys) -> None:
 
 
 def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
-    """Two annotators answer every stimulus once with the keyboard; the annotation folder."""
+    """Four annotators answer every stimulus once with the keyboard; the annotation folder."""
     ann = tmp / "annotation"
-    app = create_annotate_app(recorded, ann, AnnotateOptions(per_stimulus=1, per_annotator=4, seed=5))
+    app = create_annotate_app(recorded, ann, AnnotateOptions(per_stimulus=1, seed=5))
     with serve_in_thread(app) as url:
-        for who in range(2):  # two annotators share the 8 stimuli
+        for who in range(4):  # 2 recordings x 4 conditions: each annotator hears both, in one condition
             context = browser.new_context()
             page = context.new_page()
             errors = _watch(page)
@@ -239,15 +239,15 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
             page.keyboard.press("Space")
             tab_to(page, "start")
             page.keyboard.press("Enter")
-            for k in range(4):
-                expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 4", timeout=10_000)
+            for k in range(2):
+                expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 2", timeout=10_000)
                 assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
                 assert page.locator("#goal").count() == 0  # the annotator infers the goal
                 assert f"annotator id is a{who + 1}" in page.locator("#who").inner_text()
                 tab_to(page, "play")
                 page.keyboard.press("Enter")
                 tab_to(page, "typed")
-                page.keyboard.type(SPOKEN if k % 2 == 0 else "could you bring me the")
+                page.keyboard.type(SPOKEN if who % 2 == 0 else "could you bring me the")
                 tab_to(page, "item")
                 page.keyboard.type("milk")  # a focused list picks the option typed
                 expect(page.get_by_label("What would you bring?")).to_have_value("milk")
@@ -263,6 +263,8 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
             context.close()
     answers = [json.loads(x) for x in (ann / "answers.jsonl").read_text().splitlines()]
     assert len(answers) == 8 and len({a["id"] for a in answers}) == 8  # every stimulus once
+    for a in ("a1", "a2", "a3", "a4"):  # nobody heard the same recording twice (clean and noisy)
+        assert sorted(x["id"][:3] for x in answers if x["annotator"] == a) == ["000", "001"]
     return ann
 
 

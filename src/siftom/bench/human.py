@@ -4,11 +4,15 @@ As in the paper's annotation study, an annotator sees the scenario (what the per
 not the goal), plays the (noisy) recording, types what was said, and chooses the item and count
 they would bring, one stimulus per page. Each stimulus is shown to ``per_stimulus`` annotators.
 
-Assignments: ``per_stimulus`` seeded permutations of the dataset's stimuli, each cut into
-assignments of ``per_annotator`` stimuli (default: all of them); an annotator gets the first
-assignment nobody has taken, so no one hears the same stimulus twice and every stimulus is
-heard exactly ``per_stimulus`` times once every assignment is done. The plan is written to
-``OUT/plan.json``; answers go to ``OUT/answers.jsonl`` as they come (one JSON line each).
+Assignments: a stimulus's *source* is its recording (the scenario and the speaker: the clean clip
+and its noisy copies). In each of ``per_stimulus`` rounds the conditions of every source are
+dealt in a seeded random order over as many layers as a source has conditions, so each layer
+holds every source once; each layer is shuffled and cut into assignments of ``per_annotator``
+stimuli (default: the whole layer, 130 stimuli of the paper's 520). An annotator gets the first
+assignment nobody has taken: nobody hears the same recording twice (clean and noisy would give
+the noisy one away), and once every assignment is done every stimulus has been heard exactly
+``per_stimulus`` times. The plan is written to ``OUT/plan.json``; answers go to
+``OUT/answers.jsonl`` as they come (one JSON line each).
 
 Scoring (:func:`score_answers`) turns every answer into a trial of a model named ``human``:
 its command is scored against the gold one and simulated by the same team simulation as the
@@ -55,7 +59,7 @@ class AnnotateOptions:
 
     Attributes:
         per_stimulus: annotators per stimulus.
-        per_annotator: stimuli per annotator (None: every stimulus once).
+        per_annotator: stimuli per annotator (None: one of each recording, in one condition).
         seed: drives the order of the stimuli and the assignments.
         consent: the text annotators agree to first.
     """
@@ -75,15 +79,32 @@ class AnnotateOptions:
         return {"per_stimulus": self.per_stimulus, "per_annotator": self.per_annotator, "seed": self.seed}
 
 
-def plan_assignments(ids: list[str], per_stimulus: int, per_annotator: int | None, seed: int) -> list[list[str]]:
-    """``per_stimulus`` seeded permutations of ``ids``, each cut into assignments of ``per_annotator``."""
+def plan_assignments(items: list[tuple[str, str]], per_stimulus: int, per_annotator: int | None,
+                     seed: int) -> list[list[str]]:
+    """Assignments of stimulus ids from ``(id, source)`` pairs; no assignment holds a source twice."""
     rng = np.random.default_rng([seed, 2601])
-    m = per_annotator or len(ids)
+    groups: dict[str, list[str]] = {}
+    for sid, source in items:
+        groups.setdefault(source, []).append(sid)
+    slots = max(len(g) for g in groups.values())
     out: list[list[str]] = []
     for _ in range(per_stimulus):
-        perm = [ids[i] for i in rng.permutation(len(ids))]
-        out += [perm[i:i + m] for i in range(0, len(perm), m)]
+        layers: list[list[str]] = [[] for _ in range(slots)]
+        for source in sorted(groups):
+            g = groups[source]
+            offset = int(rng.integers(slots))  # sources with fewer conditions spread over the layers
+            for j, k in enumerate(rng.permutation(len(g))):
+                layers[(j + offset) % slots].append(g[k])
+        for layer in layers:
+            order = [layer[i] for i in rng.permutation(len(layer))]
+            m = per_annotator or len(order)
+            out += [order[i:i + m] for i in range(0, len(order), m)]
     return out
+
+
+def source_of(stimulus: Any) -> str:
+    """The recording a stimulus comes from: its scenario and speaker (clean and noisy copies share it)."""
+    return f"{stimulus.scenario}#{stimulus.scenario_seed}#{stimulus.speaker}"
 
 
 def answer_command(scenario: Any, item: str, count: int | None) -> str:
@@ -128,8 +149,8 @@ class Annotation:
                 raise DatasetError(f"{self.root} holds an annotation of another dataset or with other options "
                                    f"({plan.get('options')}); use another --out folder")
         else:
-            ids = [s.id for s in self.ds.stimuli]
-            plan = {**want, "assignments": plan_assignments(ids, self.options.per_stimulus,
+            items = [(s.id, source_of(s)) for s in self.ds.stimuli]
+            plan = {**want, "assignments": plan_assignments(items, self.options.per_stimulus,
                                                             self.options.per_annotator, self.options.seed)}
             tmp = plan_path.with_name(f".{PLAN}.{os.getpid()}.tmp")
             tmp.write_text(json.dumps(plan, indent=1) + "\n", encoding="utf-8")

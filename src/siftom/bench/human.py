@@ -304,21 +304,24 @@ def human_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
             "wer_by_snr": {k: round(float(np.mean(by[k])), 4) for k in sorted(by, key=label_order)}}
 
 
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:.1f} %"
+
+
 def people_section(summary: dict[str, Any]) -> str:
     """The report's Markdown section on people: the human baseline's transcripts and the ratings."""
     parts: list[str] = []
     h = summary.get("human")
     if h:
-        pct = lambda x: "–" if x is None else f"{100 * x:.1f} %"  # noqa: E731
         asr = summary.get("asr_wer", {})
         parts += ["## The human baseline", "",
                   f"{h['answers']} answers from {h['annotators']} annotator(s) on {h['stimuli']} stimuli "
                   f"({h['answers_per_stimulus']:g} per stimulus); each answer is one trial of the model `human` "
                   "in the tables above (its command went through the same team simulation).", "",
-                  f"Transcription word error rate: people {pct(h['wer'])} [{100 * h['wer_ci'][0]:.1f}, "
-                  f"{100 * h['wer_ci'][1]:.1f}], the recogniser {pct(asr.get('all'))}.", "",
+                  f"Transcription word error rate: people {_pct(h['wer'])} [{100 * h['wer_ci'][0]:.1f}, "
+                  f"{100 * h['wer_ci'][1]:.1f}], the recogniser {_pct(asr.get('all'))}.", "",
                   "| condition | people WER | ASR WER |", "|---|---|---|"]
-        parts += [f"| {k} | {pct(v)} | {pct(asr.get('snr', {}).get(k))} |" for k, v in h["wer_by_snr"].items()]
+        parts += [f"| {k} | {_pct(v)} | {_pct(asr.get('snr', {}).get(k))} |" for k, v in h["wer_by_snr"].items()]
         parts += [""]
     r = summary.get("ratings")
     if r:

@@ -56,10 +56,17 @@ def _bindir(tmp: Path) -> Path:
     return b
 
 
-def test_every_tutorial_has_runnable_blocks() -> None:
-    assert TUTORIALS, "docs/tutorials/ is empty"
+# Tutorials that run end to end offline; a tutorial around servers a person uses in a browser
+# (collecting recordings, annotating) is exercised by its feature's own tests instead.
+OFFLINE = ("first-inference", "your-robot", "reproduce-paper", "own-recordings")
+
+
+def test_every_offline_tutorial_has_runnable_blocks() -> None:
+    names = {p.stem for p in TUTORIALS}
+    assert set(OFFLINE) <= names, f"missing tutorials: {set(OFFLINE) - names}"
     for page in TUTORIALS:
-        assert runnable_blocks(page.read_text(encoding="utf-8")), f"{page.name} has no <!-- run --> block"
+        if page.stem in OFFLINE:
+            assert runnable_blocks(page.read_text(encoding="utf-8")), f"{page.name} has no <!-- run --> block"
 
 
 @pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")

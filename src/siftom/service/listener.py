@@ -109,7 +109,20 @@ class HomeListener:
     def close(self) -> None:
         self.listener.close()
 
-    def _answer(self, rec: Recognised, utterance: Utterance) -> dict[str, Any]:
+    def answer_text(self, text: str) -> dict[str, Any]:
+        """Answer words recognised elsewhere (e.g. a robot's own ASR) as one utterance's transcript."""
+        from siftom.observation import Hypothesis, Instruction
+
+        if not text.strip():
+            raise ObservationError("the text is empty; give the words that were heard")
+        t0 = time.perf_counter()
+        rec = Recognised(Instruction(nbest=(Hypothesis(text.strip(), 0.0),)), None, 0.0)
+        body = self._answer(rec, None)
+        total = round(time.perf_counter() - t0, 4)
+        return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
+                "speech_heard": True, "message": "", **body, "timings": {"answer": total, "total": total}}
+
+    def _answer(self, rec: Recognised, utterance: Utterance | None) -> dict[str, Any]:
         with self._lock:
             t0 = time.perf_counter()
             post = self.online.posterior(rec.instruction, top=self.top)

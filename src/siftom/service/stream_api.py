@@ -20,12 +20,16 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.assist.clarify import ClarifyPolicy
-from siftom.errors import SiftomError
+from siftom.errors import SiftomError, UnknownNameError
 from siftom.service.listener import decision_kind
 from siftom.service.problems import ProblemError
-from siftom.service.session_schemas import SESSION_ID
+from siftom.service.schemas import MAX_SCENARIO_ID
+from siftom.service.session_api import _problems
+from siftom.service.session_schemas import SESSION_ID, SessionView
 from siftom.service.sessions import SessionManager
 from siftom.service.stream_settings import (
     CLOSE_ALREADY_STREAMING,
@@ -73,11 +77,52 @@ def _params(query: Any) -> tuple[int, ClarifyPolicy, int]:
     return top, policy, number("nbest", DEFAULT_NBEST, 1, 10, int)
 
 
+class ScenarioSession(BaseModel):
+    """A session over a registered scenario's world, having seen its first ``n_actions`` actions."""
+
+    model_config = ConfigDict(extra="forbid")
+    scenario: str = Field(min_length=1, max_length=MAX_SCENARIO_ID, examples=["kitchen-cereal-v0"])
+    n_actions: int | None = Field(default=None, ge=0, le=10_000,
+                                  description="the scenario's recorded actions already seen (default: all)")
+
+
+def scenario_spec(sc: Any) -> dict[str, Any]:
+    """The world JSON of a registered scenario (its domain's doors included), for a session."""
+    from siftom.world.domains import household, kitchen
+    from siftom.world.io import scene_to_json
+
+    doors = {"household-table-v0": household.DOORS, "kitchen-v0": kitchen.DOORS}.get(sc.domain)
+    return {"world": scene_to_json(sc.world, sc.start, sc.goals, sc.verb, doors), "goals": None,
+            "goal_space": None, "target": None}
+
+
 def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) -> None:
-    """Add ``WS /v1/sessions/{id}/listen`` (limits: ``rt.settings.stream``)."""
+    """Add ``WS /v1/sessions/{id}/listen`` (limits: ``rt.settings.stream``) and
+    ``POST /v1/sessions/from-scenario`` (a session to stream into from the web page)."""
     limits: StreamLimits = rt.settings.stream
     open_streams: set[str] = set()
     app.state.streams = open_streams
+
+    @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
+              responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
+    async def session_from_scenario(req: ScenarioSession) -> JSONResponse:
+        """Start a session over a registered scenario's world with its first ``n_actions`` actions
+        already observed (the web page streams its microphone into it)."""
+        try:
+            sc = rt.scenario(req.scenario)
+        except UnknownNameError as exc:
+            raise ProblemError(422, "unknown-scenario", str(exc)) from None
+        n = len(sc.actions) if req.n_actions is None else req.n_actions
+        if n > len(sc.actions):
+            raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
+
+        def work() -> dict[str, Any]:
+            sess = mgr.create(scenario_spec(sc), {"mode": "full", "likelihood": "phonetic"})
+            mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
+            return mgr.view(mgr.get(sess.id))
+
+        view = await run_cpu(work)
+        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
 
     @app.websocket("/v1/sessions/{session_id}/listen")
     async def listen(ws: WebSocket, session_id: str) -> None:

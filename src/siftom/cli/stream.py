@@ -187,7 +187,57 @@ def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_t
         home.close()
 
 
+@click.command("stream")
+@click.option("--likelihood", "likelihoods", multiple=True, type=click.Choice(LIKELIHOOD_CHOICES),
+              help="likelihoods to time (repeat; default: phonetic and acoustic)")
+@click.option("--bed", default="", help="a recorded noise clip under the instructions, e.g. fan_01 (default: none)")
+@click.option("--snr", type=float, default=10.0, show_default=True, help="the bed's SNR in dB")
+@click.option("--noise-seconds", type=click.FloatRange(0, 3600), default=60.0, show_default=True,
+              help="seconds each recorded noise clip is streamed for false triggers (0: skip)")
+@click.option("--noise-clip", "noise_clips", multiple=True, help="only these noise clips (stems; repeat)")
+@click.option("--seed", type=int, default=2, show_default=True, help="pauses between instructions, the bed's offset")
+@click.option("--quick", is_flag=True, help="4 instructions, one noise clip per category")
+@click.option("--json", "as_json", is_flag=True, help="print the result as JSON")
+def bench_stream_cmd(likelihoods: tuple[str, ...], bed: str, snr: float, noise_seconds: float,
+                     noise_clips: tuple[str, ...], seed: int, quick: bool, as_json: bool) -> None:
+    """Stream spoken instructions in real time: end of speech -> decision (p50, p90) per likelihood,
+    utterances cut or merged; then false triggers on the recorded noise clips (docs/streaming.md)."""
+    from siftom.bench.stream import StreamBenchOptions, run_stream_bench
+
+    opts = StreamBenchOptions(likelihoods=likelihoods or ("phonetic", "acoustic"), bed=bed, snr_db=snr,
+                              noise_s=noise_seconds, noise_clips=noise_clips, seed=seed, quick=quick)
+    res = run_stream_bench(opts)
+    if as_json:
+        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
+        return
+    click.echo(f"{len(res.utterances)} instructions in {res.stream_s:g} s of stream (bed: {bed or 'none'}), "
+               "streamed in real time in 20 ms chunks")
+    for lk, r in res.likelihoods.items():
+        p50 = "-" if r["p50_s"] is None else f"{r['p50_s']:.3f} s"
+        p90 = "-" if r["p90_s"] is None else f"{r['p90_s']:.3f} s"
+        heard = sum(1 for u in r["utterances"] if u.get("command"))
+        click.echo(f"{lk:9s} end of speech -> decision p50 {p50}, p90 {p90} ({r['answered']} answered); "
+                   f"cut {r['cut_share']:.0%}, merged {r['merged_share']:.0%}, missed {r['missed']}; "
+                   f"{heard} with a command")
+    if res.noise:
+        segs = sum(n["segments"] for n in res.noise)
+        click.echo(f"noise: {len(res.noise)} clips x {noise_seconds:g} s: {res.false_triggers} false triggers "
+                   f"(decisions), {segs} utterances cut in all")
+        for n in res.noise:
+            if n["segments"]:
+                click.echo(f"  {n['clip']}: {n['segments']} cut, {n['decisions']} answered {n['heard']}")
+    verdict = "meets" if res.meets() else "MISSES"
+    click.echo(f"{verdict} the target: acoustic p50 <= 0.6 s and no false trigger")
+
+
 def register(root: click.Group) -> None:
-    """Add ``listen`` and ``ros`` to the root group."""
+    """Add ``listen`` and ``ros`` to the root group, ``stream`` to ``bench``."""
     root.add_command(listen_cmd)
     root.add_command(ros_cmd)
+    bench = root.commands.get("bench")
+    if bench is None:
+        bench = click.Group("bench", help="Benchmarks (speed and accuracy); --json for machines.")
+        root.add_command(bench)
+    if not isinstance(bench, click.Group):
+        raise SiftomError("the 'bench' command is not a group; cannot add 'bench stream'")
+    bench.add_command(bench_stream_cmd)

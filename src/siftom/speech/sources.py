@@ -22,9 +22,12 @@ def file_chunks(path: str | Path, realtime: bool = False, chunk_s: float = CHUNK
     """The file's samples in ``chunk_s`` chunks; with ``realtime`` each chunk is released when it
     would have been spoken. ``tail_s`` of silence follow, as a microphone keeps recording after
     the person stops (so the detector can see the end of the last utterance)."""
-    x = load_audio(path, max_seconds=MAX_FILE_S)
+    x = load_audio(path, max_seconds=MAX_FILE_S)  # read now: a bad file fails before listening starts
     x = np.concatenate([x, np.zeros(int(tail_s * SAMPLE_RATE), dtype=np.float32)])
-    step = max(1, int(chunk_s * SAMPLE_RATE))
+    return _paced(x, max(1, int(chunk_s * SAMPLE_RATE)), realtime)
+
+
+def _paced(x: np.ndarray, step: int, realtime: bool) -> Iterator[np.ndarray]:
     t0 = time.perf_counter()
     for k in range(0, len(x), step):
         if realtime:

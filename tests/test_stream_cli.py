@@ -3,9 +3,8 @@ from a file or from stdin while listening), and the errors for a missing microph
 
 from __future__ import annotations
 
+import io
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -19,10 +18,16 @@ ROOT = Path(__file__).resolve().parents[1]
 WORLD = ROOT / "docs" / "examples" / "salad" / "world.json"
 
 
-def siftom(*args: str, stdin: str | None = None, timeout: float = 180) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
-    return subprocess.run([sys.executable, "-m", "siftom.cli", *args], env=env, input=stdin, capture_output=True,
-                          text=True, timeout=timeout)
+def siftom(*args: str, stdin: str | None = None, capsys=None, monkeypatch=None) -> tuple[int, str, str]:
+    """``siftom ARGS`` in this process (the recogniser cache is shared between tests)."""
+    from siftom.cli import main
+
+    if stdin is not None:
+        monkeypatch.setattr(sys, "stdin", io.StringIO(stdin))
+    capsys.readouterr()
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")
@@ -35,13 +40,13 @@ def two_instructions(tmp_path_factory) -> Path:
     return path
 
 
-def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instructions, tmp_path):
+def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instructions, tmp_path, capsys):
     acts = tmp_path / "actions.txt"
     acts.write_text("# seen before listening\n[Walk] <fridge> (1)\n[Open] <fridge> (1)\n")
-    res = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", str(acts),
-                 "--events")
-    assert res.returncode == 0, res.stderr
-    lines = [json.loads(ln) for ln in res.stdout.splitlines()]
+    code, out, err = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", str(acts),
+                            "--events", capsys=capsys)
+    assert code == 0, err
+    lines = [json.loads(ln) for ln in out.splitlines()]
     assert [ln["event"] for ln in lines if ln["event"] != "decision"] == ["speech_started", "speech_ended"] * 2
     decisions = [ln for ln in lines if ln["event"] == "decision"]
     assert [d["heard"] for d in decisions] == ["can you get me the tomato", "pass me the cheese"]
@@ -52,21 +57,22 @@ def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instruct
         assert len(d["nbest"]) <= 3 and d["start_s"] < d["end_s"]
 
 
-def test_actions_read_from_stdin_while_listening(two_instructions):
-    res = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", "-",
-                 stdin="[Walk] <fridge> (1)\nnot an action\n[Open] <fridge> (1)\n")
-    assert res.returncode == 0, res.stderr
-    notes = [json.loads(ln) for ln in res.stderr.splitlines() if ln.startswith("{")]
+def test_actions_read_from_stdin_while_listening(two_instructions, capsys, monkeypatch):
+    code, out, err = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", "-",
+                            stdin="[Walk] <fridge> (1)\nnot an action\n[Open] <fridge> (1)\n", capsys=capsys,
+                            monkeypatch=monkeypatch)
+    assert code == 0, err
+    notes = [json.loads(ln) for ln in err.splitlines() if ln.startswith("{")]
     assert [n["event"] for n in notes] == ["actions", "error", "actions"]
     assert "cannot parse action 'not an action'" in notes[1]["detail"]
-    assert len([ln for ln in res.stdout.splitlines() if '"decision"' in ln]) == 2
+    assert len([ln for ln in out.splitlines() if '"decision"' in ln]) == 2
 
 
-def test_missing_microphone_or_file_is_a_clear_error():
-    res = siftom("listen", "--mic", "--device", "999", "--scene", str(WORLD), timeout=60)
-    assert res.returncode == 2 and res.stderr.startswith("error: ")
-    assert "PortAudio" in res.stderr or "no usable input device 999" in res.stderr, res.stderr
-    res = siftom("listen", "--wav", "nope.wav", "--scenario", "kitchen-cereal-v0", timeout=60)
-    assert res.returncode == 2 and "does not exist" in res.stderr
-    res = siftom("listen", "--scenario", "kitchen-cereal-v0", timeout=60)
-    assert res.returncode == 2 and "--mic or --wav" in res.stderr
+def test_missing_microphone_or_file_is_a_clear_error(capsys):
+    code, _, err = siftom("listen", "--mic", "--device", "999", "--scene", str(WORLD), capsys=capsys)
+    assert code == 2 and err.startswith("error: ")
+    assert "PortAudio" in err or "no usable input device 999" in err, err
+    code, _, err = siftom("listen", "--wav", "nope.wav", "--scenario", "kitchen-cereal-v0", capsys=capsys)
+    assert code == 2 and "does not exist" in err
+    code, _, err = siftom("listen", "--scenario", "kitchen-cereal-v0", capsys=capsys)
+    assert code == 2 and "--mic or --wav" in err

@@ -40,7 +40,6 @@ from siftom.speech.segment import (
     Event,
     FrameScorer,
     SegmentOptions,
-    SpeechEnded,
     Utterance,
     UtteranceSegmenter,
 )
@@ -185,15 +184,6 @@ class StreamListener:
                 "timings": {"asr": round(rec.seconds, 4), "answer": round(answer_s, 4),
                             "wait": round(t2 - t0, 4),
                             "asr_early": early is not None, "answer_early": answered_early}}
-
-    def events_then_answers(self, chunk: bytes | np.ndarray) -> list[dict[str, Any]]:
-        """:meth:`feed` and answer each ended utterance at once (for callers without threads)."""
-        out: list[dict[str, Any]] = []
-        for ev in self.feed(chunk):
-            out.append(ev.to_json())
-            if isinstance(ev, SpeechEnded):
-                out.append(self.respond(ev.utterance))
-        return out
 
 
 def recogniser(engine: Any, nbest: int, lock: Any = None) -> Recognise:

@@ -102,6 +102,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     limits: StreamLimits = rt.settings.stream
     open_streams: set[str] = set()
     app.state.streams = open_streams
+    admitted = [0]  # streams past the max_streams check (counted before any await: no race)
 
     @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
               responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
@@ -127,22 +128,26 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     @app.websocket("/v1/sessions/{session_id}/listen")
     async def listen(ws: WebSocket, session_id: str) -> None:
         await ws.accept()
+        if admitted[0] >= limits.max_streams:
+            with contextlib.suppress(Exception):
+                await ws.close(CLOSE_BUSY, f"{limits.max_streams} streams are open, the most this server "
+                               "allows (--max-streams); try again later")
+            return
+        admitted[0] += 1
         try:
-            if len(open_streams) >= limits.max_streams:
-                raise StreamClosed(CLOSE_BUSY, f"{limits.max_streams} streams are open, the most this server "
-                                   "allows (--max-streams); try again later")
             if not re.fullmatch(SESSION_ID, session_id):
                 raise StreamClosed(CLOSE_UNKNOWN_SESSION, "not a session id; create one with POST /v1/sessions")
             if session_id in open_streams:
                 raise StreamClosed(CLOSE_ALREADY_STREAMING, "this session is already streaming; close the "
                                    "other stream first")
-            top, policy, nbest = _params(ws.query_params)
+            open_streams.add(session_id)  # before any await: a second stream on it is refused
             try:
-                sess = await run_cpu(mgr.get, session_id)
-            except ProblemError as exc:
-                raise StreamClosed(CLOSE_UNKNOWN_SESSION, exc.detail if exc.status == 404 else str(exc)) from None
-            open_streams.add(session_id)
-            try:
+                top, policy, nbest = _params(ws.query_params)
+                try:
+                    sess = await run_cpu(mgr.get, session_id)
+                except ProblemError as exc:
+                    raise StreamClosed(CLOSE_UNKNOWN_SESSION,
+                                       exc.detail if exc.status == 404 else str(exc)) from None
                 await _stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits)
             finally:
                 open_streams.discard(session_id)
@@ -151,6 +156,8 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                 await ws.close(exc.code, exc.reason)
         except WebSocketDisconnect:
             pass
+        finally:
+            admitted[0] -= 1
 
 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
@@ -191,6 +198,9 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
                 await send({"event": "error", "utterance": utt.index, "status": exc.status, "detail": exc.detail})
             except SiftomError as exc:
                 await send({"event": "error", "utterance": utt.index, "status": 422, "detail": str(exc)})
+            except Exception as exc:  # a bug in one answer: say so, keep listening
+                await send({"event": "error", "utterance": utt.index, "status": 500,
+                            "detail": f"internal error: {type(exc).__name__}"})
             finally:
                 waiting -= 1
 

@@ -5,7 +5,8 @@ server cuts utterances with the voice-activity detector (:class:`~siftom.inferen
 and sends JSON text events: ``ready``, ``speech_started``, ``speech_ended``, then ``decision``
 (the session's posterior with the actions observed so far, and ``act`` / ``ask`` / ``wait``) or
 ``no_speech`` for each utterance; ``actions`` after an ``{"type": "actions"}`` command;
-``error`` when one utterance could not be answered. Recognition and inference run in worker
+``error`` when one utterance could not be answered; with ``?partial=1`` also ``heard`` (the words
+so far, once per second of speech). Recognition and inference run in worker
 threads, so audio keeps flowing while an utterance is answered, and actions posted to
 ``/v1/sessions/{id}/actions`` meanwhile count for the next answer.
 """
@@ -47,6 +48,7 @@ from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.audio import SAMPLE_RATE
 
 RunCpu = Callable[..., Awaitable[Any]]
+PARTIAL_EVERY_S = 1.0  # with ?partial=1, a "heard" event per second of speech
 
 
 class StreamClosed(Exception):
@@ -57,8 +59,8 @@ class StreamClosed(Exception):
         self.code, self.reason = code, reason.encode()[:123].decode(errors="ignore")
 
 
-def _params(query: Any) -> tuple[int, ClarifyPolicy, int]:
-    """top, clarifying policy and N-best size from the query string (4422 when invalid)."""
+def _params(query: Any) -> tuple[int, ClarifyPolicy, int, bool]:
+    """top, clarifying policy, N-best size and partial results from the query string (4422 when invalid)."""
     def number(name: str, default: float, lo: float, hi: float, kind: type = float) -> Any:
         raw = query.get(name)
         if raw is None:
@@ -74,7 +76,7 @@ def _params(query: Any) -> tuple[int, ClarifyPolicy, int]:
     top = number("top", 5, 1, 20, int)
     policy = ClarifyPolicy(number("threshold", ClarifyPolicy().threshold, 0, 1),
                            number("cost", ClarifyPolicy().cost, 0, 1))
-    return top, policy, number("nbest", DEFAULT_NBEST, 1, 10, int)
+    return top, policy, number("nbest", DEFAULT_NBEST, 1, 10, int), number("partial", 0, 0, 1, int) == 1
 
 
 class ScenarioSession(BaseModel):
@@ -142,13 +144,13 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                                    "other stream first")
             open_streams.add(session_id)  # before any await: a second stream on it is refused
             try:
-                top, policy, nbest = _params(ws.query_params)
+                top, policy, nbest, partial = _params(ws.query_params)
                 try:
                     sess = await run_cpu(mgr.get, session_id)
                 except ProblemError as exc:
                     raise StreamClosed(CLOSE_UNKNOWN_SESSION,
                                        exc.detail if exc.status == 404 else str(exc)) from None
-                await _stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits)
+                await _stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits, partial)
             finally:
                 open_streams.discard(session_id)
         except StreamClosed as exc:
@@ -161,7 +163,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 
 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
-                  policy: ClarifyPolicy, nbest: int, limits: StreamLimits) -> None:
+                  policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False) -> None:
     from siftom.inference.stream import Recognised, StreamListener, recogniser
     from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
 
@@ -180,7 +182,9 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
         return body
 
     options = SegmentOptions(max_utterance_s=limits.max_utterance_s)
-    listener = StreamListener(recogniser(eng.engine, nbest, eng.lock), answer, options)
+    recognise = recogniser(eng.engine, nbest, eng.lock)
+    listener = StreamListener(recognise, answer, options)
+    partials: dict[str, Any] = {"next": PARTIAL_EVERY_S, "task": None}
     send_lock = asyncio.Lock()
     queue: asyncio.Queue[Utterance | None] = asyncio.Queue()
     waiting = 0
@@ -204,8 +208,30 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
             finally:
                 waiting -= 1
 
+    async def heard_so_far(index: int, t: float, samples: Any) -> None:
+        try:
+            rec = await run_cpu(recognise, samples)
+            await send({"event": "heard", "utterance": index, "partial": True, "t": round(t, 3), "text": rec.text})
+        except Exception:  # a partial result is only a courtesy: the final answer reports errors
+            pass
+
+    def maybe_partial() -> None:
+        """With ?partial=1: every PARTIAL_EVERY_S of speech, recognise what was said so far."""
+        now = listener.segmenter.current()
+        if now is None:
+            partials["next"] = PARTIAL_EVERY_S
+            return
+        index, start, samples = now
+        t = listener.segmenter.time_s
+        task = partials["task"]
+        if t - start >= partials["next"] and (task is None or task.done()):
+            partials["next"] = t - start + PARTIAL_EVERY_S
+            partials["task"] = asyncio.create_task(heard_so_far(index, t, samples))
+
     async def handle(events: list[Any]) -> None:
         nonlocal waiting
+        if partial:
+            maybe_partial()
         for ev in events:
             await send(ev.to_json())
             if isinstance(ev, SpeechEnded):
@@ -243,6 +269,8 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
                 await handle(listener.finish())
                 queue.put_nowait(None)
                 await worker
+                if partials["task"] is not None:
+                    await partials["task"]
                 raise StreamClosed(CLOSE_NORMAL, "end of stream")
             try:
                 added, n = await run_cpu(_append, mgr, sid, command["actions"])
@@ -258,6 +286,8 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
         raise StreamClosed(CLOSE_INTERNAL, f"internal error: {type(exc).__name__}") from exc
     finally:
         worker.cancel()
+        if partials["task"] is not None:
+            partials["task"].cancel()
         listener.close()
 
 

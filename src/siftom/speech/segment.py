@@ -255,6 +255,12 @@ class UtteranceSegmenter:
         self._in_speech, self._run, self._frames, self._preview = False, 0, [], None
         return SpeechEnded(utt)
 
+    def current(self) -> tuple[int, float, np.ndarray] | None:
+        """While speech goes on: (utterance index, start, the samples so far); else None."""
+        if not self._in_speech or not self._frames:
+            return None
+        return self._count, self._first * FRAME_S, np.concatenate(self._frames)
+
     def tentative(self) -> Utterance | None:
         """The utterance as it will end if the current silence goes on (None when there is none):
         available after ``post_roll_s`` of silence, before the end is declared."""

@@ -158,6 +158,10 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                 await ws.close(exc.code, exc.reason)
         except WebSocketDisconnect:
             pass
+        except ProblemError as exc:  # e.g. building the recogniser ran over the time limit (503)
+            code = CLOSE_BUSY if exc.status == 503 else CLOSE_INTERNAL
+            with contextlib.suppress(Exception):
+                await ws.close(code, StreamClosed(code, exc.detail).reason)
         finally:
             admitted[0] -= 1
 

@@ -331,7 +331,7 @@ async function toWav16k(blob) {
 async function toggleStream() {
   if (state.live) { stopStream("stopped"); return; }
   if (!navigator.mediaDevices || !window.AudioWorkletNode) { setStatus("this browser cannot stream audio", true); return; }
-  const live = { ws: null, ctx: null, media: null, ready: false, pending: [] };
+  const live = { ws: null, ctx: null, media: null, ready: false, pending: [], decided: -1 };
   state.live = live;
   $("stream").classList.add("recording");
   $("stream").textContent = "■ Stop listening";
@@ -354,7 +354,7 @@ async function toggleStream() {
     await live.ctx.audioWorklet.addModule("/static/pcm-worklet.js");
     const node = new AudioWorkletNode(live.ctx, "pcm16k");
     const proto = location.protocol === "https:" ? "wss:" : "ws:";
-    live.ws = new WebSocket(`${proto}//${location.host}/v1/sessions/${encodeURIComponent(sess.id)}/listen`);
+    live.ws = new WebSocket(`${proto}//${location.host}/v1/sessions/${encodeURIComponent(sess.id)}/listen?partial=1`);
     live.ws.binaryType = "arraybuffer";
     node.port.onmessage = (e) => {  // until the server is ready, keep the audio (up to 10 s) and send it then
       if (live.ready && live.ws.readyState === WebSocket.OPEN) live.ws.send(e.data);
@@ -377,10 +377,12 @@ function onStreamEvent(ev) {
     setStatus("listening… speak, then pause");
   }
   else if (ev.event === "speech_started") setStatus("hearing you…");
+  else if (ev.event === "heard" && ev.text && ev.utterance > live.decided) setStatus(`hearing you… “${ev.text}”`);
   else if (ev.event === "speech_ended") setStatus("recognising…");
   else if (ev.event === "no_speech") setStatus("listening… (no words in that)");
   else if (ev.event === "error") setStatus(ev.detail, true);
   else if (ev.event === "decision") {
+    live.decided = ev.utterance;
     $("instruction").value = ev.heard;
     showResult(ev);
     const d = $("stream-decision");

@@ -54,7 +54,7 @@ def ws_url(url: str, sid: str, query: str = "") -> str:
 
 def test_streamed_instruction_in_real_time_gets_a_decision(server, clip):
     sid = new_session(server)
-    audio = pcm16(list_concat(silence(0.3), clip, silence(1.2)))
+    audio = pcm16(list_concat(silence(0.3), clip, silence(1.0)))
     with ws_client.connect(ws_url(server, sid)) as ws:
         got = Collector(ws)
         got.ready()
@@ -74,9 +74,9 @@ def test_streamed_instruction_in_real_time_gets_a_decision(server, clip):
     assert decision["command"] == "fetch(tomato)"
     assert decision["decision"] in ("act", "ask") and decision["n_actions"] == 5
     assert decision["commands"][0]["command"] == "fetch(tomato)" and decision["goals"]
-    # the decision came before the stream was over: while the trailing silence was still streaming
-    at = got.times[kinds.index("decision")] - t0
-    assert at < 0.3 + len(clip) / 16000 + 1.2, (at, decision["timings"], ended)
+    # the pause ended the utterance (reason "silence"), not the end of the stream; the time it took
+    # is measured by `siftom bench stream` (a wall-clock bound here would fail on a loaded machine)
+    assert decision["reason"] == "silence" and got.times[kinds.index("decision")] > t0
     # the session recorded the answer like POST /instruction does
     view = httpx.get(f"{server}/v1/sessions/{sid}").json()
     assert view["last_instruction"]["command"] == "fetch(tomato)"

@@ -19,13 +19,13 @@ subset, 2-4 of each) or ``"kitchen-v0"`` (the recipe library).
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from siftom.errors import ObservationError, SceneGraphError
+from siftom.safejson import loads, read_text
 from siftom.world.model import NOTHING, Goal, Item, Place, State, World
 
 MAX_BYTES = 20 * 1024 * 1024
@@ -214,10 +214,7 @@ def load_scene(path: str | Path, goal_space: str | None = None, target: str | No
         raise ObservationError(f"{p}: no such file; give a world JSON or a VirtualHome graph")
     if p.stat().st_size > MAX_BYTES:
         raise ObservationError(f"{p}: file is larger than {MAX_BYTES // 2**20} MB")
-    try:
-        obj = json.loads(p.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ObservationError(f"{p}: not valid JSON ({exc})") from None
+    obj = loads(read_text(p, "world file"), f"world file {str(p)!r}")
     if isinstance(obj, dict) and "nodes" in obj and "edges" in obj:
         from siftom.world.scenegraph import SceneGraph
 

@@ -189,6 +189,10 @@ def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audi
     if not heard.speech:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
+    elif not heard.instruction:
+        con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{heard.posterior.transcript}" holds no '
+                  f"command of this scene ({heard.posterior.evidence.get('no_instruction_reason', '')}); no command "
+                  "issued. The posterior below comes from the actions alone")
     print_posterior(heard.posterior, con)
     con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
               "loading the recogniser and the scene; `siftom bench latency` times warm calls)")

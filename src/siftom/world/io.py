@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from siftom.errors import ObservationError, SceneGraphError
+from siftom.errors import ObservationError, SceneGraphError, SiftomError
 from siftom.safejson import loads, read_text
 from siftom.world.model import NOTHING, Goal, Item, Place, State, World
 
@@ -52,6 +52,8 @@ class LoadedScene:
 
 
 def _need(d: dict, key: str, where: str) -> Any:
+    if not isinstance(d, dict):
+        raise ObservationError(f"{where} must be an object with {key!r}")
     if key not in d:
         raise ObservationError(f"{where}: missing {key!r}")
     return d[key]
@@ -59,6 +61,17 @@ def _need(d: dict, key: str, where: str) -> Any:
 
 def scene_from_json(obj: Any) -> LoadedScene:
     """Build a scene from siftom's world JSON (see module docstring); clear errors on bad input."""
+    try:
+        return _scene_from_json(obj)
+    except SiftomError:
+        raise
+    except (TypeError, ValueError, KeyError, AttributeError, IndexError, OverflowError, RecursionError) as exc:
+        # a value of the wrong type somewhere the checks above do not look
+        raise ObservationError(f"the world is malformed ({type(exc).__name__}: {str(exc)[:160]}); docs/world.md "
+                               "gives the schema") from None
+
+
+def _scene_from_json(obj: Any) -> LoadedScene:
     if not isinstance(obj, dict):
         raise ObservationError("a world file must be a JSON object with 'places', 'items' and 'target'")
     if "nodes" in obj and "edges" in obj:
@@ -90,7 +103,7 @@ def scene_from_json(obj: Any) -> LoadedScene:
     pidx = {p.name: i for i, p in enumerate(places)}
 
     def place_of(name: Any, where: str) -> int:
-        if name not in pidx:
+        if not isinstance(name, str) or name not in pidx:
             from siftom.errors import unknown_name
 
             raise ObservationError(f"{where}: {unknown_name('place', str(name), pidx)}")

@@ -93,3 +93,13 @@ def test_concurrent_replies_report_their_own_request(folder):
     for r in replies:  # each reply's count and state are those right after its own action
         assert r["added"] == [stored[r["n_actions"] - 1]]
         assert r["state"]["agents"]["human"] == r["added"][0].split(", ")[1].rstrip(")")
+
+
+def test_words_that_hold_no_instruction_are_not_acted_on(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions", json={"world": SALAD}).json()["id"]
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "what time is it"}).json()
+    assert r["evidence"]["no_instruction"] and r["message"] == "no instruction heard"
+    assert r["clarification"]["ask"] is False and r["clarification"]["command"] == "none"
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the potato"}).json()
+    assert "no_instruction" not in r["evidence"] and r.get("message", "") == ""

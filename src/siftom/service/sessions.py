@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from siftom.api import get_model
-from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
@@ -375,10 +375,15 @@ class SessionManager:
             body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(post.commands, policy).to_json()
+            if post.evidence.get("no_instruction"):  # nothing to act on, nothing to ask about
+                body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
+                                                      "no instruction heard").to_json()
             body["plan"] = self._plan(sess, post.command)
             if asr is not None:
                 body["asr"] = asr
             body.update(extra or {})
+            if post.evidence.get("no_instruction"):  # words near no command (likelihood/nearness.py)
+                body["message"] = "no instruction heard"
             body = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
             self.store.set_last(sid, body, None if idem is None else (idem.key, idem.request))
             sess.last = body

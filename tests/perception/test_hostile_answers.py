@@ -66,3 +66,33 @@ def test_serve_flags_reach_the_vision_path(fake_openai, frames, tmp_path, monkey
     r = c.post("/v1/perceive", json={"frames": _urls(frames[:1]), "goal_space": "kitchen-v0"})
     assert r.status_code == 200, r.text
     assert fake_openai.requests and fake_openai.requests[0].body["model"] == "fake-vlm"
+
+
+def test_hints_name_options_that_exist(capsys):
+    import inspect
+
+    from siftom.speech.audio import as_audio, load_audio
+
+    assert main(["perceive", "--help"]) == 0
+    assert "--max-tokens" in capsys.readouterr().out
+    assert "max_seconds" in inspect.signature(load_audio).parameters
+    assert "max_seconds" in inspect.signature(as_audio).parameters
+
+
+def test_session_frames_take_an_idempotency_key(vlm_env, frames, tmp_path):
+    from fastapi.testclient import TestClient
+
+    from siftom.service.app import create_app
+
+    vlm_env.on("chat/completions", handler(frames))
+    c = TestClient(create_app(tmp_path / "serve"), raise_server_exceptions=False)
+    r = c.post("/v1/perceive", json={"frames": _urls(frames[:1]), "goal_space": "kitchen-v0",
+                                     "target": "kitchen_counter", "propose_goals": False})
+    sid = c.post("/v1/sessions", json={"world": r.json()["world"]}).json()["id"]
+    first = c.post(f"/v1/sessions/{sid}/frames", json={"frames": _urls(frames)}, headers={"Idempotency-Key": "f1"})
+    assert first.status_code == 200, first.text
+    asked = len(vlm_env.requests)
+    again = c.post(f"/v1/sessions/{sid}/frames", json={"frames": _urls(frames)}, headers={"Idempotency-Key": "f1"})
+    assert again.json() == first.json() and again.headers["idempotent-replayed"] == "true"
+    assert len(vlm_env.requests) == asked  # the model is not asked again
+    assert c.get(f"/v1/sessions/{sid}").json()["n_actions"] == first.json()["n_actions"] == 10

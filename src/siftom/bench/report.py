@@ -60,7 +60,7 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     if not rows:
         raise DatasetError("no evaluated stimuli to summarise; run 'siftom eval' first")
     models = models_in(rows)
-    out: dict[str, Any] = {"n_stimuli": len(rows), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
+    out: dict[str, Any] = {"n_stimuli": len({r["id"] for r in rows}), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
                            "models": {}}
     for m in models:
         trials = [r["models"][m] for r in rows if m in r["models"]]
@@ -69,6 +69,13 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
         out["models"][m].update({"regret": None if not np.isfinite(rg) else round(rg, 4),
                                  "regret_ci": [None if not np.isfinite(c) else round(c, 4) for c in rg_ci]})
     out["goal_oracle"] = oracle_summary(rows, seed, n_boot)
+    skipped: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        for m, why in r.get("not_evaluable", {}).items():
+            s = skipped.setdefault(m, {"n": 0, "reasons": {}})
+            s["n"] += 1
+            s["reasons"][why] = s["reasons"].get(why, 0) + 1
+    out["not_evaluable"] = skipped  # model -> trials it could not be evaluated on, and why
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
     out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
@@ -284,6 +291,9 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
         f"The gold command itself gives a mean speedup of {summary.get('gold_command_speedup')}.",
         "",
     ]
+    for m, s in (summary.get("not_evaluable") or {}).items():
+        why = "; ".join(f"{k} ({v})" for k, v in list(s["reasons"].items())[:3])
+        parts += [f"Not evaluable for {m}: {s['n']} trials, left out of its row above: {why}", ""]
     names = [p.name for p in figures]
     if FIG_MAIN in names:
         parts += [f"![accuracy and speedup]({FIG_MAIN})", ""]
@@ -343,16 +353,27 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
         rows = sorted(rows, key=lambda r: r["id"])
     if seed is None:
         seed = int(run.get("seed", 0))
-    summary = summarise(rows, seed=seed)
+    from siftom.bench.human import human_summary, load_human, people_section
+    from siftom.bench.ratings import RATINGS, ratings_summary
+    from siftom.bench.results_io import read_jsonl
+
+    human = load_human(root)  # people's answers as trials of the model "human" (bench/human.py)
+    ratings = read_jsonl(root / RATINGS)
+    summary = summarise(rows + human, seed=seed)
+    if human:
+        summary["human"] = human_summary(human, seed)
+    if ratings:
+        summary["ratings"] = ratings_summary(ratings, seed)
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
-    figs = render_figures(rows, summary, root) if figures else []
+    figs = render_figures(rows + human, summary, root) if figures else []
     from siftom.bench import reliability
 
     rel = reliability.reliability(rows, list(summary["models"]))
     summary["reliability"] = rel
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     rel_fig = reliability.render(rel, root) if figures else None
-    _write(root / "report.md", render_report(summary, run, figs) + "\n" + reliability.section(rel, rel_fig))
+    _write(root / "report.md", render_report(summary, run, figs) + "\n" + people_section(summary)
+           + reliability.section(rel, rel_fig))
     return summary
 
 

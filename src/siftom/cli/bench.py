@@ -105,10 +105,11 @@ def dataset_group() -> None:
 @click.option("--speakers", type=int, default=5, show_default=True, help="speakers per scenario")
 @click.option("--voices", default=None, help="comma-separated voices (siftom voices); default: 2 flite + 3 espeak Klatt")
 @click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
-              help="folder of noise WAVs named CATEGORY_NN.wav; default: synthetic noise")
+              help="folder of noise WAVs named CATEGORY_NN.wav, or 'recorded' for the real "
+                   "household recordings shipped with siftom; default: synthetic noise")
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
-@click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for phrasings, speakers and noise")
 @click.option("--phrasings", "phrasings", default=None,
               help="carrier file: UTF-8, one carrier per line with {np}, '#' comments; or a shipped set "
                    "(free-v0, free-heldout-v0). Default: siftom's phrasing grammar")
@@ -167,12 +168,14 @@ def check_cmd(folder: str) -> None:
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
-@click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
+@click.option("--human", "human", type=click.Path(file_okay=False), default=None,
+              help="an annotation folder (siftom annotate --out): its answers join the report as the model 'human'")
 @llm_options
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool,
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool, human: str | None,
              llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.backends.config import llm_configured
@@ -194,6 +197,10 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
     with RunLock(out), _backend(backend, workers, ray_address) as be:
         with _bar("evaluating", not as_json) as bar:
             run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
+        if human is not None:
+            from siftom.bench.human import score_answers
+
+            score_answers(human, out, dataset)
         summary = write_report(out)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -205,15 +212,30 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
 
 @click.command("report")
 @click.argument("results", type=click.Path(file_okay=False))
-@click.option("--seed", type=int, default=None, help="bootstrap seed (default: the run's)")
+@click.option("--seed", type=click.IntRange(min=0), default=None, help="bootstrap seed (default: the run's)")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
-def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
-    """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl."""
+@click.option("--human", "human", type=click.Path(file_okay=False), default=None,
+              help="an annotation folder (siftom annotate --out): score its answers as the model 'human'")
+@click.option("--ratings", "ratings", type=click.Path(), multiple=True,
+              help="a ratings.jsonl of 'siftom serve --data-dir DIR' (or DIR): add people's ratings per model")
+@click.option("--no-figures", is_flag=True, help="write summary.json and report.md only (faster)")
+def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None, ratings: tuple[str, ...],
+               no_figures: bool) -> None:
+    """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl
+    (and RESULTS/human.jsonl, RESULTS/ratings.jsonl when present)."""
     from siftom.bench.report import main_table, write_report
     from siftom.bench.runlock import RunLock
 
     with RunLock(results) if os.path.isdir(results) else nullcontext():
-        summary = write_report(results, seed=seed)
+        if human is not None:
+            from siftom.bench.human import score_answers
+
+            score_answers(human, results)
+        for r in ratings:
+            from siftom.bench.ratings import import_ratings
+
+            import_ratings(r, results)
+        summary = write_report(results, seed=seed, figures=not no_figures)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
+
+if TYPE_CHECKING:
+    from siftom.bench.runlock import RunLock
 
 
 def _need_serve_extra() -> None:
@@ -16,6 +20,23 @@ def _need_serve_extra() -> None:
             __import__(module)
         except ModuleNotFoundError:
             raise missing_extra("serve", package) from None
+
+
+def claim_data_dir(data_dir: str) -> RunLock:
+    """Hold ``DATA_DIR/.siftom.lock`` for the life of this process: one server per data folder.
+
+    Two servers on one folder would each cache sessions the other changes (answers from stale
+    state, appends refused forever). The kernel drops the lock when the process dies, however
+    it dies, so a restart after a crash is not refused.
+
+    Raises:
+        RunLockedError: another live process serves (or writes) the folder.
+    """
+    from siftom.bench.runlock import RunLock
+
+    lock = RunLock(data_dir, fix="stop that server first, or give this one another --data-dir")
+    lock.acquire()
+    return lock
 
 
 @click.command("serve")
@@ -34,9 +55,16 @@ def _need_serve_extra() -> None:
               help="most objects a session's world may hold (422 above)")
 @click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
               help="most actions one session may observe (422 above)")
+@click.option("--max-streams", type=click.IntRange(1, 10_000), default=8, show_default=True,
+              help="WS /v1/sessions/{id}/listen streams open at once (more are closed with 1013)")
+@click.option("--max-utterance", type=click.FloatRange(1, 120), default=15.0, show_default=True,
+              help="seconds of speech after which a streamed utterance is cut and answered")
+@click.option("--stream-idle", type=click.FloatRange(0.1, 86400), default=30.0, show_default=True,
+              help="seconds without a message after which a stream is closed (4408)")
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, session_idle: float,
-              max_world_bytes: int, max_world_items: int, max_session_actions: int,
+              max_world_bytes: int, max_world_items: int, max_session_actions: int, max_streams: int,
+              max_utterance: float, stream_idle: float,
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
@@ -45,6 +73,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
     _need_serve_extra()
     import uvicorn
 
+    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.service.sessions import SessionLimits
@@ -53,10 +82,17 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
                            max_world_items=max_world_items, max_actions=max_session_actions)
     llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
     # a world of max_world_bytes must fit in a request body
-    settings = ServiceSettings(sessions=limits, llm=llm,
+    from siftom.service.stream_settings import StreamLimits
+
+    stream = StreamLimits(max_streams=max_streams, max_utterance_s=max_utterance, max_idle_s=stream_idle)
+    settings = ServiceSettings(sessions=limits, llm=llm, stream=stream,
                                max_body_bytes=max(ServiceSettings().max_body_bytes, max_world_bytes + 4096))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+    try:
+        uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+    finally:
+        if lock is not None:
+            lock.release()
 
 
 @click.command("serve")

@@ -34,6 +34,7 @@ from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.sessions import SessionLimits
+from siftom.service.stream_settings import StreamLimits
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -84,6 +85,7 @@ class ServiceSettings:
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
         sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
+        stream: limits of the streaming endpoint (streams, utterance length, idle time; StreamLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -96,6 +98,7 @@ class ServiceSettings:
     llm: LLMConfig | None = None
     llm_error: str = ""
     sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
+    stream: StreamLimits = field(default_factory=lambda: StreamLimits())
 
     def __post_init__(self) -> None:
         if self.llm is None and not self.llm_error:
@@ -330,7 +333,7 @@ class Runtime:
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
         """
-        from siftom.inference.listen import NO_SPEECH, hear
+        from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, hear
 
         self.check_likelihood(likelihood)
         sc = self.scenario(sid)  # an unknown id fails before decoding
@@ -345,6 +348,8 @@ class Runtime:
         body["asr"] = tr.to_json() if tr is not None else None
         body["speech_heard"] = instruction is not None
         body["message"] = "" if instruction is not None else NO_SPEECH
+        if (body.get("evidence") or {}).get("no_instruction"):  # words near no command of the scene
+            body["message"] = NO_INSTRUCTION
         body["vad"] = vad.to_json()
         return body
 

@@ -389,7 +389,7 @@ def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcri
     corder = corder[cm[corder] > 0]
     gorder = np.argsort(-gm, kind="stable")
     gorder = gorder[gm[gorder] > 0]
-    commands = tuple((str(j.commands[k]), float(cm[k])) for k in corder)
+    commands = tuple((j.commands[k], float(cm[k])) for k in corder)
     goals = tuple((names[k], float(gm[k])) for k in gorder)
     from dataclasses import replace
 

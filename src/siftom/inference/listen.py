@@ -28,6 +28,7 @@ from siftom.errors import ObservationError
 from siftom.inference.model import Posterior
 from siftom.observation import Instruction
 from siftom.speech.asr import DEFAULT_NBEST
+from siftom.world.commands import RobotCommand
 
 NO_SPEECH = "no speech heard"
 
@@ -53,7 +54,7 @@ class Heard:
     timings: dict[str, float] = field(default_factory=dict)
 
     @property
-    def command(self) -> str:
+    def command(self) -> RobotCommand:
         """The chosen robot command."""
         return self.posterior.command
 

@@ -119,11 +119,11 @@ class Observation:
 
 
 @dataclass(frozen=True)
-class Hypothesis:
+class JointHypothesis:
     """One (goal, command) pair with its posterior and each term's contribution (log)."""
 
     goal: str
-    command: str
+    command: RobotCommand
     prob: float
     log_prior: float
     log_action: float
@@ -151,10 +151,10 @@ class JointPosterior:
 class Posterior:
     """The result of inference. ``to_json`` gives the documented JSON shape."""
 
-    command: str
-    commands: tuple[tuple[str, float], ...]
+    command: RobotCommand
+    commands: tuple[tuple[RobotCommand, float], ...]
     goals: tuple[tuple[str, float], ...]
-    hypotheses: tuple[Hypothesis, ...]
+    hypotheses: tuple[JointHypothesis, ...]
     mode: str
     likelihood: str
     n_actions: int
@@ -163,22 +163,26 @@ class Posterior:
     joint: JointPosterior | None = field(default=None, repr=False, compare=False)
     # what the instruction likelihood used besides the N-best (``evidence()``), e.g. Whisper's own words
     evidence: dict[str, Any] = field(default_factory=dict, compare=False)
+    # what a decision rule made of it (``siftom.infer(..., decide=RULE)``): a ``Decision``
+    decision: Any = field(default=None, compare=False)
 
     def prob(self, command: str) -> float:
+        """The posterior probability of ``command`` (a RobotCommand or its text)."""
         return dict(self.commands).get(command, 0.0)
 
     def to_json(self, top: int = 10) -> dict[str, Any]:
         return {
-            "command": self.command,
-            "commands": [{"command": c, "prob": p} for c, p in self.commands[:top]],
+            "command": str(self.command),
+            "commands": [{"command": str(c), "prob": p} for c, p in self.commands[:top]],
             "goals": [{"goal": g, "prob": p} for g, p in self.goals[:top]],
-            "hypotheses": [h.__dict__ for h in self.hypotheses[:top]],
+            "hypotheses": [{**h.__dict__, "command": str(h.command)} for h in self.hypotheses[:top]],
             "mode": self.mode,
             "likelihood": self.likelihood,
             "n_actions": self.n_actions,
             "transcript": self.transcript,
             "seconds": self.seconds,
             "evidence": dict(self.evidence),
+            **({"decision": self.decision.to_json()} if self.decision is not None else {}),
         }
 
 
@@ -334,12 +338,12 @@ class OnlineInference:
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple(zip([str(cmds[k]) for k in corder.tolist()], cm[corder].tolist(), strict=True))
+        commands = tuple(zip([cmds[k] for k in corder.tolist()], cm[corder].tolist(), strict=True))
         gorder = np.argsort(-gm, kind="stable")
         gorder = gorder[gm[gorder] > 0]
         goals = tuple(zip([goal_names[k] for k in gorder.tolist()], gm[gorder].tolist(), strict=True))
         order = np.argsort(-lj, kind="stable")[:top]
-        hyps = tuple(Hypothesis(goal_names[goal_all[i]], str(cmds[cmd_all[i]]), float(p[i]), float(terms[i, 0]),
+        hyps = tuple(JointHypothesis(goal_names[goal_all[i]], cmds[cmd_all[i]], float(p[i]), float(terms[i, 0]),
                                 float(terms[i, 1]), float(terms[i, 2])) for i in order)
         post = Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,

@@ -21,7 +21,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("likelihood",),
     ("inference",),
     ("assist", "perception"),
-    ("api", "bench", "service", "__init__"),  # the package root is the public facade
+    ("api", "inputs", "settings", "bench", "service", "__init__"),  # the package root is the public facade
     ("cli",),
 )
 LAYER_OF = {name: k for k, names in enumerate(LAYERS) for name in names}

@@ -17,8 +17,6 @@ import io
 import tempfile
 import threading
 import time
-from collections import OrderedDict
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -30,6 +28,7 @@ from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.backends.config import LLMConfig
 from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
+from siftom.inference.listen import Cache
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
@@ -118,31 +117,6 @@ class ServiceSettings:
             raise ObservationError(f"likelihoods must be a non-empty subset of {SERVICE_LIKELIHOODS}, got {bad}")
 
 
-class _LRU:
-    """A small thread-safe LRU map with get-or-create under a per-map lock."""
-
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self._d: OrderedDict[Any, Any] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get_or_create(self, key: Any, make: Callable[[], T]) -> T:
-        with self._lock:
-            if key in self._d:
-                self._d.move_to_end(key)
-                return self._d[key]
-        value = make()  # outside the map lock: creation may be slow
-        with self._lock:
-            self._d[key] = value
-            self._d.move_to_end(key)
-            while len(self._d) > self.size:
-                self._d.popitem(last=False)
-        return value
-
-    def __len__(self) -> int:
-        return len(self._d)
-
-
 @dataclass
 class _Engine:
     engine: Any
@@ -187,9 +161,9 @@ class Runtime:
         self.started = time.time()
         self._model_locks: dict[tuple[str, str], threading.Lock] = {}
         self._locks_lock = threading.Lock()
-        self._online = _LRU(settings.cache_size)
-        self._plans = _LRU(1024)
-        self._engines = _LRU(8)
+        self._online = Cache(settings.cache_size)
+        self._plans = Cache(1024)
+        self._engines = Cache(8)
         self._render_lock = threading.Lock()
         self.requests = 0
 

@@ -52,10 +52,46 @@ _PUBLIC: dict[str, str] = {
     "OptionsError": "siftom.errors",
     "SettingsError": "siftom.errors",
 }
-__all__ = ["__version__", *_PUBLIC]
+__all__ = [
+    "__version__",
+    "AudioError",
+    "BackendUnavailableError",
+    "CommandParseError",
+    "Heard",
+    "Hypothesis",
+    "InferOptions",
+    "Instruction",
+    "InstructionLikelihood",
+    "JointHypothesis",
+    "ModelConfig",
+    "ObservationError",
+    "OptionsError",
+    "Posterior",
+    "Registry",
+    "RobotCommand",
+    "Settings",
+    "SettingsError",
+    "SiftomError",
+    "UnknownNameError",
+    "get_model",
+    "infer",
+    "infer_actions",
+    "infer_scenario",
+    "listen",
+    "make_instruction",
+    "transcribe_for",
+]
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load on first use
-    from siftom.api import get_model, infer, infer_actions, infer_scenario, listen, make_instruction, transcribe_for
+    from siftom.api import (
+        get_model,
+        infer,
+        infer_actions,
+        infer_scenario,
+        listen,
+        make_instruction,
+        transcribe_for,
+    )
     from siftom.errors import (
         AudioError,
         BackendUnavailableError,

@@ -225,9 +225,6 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
 
     online = ONLINE.get((sc.key, model.config, _likelihood_key(use_lik), llm), make)
     post = online.posterior(instruction, top=top or opts.top)
-    if vad is not None:
-        post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": speech,
-                                                    **({} if speech else {"message": NO_SPEECH})})
     timings = {**timings, "infer": time.perf_counter() - t1}
     return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings)
 
@@ -286,7 +283,11 @@ def infer(
     got = as_heard(heard)
     if got is None and st.model.mode == "speech-only":
         raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
-    post = _run(sc, got, likelihood if likelihood is not None else st.infer.likelihood, st).posterior
+    h = _run(sc, got, likelihood if likelihood is not None else st.infer.likelihood, st)
+    post = h.posterior
+    if h.vad is not None:  # from audio: say whether speech was heard
+        post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": h.speech,
+                                                    **({} if h.speech else {"message": NO_SPEECH})})
     rule = decide if decide is not None else (st.infer.decide or None)
     return _decided(post, sc, rule, st) if rule is not None else post
 
@@ -305,6 +306,7 @@ def listen(
     engine: str = "pocketsphinx",
     nbest: int = DEFAULT_NBEST,
     top: int = 10,
+    decide: Any = None,
     settings: Settings | None = None,
 ) -> Heard:
     """Infer the robot command from a recording of the instruction and the human's actions.
@@ -321,6 +323,7 @@ def listen(
         mode: ``full``, ``speech-only`` or ``action-only``.
         likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
         engine: the ASR engine.
+        decide: a decision rule name or rule (as in :func:`infer`).
 
     Returns:
         Heard: the posterior, whether speech was heard, the transcript and timings. Without
@@ -334,4 +337,6 @@ def listen(
     x = as_audio(audio)
     t_load = time.perf_counter() - t0
     h = _run(sc, x, likelihood, st, mode=mode, engine=engine, nbest=nbest, top=top)
+    if decide is not None:
+        h = dataclasses.replace(h, posterior=_decided(h.posterior, sc, decide, st))
     return dataclasses.replace(h, seconds=time.perf_counter() - t0, timings={"load": t_load, **h.timings})

@@ -113,6 +113,7 @@ def resolve_scene(scene: Any, actions: Any = None, *, goal_space: str | None = N
     """Resolve ``scene`` and ``actions`` (see the module doc) and check every action."""
     src, key = load_scene_input(scene, goal_space, target)
     lines = action_lines(actions)
+    from_file = isinstance(actions, Path) or (isinstance(actions, str) and Path(actions).is_file())
     if lines is None:
         acts = tuple(getattr(src, "actions", ()))
     elif all(isinstance(a, Action) for a in lines):
@@ -120,8 +121,10 @@ def resolve_scene(scene: Any, actions: Any = None, *, goal_space: str | None = N
     else:
         from siftom.world.vhscript import parse_actions
 
-        parsed, _ = parse_actions(src.world, src.start, [a if isinstance(a, str) else src.world.format_action(a)
-                                                         for a in lines])
+        texts = [a if isinstance(a, str) else src.world.format_action(a) for a in lines]
+        # a file's lines are counted from 1 ("action 2"), a list's from 0 ("actions[1]")
+        parsed, _ = (parse_actions(src.world, src.start, texts, first=1, label="action {k}") if from_file
+                     else parse_actions(src.world, src.start, texts))
         acts = tuple(parsed)
     verb = getattr(src, "verb", "deliver")
     return SceneInput(src.world, src.start, tuple(src.goals), verb, acts, (key, tuple(map(str, acts))))

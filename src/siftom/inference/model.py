@@ -31,7 +31,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
-from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.likelihood.base import Instruction, InstructionLikelihood, as_scores
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.logspace import group_logsumexp, logsumexp
 from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
@@ -308,11 +308,11 @@ class OnlineInference:
             if getattr(lk, "uses_context", False):
                 # e.g. the acoustic likelihood prunes commands with little prior x action mass
                 ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, len(cmds)) if cfg.uses_actions else None
-                raw = lk.log_prob(instruction, cmds, context=ctx)  # type: ignore[call-arg]
+                scored = as_scores(lk.log_prob(instruction, cmds, context=ctx))  # type: ignore[call-arg]
             else:
-                raw = lk.log_prob(instruction, cmds)
-            evidence = lk.evidence() if hasattr(lk, "evidence") else {}
-            instr = np.asarray(raw, dtype=np.float64) * cfg.speech_weight
+                scored = as_scores(lk.log_prob(instruction, cmds))
+            evidence = dict(scored.evidence)
+            instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:

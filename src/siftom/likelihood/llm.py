@@ -39,6 +39,7 @@ import numpy as np
 from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
+from siftom.likelihood.base import Scores
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonemes import normalize_text, word_phonemes
 from siftom.likelihood.phrasing import number_word
@@ -242,14 +243,14 @@ class LLMLikelihood:
                 self._memo.popitem(last=False)
         return np.array([self._memo[key] for key in keys])
 
-    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
+    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:
             raise ObservationError(
                 "the LLM likelihood needs a transcript; transcribe the audio first or use 'acoustic'"
             )
         if not commands:
-            return np.zeros(0)
+            return Scores(np.zeros(0))
         hyps = instruction.nbest[: self.nbest_limit]
         scores = np.array([h.score for h in hyps]) / self.asr_temperature
         logw = scores - logsumexp(scores)
@@ -257,4 +258,4 @@ class LLMLikelihood:
         contexts = [f"{command_line(describe_command(c, self.lexicon), self.prompt)}\nHeard:" for c in commands]
         items = [(ctx, t) for ctx in contexts for t in texts]
         lp = self._score(items).reshape(len(commands), len(texts)) / self.temperature
-        return logsumexp(lp + logw[None, :], axis=1)
+        return Scores(logsumexp(lp + logw[None, :], axis=1))

@@ -77,7 +77,7 @@ def test_openai_backend_scores_and_caches(server, tmp_path):
     assert path == "/v1/completions" and auth == "Bearer k"
     assert body["echo"] is True and body["logprobs"] == 1 and body["max_tokens"] == 0
     n = len(Handler.requests)
-    lik.log_prob(Instruction.from_text("pass me the silver"), CMDS).log_probs
+    lik.log_prob(Instruction.from_text("pass me the silver"), CMDS)
     assert len(Handler.requests) == n  # in-memory
     again = LLMLikelihood("openai", base_url=server, model="fake", cache_dir=tmp_path)
     np.testing.assert_allclose(again.log_prob(Instruction.from_text("pass me the silver"), CMDS).log_probs, out)
@@ -147,9 +147,9 @@ class _Counting:
 def test_custom_scorer_instances_are_accepted():
     s = _Counting()
     lik = LLMLikelihood(s, nbest_limit=2)
-    lik.log_prob(Instruction.from_nbest([("a", 0), ("b", -1), ("c", -2)]), CMDS).log_probs
+    lik.log_prob(Instruction.from_nbest([("a", 0), ("b", -1), ("c", -2)]), CMDS)
     assert s.calls == 8  # 4 commands x 2 hypotheses
-    lik.log_prob(Instruction.from_nbest([("a", 0), ("b", -1), ("c", -2)]), CMDS).log_probs
+    lik.log_prob(Instruction.from_nbest([("a", 0), ("b", -1), ("c", -2)]), CMDS)
     assert s.calls == 8
 
 
@@ -169,7 +169,7 @@ def test_llama_cpp_smollm2_scores_in_process():
     assert int(np.argmax(out)) == 0
     t = time.perf_counter()
     lik._memo.clear()
-    lik.log_prob(Instruction.from_text("could you grab the milk"), cmds).log_probs
+    lik.log_prob(Instruction.from_text("could you grab the milk"), cmds)
     per_score = (time.perf_counter() - t) / len(cmds)
     assert per_score < 0.5  # target <= 0.15 s on 2 cores with the prefix in the KV cache
 

@@ -49,7 +49,7 @@ def test_temperature_flattens(cereal_clip, aligner):
 
 def test_needs_audio_and_valid_temperature():
     with pytest.raises(ObservationError, match="audio"):
-        AcousticLikelihood(phrasings).log_prob(Instruction.from_text("pass me the milk"), COMMANDS).log_probs
+        AcousticLikelihood(phrasings).log_prob(Instruction.from_text("pass me the milk"), COMMANDS)
     with pytest.raises(SiftomError, match="temperature"):
         AcousticLikelihood(phrasings, temperature=0.0)
     assert temperature_for_snr(20) == pytest.approx(12.0) and temperature_for_snr(0) == pytest.approx(30.0)

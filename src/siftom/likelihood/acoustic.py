@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from siftom.errors import ObservationError, SiftomError
-from siftom.likelihood.base import Scores, as_scores
+from siftom.likelihood.base import Scores, as_scores, guarded
 from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
@@ -345,6 +345,7 @@ class AcousticLikelihood:
         w[raw.keep] = raw.whisper
         return w / self.whisper_temperature
 
+    @guarded
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:
         """Align the kept commands' key phrases (or sentences): scores in nats before T."""
@@ -433,6 +434,7 @@ class AcousticLikelihood:
         score = dict(zip(unique, result.scores, strict=True))
         return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd], len(unique)
 
+    @guarded
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
                        heard: str | None = None) -> Scores:
         """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned.

@@ -39,7 +39,7 @@ import numpy as np
 from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
-from siftom.likelihood.base import Scores
+from siftom.likelihood.base import Scores, guarded
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonemes import normalize_text, word_phonemes
 from siftom.likelihood.phrasing import number_word
@@ -243,6 +243,7 @@ class LLMLikelihood:
                 self._memo.popitem(last=False)
         return np.array([self._memo[key] for key in keys])
 
+    @guarded
     def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:

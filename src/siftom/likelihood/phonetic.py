@@ -16,7 +16,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
-from siftom.likelihood.base import Scores
+from siftom.likelihood.base import Scores, guarded
 from siftom.likelihood.editdistance import (
     PhonemeTrie,
     encode,
@@ -228,6 +228,7 @@ class PhoneticLikelihood:
 
     # -- distances -----------------------------------------------------------------------------
 
+    @guarded
     def distances(self, texts: Sequence[str], plan: _Plan) -> np.ndarray:
         """D(h, u) for each hypothesis text and each content of ``plan``: (n_contents, n_texts).
 
@@ -279,6 +280,7 @@ class PhoneticLikelihood:
             merged[key] = float(np.logaddexp(merged[key], lw)) if key in merged else float(lw)
         return list(merged), np.array(list(merged.values()))
 
+    @guarded
     def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:

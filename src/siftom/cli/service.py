@@ -76,24 +76,36 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
 @click.option("--interval", type=click.FloatRange(0, 10), default=1.0, show_default=True,
               help="with --sessions: seconds between one session's requests (a person acts about once a "
                    "second; 0: back to back, all sessions in flight at once)")
+@click.option("--audio", "audio", is_flag=True,
+              help="send recordings (synthetic speech, multipart) instead of transcripts")
+@click.option("--likelihood", default="phonetic", show_default=True,
+              help="with --audio: the instruction likelihood the requests ask for (phonetic or acoustic)")
+@click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
+              help="with --audio and no --url: the server's audio worker processes "
+                   "(default: service.audio_workers of the settings)")
 def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool, sessions: int | None,
-                    n_actions: int, interval: float) -> None:
+                    n_actions: int, interval: float, audio: bool, likelihood: str,
+                    audio_workers: int | None) -> None:
     """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles
-    (--sessions: the session API)."""
+    (--audio: recordings; --sessions: the session API)."""
     _need_serve_extra()
     if sessions is not None:
         _bench_sessions(sessions, n_actions, interval, url, as_json)
         return
-    from siftom.service.loadtest import run_load_test
+    from siftom.service.loadtest import DEFAULT_BODIES, audio_bodies, run_load_test
+    from siftom.settings import Settings
 
-    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url)
+    settings = Settings.load(flags={"service.audio_workers": audio_workers}).service if url is None else None
+    bodies = audio_bodies(likelihood) if audio else DEFAULT_BODIES
+    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url, bodies=bodies,
+                        settings=settings)
     if as_json:
-        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
+        click.echo(json.dumps({**res.to_json(), **({} if audio else {"meets_target": res.meets()})}, indent=2))
         return
-    verdict = "meets" if res.meets() else "MISSES"
+    verdict = "" if audio else f" ({'meets' if res.meets() else 'MISSES'} >= 50 req/s, p99 < 200 ms)"
     click.echo(f"{res.ok}/{res.requests} ok, concurrency {res.concurrency}, {res.seconds:.2f} s: "
                f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
-               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} >= 50 req/s, p99 < 200 ms)")
+               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms{verdict}")
 
 
 def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | None, as_json: bool) -> None:

@@ -10,45 +10,19 @@ may score several requests at once.
 
 from __future__ import annotations
 
-import functools
-import threading
-import weakref
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Protocol, TypeVar, cast, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from siftom.concurrency import guarded
 from siftom.observation import Hypothesis, Instruction
 from siftom.world.commands import RobotCommand
 
 __all__ = ["Hypothesis", "Instruction", "InstructionLikelihood", "Scores", "as_scores", "guarded"]
 
-F = TypeVar("F", bound=Callable[..., Any])
-_LOCKS: weakref.WeakKeyDictionary[Any, threading.RLock] = weakref.WeakKeyDictionary()
-_LOCKS_LOCK = threading.Lock()
-
-
-def _lock_of(obj: Any) -> threading.RLock:
-    with _LOCKS_LOCK:
-        lock = _LOCKS.get(obj)
-        if lock is None:
-            lock = _LOCKS[obj] = threading.RLock()
-        return lock
-
-
-def guarded(method: F) -> F:
-    """Run ``method`` under its object's own lock: for likelihoods whose memo caches (or native
-    decoders) may not be touched by two threads at once. Results never depend on the caches,
-    and nothing survives a call but them; objects stay picklable (the lock lives outside)."""
-
-    @functools.wraps(method)
-    def wrapper(self: Any, *args: Any, **kwargs: Any) -> Any:
-        with _lock_of(self):
-            return method(self, *args, **kwargs)
-
-    return cast(F, wrapper)
 
 
 @dataclass(frozen=True, eq=False)

@@ -76,6 +76,8 @@ class ServiceSettings:
         max_audio_seconds: longest recording accepted (422 above).
         request_timeout_s: a request still working after this long is answered 503.
         workers: how many requests do CPU work at once (the rest wait, within the timeout).
+        audio_workers: worker processes that score audio requests in parallel (0: in the
+            request thread, one recording per scene at a time; service/audio_pool.py).
         likelihoods: instruction likelihoods offered (a subset of SERVICE_LIKELIHOODS; default:
             those whose backend is installed or configured).
         llm: the language model of the "llm" likelihood (default: ``SIFTOM_LLM_*``, see
@@ -89,6 +91,7 @@ class ServiceSettings:
     max_audio_seconds: float = 30.0
     request_timeout_s: float = 20.0
     workers: int = 4
+    audio_workers: int = 0
     likelihoods: tuple[str, ...] | None = None
     cache_size: int = 256
     plan_max_time: float = 0.3
@@ -112,6 +115,8 @@ class ServiceSettings:
             raise ObservationError(f"request_timeout_s must be > 0, got {self.request_timeout_s}")
         if self.workers < 1 or self.cache_size < 1:
             raise ObservationError("workers and cache_size must be >= 1")
+        if not 0 <= self.audio_workers <= 64:
+            raise ObservationError(f"audio_workers must be in [0, 64], got {self.audio_workers}")
         bad = [lk for lk in self.likelihoods if lk not in SERVICE_LIKELIHOODS]
         if bad or not self.likelihoods:
             raise ObservationError(f"likelihoods must be a non-empty subset of {SERVICE_LIKELIHOODS}, got {bad}")
@@ -166,6 +171,16 @@ class Runtime:
         self._engines = Cache(8)
         self._render_lock = threading.Lock()
         self.requests = 0
+        self.audio_pool: Any = None
+        if settings.audio_workers > 0:
+            from siftom.service.audio_pool import AudioPool
+
+            self.audio_pool = AudioPool(settings)
+
+    def close(self) -> None:
+        """Stop the audio worker processes, if any."""
+        if self.audio_pool is not None:
+            self.audio_pool.close()
 
     # ----- scenarios ---------------------------------------------------------------------
     @staticmethod
@@ -300,14 +315,25 @@ class Runtime:
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
                     asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
-        """Detect speech in an uploaded recording, recognise it and infer (siftom.api.listen's path).
+        """Detect speech in an uploaded recording, recognise it and infer (siftom.api.listen's path),
+        in an audio worker process when ``audio_workers`` > 0.
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
         """
+        self.check_likelihood(likelihood)
+        self.scenario(sid)  # an unknown id fails before decoding
+        args = (sid, data, mode, likelihood, n_actions, asr_nbest, top, policy, decide)
+        if self.audio_pool is not None:
+            body: dict[str, Any] = self.audio_pool.infer_audio(*args)
+            return body
+        return self.infer_audio_here(*args)
+
+    def infer_audio_here(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
+                         asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
+        """:meth:`infer_audio` in this process."""
         from siftom.inference.listen import NO_SPEECH, hear
 
-        self.check_likelihood(likelihood)
-        sc = self.scenario(sid)  # an unknown id fails before decoding
+        sc = self.scenario(sid)
         x = self.decode_audio(data)
         eng = self._engine_for(sc)
         with eng.lock:

@@ -16,14 +16,6 @@ from siftom.likelihood.registry import LIKELIHOODS
 from siftom.speech.asr.base import ENGINES
 
 
-def _bench_group(root: click.Group) -> click.Group:
-    bench = root.commands.get("bench")
-    if bench is None:
-        bench = click.Group("bench", help="Benchmarks (speed and accuracy); --json for machines.")
-        root.add_command(bench)
-    return bench  # type: ignore[return-value]
-
-
 def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
     """Warnings for object classes no goal mentions (each naming the nearest library classes)."""
     from siftom.world.io import scene_warnings
@@ -179,8 +171,8 @@ def print_posterior(post, console: Console | None = None) -> None:
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
     from siftom.bench.speed import bench_inference_cmd, bench_planner_cmd
+    from siftom.cli.bench import bench_group as bench
 
-    bench = _bench_group(root)
     bench.add_command(bench_inference_cmd)
     bench.add_command(bench_planner_cmd)
     from siftom.bench.latency import bench_latency_cmd

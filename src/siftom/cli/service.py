@@ -129,8 +129,6 @@ def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | N
 def register(root: click.Group) -> None:
     """Add ``serve`` and ``bench serve`` to the root group."""
     root.add_command(serve_cmd)
-    bench = root.commands.get("bench")
-    if not isinstance(bench, click.Group):
-        bench = click.Group("bench", help="Benchmarks.")
-        root.add_command(bench)
-    bench.add_command(bench_serve_cmd)
+    from siftom.cli.bench import bench_group
+
+    bench_group.add_command(bench_serve_cmd)

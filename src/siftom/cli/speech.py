@@ -227,16 +227,7 @@ def register(root: click.Group) -> None:
     root.add_command(say_cmd)
     root.add_command(transcribe_cmd)
     root.add_command(voices_cmd)
-    bench = root.commands.get("bench")
-    if bench is None:
+    from siftom.cli.bench import bench_group as bench
 
-        @click.group("bench")
-        def bench_group() -> None:
-            """Benchmarks."""
-
-        bench = bench_group
-        root.add_command(bench)
-    if not isinstance(bench, click.Group):
-        raise SiftomError("the 'bench' command is not a group; cannot add 'bench asr'")
     bench.add_command(bench_asr_cmd)
     bench.add_command(bench_acoustic_cmd)

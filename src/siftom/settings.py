@@ -303,11 +303,9 @@ class Settings:
     @cached_property
     def service(self) -> ServiceSettings:
         """The HTTP service's options (its sessions and LLM come from those sections)."""
-        from siftom.errors import BackendUnavailableError
-
         try:
             llm = self.llm
-        except BackendUnavailableError:
+        except SiftomError:  # an invalid LLM environment: the service says why in /healthz
             llm = None
         svc: ServiceSettings = self._section("service", sessions=self.sessions,
                                              **({"llm": llm} if llm is not None else {}))

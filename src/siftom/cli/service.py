@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from pathlib import Path
 
 import click
 
@@ -24,39 +26,53 @@ def _need_serve_extra() -> None:
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,
               help="the service's own folder (map cache, sessions.sqlite3); give the same folder after a "
                    "restart to continue the sessions; default: a fresh temporary folder")
-@click.option("--max-sessions", type=click.IntRange(1, 1_000_000), default=1000, show_default=True,
+@click.option("--max-sessions", type=click.IntRange(1, 1_000_000), default=None,
               help="sessions stored at once (429 above)")
-@click.option("--session-idle", type=click.FloatRange(1, 365 * 86400), default=86400.0, show_default=True,
+@click.option("--session-idle", type=click.FloatRange(1, 365 * 86400), default=None,
               help="seconds without a change after which a session is deleted")
-@click.option("--max-world-bytes", type=click.IntRange(1024, 64 * 2**20), default=2**20, show_default=True,
+@click.option("--max-world-bytes", type=click.IntRange(1024, 64 * 2**20), default=None,
               help="largest world JSON in POST /v1/sessions (413 above)")
-@click.option("--max-world-items", type=click.IntRange(1, 10_000), default=200, show_default=True,
+@click.option("--max-world-items", type=click.IntRange(1, 10_000), default=None,
               help="most objects a session's world may hold (422 above)")
-@click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
+@click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=None,
               help="most actions one session may observe (422 above)")
+@click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
+              help="worker processes scoring audio requests in parallel (0: in the request thread)")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
 @llm_options
-def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, session_idle: float,
-              max_world_bytes: int, max_world_items: int, max_session_actions: int,
+def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
+              max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
+              audio_workers: int | None, config_file: Path | None,
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
-    The "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
+    Unset limits come from the settings (``siftom config show``: sessions.*, service.*). The
+    "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
     """
     _need_serve_extra()
     import uvicorn
 
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
-    from siftom.service.sessions import SessionLimits
+    from siftom.settings import Settings
 
-    limits = SessionLimits(max_sessions=max_sessions, idle_s=session_idle, max_world_bytes=max_world_bytes,
-                           max_world_items=max_world_items, max_actions=max_session_actions)
+    loaded = Settings.load(config_file, flags={
+        "sessions.max_sessions": max_sessions, "sessions.idle_s": session_idle,
+        "sessions.max_world_bytes": max_world_bytes, "sessions.max_world_items": max_world_items,
+        "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers})
     llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
+    settings = loaded.service if llm is None else dataclasses.replace(loaded.service, llm=llm)
     # a world of max_world_bytes must fit in a request body
-    settings = ServiceSettings(sessions=limits, llm=llm,
-                               max_body_bytes=max(ServiceSettings().max_body_bytes, max_world_bytes + 4096))
+    need = settings.sessions.max_world_bytes + 4096
+    if settings.max_body_bytes < need:
+        settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+    app = create_app(data_dir, settings)
+    try:
+        uvicorn.run(app, host=host, port=port, log_level="info")
+    finally:
+        app.state.runtime.close()
 
 
 @click.command("serve")

@@ -1,11 +1,13 @@
 """The service's working parts, safe to call from many threads at once.
 
-* Inference: one model per (mode, likelihood), each guarded by its own lock because the
-  likelihoods keep LRU caches that are not thread-safe. The expensive action term is cached:
+* Inference: one model per (mode, likelihood), shared by every thread (a likelihood keeps
+  nothing from one call to the next; its memo caches guard themselves). The expensive action
+  term is cached:
   an ``OnlineInference`` that has observed a scenario's first n actions is kept per
   (scenario, n, mode, likelihood), so a request only scores what was heard (~2 ms).
 * ASR: one pocketsphinx decoder per scenario vocabulary, each behind a lock (a decoder holds
-  one utterance at a time).
+  one utterance at a time, and holds the GIL while it decodes); with ``audio_workers`` > 0,
+  audio requests run in worker processes instead, several at once (service/audio_pool.py).
 * Maps: matplotlib's pyplot is not thread-safe; rendering is serialised and PNGs are cached
   in the service's own folder under names it makes (a hash), never a client's string.
 """
@@ -164,8 +166,6 @@ class Runtime:
         self.map_dir = data_dir / "maps"
         self.map_dir.mkdir(parents=True, exist_ok=True)
         self.started = time.time()
-        self._model_locks: dict[tuple[str, str], threading.Lock] = {}
-        self._locks_lock = threading.Lock()
         self._online = Cache(settings.cache_size)
         self._plans = Cache(1024)
         self._engines = Cache(8)
@@ -210,10 +210,6 @@ class Runtime:
                                                     self.settings.likelihoods)))
 
     # ----- inference ---------------------------------------------------------------------
-    def _model_lock(self, mode: str, likelihood: str) -> threading.Lock:
-        with self._locks_lock:
-            return self._model_locks.setdefault((mode, likelihood), threading.Lock())
-
     def _online_for(self, sid: str, n: int, mode: str, likelihood: str) -> OnlineInference:
         sc = self.scenario(sid)
 
@@ -231,15 +227,14 @@ class Runtime:
         """Run inference (thread-safe); recorded actions use the cached action term."""
         self.check_likelihood(likelihood)
         sc = self.scenario(sid)
-        with self._model_lock(mode, likelihood):
-            if actions is not None:
-                from siftom.api import infer_actions
+        if actions is not None:
+            from siftom.api import infer_actions
 
-                return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
-            n = len(sc.actions) if n_actions is None else n_actions
-            if not 0 <= n <= len(sc.actions):
-                raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
-            return self._online_for(sid, n, mode, likelihood).posterior(instruction, top=top)
+            return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
+        n = len(sc.actions) if n_actions is None else n_actions
+        if not 0 <= n <= len(sc.actions):
+            raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
+        return self._online_for(sid, n, mode, likelihood).posterior(instruction, top=top)
 
     def plan(self, sid: str, n_actions: int | None, actions: list[str] | None, command: str) -> RobotPlan | None:
         """The robot's plan for ``command`` from the state when the human spoke (cached)."""

@@ -210,10 +210,8 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
     else:
         instruction, speech = heard, heard is not None
     t1 = time.perf_counter()
-    if instruction is None and mode != "speech-only":
-        use_mode, use_lik = "action-only", "phonetic"
-    else:
-        use_mode, use_lik = mode, likelihood
+    use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
+                         else (mode, likelihood))
     llm = st.llm if use_lik == "llm" else None
     model = get_model(use_mode, use_lik, llm, st.model)
 

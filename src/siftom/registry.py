@@ -93,7 +93,8 @@ class Entry:
             return (f"the {self.kind} {self.name!r} needs {' or '.join(self.binaries)} on the PATH; "
                     f"on Debian: sudo apt-get install -y {self.binaries[0]}")
         if self.checker:
-            return _import(self.checker)()
+            why = _import(self.checker)()
+            return None if why is None else str(why)
         return None
 
     def check(self) -> Entry:

@@ -237,9 +237,9 @@ class Settings:
             if not name.startswith(ENV_PREFIX):
                 continue
             rest = name[len(ENV_PREFIX):].lower()
-            section = next((s for s in SECTIONS if s != "llm" and rest.startswith(s + "_")), None)
-            if section is not None:
-                put(section, rest[len(section) + 1:], env[name], f"env {name}")
+            prefixed = next((s for s in SECTIONS if s != "llm" and rest.startswith(s + "_")), None)
+            if prefixed is not None:
+                put(prefixed, rest[len(prefixed) + 1:], env[name], f"env {name}")
             elif rest.startswith("llm_") or name == "SIFTOM_CACHE_DIR":
                 for key, var in _LLM_ENV.items():
                     if var == name:

@@ -168,7 +168,10 @@ class Posterior:
 
     def prob(self, command: str) -> float:
         """The posterior probability of ``command`` (a RobotCommand or its text)."""
-        return dict(self.commands).get(command, 0.0)
+        for c, p in self.commands:
+            if c == command:
+                return p
+        return 0.0
 
     def to_json(self, top: int = 10) -> dict[str, Any]:
         return {
@@ -377,14 +380,16 @@ class OnlineInference:
             return known
         unk = np.full(n_cmds, -np.inf)
         unk[unk_cmds] = unk_prior + unk_act
-        return np.logaddexp(known, unk)
+        out: np.ndarray = np.logaddexp(known, unk)
+        return out
 
     def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""
         s = self.state
         v_rows = self.ctg.values(self._tabs, self._sp, s.agent_at[HUMAN], s.held[HUMAN])
         v_goal = self.ctg.values(self._tabs, self._sp_goal, s.agent_at[HUMAN], s.held[HUMAN])
-        return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+        saved: np.ndarray = np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+        return saved
 
 
 def _changed_classes(world: World, s: State, action: Action) -> list[int]:
@@ -410,7 +415,7 @@ class _GoalSpace:
     ctg: CostToGo
 
 
-_GOAL_SPACES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_GOAL_SPACES: weakref.WeakKeyDictionary[World, dict[Any, Any]] = weakref.WeakKeyDictionary()
 
 
 def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalSpace:
@@ -418,9 +423,10 @@ def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalS
     # identity first: hashing 150 goals costs more than the rest of the lookup
     fast = per_world.get((id(goals), max_count))
     if fast is not None and fast[0] is goals:
-        return fast[1]
+        hit: _GoalSpace = fast[1]
+        return hit
     key = (goals, max_count)
-    gs = per_world.get(key)
+    gs: _GoalSpace | None = per_world.get(key)
     if gs is None:
         N = goal_matrix(world, goals)
         G, C = N.shape
@@ -437,7 +443,7 @@ def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalS
 
 
 @lru_cache(maxsize=64)
-def _subgoal_rows(key: bytes, G: int, C: int):
+def _subgoal_rows(key: bytes, G: int, C: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Distinct human subgoals: every goal minus one of its classes (the robot's part), cached.
 
     Only these rows enter the action likelihood; the full goals are needed once, for the

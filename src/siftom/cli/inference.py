@@ -103,7 +103,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if audio is not None and heard is audio:
         # a recording: the same path, with the recogniser's output and timings kept for display
         sc = resolve_scene(scene, actions_file)
-        h = listen(audio, scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
+        h = listen(Path(audio), scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
                    engine=engine, decide=rule, settings=settings)
         post, body = h.posterior, h.to_json()
     else:

@@ -370,8 +370,9 @@ class AcousticLikelihood:
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
         kept = [commands[i] for i in keep]
         aligned = 0
+        items: list[list[tuple[float, float]]] = []
         if not self.aligns:
-            mode, seg, items = "whisper", x, []
+            mode, seg = "whisper", x
         else:
             frame = None
             if self.mode == "key" and instruction.words:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -157,7 +158,7 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
     """
     if isinstance(backend, str) and backend not in BACKENDS:
         raise unknown_name("LLM backend", backend, BACKENDS)
-    cfg_kw = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
+    cfg_kw: dict[str, Any] = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
     if "timeout" in kwargs:
         cfg_kw["timeout_s"] = kwargs.pop("timeout")
     if isinstance(backend, LLMConfig):

@@ -31,7 +31,8 @@ from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 
-def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | None = None,
+def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
+                    keep: Sequence[int] | np.ndarray | None = None,
                     also_heard: Sequence[Sequence[str]] = ()) -> tuple[list[list[tuple[str, float]]], str]:
     """Per kept command (default: all), (text, log prior) items to score, and the mode ("key" or "sentence").
 
@@ -48,13 +49,13 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
     keys = [key_phrases(c) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
-    frames = []
+    frames: list[tuple[tuple[str, ...], tuple[str, ...]]] = []
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]
         if idx:
-            frames.append((words[: idx[0]], words[idx[-1] + 1:]))
+            frames.append((tuple(words[: idx[0]]), tuple(words[idx[-1] + 1:])))
     if frames:
-        frames = list(dict.fromkeys((tuple(b), tuple(c)) for b, c in frames))
+        frames = list(dict.fromkeys(frames))
         return [[(" ".join([*b, k, *c]), lp) for b, c in frames for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
@@ -127,7 +128,7 @@ class WhisperFactor:
         enc = ws.encode(samples)
         return enc, (ws.transcribe_encoded(enc) if self.listens else [])
 
-    def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int],
+    def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
                samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> WhisperScores:
         """w of ``commands[keep]`` (in that order), in nats, with how Whisper's words were used."""
         from siftom.logspace import logsumexp

@@ -119,9 +119,14 @@ class ServiceSettings:
             raise ObservationError("workers and cache_size must be >= 1")
         if not 0 <= self.audio_workers <= 64:
             raise ObservationError(f"audio_workers must be in [0, 64], got {self.audio_workers}")
-        bad = [lk for lk in self.likelihoods if lk not in SERVICE_LIKELIHOODS]
+        bad = [lk for lk in self.offered if lk not in SERVICE_LIKELIHOODS]
         if bad or not self.likelihoods:
             raise ObservationError(f"likelihoods must be a non-empty subset of {SERVICE_LIKELIHOODS}, got {bad}")
+
+    @property
+    def offered(self) -> tuple[str, ...]:
+        """The likelihoods offered (``likelihoods`` once resolved at construction)."""
+        return self.likelihoods or ()
 
 
 @dataclass
@@ -204,10 +209,10 @@ class Runtime:
         return out
 
     def check_likelihood(self, name: str) -> None:
-        if name not in self.settings.likelihoods:
+        if name not in self.settings.offered:
             # a request field, not a path: 422 (ObservationError), with the valid names
             raise ObservationError(str(unknown_name("instruction likelihood on this server", name,
-                                                    self.settings.likelihoods)))
+                                                    self.settings.offered)))
 
     # ----- inference ---------------------------------------------------------------------
     def _online_for(self, sid: str, n: int, mode: str, likelihood: str) -> OnlineInference:

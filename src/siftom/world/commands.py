@@ -27,7 +27,7 @@ class RobotCommand(str):
 
     verb: str
     obj_class: str
-    count: int
+    count: int  # type: ignore[assignment]  # the number of objects, in place of str.count
 
     def __new__(cls, verb: str, obj_class: str, count: int = 1) -> RobotCommand:
         if verb not in VERBS:

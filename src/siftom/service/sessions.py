@@ -135,9 +135,8 @@ def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
 class SessionManager:
     """Create, advance, query and end sessions; thread-safe (see module doc)."""
 
-    def __init__(self, store: SessionStore, limits: SessionLimits, model_lock: Any) -> None:
+    def __init__(self, store: SessionStore, limits: SessionLimits) -> None:
         self.store, self.limits = store, limits
-        self._model_lock = model_lock  # (mode, likelihood) -> threading.Lock shared with /v1/infer
         self._live: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
         self._loading: dict[str, threading.Lock] = {}
@@ -298,13 +297,9 @@ class SessionManager:
                  asr: dict[str, Any] | None = None) -> dict[str, Any]:
         """Posterior over goals and commands given everything so far and what was heard."""
         sess = self.get(sid)
-        mode, lk = sess.options["mode"], sess.options["likelihood"]
         with sess.lock:
-            if instruction is not None:
-                with self._model_lock(mode, lk):  # the likelihoods' caches are not thread-safe
-                    post = sess.online.posterior(instruction, top=top)
-            else:
-                post = sess.online.posterior(None, top=top)
+            # one likelihood serves every thread (it keeps nothing between calls)
+            post = sess.online.posterior(instruction, top=top)
             body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(post.commands, policy).to_json()

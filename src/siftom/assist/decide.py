@@ -29,7 +29,7 @@ import numpy as np
 
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
-from siftom.errors import ObservationError
+from siftom.errors import ObservationError, unknown_name
 from siftom.inference.model import JointPosterior, Posterior, logsumexp
 from siftom.registry import Registry
 from siftom.world.model import State, World
@@ -340,10 +340,13 @@ RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:
-    """Build the decision rule registered as ``name``; options a rule does not take are ignored."""
+    """Build the decision rule registered as ``name``; an option it does not take is an error naming it."""
     entry = RULES.spec(name)
-    takes = entry.attrs.get("options", ())
-    return entry.make(**{k: v for k, v in options.items() if k in takes})
+    takes = tuple(entry.attrs.get("options", ()))
+    for key in options:
+        if key not in takes:
+            raise unknown_name(f"option of decision rule {name!r}", key, takes)
+    return entry.make(**options)
 
 
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:

@@ -30,7 +30,8 @@ import numpy as np
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.errors import ObservationError, unknown_name
-from siftom.inference.model import JointPosterior, Posterior, logsumexp
+from siftom.inference.model import JointPosterior, Posterior
+from siftom.logspace import logsumexp
 from siftom.registry import Registry
 from siftom.world.model import State, World
 
@@ -257,7 +258,7 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
     conf = np.full((3, 3), (1.0 - r) / 2.0)
     np.fill_diagonal(conf, r)
     row_cmd = np.array([tv.actions[i] for i in tv.row_cmd]) if len(tv.row_cmd) else np.array([], dtype=str)
-    out = []
+    out: list[tuple[float, tuple[str, str]]] = []
     for a, b in combinations(cands, 2):
         in_a, in_b = row_cmd == a, row_cmd == b
         cells = np.stack([w[m].sum(axis=0) for m in (in_a, in_b, ~(in_a | in_b))])  # (3, actions)

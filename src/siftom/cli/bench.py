@@ -63,7 +63,7 @@ def _backend(name: str, workers: int | None, address: str | None) -> Iterator[ob
         signum = interrupting_signal(exc)
         err = click.ClickException(f"stopped by {signal.Signals(signum).name}; what was finished is saved: "
                                    "run the same command again to resume")
-        err.exit_code = 128 + signum
+        err.exit_code = 128 + signum  # type: ignore[misc]  # click reads it per instance
         raise err from None
 
 

@@ -100,10 +100,10 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     heard = nbest if nbest else transcript if transcript is not None else audio
     if heard is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
-    if audio is not None and heard is audio:
+    if audio is not None and not nbest and transcript is None:
         # a recording: the same path, with the recogniser's output and timings kept for display
         sc = resolve_scene(scene, actions_file)
-        h = listen(Path(audio), scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
+        h = listen(audio, scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
                    engine=engine, decide=rule, settings=settings)
         post, body = h.posterior, h.to_json()
     else:

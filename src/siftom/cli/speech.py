@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -71,7 +72,7 @@ def transcribe_cmd(file: str, engine: str, nbest: int, vocab: str | None, model_
     from siftom.speech.audio import load_audio
 
     x = load_audio(file)  # validate before loading a model
-    opts: dict[str, object] = {}
+    opts: dict[str, Any] = {}
     if vocab is not None:
         if not engine.startswith("pocketsphinx"):
             raise SiftomError("--vocab applies to the pocketsphinx engines only (pocketsphinx, -vocab, -open, -dual)")

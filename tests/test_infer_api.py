@@ -134,3 +134,14 @@ def test_settings_reach_the_model():
 
 def test_all_lists_exactly_the_lazy_names():
     assert set(siftom.__all__) == {"__version__", *siftom._PUBLIC}
+
+
+def test_likelihood_options_are_settings(tmp_path):
+    f = tmp_path / "siftom.toml"
+    f.write_text("[likelihoods.phonetic]\ncache_size = 16\n")
+    s = Settings.load(f, env={})
+    assert s.likelihood_options("phonetic") == {"cache_size": 16}
+    assert siftom.infer(str(WORLD), str(ACTIONS), SENTENCE, settings=s).command == "fetch(tomato)"
+    f.write_text("[likelihoods.phonetic]\ncache_sise = 16\n")
+    with pytest.raises(SettingsError, match="cache_sise"):
+        Settings.load(f, env={})

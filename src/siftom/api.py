@@ -29,10 +29,11 @@ LikelihoodArg = str | InstructionLikelihood
 
 
 def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: LLMConfig | None = None,
-              config: ModelConfig | None = None) -> SIFToM:
+              config: ModelConfig | None = None, options: dict[str, Any] | None = None) -> SIFToM:
     """A model for a mode ("full", "speech-only", "action-only") and an instruction likelihood.
 
-    ``config`` gives the model's other options (its ``mode`` is replaced by ``mode``).
+    ``config`` gives the model's other options (its ``mode`` is replaced by ``mode``);
+    ``options`` the named likelihood's constructor options (``Settings.likelihood_options``).
 
     ``likelihood`` is a registered name (cached models) or a likelihood object (used as is).
     For "llm", ``llm`` says which language model (default: :meth:`LLMConfig.from_env`, read at
@@ -47,16 +48,19 @@ def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: L
         cfg = dataclasses.replace(config or ModelConfig(), mode=mode)
         return SIFToM(cfg, likelihood if cfg.uses_speech else None)
     llm = (llm if llm is not None else LLMConfig.from_env()) if likelihood == "llm" else None
-    return _cached_model(dataclasses.replace(config or ModelConfig(), mode=mode), likelihood, llm)
+    opts = tuple(sorted((options or {}).items()))
+    return _cached_model(dataclasses.replace(config or ModelConfig(), mode=mode), likelihood, llm, opts)
 
 
 @lru_cache(maxsize=8)
-def _cached_model(cfg: ModelConfig, likelihood: str, llm: LLMConfig | None) -> SIFToM:
+def _cached_model(cfg: ModelConfig, likelihood: str, llm: LLMConfig | None,
+                  options: tuple[tuple[str, Any], ...] = ()) -> SIFToM:
     from siftom.likelihood.registry import get_likelihood
 
     lk: InstructionLikelihood | None = None
     if cfg.uses_speech:
-        lk = get_likelihood(likelihood, backend=llm) if llm is not None else get_likelihood(likelihood)
+        kwargs = dict(options)
+        lk = get_likelihood(likelihood, backend=llm, **kwargs) if llm is not None else get_likelihood(likelihood, **kwargs)
     return SIFToM(cfg, lk)
 
 
@@ -213,7 +217,8 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
     use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
                          else (mode, likelihood))
     llm = st.llm if use_lik == "llm" else None
-    model = get_model(use_mode, use_lik, llm, st.model)
+    lk_opts = st.likelihood_options(use_lik) if isinstance(use_lik, str) else None
+    model = get_model(use_mode, use_lik, llm, st.model, lk_opts)
 
     def make() -> OnlineInference:
         on = model.online(sc.world, sc.start, sc.goals, sc.verb)
@@ -221,7 +226,8 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
             on.observe(a)
         return on
 
-    online = ONLINE.get((sc.key, model.config, _likelihood_key(use_lik), llm), make)
+    key = (sc.key, model.config, _likelihood_key(use_lik), llm, tuple(sorted((lk_opts or {}).items())))
+    online = ONLINE.get(key, make)
     post = online.posterior(instruction, top=top or opts.top)
     timings = {**timings, "infer": time.perf_counter() - t1}
     return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings)

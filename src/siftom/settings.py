@@ -13,6 +13,7 @@ service    ``siftom.service.runtime.ServiceSettings``      ``SIFTOM_SERVICE_WORK
 sessions   ``siftom.service.sessions.SessionLimits``       ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
 llm        ``siftom.backends.config.LLMConfig``            its own ``SIFTOM_LLM_*`` (docs/llm.md)
 rules      the decision rules' options, ``[rules.ask-or-act]``  (file and flags only)
+likelihoods  a likelihood's constructor options, ``[likelihoods.acoustic]``  (file and flags)
 =========  ==============================================  =====================================
 
 The file is ``--config FILE`` or ``SIFTOM_CONFIG``::
@@ -168,6 +169,23 @@ def _read_file(path: Path) -> dict[str, Any]:
     return data
 
 
+def _likelihood_options(name: str) -> dict[str, Any]:
+    """The keyword options of likelihood ``name``'s constructor: name -> type."""
+    import inspect
+
+    from siftom.likelihood.registry import LIKELIHOODS
+
+    target = LIKELIHOODS.spec(name).load()
+    init = vars(target).get("__init__", target) if isinstance(target, type) else target
+    try:
+        hints = typing.get_type_hints(init)
+    except Exception:  # an annotation that does not resolve: take the values as given
+        hints = {}
+    params = inspect.signature(init).parameters
+    return {k: hints.get(k, Any) for k, p in params.items()
+            if k != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+
+
 def _rule_options(rule: str) -> tuple[str, ...]:
     from siftom.assist.decide import RULES
 
@@ -186,6 +204,7 @@ class Settings:
     values: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     sources: Mapping[str, str] = field(default_factory=dict)
     rules: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    likelihoods: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     @classmethod
     def load(cls, file: str | Path | None = None, env: Mapping[str, str] | None = None,
@@ -198,11 +217,12 @@ class Settings:
         values: dict[str, dict[str, Any]] = {}
         sources: dict[str, str] = {}
         rules: dict[str, dict[str, Any]] = {}
+        liks: dict[str, dict[str, Any]] = {}
         file = file if file is not None else (env.get(ENV_CONFIG) or None)
 
         def put(section: str, key: str, value: Any, source: str) -> None:
             if section not in SECTIONS:
-                raise unknown_name("settings section", section, [*SECTIONS, "rules"])
+                raise unknown_name("settings section", section, [*SECTIONS, "rules", "likelihoods"])
             known = section_fields(section)
             if key not in known:
                 raise SettingsError(str(unknown_name(f"setting in [{section}]", key, known)).rstrip(".")
@@ -221,12 +241,28 @@ class Settings:
                 rules.setdefault(rule, {})[k] = v
                 sources[f"rules.{rule}.{k}"] = source
 
+        def put_likelihood(name: str, opts: Any, source: str) -> None:
+            if not isinstance(opts, Mapping):
+                raise SettingsError(f"[likelihoods.{name}] must be a table of options (from {source})")
+            takes = _likelihood_options(name)
+            for k, v in opts.items():
+                if k not in takes:
+                    raise SettingsError(str(unknown_name(f"option of likelihood {name!r}", k, takes)).rstrip(".")
+                                        + f" (from {source})")
+                typ = takes[k]
+                liks.setdefault(name, {})[k] = v if typ is Any else _convert(f"likelihoods.{name}.{k}", v, typ)
+                sources[f"likelihoods.{name}.{k}"] = source
+
         if file is not None:
             where = f"file {file}"
             for section, table in _read_file(Path(file)).items():
                 if section == "rules" and isinstance(table, Mapping):
                     for rule, opts in table.items():
                         put_rule(rule, opts, where)
+                    continue
+                if section == "likelihoods" and isinstance(table, Mapping):
+                    for lik, opts in table.items():
+                        put_likelihood(lik, opts, where)
                     continue
                 if not isinstance(table, Mapping):
                     raise SettingsError(f"{file}: {section!r} must be a [section] table; sections: "
@@ -251,11 +287,14 @@ class Settings:
             if section == "rules":
                 rule, _, opt = key.partition(".")
                 put_rule(rule, {opt: v}, "flag")
+            elif section == "likelihoods":
+                lik, _, opt = key.partition(".")
+                put_likelihood(lik, {opt: v}, "flag")
             else:
                 put(section, key, v, "flag")
                 if section == "llm":  # a flag beats the LLM's own environment variable
                     sources[dotted] = "flag"
-        settings = cls(values, sources, rules)
+        settings = cls(values, sources, rules, liks)
         settings.check()
         return settings
 
@@ -311,6 +350,10 @@ class Settings:
                                              **({"llm": llm} if llm is not None else {}))
         return svc
 
+    def likelihood_options(self, name: str) -> dict[str, Any]:
+        """The constructor options given for likelihood ``name`` (checked at load)."""
+        return dict(self.likelihoods.get(name, {}))
+
     def rule_options(self, rule: str) -> dict[str, Any]:
         """The options given for decision rule ``rule`` (checked at load)."""
         return dict(self.rules.get(rule, {}))
@@ -337,4 +380,7 @@ class Settings:
         for rule, opts in sorted(self.rules.items()):
             for k, v in opts.items():
                 out.append((f"rules.{rule}.{k}", v, self.sources.get(f"rules.{rule}.{k}", "file")))
+        for lik, opts in sorted(self.likelihoods.items()):
+            for k, v in opts.items():
+                out.append((f"likelihoods.{lik}.{k}", v, self.sources.get(f"likelihoods.{lik}.{k}", "file")))
         return out

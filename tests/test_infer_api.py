@@ -145,3 +145,20 @@ def test_likelihood_options_are_settings(tmp_path):
     f.write_text("[likelihoods.phonetic]\ncache_sise = 16\n")
     with pytest.raises(SettingsError, match="cache_sise"):
         Settings.load(f, env={})
+
+
+def test_the_cli_reads_the_settings_file_and_flags_beat_it(tmp_path):
+    from siftom.cli import main
+
+    f = tmp_path / "siftom.toml"
+    f.write_text('[model]\nmode = "action-only"\n')
+    args = ["infer", "--scene", str(WORLD), "--actions", str(ACTIONS), "--transcript", SENTENCE, "--json"]
+    r = subprocess.run([sys.executable, "-m", "siftom.cli", *args, "--config", str(f)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["mode"] == "action-only"
+    r = subprocess.run([sys.executable, "-m", "siftom.cli", *args, "--config", str(f), "--model", "full"],
+                       capture_output=True, text=True, timeout=120)
+    assert json.loads(r.stdout)["mode"] == "full"
+    f.write_text('[modle]\nmode = "full"\n')
+    assert main([*args, "--config", str(f)]) == 2

@@ -54,16 +54,20 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--nbest", "nbest_file", type=click.Path(path_type=Path), default=None,
               help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
 @click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
-@click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default="full")
-@click.option("--likelihood", default="phonetic", help=f"Instruction likelihood: {LIKELIHOODS.help_line()}.")
-@click.option("--engine", default="pocketsphinx", help=f"ASR engine for --audio: {ENGINES.help_line()}.")
+@click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default=None,
+              help="full (default), speech-only or action-only (setting model.mode).")
+@click.option("--likelihood", default=None,
+              help=f"Instruction likelihood (setting infer.likelihood): {LIKELIHOODS.help_line()}.")
+@click.option("--engine", default=None, help=f"ASR engine for --audio (setting infer.engine): {ENGINES.help_line()}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults.")
 @click.option("--decide", "rule", default="map", show_default=True,
               help=f"Decision rule: {RULES.help_line()} (docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
-              likelihood, engine, png, rule, as_json, llm_backend, llm_base_url, llm_model) -> None:
+              likelihood, engine, config_file, png, rule, as_json, llm_backend, llm_base_url, llm_model) -> None:
     """Infer the goal and the robot command from what the human did and said.
 
     With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
@@ -75,13 +79,15 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
 
     get_rule(rule)  # an unknown name fails before any work
     flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine}
+    resolved = Settings.load(config_file, flags=flags)
+    mode, likelihood, engine = resolved.model.mode, resolved.infer.likelihood, resolved.infer.engine
     if likelihood == "llm":
         cfg = llm_config(llm_backend, llm_base_url, llm_model)
         flags.update({f"llm.{k}": v for k, v in (("backend", cfg.backend), ("base_url", cfg.base_url),
                                                   ("model", cfg.model))})
     elif flags_given(llm_backend, llm_base_url, llm_model):
         click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood})", err=True)
-    settings = Settings.load(flags=flags)
+    settings = Settings.load(config_file, flags=flags)
 
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")

@@ -251,7 +251,9 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
         raise SceneGraphError(f"no surface named {want!r} to use as the target; pass target=CLASS_NAME")
     spec: dict[str, Any] = {"goals": goals} if goals is not None else {"goal_space": goal_space}
     known = {c for g in goal_library(spec, 0) for c, _n in g.counts}
-    objs, unknown, loose = [], Counter(), Counter()
+    objs: list[Any] = []
+    unknown: Counter[str] = Counter()
+    loose: Counter[str] = Counter()
     for nid in view.grabbables:
         vh_cls = graph.node(nid).class_name
         cls = VH_ALIASES.get(vh_cls) or (vh_cls if vh_cls in known else None)
@@ -272,7 +274,8 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
     parents = sorted([tnode] + holders[:max_places - 1])
     notes = _left_out_notes("given" if goals is not None else goal_space, unknown, loose, holders[max_places - 1:], objs)
     objs = [o for o in objs if o[2] in set(parents)]
-    places, pidx = [], {}
+    places: list[Any] = []
+    pidx: dict[Any, int] = {}
     for nid in parents:
         node = graph.node(nid)
         pos = view.position(nid) or (0.0, 0.0, 0.0)

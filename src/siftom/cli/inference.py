@@ -176,15 +176,8 @@ def print_posterior(post, console: Console | None = None) -> None:
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.bench.speed import bench_inference_cmd, bench_planner_cmd
-    from siftom.cli.bench import bench_group as bench
-
-    bench.add_command(bench_inference_cmd)
-    bench.add_command(bench_planner_cmd)
-    from siftom.bench.latency import bench_latency_cmd
-
-    bench.add_command(bench_latency_cmd)
     from siftom.bench.calibrate import _cli as calibrate_cli
+    from siftom.cli.bench import bench_group as bench
 
     bench.add_command(calibrate_cli())
     from siftom.bench.decide_speed import bench_decide_cmd

@@ -16,8 +16,8 @@ from siftom.registry import Registry
 # Command areas: each entry's ``register(root)`` adds its click commands to the root group.
 # Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
 CLI_AREAS = Registry("CLI area")
-for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "service", "perception", "demo",
-              "plugins", "config"):
+for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "perception",
+              "demo", "plugins", "config"):
     CLI_AREAS.register(_area, f"siftom.cli.{_area}:register", summary=f"siftom.cli.{_area}")
 
 
@@ -30,8 +30,8 @@ def root() -> None:
 def _register_all() -> None:
     # An area that fails to import is a broken install: fail loudly rather than hide its
     # commands. Areas import optional extras lazily, inside their commands.
-    for name in CLI_AREAS.names():
-        CLI_AREAS.spec(name).load()(root)
+    for entry in CLI_AREAS.entries().values():  # in registration order: later areas extend earlier groups
+        entry.load()(root)
 
 
 _register_all()

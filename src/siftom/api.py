@@ -17,7 +17,7 @@ import numpy as np
 
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
-from siftom.inference.listen import ENGINES, NO_SPEECH, ONLINE, Heard, hear
+from siftom.inference.listen import ENGINES, ONLINE, Heard, hear
 from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
 from siftom.inputs import SceneInput
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
@@ -216,9 +216,22 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
     t1 = time.perf_counter()
     use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
                          else (mode, likelihood))
-    llm = st.llm if use_lik == "llm" else None
-    lk_opts = st.likelihood_options(use_lik) if isinstance(use_lik, str) else None
-    model = get_model(use_mode, use_lik, llm, st.model, lk_opts)
+    post = _online(sc, use_mode, use_lik, st).posterior(instruction, top=top or opts.top)
+    said = True
+    if vad is not None and instruction is not None and post.evidence.get("no_instruction"):
+        # words, but none near a command of the scene: the actions alone, and no command issued
+        said = False
+        alone = _online(sc, "action-only", "phonetic", st).posterior(None, top=top or opts.top)
+        post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
+    timings = {**timings, "infer": time.perf_counter() - t1}
+    return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings, instruction=said)
+
+
+def _online(sc: SceneInput, mode: str, likelihood: LikelihoodArg, st: Settings) -> OnlineInference:
+    """The cached online inference of ``sc`` (its actions observed) for a mode and likelihood."""
+    llm = st.llm if likelihood == "llm" else None
+    lk_opts = st.likelihood_options(likelihood) if isinstance(likelihood, str) else None
+    model = get_model(mode, likelihood, llm, st.model, lk_opts)
 
     def make() -> OnlineInference:
         on = model.online(sc.world, sc.start, sc.goals, sc.verb)
@@ -226,11 +239,9 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
             on.observe(a)
         return on
 
-    key = (sc.key, model.config, _likelihood_key(use_lik), llm, tuple(sorted((lk_opts or {}).items())))
-    online = ONLINE.get(key, make)
-    post = online.posterior(instruction, top=top or opts.top)
-    timings = {**timings, "infer": time.perf_counter() - t1}
-    return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings)
+    key = (sc.key, model.config, _likelihood_key(likelihood), llm, tuple(sorted((lk_opts or {}).items())))
+    online: OnlineInference = ONLINE.get(key, make)
+    return online
 
 
 def _decided(post: Posterior, sc: SceneInput, decide: Any, st: Settings) -> Posterior:
@@ -289,9 +300,10 @@ def infer(
         raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
     h = _run(sc, got, likelihood if likelihood is not None else st.infer.likelihood, st)
     post = h.posterior
-    if h.vad is not None:  # from audio: say whether speech was heard
+    if h.vad is not None:  # from audio: say whether speech, and an instruction, was heard
         post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": h.speech,
-                                                    **({} if h.speech else {"message": NO_SPEECH})})
+                                                    "instruction_heard": h.speech and h.instruction,
+                                                    **({"message": h.message} if h.message else {})})
     rule = decide if decide is not None else (st.infer.decide or None)
     return _decided(post, sc, rule, st) if rule is not None else post
 

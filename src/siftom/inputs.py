@@ -49,14 +49,18 @@ class SceneInput:
 
 def read_actions(path: str | Path) -> list[str]:
     """Action lines from a file: a JSON list (or ``{"actions": [...]}``) or one per line."""
+    from siftom.safejson import loads, read_text
+
     p = Path(path)
     if not p.is_file():
         raise ObservationError(f"{p}: no such actions file; give a JSON list of actions or one action per line")
-    text = p.read_text(encoding="utf-8")
+    text = read_text(p, "actions file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError:
         return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("#")]
+    except (RecursionError, ValueError):  # JSON nested too deeply, or an integer too long to read
+        data = loads(text, f"actions file {str(p)!r}")
     if isinstance(data, dict):
         data = data.get("actions")
     if not isinstance(data, list) or not all(isinstance(a, str) for a in data):

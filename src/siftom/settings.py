@@ -11,6 +11,7 @@ infer      :class:`InferOptions` (likelihood, engine ...)   ``SIFTOM_INFER_LIKEL
 model      ``siftom.inference.model.ModelConfig``          ``SIFTOM_MODEL_BETAS`` (comma list)
 service    ``siftom.service.runtime.ServiceSettings``      ``SIFTOM_SERVICE_WORKERS`` ...
 sessions   ``siftom.service.sessions.SessionLimits``       ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
+stream     ``siftom.service.stream_settings.StreamLimits`` ``SIFTOM_STREAM_MAX_STREAMS`` ...
 llm        ``siftom.backends.config.LLMConfig``            its own ``SIFTOM_LLM_*`` (docs/llm.md)
 rules      the decision rules' options, ``[rules.ask-or-act]``  (file and flags only)
 likelihoods  a likelihood's constructor options, ``[likelihoods.acoustic]``  (file and flags)
@@ -49,6 +50,7 @@ if TYPE_CHECKING:
     from siftom.inference.model import ModelConfig
     from siftom.service.runtime import ServiceSettings
     from siftom.service.sessions import SessionLimits
+    from siftom.service.stream_settings import StreamLimits
 
 ENV_CONFIG = "SIFTOM_CONFIG"
 ENV_PREFIX = "SIFTOM_"
@@ -83,10 +85,11 @@ SECTIONS: dict[str, str] = {
     "model": "siftom.inference.model:ModelConfig",
     "service": "siftom.service.runtime:ServiceSettings",
     "sessions": "siftom.service.sessions:SessionLimits",
+    "stream": "siftom.service.stream_settings:StreamLimits",
     "llm": "siftom.backends.config:LLMConfig",
 }
 # fields that hold other sections or derived state, not settings
-_NOT_SETTINGS = {"service": {"llm", "llm_error", "sessions"}, "llm": set[str]()}
+_NOT_SETTINGS = {"service": {"llm", "llm_error", "sessions", "stream"}, "llm": set[str]()}
 _LLM_ENV = {"backend": "SIFTOM_LLM_BACKEND", "base_url": "SIFTOM_LLM_BASE_URL", "model": "SIFTOM_LLM_MODEL",
             "api_key": "SIFTOM_LLM_API_KEY", "timeout_s": "SIFTOM_LLM_TIMEOUT",
             "max_retries": "SIFTOM_LLM_MAX_RETRIES", "cache_dir": "SIFTOM_CACHE_DIR",
@@ -330,6 +333,12 @@ class Settings:
         return lim
 
     @cached_property
+    def stream(self) -> StreamLimits:
+        """The streaming endpoint's limits."""
+        lim: StreamLimits = self._section("stream")
+        return lim
+
+    @cached_property
     def llm(self) -> LLMConfig | None:
         """The language model: file and flag values over the ``SIFTOM_LLM_*`` environment
         (flags beat the environment, the environment beats the file)."""
@@ -346,7 +355,7 @@ class Settings:
             llm = self.llm
         except SiftomError:  # an invalid LLM environment: the service says why in /healthz
             llm = None
-        svc: ServiceSettings = self._section("service", sessions=self.sessions,
+        svc: ServiceSettings = self._section("service", sessions=self.sessions, stream=self.stream,
                                              **({"llm": llm} if llm is not None else {}))
         return svc
 

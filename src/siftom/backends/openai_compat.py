@@ -229,7 +229,7 @@ class OpenAIClient:
         text = self.message_text(data)
         try:
             return json.loads(text)
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):
             raise EndpointCapabilityError(
                 f"{self.model} at {self.base_url} answered text that is not JSON ({text[:120]!r}) "
                 "although a JSON schema was requested; the endpoint may ignore response_format: "
@@ -302,7 +302,7 @@ class OpenAIClient:
                 continue
             try:
                 data = json.loads(raw.decode("utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError):
+            except (UnicodeDecodeError, ValueError, RecursionError):  # ValueError: bad JSON, a 5000-digit int
                 problem = f"malformed answer (not JSON): {raw[:120]!r}"
                 continue
             if not isinstance(data, dict):

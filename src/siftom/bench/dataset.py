@@ -227,14 +227,31 @@ def build_dataset(
     from siftom.bench.backends import make_backend
     from siftom.bench.runlock import RunLock, stop_on_signals
 
-    with RunLock(out), stop_on_signals():
-        owned = backend is None or isinstance(backend, str)
-        be = make_backend(backend or "local", workers) if owned else backend
-        try:
-            return _build(opts, Path(out), be, progress)
-        finally:
-            if owned:
-                be.shutdown()
+    fresh = not Path(out).exists()
+    try:
+        with RunLock(out), stop_on_signals():
+            owned = backend is None or isinstance(backend, str)
+            be = make_backend(backend or "local", workers) if owned else backend
+            try:
+                return _build(opts, Path(out), be, progress)
+            finally:
+                if owned:
+                    be.shutdown()
+    except Exception:
+        if fresh:
+            _remove_if_empty(Path(out))
+        raise
+
+
+def _remove_if_empty(root: Path) -> None:
+    """Remove a folder this build created when it failed before writing any audio (nothing to resume)."""
+    audio = root / AUDIO_DIR
+    if audio.is_dir() and not any(audio.iterdir()):
+        audio.rmdir()
+    left = {p.name for p in root.iterdir()} if root.is_dir() else {"?"}
+    if left <= {SPEC}:
+        (root / SPEC).unlink(missing_ok=True)
+        root.rmdir()
 
 
 def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int], None] | None) -> Dataset:

@@ -41,6 +41,12 @@ class Speaker:
     pitch: float = 1.0
 
 
+def check_seed(seed: object, name: str = "--seed") -> None:
+    """Seeds are integers >= 0 (numpy's generators take nothing else)."""
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise DatasetError(f"{name} must be an integer >= 0, got {seed!r}")
+
+
 @dataclass(frozen=True)
 class BuildOptions:
     """What to build. Validated at construction.
@@ -72,6 +78,10 @@ class BuildOptions:
     phrasings: str | None = None
 
     def __post_init__(self) -> None:
+        check_seed(self.seed)
+        from siftom.scenarios.base import get_domain
+
+        get_domain(self.domain)  # unknown domain: UnknownNameError with suggestions, before any work
         if self.scenarios < 1:
             raise DatasetError(f"--scenarios must be >= 1, got {self.scenarios}")
         if self.speakers < 1:

@@ -16,7 +16,7 @@ from siftom.registry import Registry
 # Command areas: each entry's ``register(root)`` adds its click commands to the root group.
 # Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
 CLI_AREAS = Registry("CLI area")
-for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "perception",
+for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "stream", "perception",
               "demo", "plugins", "config"):
     CLI_AREAS.register(_area, f"siftom.cli.{_area}:register", summary=f"siftom.cli.{_area}")
 

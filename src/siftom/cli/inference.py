@@ -13,6 +13,7 @@ from siftom.assist.decide import RULES
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
 from siftom.likelihood.registry import LIKELIHOODS
+from siftom.safejson import loads, read_text
 from siftom.speech.asr.base import ENGINES
 
 
@@ -31,9 +32,9 @@ def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noq
 
 def _read_nbest(path: Path) -> list[dict]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ObservationError(f"{path}: not JSON ({exc}); write the output of `siftom transcribe --json`") from None
+        data = loads(read_text(path, "N-best file"), f"N-best file {str(path)!r}")
+    except ObservationError as exc:
+        raise ObservationError(f"{exc}; write the output of `siftom transcribe --json`") from None
     if isinstance(data, dict):
         data = data.get("nbest")
     if not isinstance(data, list) or not data:
@@ -130,6 +131,10 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if h is not None and not h.speech:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
+    elif h is not None and not h.instruction:
+        con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{post.transcript}" holds no '
+                  f"command of this scene ({post.evidence.get('no_instruction_reason', '')}); no command "
+                  "issued. The posterior below comes from the actions alone")
     print_posterior(post, con)
     if h is not None:
         con.print(f"{h.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "

@@ -5,11 +5,15 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
+
+if TYPE_CHECKING:
+    from siftom.bench.runlock import RunLock
 
 
 def _need_serve_extra() -> None:
@@ -18,6 +22,23 @@ def _need_serve_extra() -> None:
             __import__(module)
         except ModuleNotFoundError:
             raise missing_extra("serve", package) from None
+
+
+def claim_data_dir(data_dir: str) -> RunLock:
+    """Hold ``DATA_DIR/.siftom.lock`` for the life of this process: one server per data folder.
+
+    Two servers on one folder would each cache sessions the other changes (answers from stale
+    state, appends refused forever). The kernel drops the lock when the process dies, however
+    it dies, so a restart after a crash is not refused.
+
+    Raises:
+        RunLockedError: another live process serves (or writes) the folder.
+    """
+    from siftom.bench.runlock import RunLock
+
+    lock = RunLock(data_dir, fix="stop that server first, or give this one another --data-dir")
+    lock.acquire()
+    return lock
 
 
 @click.command("serve")
@@ -36,6 +57,12 @@ def _need_serve_extra() -> None:
               help="most objects a session's world may hold (422 above)")
 @click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=None,
               help="most actions one session may observe (422 above)")
+@click.option("--max-streams", type=click.IntRange(1, 10_000), default=None,
+              help="WS /v1/sessions/{id}/listen streams open at once (more are closed with 1013)")
+@click.option("--max-utterance", type=click.FloatRange(1, 120), default=None,
+              help="seconds of speech after which a streamed utterance is cut and answered")
+@click.option("--stream-idle", type=click.FloatRange(0.1, 86400), default=None,
+              help="seconds without a message after which a stream is closed (4408)")
 @click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
               help="worker processes scoring audio requests in parallel (0: in the request thread)")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -43,6 +70,7 @@ def _need_serve_extra() -> None:
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
               max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
+              max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
               audio_workers: int | None, config_file: Path | None,
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
@@ -53,6 +81,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     _need_serve_extra()
     import uvicorn
 
+    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.settings import Settings
@@ -60,7 +89,8 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     loaded = Settings.load(config_file, flags={
         "sessions.max_sessions": max_sessions, "sessions.idle_s": session_idle,
         "sessions.max_world_bytes": max_world_bytes, "sessions.max_world_items": max_world_items,
-        "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers})
+        "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers,
+        "stream.max_streams": max_streams, "stream.max_utterance_s": max_utterance, "stream.max_idle_s": stream_idle})
     llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
     settings = loaded.service if llm is None else dataclasses.replace(loaded.service, llm=llm)
     # a world of max_world_bytes must fit in a request body
@@ -73,6 +103,8 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
         uvicorn.run(app, host=host, port=port, log_level="info")
     finally:
         app.state.runtime.close()
+        if lock is not None:
+            lock.release()
 
 
 @click.command("serve")

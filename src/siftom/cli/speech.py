@@ -18,7 +18,9 @@ def _vocab(spec: str | None) -> list[str] | None:
         return None
     p = Path(spec)
     if p.is_file():
-        items = [line.strip() for line in p.read_text(encoding="utf-8").splitlines()]
+        from siftom.safejson import read_text
+
+        items = [line.strip() for line in read_text(p, "--vocab file", SiftomError).splitlines()]
         items = [i for i in items if i and not i.startswith("#")]
     else:
         items = [s.strip() for s in spec.split(",") if s.strip()]

@@ -35,6 +35,7 @@ from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.sessions import SessionLimits
+from siftom.service.stream_settings import StreamLimits
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -87,6 +88,7 @@ class ServiceSettings:
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
         sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
+        stream: limits of the streaming endpoint (streams, utterance length, idle time; StreamLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -100,6 +102,7 @@ class ServiceSettings:
     llm: LLMConfig | None = None
     llm_error: str = ""
     sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
+    stream: StreamLimits = field(default_factory=lambda: StreamLimits())
 
     def __post_init__(self) -> None:
         if self.llm is None and not self.llm_error:
@@ -331,7 +334,7 @@ class Runtime:
     def infer_audio_here(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
                          asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
         """:meth:`infer_audio` in this process."""
-        from siftom.inference.listen import NO_SPEECH, hear
+        from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, hear
 
         sc = self.scenario(sid)
         x = self.decode_audio(data)
@@ -345,6 +348,8 @@ class Runtime:
         body["asr"] = tr.to_json() if tr is not None else None
         body["speech_heard"] = instruction is not None
         body["message"] = "" if instruction is not None else NO_SPEECH
+        if (body.get("evidence") or {}).get("no_instruction"):  # words near no command of the scene
+            body["message"] = NO_INSTRUCTION
         body["vad"] = vad.to_json()
         return body
 

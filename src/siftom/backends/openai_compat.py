@@ -3,7 +3,7 @@
 * :meth:`OpenAIClient.score` (the :class:`~siftom.backends.scoring.TextScorer` contract): prompt
   log-probs from ``/completions`` with ``echo=True, logprobs=1, max_tokens=0`` (vLLM, the
   llama.cpp server; many hosted APIs do not offer it). The llama.cpp server's prompt log-probs
-  are shifted by one token for models without a BOS token (upstream issue #1983); prefer the
+  are shifted by one token for models without a BOS token (a known llama.cpp server bug); prefer the
   in-process backend for those.
 * :meth:`OpenAIClient.chat`: ``/chat/completions`` with optional ``logprobs``/``top_logprobs``,
   ``n`` samples, JSON-schema structured output (``response_format``) and image content parts,

@@ -92,6 +92,10 @@ def _noise_dir(dataset_root: str) -> str | None:
     nd = json.loads(spec.read_text(encoding="utf-8")).get("options", {}).get("noise_dir")
     if not nd:
         return None
+    from siftom.bench.stimuli import RECORDED, noise_folder
+
+    if nd == RECORDED:
+        return str(noise_folder(nd))
     for base in (Path.cwd(), Path(dataset_root)):
         p = Path(nd) if Path(nd).is_absolute() else base / nd
         if p.is_dir():

@@ -45,6 +45,7 @@ from siftom.bench.stimuli import (
     Dataset,
     Speaker,
     Stimulus,
+    noise_folder,
     resolve_scenario,
     select_scenarios,
 )
@@ -66,7 +67,7 @@ def make_speakers(opts: BuildOptions) -> list[Speaker]:
 
 def noise_categories(folder: str | Path) -> list[str]:
     """Categories of a noise folder: file names ``CATEGORY_NN.wav`` without the number."""
-    root = Path(folder)
+    root = noise_folder(folder)
     sub = root / "noise_train"
     base = sub if sub.is_dir() else root
     cats = {re.sub(r"[_-]?\d+$", "", p.stem) for p in base.iterdir() if p.suffix.lower() == ".wav"}
@@ -83,7 +84,7 @@ def resolve_noises(opts: BuildOptions) -> list[tuple[str, Any]]:
         out = []
         for n in names:
             if n in cats:
-                out.append((n, FolderNoise(opts.noise_dir, categories=(n,))))
+                out.append((n, FolderNoise(noise_folder(opts.noise_dir), categories=(n,))))
             else:
                 try:
                     out.append((Path(n).stem if n.endswith(".wav") else n, get_noise(n)))

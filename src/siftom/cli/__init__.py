@@ -10,19 +10,20 @@ import sys
 
 import click
 
+from siftom import __version__
 from siftom.errors import SiftomError
 from siftom.registry import Registry
 
 # Command areas: each entry's ``register(root)`` adds its click commands to the root group.
 # Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
 CLI_AREAS = Registry("CLI area")
-for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "stream", "perception",
-              "demo", "plugins", "config"):
+for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "stream",
+              "perception", "demo", "plugins", "results", "config"):
     CLI_AREAS.register(_area, f"siftom.cli.{_area}:register", summary=f"siftom.cli.{_area}")
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="siftom")
+@click.version_option(version=__version__, prog_name="siftom", message="%(prog)s %(version)s")
 def root() -> None:
     """siftom: follow noisy spoken instructions by inferring what the person is doing."""
 

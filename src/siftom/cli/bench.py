@@ -105,7 +105,8 @@ def dataset_group() -> None:
 @click.option("--speakers", type=int, default=5, show_default=True, help="speakers per scenario")
 @click.option("--voices", default=None, help="comma-separated voices (siftom voices); default: 2 flite + 3 espeak Klatt")
 @click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
-              help="folder of noise WAVs named CATEGORY_NN.wav; default: synthetic noise")
+              help="folder of noise WAVs named CATEGORY_NN.wav, or 'recorded' for the real "
+                   "household recordings shipped with siftom; default: synthetic noise")
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for phrasings, speakers and noise")

@@ -34,7 +34,7 @@ def _vocab(spec: str | None) -> list[str] | None:
 @click.option("--voice", "-v", default="flite-slt", show_default=True, help="voice name (siftom voices)")
 @click.option("--rate", type=float, default=1.0, show_default=True, help="speaking-rate multiplier")
 @click.option("--pitch", type=float, default=1.0, show_default=True, help="pitch multiplier")
-@click.option("--noise", default=None, help="white|pink|brown|babble|hum, a WAV file or a folder of them")
+@click.option("--noise", default=None, help="white|pink|brown|babble|hum, recorded[:CATEGORY] (the shipped recordings), a WAV file or a folder of them")
 @click.option("--snr", type=float, default=10.0, show_default=True, help="SNR in dB over active speech")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for the noise excerpt")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True, help="output WAV")

@@ -53,7 +53,7 @@ class SessionLimits:
         max_sessions: sessions stored at once (429 above; DELETE ends one, idle ones expire).
         idle_s: a session not used for this long is deleted.
         max_world_bytes: largest world in a create request (413 above). The apartment graphs of
-            ../shared/data/virtualhome are 160-180 kB.
+            data/virtualhome are 160-180 kB.
         max_world_items: most objects a world may hold (422 above): inference cost grows with it.
         max_actions: most actions one session may observe (422 above).
         cache: live sessions kept in memory; the others are rebuilt from the store on use.

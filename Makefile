@@ -42,6 +42,7 @@ demo: setup
 
 test: setup sysdeps-browser
 	$(BIN)/ruff check src tests
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q -n 2 -p no:cacheprovider
 
 # the slow suite also runs the Ray backend's tests (siftom[ray], not needed by `make test`)
@@ -66,6 +67,7 @@ results: setup
 
 lint: setup
 	$(BIN)/ruff check src tests
+	$(BIN)/mypy
 
 clean:
 	rm -rf $(VENV) build site *.egg-info

@@ -3,29 +3,123 @@
 Bayesian inverse planning over a symbolic scene combined with instruction likelihoods
 computed from what was heard (transcripts, N-best lists or the audio itself).
 
-From a recording to the posterior in one call::
+What a person did and said, to the robot command they meant, in one call::
 
     import siftom
 
-    post = siftom.listen("say.wav", scenario="kitchen-cereal-v0")
-    post.command
+    p = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
+                     "can you get me the potato")
+    p.command            # RobotCommand: fetch(tomato)
 
-The names below are loaded on first use (``siftom.api``), so ``import siftom`` stays light.
+``heard`` may also be an N-best list, a path to a recording or samples; ``siftom.listen``
+returns the recogniser's output and timings as well. The names below are loaded on first use,
+so ``import siftom`` stays light.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.2.0"
 
-_API = ("listen", "infer_scenario", "infer_actions", "make_instruction", "transcribe_for", "get_model")
-__all__ = ["__version__", *_API]
+# public name -> the module that defines it (imported on first use)
+_PUBLIC: dict[str, str] = {
+    "infer": "siftom.api",
+    "listen": "siftom.api",
+    "get_model": "siftom.api",
+    "infer_scenario": "siftom.api",
+    "infer_actions": "siftom.api",
+    "make_instruction": "siftom.api",
+    "transcribe_for": "siftom.api",
+    "Heard": "siftom.inference.listen",
+    "Posterior": "siftom.inference.model",
+    "JointHypothesis": "siftom.inference.model",
+    "ModelConfig": "siftom.inference.model",
+    "RobotCommand": "siftom.world.commands",
+    "Instruction": "siftom.observation",
+    "Hypothesis": "siftom.observation",
+    "InstructionLikelihood": "siftom.likelihood.base",
+    "Settings": "siftom.settings",
+    "InferOptions": "siftom.settings",
+    "Registry": "siftom.registry",
+    "SiftomError": "siftom.errors",
+    "ObservationError": "siftom.errors",
+    "AudioError": "siftom.errors",
+    "CommandParseError": "siftom.errors",
+    "UnknownNameError": "siftom.errors",
+    "BackendUnavailableError": "siftom.errors",
+    "OptionsError": "siftom.errors",
+    "SettingsError": "siftom.errors",
+}
+__all__ = [
+    "__version__",
+    "AudioError",
+    "BackendUnavailableError",
+    "CommandParseError",
+    "Heard",
+    "Hypothesis",
+    "InferOptions",
+    "Instruction",
+    "InstructionLikelihood",
+    "JointHypothesis",
+    "ModelConfig",
+    "ObservationError",
+    "OptionsError",
+    "Posterior",
+    "Registry",
+    "RobotCommand",
+    "Settings",
+    "SettingsError",
+    "SiftomError",
+    "UnknownNameError",
+    "get_model",
+    "infer",
+    "infer_actions",
+    "infer_scenario",
+    "listen",
+    "make_instruction",
+    "transcribe_for",
+]
+
+if TYPE_CHECKING:  # what type checkers see; at run time the names load on first use
+    from siftom.api import (
+        get_model,
+        infer,
+        infer_actions,
+        infer_scenario,
+        listen,
+        make_instruction,
+        transcribe_for,
+    )
+    from siftom.errors import (
+        AudioError,
+        BackendUnavailableError,
+        CommandParseError,
+        ObservationError,
+        OptionsError,
+        SettingsError,
+        SiftomError,
+        UnknownNameError,
+    )
+    from siftom.inference.listen import Heard
+    from siftom.inference.model import JointHypothesis, ModelConfig, Posterior
+    from siftom.likelihood.base import InstructionLikelihood
+    from siftom.observation import Hypothesis, Instruction
+    from siftom.registry import Registry
+    from siftom.settings import InferOptions, Settings
+    from siftom.world.commands import RobotCommand
 
 
 def __getattr__(name: str) -> Any:
-    if name in _API:
-        from siftom import api
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'siftom' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip __getattr__
+    return value
 
-        return getattr(api, name)
-    raise AttributeError(f"module 'siftom' has no attribute {name!r}")
+
+def __dir__() -> list[str]:
+    """The public names and the module's dunders (not its own imports)."""
+    return sorted({*_PUBLIC, *(n for n in globals() if n.startswith("__"))})

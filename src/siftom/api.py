@@ -17,17 +17,23 @@ import numpy as np
 
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
-from siftom.inference.listen import ENGINES, LOCK, NO_SPEECH, ONLINE, Heard, hear, resolve_scene  # noqa: F401
+from siftom.inference.listen import ENGINES, ONLINE, Heard, hear
 from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
+from siftom.inputs import SceneInput
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
+from siftom.settings import Settings
 from siftom.speech.asr import DEFAULT_NBEST
 from siftom.world.commands import MAX_COUNT
 
 LikelihoodArg = str | InstructionLikelihood
 
 
-def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: LLMConfig | None = None) -> SIFToM:
+def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: LLMConfig | None = None,
+              config: ModelConfig | None = None, options: dict[str, Any] | None = None) -> SIFToM:
     """A model for a mode ("full", "speech-only", "action-only") and an instruction likelihood.
+
+    ``config`` gives the model's other options (its ``mode`` is replaced by ``mode``);
+    ``options`` the named likelihood's constructor options (``Settings.likelihood_options``).
 
     ``likelihood`` is a registered name (cached models) or a likelihood object (used as is).
     For "llm", ``llm`` says which language model (default: :meth:`LLMConfig.from_env`, read at
@@ -39,20 +45,22 @@ def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: L
                 f"likelihood must be a name ('phonetic', 'llm', 'acoustic') or an object with "
                 f"log_prob(instruction, commands), got {type(likelihood).__name__}"
             )
-        cfg = ModelConfig(mode=mode)
+        cfg = dataclasses.replace(config or ModelConfig(), mode=mode)
         return SIFToM(cfg, likelihood if cfg.uses_speech else None)
     llm = (llm if llm is not None else LLMConfig.from_env()) if likelihood == "llm" else None
-    return _cached_model(mode, likelihood, llm)
+    opts = tuple(sorted((options or {}).items()))
+    return _cached_model(dataclasses.replace(config or ModelConfig(), mode=mode), likelihood, llm, opts)
 
 
 @lru_cache(maxsize=8)
-def _cached_model(mode: str, likelihood: str, llm: LLMConfig | None) -> SIFToM:
+def _cached_model(cfg: ModelConfig, likelihood: str, llm: LLMConfig | None,
+                  options: tuple[tuple[str, Any], ...] = ()) -> SIFToM:
     from siftom.likelihood.registry import get_likelihood
 
-    cfg = ModelConfig(mode=mode)
     lk: InstructionLikelihood | None = None
     if cfg.uses_speech:
-        lk = get_likelihood(likelihood, backend=llm) if llm is not None else get_likelihood(likelihood)
+        kwargs = dict(options)
+        lk = get_likelihood(likelihood, backend=llm, **kwargs) if llm is not None else get_likelihood(likelihood, **kwargs)
     return SIFToM(cfg, lk)
 
 
@@ -169,6 +177,137 @@ def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
     return ENGINES.get((engine, hash(vocab)), lambda: get_engine("pocketsphinx", vocabulary=list(vocab)))
 
 
+def _scene_of(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
+              verb: str | None) -> SceneInput:
+    """listen()'s scene arguments as a SceneInput."""
+    from siftom.inputs import make_scene, resolve_scene
+
+    if (scenario is None) == (world is None):
+        raise ObservationError("give exactly one of scenario= (an id or Scenario) or world= (a scene or World)")
+    src = scenario if scenario is not None else world
+    if hasattr(src, "world") or isinstance(src, (str, Path)):
+        sc = resolve_scene(src, actions)
+        return dataclasses.replace(sc, verb=verb) if verb else sc
+    if start is None or goals is None:
+        raise ObservationError("with world=World give start= (its State) and goals= (the goal space)")
+    return make_scene(src, start, goals, actions or (), verb or "deliver")
+
+
+def _likelihood_key(likelihood: LikelihoodArg) -> Any:
+    return likelihood if isinstance(likelihood, str) else ("object", id(likelihood), likelihood)
+
+
+def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: LikelihoodArg, st: Settings,
+         mode: str | None = None, engine: str | None = None, nbest: int | None = None,
+         top: int | None = None) -> Heard:
+    """The one path from a resolved scene and what was heard to the posterior (audio: VAD + ASR first)."""
+    t0 = time.perf_counter()
+    opts = st.infer
+    mode = mode or st.model.mode
+    tr = vad = None
+    timings: dict[str, float] = {}
+    instruction: Instruction | None
+    if isinstance(heard, np.ndarray):
+        asr = engine_for(sc.world, sc.verb, engine or opts.engine)
+        instruction, tr, vad, timings = hear(heard, asr, nbest or opts.nbest)
+        speech = instruction is not None
+    else:
+        instruction, speech = heard, heard is not None
+    t1 = time.perf_counter()
+    use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
+                         else (mode, likelihood))
+    post = _online(sc, use_mode, use_lik, st).posterior(instruction, top=top or opts.top)
+    said = True
+    if vad is not None and instruction is not None and post.evidence.get("no_instruction"):
+        # words, but none near a command of the scene: the actions alone, and no command issued
+        said = False
+        alone = _online(sc, "action-only", "phonetic", st).posterior(None, top=top or opts.top)
+        post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
+    timings = {**timings, "infer": time.perf_counter() - t1}
+    return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings, instruction=said)
+
+
+def _online(sc: SceneInput, mode: str, likelihood: LikelihoodArg, st: Settings) -> OnlineInference:
+    """The cached online inference of ``sc`` (its actions observed) for a mode and likelihood."""
+    llm = st.llm if likelihood == "llm" else None
+    lk_opts = st.likelihood_options(likelihood) if isinstance(likelihood, str) else None
+    model = get_model(mode, likelihood, llm, st.model, lk_opts)
+
+    def make() -> OnlineInference:
+        on = model.online(sc.world, sc.start, sc.goals, sc.verb)
+        for a in sc.actions:
+            on.observe(a)
+        return on
+
+    key = (sc.key, model.config, _likelihood_key(likelihood), llm, tuple(sorted((lk_opts or {}).items())))
+    online: OnlineInference = ONLINE.get(key, make)
+    return online
+
+
+def _decided(post: Posterior, sc: SceneInput, decide: Any, st: Settings) -> Posterior:
+    from siftom.assist.decide import Situation, get_rule
+
+    if post.joint is None or post.joint.state is None:
+        return post
+    rule = get_rule(decide, **st.rule_options(decide)) if isinstance(decide, str) else decide
+    return dataclasses.replace(post, decision=rule(post, Situation(sc.world, post.joint.state, sc.target)))
+
+
+def infer(
+    scene: Any,
+    actions: Any = None,
+    heard: Any = None,
+    *,
+    likelihood: LikelihoodArg | None = None,
+    decide: Any = None,
+    settings: Settings | None = None,
+) -> Posterior:
+    """The robot command a person meant, from what they did and said.
+
+    Args:
+        scene: a registered scenario id (``kitchen-cereal-v0``), a path to a siftom world JSON
+            or a VirtualHome scene graph, or a loaded scene (``siftom.world.io.load_scene``).
+        actions: the person's actions: siftom action strings (``grab(human, milk, fridge)``),
+            VirtualHome script lines (``[Grab] <milk> (195)``), or a path to a file of them.
+            None: the scenario's own actions (none for a world file).
+        heard: a transcript, an N-best list (texts best first, or (text, log score) pairs), a
+            path to an audio file, or 16 kHz mono samples. None: the actions alone.
+        likelihood: a registered likelihood name or an object with ``log_prob`` (default:
+            ``settings.infer.likelihood``).
+        decide: a decision rule name (``map``, ``expected-benefit``, ``ask-or-act``) or rule;
+            the posterior's ``decision`` holds what it decided.
+        settings: every other option (default: :meth:`Settings.load`: ``SIFTOM_*`` and
+            ``SIFTOM_CONFIG``).
+
+    Returns:
+        Posterior: ``command`` (a RobotCommand), ``commands``, ``goals``, ``evidence`` and,
+        with ``decide``, ``decision``. From audio without speech it is the actions-alone
+        posterior and ``evidence["speech_heard"]`` is False.
+
+    Example::
+
+        >>> p = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
+        ...                  "can you get me the potato")
+        >>> str(p.command)
+        'fetch(tomato)'
+    """
+    from siftom.inputs import as_heard, resolve_scene
+
+    st = settings if settings is not None else Settings.load()
+    sc = resolve_scene(scene, actions)
+    got = as_heard(heard)
+    if got is None and st.model.mode == "speech-only":
+        raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
+    h = _run(sc, got, likelihood if likelihood is not None else st.infer.likelihood, st)
+    post = h.posterior
+    if h.vad is not None:  # from audio: say whether speech, and an instruction, was heard
+        post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": h.speech,
+                                                    "instruction_heard": h.speech and h.instruction,
+                                                    **({"message": h.message} if h.message else {})})
+    rule = decide if decide is not None else (st.infer.decide or None)
+    return _decided(post, sc, rule, st) if rule is not None else post
+
+
 def listen(
     audio: str | Path | np.ndarray,
     scenario: Any = None,
@@ -179,23 +318,28 @@ def listen(
     goals: Sequence[Any] | None = None,
     verb: str | None = None,
     mode: str = "full",
-    likelihood: str = "phonetic",
+    likelihood: LikelihoodArg = "phonetic",
     engine: str = "pocketsphinx",
     nbest: int = DEFAULT_NBEST,
     top: int = 10,
+    decide: Any = None,
+    settings: Settings | None = None,
 ) -> Heard:
     """Infer the robot command from a recording of the instruction and the human's actions.
 
+    The same path as :func:`infer` with audio, returning the recogniser's output and timings too.
+
     Args:
         audio: a file path (WAV, FLAC, ...) or 16 kHz mono samples.
-        scenario: a registered scenario id or a Scenario (its actions are used unless
-            ``actions`` is given).
+        scenario: a registered scenario id, a world file path or a Scenario (its actions are
+            used unless ``actions`` is given).
         world: instead of ``scenario``: a loaded scene (``siftom.world.io.load_scene``) or a
             World with ``start`` and ``goals``.
         actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
         mode: ``full``, ``speech-only`` or ``action-only``.
         likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
         engine: the ASR engine.
+        decide: a decision rule name or rule (as in :func:`infer`).
 
     Returns:
         Heard: the posterior, whether speech was heard, the transcript and timings. Without
@@ -204,30 +348,11 @@ def listen(
     from siftom.speech.audio import as_audio
 
     t0 = time.perf_counter()
-    sc = resolve_scene(scenario, world, actions, start, goals, verb)
+    st = settings if settings is not None else Settings.load()
+    sc = _scene_of(scenario, world, actions, start, goals, verb)
     x = as_audio(audio)
     t_load = time.perf_counter() - t0
-    with LOCK:
-        asr = engine_for(sc.world, sc.verb, engine)
-        instruction, tr, vad, timings = hear(x, asr, nbest)
-        t1 = time.perf_counter()
-        if instruction is None:
-            use_mode, use_lik = "action-only", "phonetic"
-        else:
-            use_mode, use_lik = mode, likelihood
-
-        def make() -> OnlineInference:
-            on = get_model(use_mode, use_lik).online(sc.world, sc.start, sc.goals, sc.verb)
-            for a in sc.actions:
-                on.observe(a)
-            return on
-
-        online = ONLINE.get((sc.key, use_mode, use_lik), make)
-        post = online.posterior(instruction, top=top)
-        said = not post.evidence.get("no_instruction")
-        if not said:  # words, but none near a command: the actions alone, and no command issued
-            use_mode, use_lik = "action-only", "phonetic"
-            alone = ONLINE.get((sc.key, use_mode, use_lik), make).posterior(None, top=top)
-            post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
-    timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
-    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings, instruction=said)
+    h = _run(sc, x, likelihood, st, mode=mode, engine=engine, nbest=nbest, top=top)
+    if decide is not None:
+        h = dataclasses.replace(h, posterior=_decided(h.posterior, sc, decide, st))
+    return dataclasses.replace(h, seconds=time.perf_counter() - t0, timings={"load": t_load, **h.timings})

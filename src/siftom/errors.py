@@ -37,6 +37,10 @@ class OptionsError(SiftomError, ValueError):
     """An option (a parameter of a model, planner or run) is out of its range."""
 
 
+class SettingsError(OptionsError):
+    """A setting is unknown or its value is invalid (the message names the key and the fix)."""
+
+
 class AudioError(SiftomError, ValueError):
     """An audio file cannot be read or is unusable."""
 

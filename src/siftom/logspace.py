@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def logsumexp(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+def logsumexp(x: ArrayLike, axis: int | None = None) -> np.ndarray:
     """log(sum(exp(x))) along ``axis``, stable (all -inf gives -inf)."""
-    x = np.asarray(x, dtype=np.float64)
-    m = np.max(x, axis=axis, keepdims=True)
+    a = np.asarray(x, dtype=np.float64)
+    m = np.max(a, axis=axis, keepdims=True)
     m = np.where(np.isfinite(m), m, 0.0)
     with np.errstate(divide="ignore"):
-        out = np.log(np.sum(np.exp(x - m), axis=axis, keepdims=True)) + m
+        out = np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m
     return out.squeeze(axis=axis) if axis is not None else out.reshape(())
 
 

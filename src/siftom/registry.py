@@ -15,11 +15,28 @@ is a one-line error with the ``pip install`` that fixes it::
 
 Every registry created here is listed by :func:`registries`, which the CLI (``siftom
 plugins``) and the service (``/healthz``) use to say what is installed.
+
+Other packages add to any registry without editing siftom: they declare an entry point in the
+group ``siftom.plugins`` naming a function that registers their entries, e.g. in their
+``pyproject.toml``::
+
+    [project.entry-points."siftom.plugins"]
+    mypkg = "mypkg.siftom_plugin:register"
+
+    # mypkg/siftom_plugin.py
+    def register() -> None:
+        from siftom.likelihood.registry import LIKELIHOODS
+        LIKELIHOODS.register("mine", "mypkg.lk:MyLikelihood", summary="...")
+
+The first lookup in any registry imports siftom's own registering modules and then runs every
+installed plug-in once; a plug-in that fails is reported by ``siftom plugins`` (it does not
+break the others).
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 import importlib.util
 import shutil
 from collections.abc import Callable, Iterator, Mapping
@@ -76,7 +93,8 @@ class Entry:
             return (f"the {self.kind} {self.name!r} needs {' or '.join(self.binaries)} on the PATH; "
                     f"on Debian: sudo apt-get install -y {self.binaries[0]}")
         if self.checker:
-            return _import(self.checker)()
+            why = _import(self.checker)()
+            return None if why is None else str(why)
         return None
 
     def check(self) -> Entry:
@@ -131,6 +149,7 @@ class Registry:
         self._loaders.append(loader)
 
     def _load(self) -> dict[str, Entry]:
+        _load_builtins_and_plugins()
         while self._loaders:
             self._loaders.pop(0)()
         return self._entries
@@ -194,7 +213,7 @@ def registries() -> Mapping[str, Registry]:
     return MappingProxyType(_ALL)
 
 
-# Modules whose import defines the built-in registries.
+# Modules whose import defines the built-in registries (and registers siftom's own entries).
 _DEFINERS = (
     "siftom.scenarios.base",
     "siftom.speech.tts",
@@ -203,10 +222,40 @@ _DEFINERS = (
     "siftom.speech.asr.base",
     "siftom.backends.config",
 )
+PLUGIN_GROUP = "siftom.plugins"
+_STATE = {"loaded": False}
+_PLUGIN_ERRORS: dict[str, str] = {}
+_PLUGINS: dict[str, str] = {}
+
+
+def _load_builtins_and_plugins() -> None:
+    """Once per process: import siftom's registering modules, then run every plug-in."""
+    if _STATE["loaded"]:
+        return
+    _STATE["loaded"] = True  # set first: the modules and plug-ins below look names up too
+    for module in _DEFINERS:
+        importlib.import_module(module)
+    for ep in importlib.metadata.entry_points(group=PLUGIN_GROUP):
+        _PLUGINS[ep.name] = ep.value
+        try:
+            ep.load()()
+        except Exception as exc:  # a broken plug-in must not break siftom or the other plug-ins
+            _PLUGIN_ERRORS[ep.name] = f"{ep.value}: {type(exc).__name__}: {exc}"
+
+
+def plugins() -> Mapping[str, str]:
+    """Installed plug-in packages' entry points (name -> "module:function"), after loading them."""
+    _load_builtins_and_plugins()
+    return MappingProxyType(_PLUGINS)
+
+
+def plugin_errors() -> Mapping[str, str]:
+    """Plug-ins that failed to register, with why."""
+    _load_builtins_and_plugins()
+    return MappingProxyType(_PLUGIN_ERRORS)
 
 
 def load_all() -> Mapping[str, Registry]:
-    """Import every module that defines a built-in registry; return them all by kind."""
-    for module in _DEFINERS:
-        importlib.import_module(module)
+    """Import every module that defines a built-in registry, run the plug-ins; return all by kind."""
+    _load_builtins_and_plugins()
     return registries()

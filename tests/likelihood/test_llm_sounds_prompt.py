@@ -65,9 +65,9 @@ def test_the_sounds_prefix_pairs_every_example_with_its_pronunciation():
 def test_a_copying_model_hears_cereal_in_silver_only_with_sounds():
     cmds = [RobotCommand("fetch", c) for c in ("milk", "cereal", "flour", "sugar", "salt")]
     ins = Instruction.from_text("can you pass me the silver")
-    lp = LLMLikelihood(CopyScorer(), prompt="sounds").log_prob(ins, cmds)
+    lp = LLMLikelihood(CopyScorer(), prompt="sounds").log_prob(ins, cmds).log_probs
     assert int(np.argmax(lp)) == 1 and lp[1] - np.sort(lp)[-2] > 1.0
-    flat = LLMLikelihood(CopyScorer(), prompt="plain").log_prob(ins, cmds)
+    flat = LLMLikelihood(CopyScorer(), prompt="plain").log_prob(ins, cmds).log_probs
     assert np.ptp(flat) == 0.0  # without pronunciations there is nothing to copy
 
 

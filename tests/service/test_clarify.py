@@ -55,3 +55,9 @@ def test_robot_plan_falls_back_to_greedy_when_the_budget_is_tiny():
     plan = robot_plan(sc, sc.now, "deliver(bowl,3)", max_nodes=2)
     assert plan.status == "greedy"
     assert sum(a.startswith("put(robot, bowl") for a in plan.actions) == 3
+
+
+def test_one_phrase_maker_for_commands():
+    from siftom.assist.questions import describe
+
+    assert describe_command("deliver(waterglass,3)") == describe("deliver(waterglass,3)") == "three water glasses"

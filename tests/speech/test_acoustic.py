@@ -26,7 +26,7 @@ def test_ranks_true_command_first_from_a_file(cereal_clip, aligner, tmp_path):
     lik = AcousticLikelihood(phrasings, aligner=aligner)
     assert isinstance(lik, InstructionLikelihood)
     path = write_wav(tmp_path / "cereal.wav", cereal_clip)
-    lp = lik.log_prob(Instruction(audio=path), COMMANDS)
+    lp = lik.log_prob(Instruction(audio=path), COMMANDS).log_probs
     assert lp.shape == (len(COMMANDS),) and np.all(np.isfinite(lp))
     assert COMMANDS[int(np.argmax(lp))].obj_class == "cereal"
 
@@ -36,14 +36,14 @@ def test_ranks_true_command_first_other_voice(aligner):
 
     x = synthesize("could you bring me the coffee", "flite-rms")
     lik = AcousticLikelihood(phrasings, aligner=aligner, temperature=temperature_for_snr(None))
-    lp = lik.log_prob_audio(x, COMMANDS)
-    assert COMMANDS[int(np.argmax(lp))].obj_class == "coffee"
-    assert lik.last_candidates == 2 * len(COMMANDS)
+    scored = lik.log_prob_audio(x, COMMANDS)
+    assert COMMANDS[int(np.argmax(scored.log_probs))].obj_class == "coffee"
+    assert scored.evidence["phrases_aligned"] == 2 * len(COMMANDS)
 
 
 def test_temperature_flattens(cereal_clip, aligner):
-    sharp = AcousticLikelihood(phrasings, temperature=5.0, aligner=aligner).log_prob_audio(cereal_clip, COMMANDS)
-    flat = AcousticLikelihood(phrasings, temperature=50.0, aligner=aligner).log_prob_audio(cereal_clip, COMMANDS)
+    sharp = AcousticLikelihood(phrasings, temperature=5.0, aligner=aligner).log_prob_audio(cereal_clip, COMMANDS).log_probs
+    flat = AcousticLikelihood(phrasings, temperature=50.0, aligner=aligner).log_prob_audio(cereal_clip, COMMANDS).log_probs
     assert np.ptp(sharp) > np.ptp(flat) > 0
 
 

@@ -23,10 +23,7 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from siftom.errors import CommandParseError, ObservationError
-from siftom.likelihood.lexicon import pluralize, spoken_form
-from siftom.likelihood.phrasing import number_word
-from siftom.world.commands import RobotCommand
+from siftom.errors import ObservationError
 
 DEFAULT_THRESHOLD = 0.6
 DEFAULT_COST = 0.1
@@ -86,15 +83,11 @@ def expected_value_of_asking(probs: Sequence[float]) -> float:
 
 
 def describe_command(command: str) -> str:
-    """Spoken noun phrase for a command: ``fetch(cereal)`` -> "the cereal", ``deliver(bowl,3)`` -> "three bowls"."""
-    try:
-        cmd = RobotCommand.parse(command)
-    except CommandParseError:
-        return command
-    noun = spoken_form(cmd.obj_class)
-    if cmd.count == 1:
-        return f"the {noun}" if cmd.verb == "fetch" else f"one {noun}"
-    return f"{number_word(cmd.count)} {pluralize(noun)}"
+    """Spoken noun phrase for a command (the one phrase maker, :func:`siftom.assist.questions.describe`):
+    ``fetch(cereal)`` -> "the cereal", ``deliver(waterglass,3)`` -> "three water glasses"."""
+    from siftom.assist.questions import describe
+
+    return describe(command)
 
 
 def clarify(commands: Sequence[tuple[str, float]], policy: ClarifyPolicy | None = None) -> Clarification:

@@ -30,8 +30,9 @@ import numpy as np
 from siftom.assist.askcost import QuestionCost
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
-from siftom.errors import ObservationError
-from siftom.inference.model import JointPosterior, Posterior, logsumexp
+from siftom.errors import ObservationError, unknown_name
+from siftom.inference.model import JointPosterior, Posterior
+from siftom.logspace import logsumexp
 from siftom.registry import Registry
 from siftom.world.model import State, World
 
@@ -258,7 +259,7 @@ def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, 
     conf = np.full((3, 3), (1.0 - r) / 2.0)
     np.fill_diagonal(conf, r)
     row_cmd = np.array([tv.actions[i] for i in tv.row_cmd]) if len(tv.row_cmd) else np.array([], dtype=str)
-    out = []
+    out: list[tuple[float, tuple[str, str]]] = []
     for a, b in combinations(cands, 2):
         in_a, in_b = row_cmd == a, row_cmd == b
         cells = np.stack([w[m].sum(axis=0) for m in (in_a, in_b, ~(in_a | in_b))])  # (3, actions)
@@ -382,10 +383,13 @@ RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
 
 
 def get_rule(name: str, **options: Any) -> DecisionRule:
-    """Build the decision rule registered as ``name``; options a rule does not take are ignored."""
+    """Build the decision rule registered as ``name``; an option it does not take is an error naming it."""
     entry = RULES.spec(name)
-    takes = entry.attrs.get("options", ())
-    return entry.make(**{k: v for k, v in options.items() if k in takes})
+    takes = tuple(entry.attrs.get("options", ()))
+    for key in options:
+        if key not in takes:
+            raise unknown_name(f"option of decision rule {name!r}", key, takes)
+    return entry.make(**options)
 
 
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
@@ -436,7 +440,7 @@ def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcri
     corder = corder[cm[corder] > 0]
     gorder = np.argsort(-gm, kind="stable")
     gorder = gorder[gm[gorder] > 0]
-    commands = tuple((str(j.commands[k]), float(cm[k])) for k in corder)
+    commands = tuple((j.commands[k], float(cm[k])) for k in corder)
     goals = tuple((names[k], float(gm[k])) for k in gorder)
     from dataclasses import replace
 

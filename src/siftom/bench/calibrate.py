@@ -46,7 +46,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
     asr = _engine(engine, vocab)
     model = get_model(mode, "acoustic")
-    lk = model.likelihood
+    lk: Any = model.likelihood  # an AcousticLikelihood (raw_scores, with_phonetic)
     # the Whisper factor replaces the alignment: then T_w is fitted instead (and there is no combo)
     aligns = getattr(lk, "aligns", True)
     attr, grid = ("temperature", GRID) if aligns else ("whisper_temperature", WHISPER_GRID)

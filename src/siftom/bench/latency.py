@@ -12,14 +12,11 @@ core).
 
 from __future__ import annotations
 
-import json
 import statistics
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
-
-import click
 
 SCENARIO = "kitchen-cereal-v0"
 CLIPS = (  # (text, voice): 1-4 s of speech
@@ -79,21 +76,3 @@ def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quic
                 "ratio_p90": round(q[-1], 4), "cpu_ratio_p50": round(statistics.median(cpu_ratios), 4),
                 "seconds": [round(s, 4) for s in secs], "commands": chosen}
     return result
-
-
-@click.command("latency")
-@click.option("--noise", default="babble", show_default=True, help="noise spec (siftom say --noise)")
-@click.option("--snr", type=float, default=10.0, show_default=True)
-@click.option("--repeats", type=int, default=3, show_default=True, help="timed runs per clip (the fastest counts)")
-@click.option("--quick", is_flag=True, help="4 clips instead of 8")
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json: bool) -> None:
-    """Time from an audio file (1-4 s) to the chosen command, per instruction likelihood."""
-    res = run_latency(noise, snr, max(1, repeats), quick)
-    if as_json:
-        click.echo(json.dumps(res, indent=2))
-        return
-    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}")
-    for lk, r in res["likelihoods"].items():
-        click.echo(f"{lk:9s} p50 {r['p50_s'] * 1000:.0f} ms  ratio_p50 {r['ratio_p50']:.3f}  "
-                   f"ratio_p90 {r['ratio_p90']:.3f}  cpu_ratio_p50 {r['cpu_ratio_p50']:.3f}  commands {r['commands']}")

@@ -199,7 +199,7 @@ def _first_token_choice(data: dict[str, Any], n: int) -> np.ndarray | None:
 
 def command_space(scenario: Any, max_count: int = MAX_COUNT) -> list[RobotCommand]:
     """Every command of the scenario's domain (what the baselines choose from)."""
-    out = []
+    out: list[RobotCommand] = []
     for c in scenario.world.classes:
         n_obj = sum(1 for it in scenario.world.items if it.cls == c)
         top = min(n_obj, max_count) if scenario.verb == "deliver" else 1

@@ -291,7 +291,7 @@ def run_acoustic_bench(
                 base_correct += bool(heard) and heard[0] == food
                 if any(h.text for h in tr.nbest):
                     tp = time.perf_counter()
-                    lp = phonetic.log_prob(tr.to_instruction(), commands)
+                    lp = phonetic.log_prob(tr.to_instruction(), commands).log_probs
                     phon_s += time.perf_counter() - tp
                     phon_correct += int(np.argmax(lp)) == fi
                 n += 1

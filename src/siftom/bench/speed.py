@@ -6,12 +6,10 @@ one core). Every timed call starts from scratch unless it says "update".
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Callable
 
-import click
 import numpy as np
 
 NBEST_SILVER = [
@@ -158,38 +156,3 @@ def run_planner_bench(repeats: int = 20) -> dict:
         "astar_nodes_per_second": expanded / secs if secs else 0.0,
         "single_goal_value_ms": _p50(lambda: ctg.value(sc.now, sc.goal), repeats)[0],
     }
-
-
-@click.command("inference")
-@click.option("--json", "as_json", is_flag=True)
-@click.option("--repeats", default=30, show_default=True)
-def bench_inference_cmd(as_json: bool, repeats: int) -> None:
-    """Inference speed: full p50, incremental update p50, scaling with goals (kitchen-v0)."""
-    res = run_inference_bench(repeats)
-    if as_json:
-        click.echo(json.dumps(res, indent=2))
-        return
-    click.echo(f"{res['scenario']}: {res['num_items']} objects, {res['num_goals']} goals, "
-               f"{res['num_actions']} actions, {res['nbest']}-best -> {res['command']}")
-    click.echo(f"  full inference p50      {res['p50_ms']:.2f} ms")
-    click.echo(f"  one-action update p50   {res['update_p50_ms']:.2f} ms")
-    click.echo(f"  posterior only p50      {res['posterior_p50_ms']:.2f} ms")
-    for row in res["scaling"]:
-        click.echo(f"  {row['goals']:>6} goals            {row['p50_ms']:.2f} ms")
-
-
-@click.command("planner")
-@click.option("--json", "as_json", is_flag=True)
-@click.option("--repeats", default=20, show_default=True)
-def bench_planner_cmd(as_json: bool, repeats: int) -> None:
-    """Planner speed: Q* table for all goals x observed steps, A* nodes per second."""
-    res = run_planner_bench(repeats)
-    if as_json:
-        click.echo(json.dumps(res, indent=2))
-        return
-    click.echo(f"{res['scenario']}: Q* for {res['num_goals']} goals x {res['num_actions']} steps x every action "
-               f"= {res['q_values']} values in {res['q_table_p50_ms']:.2f} ms (p50) "
-               f"= {res['v_per_second']:.3g} values/s")
-    click.echo(f"  A*: {res['astar_nodes_per_second']:.0f} nodes expanded per second "
-               f"({res['astar_nodes_expanded']} nodes on 6 household scenarios)")
-    click.echo(f"  one V*(s; g) with table build: {res['single_goal_value_ms']:.3f} ms")

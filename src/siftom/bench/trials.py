@@ -12,6 +12,7 @@ import json
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +32,7 @@ from siftom.world.commands import MAX_COUNT
 
 if TYPE_CHECKING:
     from siftom.bench.evaluate import EvalOptions
+    from siftom.settings import Settings
 
 MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text", "siftom-eb", "siftom-ask")
 OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
@@ -157,11 +159,18 @@ class _Task:
     team: dict[str, dict[str, Any]]
 
 
+@lru_cache(maxsize=8)
+def eval_settings(mode: str) -> Settings:
+    """The settings the evaluator runs SIFToM with: the defaults, in ``mode``."""
+    from siftom.settings import Settings
+
+    return Settings.load(env={}, flags={"model.mode": mode})
+
+
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
-    from siftom.api import get_model
+    from siftom.api import get_model, infer
     from siftom.bench.literal import literal_command
-    from siftom.inference.model import Observation
     from siftom.observation import Instruction
 
     opts = task.options
@@ -244,7 +253,10 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     command, prob = "none", 1.0  # nothing was heard: the robot does nothing
                 else:
                     lk = "llm" if m == "siftom-llm" else opts.likelihood
-                    post = get_model(mode, lk, opts.llm).infer(Observation.from_scenario(sc, heard))
+                    # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not
+                    # change a benchmark); the LLM likelihood comes configured by the run's options
+                    lik = get_model("full", lk, opts.llm).likelihood if lk == "llm" else lk
+                    post = infer(sc, None, heard, likelihood=lik, settings=eval_settings(mode))
                     command, prob = post.command, float(post.commands[0][1])
                 memo[mk] = (command, prob, 0.0)
             team = _simulate(skey, sc, command)

@@ -6,29 +6,20 @@ function that adds click commands to the root group), so this file only wires th
 
 from __future__ import annotations
 
-import importlib
 import sys
 
 import click
 
 from siftom import __version__
 from siftom.errors import SiftomError
+from siftom.registry import Registry
 
-# Modules that contribute subcommands, in the order shown by --help.
-_AREAS = (
-    "siftom.cli.world",
-    "siftom.cli.agents",
-    "siftom.cli.inference",
-    "siftom.cli.speech",
-    "siftom.cli.bench",
-    "siftom.cli.people",
-    "siftom.cli.service",
-    "siftom.cli.stream",
-    "siftom.cli.perception",
-    "siftom.cli.demo",
-    "siftom.cli.plugins",
-    "siftom.cli.results",
-)
+# Command areas: each entry's ``register(root)`` adds its click commands to the root group.
+# Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
+CLI_AREAS = Registry("CLI area")
+for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "people", "service", "stream",
+              "perception", "demo", "plugins", "results", "config"):
+    CLI_AREAS.register(_area, f"siftom.cli.{_area}:register", summary=f"siftom.cli.{_area}")
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -40,8 +31,8 @@ def root() -> None:
 def _register_all() -> None:
     # An area that fails to import is a broken install: fail loudly rather than hide its
     # commands. Areas import optional extras lazily, inside their commands.
-    for name in _AREAS:
-        importlib.import_module(name).register(root)
+    for entry in CLI_AREAS.entries().values():  # in registration order: later areas extend earlier groups
+        entry.load()(root)
 
 
 _register_all()

@@ -63,7 +63,7 @@ def _backend(name: str, workers: int | None, address: str | None) -> Iterator[ob
         signum = interrupting_signal(exc)
         err = click.ClickException(f"stopped by {signal.Signals(signum).name}; what was finished is saved: "
                                    "run the same command again to resume")
-        err.exit_code = 128 + signum
+        err.exit_code = 128 + signum  # type: ignore[misc]  # click reads it per instance
         raise err from None
 
 
@@ -264,8 +264,15 @@ def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_addr
     click.echo(f"\n{n} cells; wrote {out}/sweep.json, table.md, table.csv and sweep.png")
 
 
+@click.group("bench")
+def bench_group() -> None:
+    """Benchmarks (speed and accuracy); --json for machines."""
+
+
 def register(root: click.Group) -> None:
-    """Add ``dataset``, ``eval``, ``report`` and ``sweep`` to the root command."""
+    """Add ``dataset``, ``eval``, ``report``, ``sweep`` and the ``bench`` group (which the other
+    areas fill: ``siftom.cli.bench.bench_group``) to the root command."""
+    root.add_command(bench_group)
     root.add_command(dataset_group)
     root.add_command(eval_cmd)
     root.add_command(report_cmd)

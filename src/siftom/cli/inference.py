@@ -17,29 +17,6 @@ from siftom.safejson import loads, read_text
 from siftom.speech.asr.base import ENGINES
 
 
-def _bench_group(root: click.Group) -> click.Group:
-    bench = root.commands.get("bench")
-    if bench is None:
-        bench = click.Group("bench", help="Benchmarks (speed and accuracy); --json for machines.")
-        root.add_command(bench)
-    return bench  # type: ignore[return-value]
-
-
-def _read_actions(path: Path) -> list[str]:
-    text = read_text(path, "actions file")
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError:
-        return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("#")]
-    except (RecursionError, ValueError):  # JSON nested too deeply, or an integer too long to read
-        data = loads(text, f"actions file {str(path)!r}")
-    if isinstance(data, dict):
-        data = data.get("actions")
-    if not isinstance(data, list) or not all(isinstance(a, str) for a in data):
-        raise ObservationError(f"{path}: give a JSON list of action strings (or one action per line)")
-    return data
-
-
 def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
     """Warnings for object classes no goal mentions (each naming the nearest library classes)."""
     from siftom.world.io import scene_warnings
@@ -78,124 +55,95 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--nbest", "nbest_file", type=click.Path(path_type=Path), default=None,
               help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
 @click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
-@click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default="full")
-@click.option("--likelihood", default="phonetic", help=f"Instruction likelihood: {LIKELIHOODS.help_line()}.")
-@click.option("--engine", default="pocketsphinx", help=f"ASR engine for --audio: {ENGINES.help_line()}.")
+@click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default=None,
+              help="full (default), speech-only or action-only (setting model.mode).")
+@click.option("--likelihood", default=None,
+              help=f"Instruction likelihood (setting infer.likelihood): {LIKELIHOODS.help_line()}.")
+@click.option("--engine", default=None, help=f"ASR engine for --audio (setting infer.engine): {ENGINES.help_line()}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults.")
 @click.option("--decide", "rule", default="map", show_default=True,
               help=f"Decision rule: {RULES.help_line()} (docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
-              likelihood, engine, png, rule, as_json, llm_backend, llm_base_url, llm_model) -> None:
+              likelihood, engine, config_file, png, rule, as_json, llm_backend, llm_base_url, llm_model) -> None:
     """Infer the goal and the robot command from what the human did and said.
 
     With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
     """
-    from siftom.api import get_model, make_instruction
+    from siftom.api import infer, listen
     from siftom.assist.decide import get_rule
-    from siftom.inference.model import Observation
+    from siftom.inputs import resolve_scene
+    from siftom.settings import Settings
 
-    decision_rule = get_rule(rule)  # an unknown name fails before any work
-    llm = None
+    get_rule(rule)  # an unknown name fails before any work
+    flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine}
+    resolved = Settings.load(config_file, flags=flags)
+    mode, likelihood, engine = resolved.model.mode, resolved.infer.likelihood, resolved.infer.engine
     if likelihood == "llm":
-        llm = llm_config(llm_backend, llm_base_url, llm_model)
+        cfg = llm_config(llm_backend, llm_base_url, llm_model)
+        flags.update({f"llm.{k}": v for k, v in (("backend", cfg.backend), ("base_url", cfg.base_url),
+                                                  ("model", cfg.model))})
     elif flags_given(llm_backend, llm_base_url, llm_model):
         click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood})", err=True)
+    settings = Settings.load(config_file, flags=flags)
 
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
-    nbest = _read_nbest(nbest_file) if nbest_file else None
-    if audio is not None and not nbest and transcript is None:
-        _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine,
-                     png, as_json)
-        return
-    instruction = make_instruction(transcript, nbest, audio)
-    if instruction is None and mode != "action-only":
-        raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
-    model = get_model(mode, likelihood, llm)
-    sc = None
     warnings: list[str] = []
     if scenario_id is not None:
-        from siftom.scenarios.base import get_scenario
-
-        sc = get_scenario(scenario_id)
-        if actions_file is not None:
-            from siftom.api import infer_actions
-
-            post = infer_actions(scenario_id, _read_actions(actions_file), instruction, mode, likelihood, llm)
-        else:
-            post = model.infer(Observation.from_scenario(sc, instruction))
+        scene = scenario_id
     else:
         from siftom.world.io import load_scene
-        from siftom.world.vhscript import parse_actions
 
         scene = load_scene(scene_file, goal_space=goal_space, target=target)
         warnings = _unmentioned(scene_file, scene, goal_space)
         if not as_json:  # with --json they are a field of the output
             for w in warnings:
                 click.echo(f"warning: {w}", err=True)
-        acts, _ = parse_actions(scene.world, scene.start, _read_actions(actions_file) if actions_file else [],
-                                first=1, label="action {k}")
-        post = model.infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb, instruction))
-    decision = None
-    if post.joint is not None and post.joint.state is not None:
-        from siftom.assist.decide import Situation
-
-        world = sc.world if sc is not None else scene.world
-        target = sc.target if sc is not None else scene.goals[0].target
-        decision = decision_rule(post, Situation(world, post.joint.state, target))
-    if png is not None and sc is not None:
-        from siftom.world.render import render_scenario
-
-        render_scenario(sc, png, posterior=post)
-    if as_json:
-        body = post.to_json()
-        if decision is not None:
-            body["decision"] = decision.to_json()
-        if scene_file is not None:
-            body["warnings"] = warnings
-        click.echo(json.dumps(body, indent=2))
-        return
-    print_posterior(post)
-    if decision is not None and rule != "map":
-        Console().print(f"[bold]decision ({rule}):[/bold] "
-                        + (f'ask "{decision.question}"' if decision.ask else decision.action)
-                        + f" — {decision.reason}")
-
-
-def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine, png,
-                 as_json) -> None:
-    """``--audio``: one call to siftom.api.listen (VAD, recognition, likelihood, posterior)."""
-    from siftom.api import listen
-
-    actions = _read_actions(actions_file) if actions_file else None
-    if scenario_id is not None:
-        heard = listen(audio, scenario=scenario_id, actions=actions, mode=mode, likelihood=likelihood, engine=engine)
+    nbest = _read_nbest(nbest_file) if nbest_file else None
+    heard = nbest if nbest else transcript if transcript is not None else audio
+    if heard is None and mode != "action-only":
+        raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
+    if audio is not None and not nbest and transcript is None:
+        # a recording: the same path, with the recogniser's output and timings kept for display
+        sc = resolve_scene(scene, actions_file)
+        h = listen(audio, scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
+                   engine=engine, decide=rule, settings=settings)
+        post, body = h.posterior, h.to_json()
     else:
-        from siftom.world.io import load_scene
-
-        scene = load_scene(scene_file, goal_space=goal_space, target=target)
-        heard = listen(audio, world=scene, actions=actions or [], mode=mode, likelihood=likelihood, engine=engine)
+        h = None
+        post = infer(scene, actions_file, heard, decide=rule, settings=settings)
+        body = post.to_json()
     if png is not None and scenario_id is not None:
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
 
-        render_scenario(get_scenario(scenario_id), png, posterior=heard.posterior)
+        render_scenario(get_scenario(scenario_id), png, posterior=post)
     if as_json:
-        click.echo(json.dumps(heard.to_json(), indent=2))
+        if scene_file is not None:
+            body["warnings"] = warnings
+        click.echo(json.dumps(body, indent=2))
         return
     con = Console()
-    if not heard.speech:
+    if h is not None and not h.speech:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
-    elif not heard.instruction:
-        con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{heard.posterior.transcript}" holds no '
-                  f"command of this scene ({heard.posterior.evidence.get('no_instruction_reason', '')}); no command "
+    elif h is not None and not h.instruction:
+        con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{post.transcript}" holds no '
+                  f"command of this scene ({post.evidence.get('no_instruction_reason', '')}); no command "
                   "issued. The posterior below comes from the actions alone")
-    print_posterior(heard.posterior, con)
-    con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
-              "loading the recogniser and the scene; `siftom bench latency` times warm calls)")
+    print_posterior(post, con)
+    if h is not None:
+        con.print(f"{h.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
+                  "loading the recogniser and the scene; `siftom bench latency` times warm calls)")
+    decision = post.decision
+    if decision is not None and rule != "map":
+        con.print(f"[bold]decision ({rule}):[/bold] "
+                  + (f'ask "{decision.question}"' if decision.ask else decision.action)
+                  + f" — {decision.reason}")
 
 
 def print_posterior(post, console: Console | None = None) -> None:
@@ -233,15 +181,8 @@ def print_posterior(post, console: Console | None = None) -> None:
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.bench.speed import bench_inference_cmd, bench_planner_cmd
-
-    bench = _bench_group(root)
-    bench.add_command(bench_inference_cmd)
-    bench.add_command(bench_planner_cmd)
-    from siftom.bench.latency import bench_latency_cmd
-
-    bench.add_command(bench_latency_cmd)
     from siftom.bench.calibrate import _cli as calibrate_cli
+    from siftom.cli.bench import bench_group as bench
 
     bench.add_command(calibrate_cli())
     from siftom.bench.decide_speed import bench_decide_cmd

@@ -17,9 +17,11 @@ def plugins_cmd(kind: str | None, as_json: bool) -> None:
     from rich.table import Table
 
     from siftom.errors import unknown_name
-    from siftom.registry import load_all
+    from siftom.registry import load_all, plugin_errors
 
     regs = dict(load_all())
+    for name, why in plugin_errors().items():
+        click.echo(f"warning: the plug-in {name!r} failed to register: {why}", err=True)
     if kind is not None:
         if kind not in regs:
             raise unknown_name("registry", kind, regs)

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import click
 
-from siftom.cli.bench import _backend, _backend_options, _csv
-from siftom.cli.inference import _bench_group
+from siftom.cli.bench import _backend, _backend_options, _csv, bench_group
 
 
 @click.command("reproduce")
@@ -53,6 +52,6 @@ def pages_cmd(results_dir: str, docs_dir: str, readme: str) -> None:
 
 def register(root: click.Group) -> None:
     """Add the results commands to the ``bench`` group."""
-    bench = _bench_group(root)
+    bench = bench_group
     bench.add_command(reproduce_cmd)
     bench.add_command(pages_cmd)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
@@ -45,30 +47,36 @@ def claim_data_dir(data_dir: str) -> RunLock:
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,
               help="the service's own folder (map cache, sessions.sqlite3); give the same folder after a "
                    "restart to continue the sessions; default: a fresh temporary folder")
-@click.option("--max-sessions", type=click.IntRange(1, 1_000_000), default=1000, show_default=True,
+@click.option("--max-sessions", type=click.IntRange(1, 1_000_000), default=None,
               help="sessions stored at once (429 above)")
-@click.option("--session-idle", type=click.FloatRange(1, 365 * 86400), default=86400.0, show_default=True,
+@click.option("--session-idle", type=click.FloatRange(1, 365 * 86400), default=None,
               help="seconds without a change after which a session is deleted")
-@click.option("--max-world-bytes", type=click.IntRange(1024, 64 * 2**20), default=2**20, show_default=True,
+@click.option("--max-world-bytes", type=click.IntRange(1024, 64 * 2**20), default=None,
               help="largest world JSON in POST /v1/sessions (413 above)")
-@click.option("--max-world-items", type=click.IntRange(1, 10_000), default=200, show_default=True,
+@click.option("--max-world-items", type=click.IntRange(1, 10_000), default=None,
               help="most objects a session's world may hold (422 above)")
-@click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
+@click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=None,
               help="most actions one session may observe (422 above)")
-@click.option("--max-streams", type=click.IntRange(1, 10_000), default=8, show_default=True,
+@click.option("--max-streams", type=click.IntRange(1, 10_000), default=None,
               help="WS /v1/sessions/{id}/listen streams open at once (more are closed with 1013)")
-@click.option("--max-utterance", type=click.FloatRange(1, 120), default=15.0, show_default=True,
+@click.option("--max-utterance", type=click.FloatRange(1, 120), default=None,
               help="seconds of speech after which a streamed utterance is cut and answered")
-@click.option("--stream-idle", type=click.FloatRange(0.1, 86400), default=30.0, show_default=True,
+@click.option("--stream-idle", type=click.FloatRange(0.1, 86400), default=None,
               help="seconds without a message after which a stream is closed (4408)")
+@click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
+              help="worker processes scoring audio requests in parallel (0: in the request thread)")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
 @llm_options
-def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, session_idle: float,
-              max_world_bytes: int, max_world_items: int, max_session_actions: int, max_streams: int,
-              max_utterance: float, stream_idle: float,
+def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
+              max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
+              max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
+              audio_workers: int | None, config_file: Path | None,
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
-    The "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
+    Unset limits come from the settings (``siftom config show``: sessions.*, service.*). The
+    "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
     """
     _need_serve_extra()
     import uvicorn
@@ -76,21 +84,25 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
     lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
-    from siftom.service.sessions import SessionLimits
+    from siftom.settings import Settings
 
-    limits = SessionLimits(max_sessions=max_sessions, idle_s=session_idle, max_world_bytes=max_world_bytes,
-                           max_world_items=max_world_items, max_actions=max_session_actions)
+    loaded = Settings.load(config_file, flags={
+        "sessions.max_sessions": max_sessions, "sessions.idle_s": session_idle,
+        "sessions.max_world_bytes": max_world_bytes, "sessions.max_world_items": max_world_items,
+        "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers,
+        "stream.max_streams": max_streams, "stream.max_utterance_s": max_utterance, "stream.max_idle_s": stream_idle})
     llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
+    settings = loaded.service if llm is None else dataclasses.replace(loaded.service, llm=llm)
     # a world of max_world_bytes must fit in a request body
-    from siftom.service.stream_settings import StreamLimits
-
-    stream = StreamLimits(max_streams=max_streams, max_utterance_s=max_utterance, max_idle_s=stream_idle)
-    settings = ServiceSettings(sessions=limits, llm=llm, stream=stream,
-                               max_body_bytes=max(ServiceSettings().max_body_bytes, max_world_bytes + 4096))
+    need = settings.sessions.max_world_bytes + 4096
+    if settings.max_body_bytes < need:
+        settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
+    app = create_app(data_dir, settings)
     try:
-        uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+        uvicorn.run(app, host=host, port=port, log_level="info")
     finally:
+        app.state.runtime.close()
         if lock is not None:
             lock.release()
 
@@ -112,24 +124,36 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
 @click.option("--interval", type=click.FloatRange(0, 10), default=1.0, show_default=True,
               help="with --sessions: seconds between one session's requests (a person acts about once a "
                    "second; 0: back to back, all sessions in flight at once)")
+@click.option("--audio", "audio", is_flag=True,
+              help="send recordings (synthetic speech, multipart) instead of transcripts")
+@click.option("--likelihood", default="phonetic", show_default=True,
+              help="with --audio: the instruction likelihood the requests ask for (phonetic or acoustic)")
+@click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
+              help="with --audio and no --url: the server's audio worker processes "
+                   "(default: service.audio_workers of the settings)")
 def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool, sessions: int | None,
-                    n_actions: int, interval: float) -> None:
+                    n_actions: int, interval: float, audio: bool, likelihood: str,
+                    audio_workers: int | None) -> None:
     """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles
-    (--sessions: the session API)."""
+    (--audio: recordings; --sessions: the session API)."""
     _need_serve_extra()
     if sessions is not None:
         _bench_sessions(sessions, n_actions, interval, url, as_json)
         return
-    from siftom.service.loadtest import run_load_test
+    from siftom.service.loadtest import DEFAULT_BODIES, audio_bodies, run_load_test
+    from siftom.settings import Settings
 
-    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url)
+    settings = Settings.load(flags={"service.audio_workers": audio_workers}).service if url is None else None
+    bodies = audio_bodies(likelihood) if audio else DEFAULT_BODIES
+    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url, bodies=bodies,
+                        settings=settings)
     if as_json:
-        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
+        click.echo(json.dumps({**res.to_json(), **({} if audio else {"meets_target": res.meets()})}, indent=2))
         return
-    verdict = "meets" if res.meets() else "MISSES"
+    verdict = "" if audio else f" ({'meets' if res.meets() else 'MISSES'} >= 50 req/s, p99 < 200 ms)"
     click.echo(f"{res.ok}/{res.requests} ok, concurrency {res.concurrency}, {res.seconds:.2f} s: "
                f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
-               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} >= 50 req/s, p99 < 200 ms)")
+               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms{verdict}")
 
 
 def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | None, as_json: bool) -> None:
@@ -153,8 +177,6 @@ def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | N
 def register(root: click.Group) -> None:
     """Add ``serve`` and ``bench serve`` to the root group."""
     root.add_command(serve_cmd)
-    bench = root.commands.get("bench")
-    if not isinstance(bench, click.Group):
-        bench = click.Group("bench", help="Benchmarks.")
-        root.add_command(bench)
-    bench.add_command(bench_serve_cmd)
+    from siftom.cli.bench import bench_group
+
+    bench_group.add_command(bench_serve_cmd)

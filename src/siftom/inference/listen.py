@@ -18,19 +18,19 @@ import dataclasses
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from siftom.errors import ObservationError
 from siftom.inference.model import Posterior
 from siftom.observation import Instruction
 from siftom.speech.asr import DEFAULT_NBEST
 
 NO_SPEECH = "no speech heard"
 NO_INSTRUCTION = "no instruction heard"
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ class Heard:
 
     @property
     def command(self) -> str:
-        """The chosen robot command ("none" when the words held no instruction)."""
+        """The chosen robot command (a RobotCommand; "none" when the words held no instruction)."""
         return self.posterior.command if self.instruction or not self.speech else "none"
 
     @property
@@ -83,23 +83,27 @@ class Heard:
         return out
 
 
-@dataclass(frozen=True)
-class Scene:
-    world: Any
-    start: Any
-    goals: tuple
-    verb: str
-    actions: tuple
-    key: Any
-
-
 class Cache:
-    """Small thread-safe LRU for per-home objects (engines, online inferences)."""
+    """A small thread-safe LRU map with get-or-create (engines, online inferences, plans).
+
+    ``make`` runs outside the lock (creation may be slow); two threads that miss at once may
+    both create, and the last one is kept.
+    """
 
     def __init__(self, size: int) -> None:
-        self.size, self._d, self._lock = size, OrderedDict(), threading.Lock()
+        self.size = size
+        self._d: OrderedDict[Any, Any] = OrderedDict()
+        self._lock = threading.Lock()
 
-    def get(self, key: Any, make: Any) -> Any:
+    def __len__(self) -> int:
+        return len(self._d)
+
+    def get_or_create(self, key: Any, make: Callable[[], T]) -> T:
+        """The value for ``key``, made by ``make()`` on a miss."""
+        return self.get(key, make)
+
+    def get(self, key: Any, make: Callable[[], Any]) -> Any:
+        """The value for ``key``, made by ``make()`` on a miss."""
         with self._lock:
             if key in self._d:
                 self._d.move_to_end(key)
@@ -114,36 +118,6 @@ class Cache:
 
 ENGINES = Cache(8)
 ONLINE = Cache(64)
-LOCK = threading.Lock()  # decoders and likelihood caches hold one utterance at a time
-
-
-def resolve_scene(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
-           verb: str | None) -> Scene:
-    from siftom.scenarios.base import get_scenario
-    from siftom.world.model import apply, check
-
-    if (scenario is None) == (world is None):
-        raise ObservationError("give exactly one of scenario= (an id or Scenario) or world= (a scene or World)")
-    src = get_scenario(scenario) if isinstance(scenario, str) else scenario if scenario is not None else world
-    if hasattr(src, "world"):  # a Scenario or a loaded scene
-        w, s0, gs, vb = src.world, src.start, tuple(src.goals), verb or getattr(src, "verb", "deliver")
-        default_actions = tuple(getattr(src, "actions", ()))
-    else:
-        if start is None or goals is None:
-            raise ObservationError("with world=World give start= (its State) and goals= (the goal space)")
-        w, s0, gs, vb, default_actions = src, start, tuple(goals), verb or "deliver", ()
-    acts = default_actions if actions is None else []
-    if actions is not None:
-        s = s0
-        for k, a in enumerate(actions):
-            act = w.parse_action(a, s) if isinstance(a, str) else a
-            why = check(w, s, act)
-            if why is not None:
-                raise ObservationError(f"actions[{k}] {a!r} is impossible here: {why}")
-            acts.append(act)
-            s = apply(s, act)
-    key = (scenario if isinstance(scenario, str) else id(src), tuple(map(str, acts)))
-    return Scene(w, s0, gs, vb, tuple(acts), key)
 
 
 def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instruction | None, Any, Any, dict[str, float]]:

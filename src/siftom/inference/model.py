@@ -31,7 +31,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
-from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.likelihood.base import Instruction, InstructionLikelihood, as_scores
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.logspace import group_logsumexp, logsumexp
 from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
@@ -119,11 +119,11 @@ class Observation:
 
 
 @dataclass(frozen=True)
-class Hypothesis:
+class JointHypothesis:
     """One (goal, command) pair with its posterior and each term's contribution (log)."""
 
     goal: str
-    command: str
+    command: RobotCommand
     prob: float
     log_prior: float
     log_action: float
@@ -151,10 +151,10 @@ class JointPosterior:
 class Posterior:
     """The result of inference. ``to_json`` gives the documented JSON shape."""
 
-    command: str
-    commands: tuple[tuple[str, float], ...]
+    command: RobotCommand
+    commands: tuple[tuple[RobotCommand, float], ...]
     goals: tuple[tuple[str, float], ...]
-    hypotheses: tuple[Hypothesis, ...]
+    hypotheses: tuple[JointHypothesis, ...]
     mode: str
     likelihood: str
     n_actions: int
@@ -163,22 +163,29 @@ class Posterior:
     joint: JointPosterior | None = field(default=None, repr=False, compare=False)
     # what the instruction likelihood used besides the N-best (``evidence()``), e.g. Whisper's own words
     evidence: dict[str, Any] = field(default_factory=dict, compare=False)
+    # what a decision rule made of it (``siftom.infer(..., decide=RULE)``): a ``Decision``
+    decision: Any = field(default=None, compare=False)
 
     def prob(self, command: str) -> float:
-        return dict(self.commands).get(command, 0.0)
+        """The posterior probability of ``command`` (a RobotCommand or its text)."""
+        for c, p in self.commands:
+            if c == command:
+                return p
+        return 0.0
 
     def to_json(self, top: int = 10) -> dict[str, Any]:
         return {
-            "command": self.command,
-            "commands": [{"command": c, "prob": p} for c, p in self.commands[:top]],
+            "command": str(self.command),
+            "commands": [{"command": str(c), "prob": p} for c, p in self.commands[:top]],
             "goals": [{"goal": g, "prob": p} for g, p in self.goals[:top]],
-            "hypotheses": [h.__dict__ for h in self.hypotheses[:top]],
+            "hypotheses": [{**h.__dict__, "command": str(h.command)} for h in self.hypotheses[:top]],
             "mode": self.mode,
             "likelihood": self.likelihood,
             "n_actions": self.n_actions,
             "transcript": self.transcript,
             "seconds": self.seconds,
             "evidence": dict(self.evidence),
+            **({"decision": self.decision.to_json()} if self.decision is not None else {}),
         }
 
 
@@ -316,12 +323,11 @@ class OnlineInference:
             if getattr(lk, "uses_context", False):
                 # e.g. the acoustic likelihood prunes commands with little prior x action mass
                 ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, len(cmds)) if cfg.uses_actions else None
-                raw = lk.log_prob(instruction, cmds, context=ctx)  # type: ignore[call-arg]
+                scored = as_scores(lk.log_prob(instruction, cmds, context=ctx))  # type: ignore[call-arg]
             else:
-                raw = lk.log_prob(instruction, cmds)
-            evidence = lk.evidence() if hasattr(lk, "evidence") else {}
-            evidence = {**evidence, **_no_instruction(instruction, cmds)}
-            instr = np.asarray(raw, dtype=np.float64) * cfg.speech_weight
+                scored = as_scores(lk.log_prob(instruction, cmds))
+            evidence = {**scored.evidence, **_no_instruction(instruction, cmds)}
+            instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:
@@ -347,12 +353,12 @@ class OnlineInference:
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple(zip([str(cmds[k]) for k in corder.tolist()], cm[corder].tolist(), strict=True))
+        commands = tuple(zip([cmds[k] for k in corder.tolist()], cm[corder].tolist(), strict=True))
         gorder = np.argsort(-gm, kind="stable")
         gorder = gorder[gm[gorder] > 0]
         goals = tuple(zip([goal_names[k] for k in gorder.tolist()], gm[gorder].tolist(), strict=True))
         order = np.argsort(-lj, kind="stable")[:top]
-        hyps = tuple(Hypothesis(goal_names[goal_all[i]], str(cmds[cmd_all[i]]), float(p[i]), float(terms[i, 0]),
+        hyps = tuple(JointHypothesis(goal_names[goal_all[i]], cmds[cmd_all[i]], float(p[i]), float(terms[i, 0]),
                                 float(terms[i, 1]), float(terms[i, 2])) for i in order)
         post = Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,
@@ -386,14 +392,16 @@ class OnlineInference:
             return known
         unk = np.full(n_cmds, -np.inf)
         unk[unk_cmds] = unk_prior + unk_act
-        return np.logaddexp(known, unk)
+        out: np.ndarray = np.logaddexp(known, unk)
+        return out
 
     def _steps_saved(self, goal_idx: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """V(now; g) - V(now; g minus the robot's part): how much each part helps the human."""
         s = self.state
         v_rows = self.ctg.values(self._tabs, self._sp, s.agent_at[HUMAN], s.held[HUMAN])
         v_goal = self.ctg.values(self._tabs, self._sp_goal, s.agent_at[HUMAN], s.held[HUMAN])
-        return np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+        saved: np.ndarray = np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
+        return saved
 
 
 def _changed_classes(world: World, s: State, action: Action) -> list[int]:
@@ -419,7 +427,7 @@ class _GoalSpace:
     ctg: CostToGo
 
 
-_GOAL_SPACES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_GOAL_SPACES: weakref.WeakKeyDictionary[World, dict[Any, Any]] = weakref.WeakKeyDictionary()
 
 
 def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalSpace:
@@ -427,9 +435,10 @@ def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalS
     # identity first: hashing 150 goals costs more than the rest of the lookup
     fast = per_world.get((id(goals), max_count))
     if fast is not None and fast[0] is goals:
-        return fast[1]
+        hit: _GoalSpace = fast[1]
+        return hit
     key = (goals, max_count)
-    gs = per_world.get(key)
+    gs: _GoalSpace | None = per_world.get(key)
     if gs is None:
         N = goal_matrix(world, goals)
         G, C = N.shape
@@ -446,7 +455,7 @@ def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalS
 
 
 @lru_cache(maxsize=64)
-def _subgoal_rows(key: bytes, G: int, C: int):
+def _subgoal_rows(key: bytes, G: int, C: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Distinct human subgoals: every goal minus one of its classes (the robot's part), cached.
 
     Only these rows enter the action likelihood; the full goals are needed once, for the

@@ -44,14 +44,15 @@ the commands of one call.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from siftom.errors import ObservationError, SiftomError
+from siftom.likelihood.base import Scores, as_scores, guarded
 from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
@@ -170,6 +171,7 @@ class RawScores:
     phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
     gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
     whisper: np.ndarray | None = None  # the Whisper factor w of each kept command (nats), when used
+    evidence: Mapping[str, Any] = field(default_factory=dict)  # how this call scored (Scores.evidence)
 
     def temperature(self, T: float, scale: float) -> float:
         """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
@@ -267,10 +269,6 @@ class AcousticLikelihood:
         self._aligner = aligner
         self._loop: Any = None
         self._phonetic: Any = None
-        self.last_seconds = 0.0
-        self.last_candidates = 0
-        self.last_kept = 0
-        self.last_mode = ""
 
     @property
     def aligner(self):  # noqa: ANN201 - ForcedAligner, imported lazily
@@ -286,7 +284,7 @@ class AcousticLikelihood:
             from siftom.likelihood.registry import get_likelihood
 
             self._phonetic = get_likelihood("phonetic")
-        return np.asarray(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands), dtype=float)
+        return np.array(as_scores(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands)).log_probs)
 
     def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None, phon: np.ndarray | None = None) -> np.ndarray:
@@ -305,12 +303,13 @@ class AcousticLikelihood:
         return np.array(sorted(keep))
 
     def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand],
-                 context: np.ndarray | None = None) -> np.ndarray:
-        """Return log P(audio | command) for each command, shape (len(commands),).
+                 context: np.ndarray | None = None) -> Scores:
+        """Return log P(audio | command) for each command, shape (len(commands),), and the evidence.
 
         ``context``: optional log P(command | actions) up to a constant (used for pruning only).
         """
-        return self.combine(self.raw_scores(instruction, commands, context), len(commands))
+        raw = self.raw_scores(instruction, commands, context)
+        return Scores(self.combine(raw, len(commands)), raw.evidence)
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
@@ -346,6 +345,7 @@ class AcousticLikelihood:
         w[raw.keep] = raw.whisper
         return w / self.whisper_temperature
 
+    @guarded
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:
         """Align the kept commands' key phrases (or sentences): scores in nats before T."""
@@ -369,9 +369,10 @@ class AcousticLikelihood:
             named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c)))]
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
         kept = [commands[i] for i in keep]
-        self.last_kept = len(kept)
+        aligned = 0
+        items: list[list[tuple[float, float]]] = []
         if not self.aligns:
-            mode, seg, items = "whisper", x, []
+            mode, seg = "whisper", x
         else:
             frame = None
             if self.mode == "key" and instruction.words:
@@ -380,33 +381,30 @@ class AcousticLikelihood:
             if frame is not None:
                 start, end, before, after = frame
                 seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
-                items = self._align(seg, kept,
-                                    lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
+                items, aligned = self._align(
+                    seg, kept, lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
                 mode = "key"
             else:
                 seg = x
                 heard = instruction.text if instruction.nbest else None
                 if heard is not None and self.phrasings is None:
-                    items = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+                    items, aligned = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
                 else:
-                    items = self._align(x, kept, self.phrasings or top_phrasings)
+                    items, aligned = self._align(x, kept, self.phrasings or top_phrasings)
                 mode = "sentence"
         wh = (self._whisper.scores(instruction, commands, keep, x, prepared)
-              if prepared is not None else None)
+              if self._whisper is not None and prepared is not None else None)
         if wh is not None and not self.aligns:
-            mode = f"whisper-{self._whisper.last_mode}"  # "whisper-key" or "whisper-sentence"
-        self.last_mode = mode
+            mode = f"whisper-{wh.mode}"  # "whisper-key" or "whisper-sentence"
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
-            items, self.last_mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
-        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None, wh)
-
-    def evidence(self) -> dict[str, Any]:
-        """What the last call used besides the N-best: its mode and, with the Whisper factor, Whisper's words."""
-        out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept}
+            (items, aligned), mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
+        # what this call used besides the N-best: its mode and, with the Whisper factor, Whisper's words
+        evidence: dict[str, Any] = {"acoustic_mode": mode, "commands_scored": len(kept), "phrases_aligned": aligned}
         if self._whisper is not None and self._whisper.listens:
-            out["whisper_heard"] = " ".join(self._whisper.last_heard)
-            out["whisper_use"] = self._whisper.last_use  # "carrier", "guesses" or "none"
-        return out
+            evidence["whisper_heard"] = " ".join(wh.heard) if wh is not None else ""
+            evidence["whisper_use"] = wh.use if wh is not None else "none"  # "carrier", "guesses" or "none"
+        return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None,
+                         wh.values if wh is not None else None, evidence)
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""
@@ -421,7 +419,9 @@ class AcousticLikelihood:
         return None if not np.isfinite(loop) else (loop - max(ok)) / (len(seg) / 160)
 
     def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
-               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]) -> list[list[tuple[float, float]]]:
+               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]
+               ) -> tuple[list[list[tuple[float, float]]], int]:
+        """(score, log prior) items per command, and how many distinct texts were aligned."""
         per_cmd: list[list[tuple[str, float]]] = []
         texts: dict[str, None] = {}
         for c in commands:
@@ -433,12 +433,11 @@ class AcousticLikelihood:
         unique = list(texts)
         result = self.aligner.score(x, unique)
         score = dict(zip(unique, result.scores, strict=True))
-        self.last_seconds = result.seconds
-        self.last_candidates = len(unique)
-        return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd]
+        return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd], len(unique)
 
+    @guarded
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
-                       heard: str | None = None) -> np.ndarray:
+                       heard: str | None = None) -> Scores:
         """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned.
 
         With ``heard`` (an ASR 1-best), each command is scored with its phrasing closest in
@@ -446,12 +445,14 @@ class AcousticLikelihood:
         and the scores differ where the object words do.
         """
         if not commands:
-            return np.zeros(0)
+            return Scores(np.zeros(0))
         from siftom.speech.audio import as_audio
 
         x = as_audio(audio)
         if heard is not None and self.phrasings is None:
-            items = self._align(x, commands, lambda c: [closest_phrasing(c, heard)])
+            items, aligned = self._align(x, commands, lambda c: [closest_phrasing(c, heard)])
         else:
-            items = self._align(x, commands, self.phrasings or top_phrasings)
-        return self.combine(RawScores(np.arange(len(commands)), tuple(items), "sentence"), len(commands))
+            items, aligned = self._align(x, commands, self.phrasings or top_phrasings)
+        raw = RawScores(np.arange(len(commands)), tuple(items), "sentence")
+        return Scores(self.combine(raw, len(commands)),
+                      {"acoustic_mode": "sentence", "commands_scored": len(commands), "phrases_aligned": aligned})

@@ -33,12 +33,14 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
+from siftom.likelihood.base import Scores, guarded
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonemes import normalize_text, word_phonemes
 from siftom.likelihood.phrasing import number_word
@@ -156,7 +158,7 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
     """
     if isinstance(backend, str) and backend not in BACKENDS:
         raise unknown_name("LLM backend", backend, BACKENDS)
-    cfg_kw = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
+    cfg_kw: dict[str, Any] = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
     if "timeout" in kwargs:
         cfg_kw["timeout_s"] = kwargs.pop("timeout")
     if isinstance(backend, LLMConfig):
@@ -242,14 +244,15 @@ class LLMLikelihood:
                 self._memo.popitem(last=False)
         return np.array([self._memo[key] for key in keys])
 
-    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
+    @guarded
+    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:
             raise ObservationError(
                 "the LLM likelihood needs a transcript; transcribe the audio first or use 'acoustic'"
             )
         if not commands:
-            return np.zeros(0)
+            return Scores(np.zeros(0))
         hyps = instruction.nbest[: self.nbest_limit]
         scores = np.array([h.score for h in hyps]) / self.asr_temperature
         logw = scores - logsumexp(scores)
@@ -257,4 +260,4 @@ class LLMLikelihood:
         contexts = [f"{command_line(describe_command(c, self.lexicon), self.prompt)}\nHeard:" for c in commands]
         items = [(ctx, t) for ctx in contexts for t in texts]
         lp = self._score(items).reshape(len(commands), len(texts)) / self.temperature
-        return logsumexp(lp + logw[None, :], axis=1)
+        return Scores(logsumexp(lp + logw[None, :], axis=1))

@@ -16,6 +16,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
+from siftom.likelihood.base import Scores, guarded
 from siftom.likelihood.editdistance import (
     PhonemeTrie,
     encode,
@@ -227,6 +228,7 @@ class PhoneticLikelihood:
 
     # -- distances -----------------------------------------------------------------------------
 
+    @guarded
     def distances(self, texts: Sequence[str], plan: _Plan) -> np.ndarray:
         """D(h, u) for each hypothesis text and each content of ``plan``: (n_contents, n_texts).
 
@@ -278,7 +280,8 @@ class PhoneticLikelihood:
             merged[key] = float(np.logaddexp(merged[key], lw)) if key in merged else float(lw)
         return list(merged), np.array(list(merged.values()))
 
-    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
+    @guarded
+    def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:
             raise ObservationError(
@@ -287,14 +290,14 @@ class PhoneticLikelihood:
             )
         commands = tuple(commands)
         if not commands:
-            return np.zeros(0)
+            return Scores(np.zeros(0))
         plan = self._plan(commands)
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
         ch = self._channel(d, plan)
         ch[:, [len(self._heard(t, plan.vocab)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
         per_content = logsumexp(logw[None, :] + ch, axis=1)
-        return logsumexp(plan.log_prior + per_content[plan.index], axis=1)
+        return Scores(logsumexp(plan.log_prior + per_content[plan.index], axis=1))
 
     def _lost_costs(self, plan: _Plan) -> np.ndarray:
         """D(nothing, u): the cost of deleting each content of the plan (cached per plan)."""

@@ -13,6 +13,7 @@ from typing import Any
 from siftom.errors import ObservationError
 from siftom.likelihood.base import Instruction, InstructionLikelihood
 from siftom.registry import Entry, Registry
+from siftom.speech.asr.base import ENGINES
 
 DEFAULT = "phonetic"
 LIKELIHOODS = Registry("instruction likelihood", default=DEFAULT)
@@ -27,6 +28,11 @@ LIKELIHOODS.register("acoustic", "siftom.likelihood.acoustic:AcousticLikelihood"
                      summary="the audio: Whisper teacher-forced scores of each command (whisper extra) "
                              "or key-phrase forced alignment, times the N-best",
                      attrs={"needs_text": False, "needs_audio": True})
+
+# an ASR engine that needs the likelihoods' meaning words, so it registers from this layer
+ENGINES.register("pocketsphinx-open", "siftom.likelihood.asr:open_engine",
+                 summary="the scene's phrasings mixed with frequent English words (open vocabulary)",
+                 requires=("pocketsphinx",), attrs={"scene": True})
 
 
 def likelihood_names() -> tuple[str, ...]:

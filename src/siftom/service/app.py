@@ -129,7 +129,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
 
         return {
             "status": "ok", "version": _version(), "uptime_s": round(time.time() - rt.started, 1),
-            "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.likelihoods),
+            "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.offered),
             "llm": rt.llm_status(),
             "plugins": {kind: reg.describe() for kind, reg in load_all().items()},
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
@@ -258,12 +258,12 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         comps = schema.setdefault("components", {}).setdefault("schemas", {})
         js = InferRequest.model_json_schema(ref_template="#/components/schemas/{model}")
         comps.update(js.pop("$defs", {}))
-        js["properties"]["likelihood"]["enum"] = list(settings.likelihoods)
+        js["properties"]["likelihood"]["enum"] = list(settings.offered)
         comps["InferRequest"] = js
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
-        form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
+        form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.offered), "default": "phonetic"}
         comps["AudioInferForm"] = form
-        comps.update(session_schemas(settings.likelihoods))
+        comps.update(session_schemas(settings.offered))
         app.openapi_schema = schema
         return schema
 

@@ -3,6 +3,7 @@
 ``run_load_test`` sends ``requests`` inference requests (transcripts, cycling over a fixed set
 of scenarios and instructions) with ``concurrency`` requests in flight, and reports the
 throughput and latency percentiles. Budgets in (requests, concurrency, timeout), counters out.
+:func:`audio_bodies` makes recordings of such instructions (synthetic speech) to send instead.
 """
 
 from __future__ import annotations
@@ -29,6 +30,31 @@ DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
     {"scenario": "kitchen-cereal-v0", "nbest": [{"text": "pass me the see real", "score": -3.0},
                                                  {"text": "pass me the sugar", "score": -4.0}]},
 )
+
+
+AUDIO_SENTENCES: tuple[tuple[str, str], ...] = (
+    ("kitchen-cereal-v0", "can you pass me the cereal"),
+    ("kitchen-cereal-v0", "pass me the sugar"),
+    ("household-table-v0/3", "bring me the forks"),
+    ("kitchen-v0/2", "get me the milk"),
+)
+
+
+@dataclass(frozen=True)
+class AudioBody:
+    """A multipart audio request: the form fields and the WAV bytes."""
+
+    fields: dict[str, str]
+    wav: bytes
+
+
+def audio_bodies(likelihood: str = "phonetic", voice: str = "flite-slt") -> tuple[AudioBody, ...]:
+    """One WAV per sentence of AUDIO_SENTENCES, spoken by ``voice``, for ``likelihood``."""
+    from siftom.speech.audio import wav_bytes
+    from siftom.speech.tts import synthesize
+
+    return tuple(AudioBody({"scenario": sid, "likelihood": likelihood}, wav_bytes(synthesize(text, voice)))
+                 for sid, text in AUDIO_SENTENCES)
 
 
 @dataclass(frozen=True)
@@ -96,7 +122,7 @@ def serve_in_thread(app: Any, host: str = "127.0.0.1", port: int | None = None,
         thread.join(timeout=10)
 
 
-async def _drive(url: str, bodies: Sequence[dict[str, Any]], n: int, concurrency: int,
+async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int, concurrency: int,
                  timeout: float) -> tuple[list[float], int, float]:
     import httpx
 
@@ -112,7 +138,12 @@ async def _drive(url: str, bodies: Sequence[dict[str, Any]], n: int, concurrency
                 next_i += 1
                 t0 = time.perf_counter()
                 try:
-                    r = await client.post("/v1/infer", json=bodies[i % len(bodies)])
+                    body = bodies[i % len(bodies)]
+                    if isinstance(body, AudioBody):
+                        r = await client.post("/v1/infer", data=body.fields,
+                                              files={"audio": ("say.wav", body.wav, "audio/wav")})
+                    else:
+                        r = await client.post("/v1/infer", json=body)
                     good = r.status_code == 200
                 except httpx.HTTPError:
                     good = False
@@ -125,14 +156,15 @@ async def _drive(url: str, bodies: Sequence[dict[str, Any]], n: int, concurrency
 
 
 def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
-                  bodies: Sequence[dict[str, Any]] = DEFAULT_BODIES, url: str | None = None,
-                  timeout: float = 30.0) -> LoadResult:
+                  bodies: Sequence[dict[str, Any] | AudioBody] = DEFAULT_BODIES, url: str | None = None,
+                  timeout: float = 30.0, settings: Any = None) -> LoadResult:
     """Send ``requests`` transcript inferences with ``concurrency`` in flight; measure.
 
     Args:
         requests: measured requests (after ``warmup`` unmeasured ones that fill the caches).
         concurrency: requests in flight at once.
-        url: an already running server; None starts ``create_app()`` on a free loopback port.
+        url: an already running server; None starts ``create_app(settings=settings)`` on a free
+            loopback port (its audio workers, if any, are started before the warm-up).
         timeout: per-request client timeout in seconds.
     """
     if requests < 1 or concurrency < 1 or warmup < 0:
@@ -140,8 +172,15 @@ def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
     if url is None:
         from siftom.service.app import create_app
 
-        with serve_in_thread(create_app()) as base:
-            return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
+        app = create_app(settings=settings)
+        rt = app.state.runtime
+        try:
+            if rt.audio_pool is not None:
+                rt.audio_pool.warm()
+            with serve_in_thread(app) as base:
+                return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
+        finally:
+            rt.close()
     if warmup:
         asyncio.run(_drive(url, bodies, warmup, min(concurrency, warmup), timeout))
     lat, ok, secs = asyncio.run(_drive(url, bodies, requests, concurrency, timeout))

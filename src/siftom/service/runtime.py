@@ -1,11 +1,13 @@
 """The service's working parts, safe to call from many threads at once.
 
-* Inference: one model per (mode, likelihood), each guarded by its own lock because the
-  likelihoods keep LRU caches that are not thread-safe. The expensive action term is cached:
+* Inference: one model per (mode, likelihood), shared by every thread (a likelihood keeps
+  nothing from one call to the next; its memo caches guard themselves). The expensive action
+  term is cached:
   an ``OnlineInference`` that has observed a scenario's first n actions is kept per
   (scenario, n, mode, likelihood), so a request only scores what was heard (~2 ms).
 * ASR: one pocketsphinx decoder per scenario vocabulary, each behind a lock (a decoder holds
-  one utterance at a time).
+  one utterance at a time, and holds the GIL while it decodes); with ``audio_workers`` > 0,
+  audio requests run in worker processes instead, several at once (service/audio_pool.py).
 * Maps: matplotlib's pyplot is not thread-safe; rendering is serialised and PNGs are cached
   in the service's own folder under names it makes (a hash), never a client's string.
 """
@@ -17,8 +19,6 @@ import io
 import tempfile
 import threading
 import time
-from collections import OrderedDict
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -30,6 +30,7 @@ from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.backends.config import LLMConfig
 from siftom.errors import AudioError, ObservationError, SiftomError, unknown_name
+from siftom.inference.listen import Cache
 from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
@@ -78,6 +79,8 @@ class ServiceSettings:
         max_audio_seconds: longest recording accepted (422 above).
         request_timeout_s: a request still working after this long is answered 503.
         workers: how many requests do CPU work at once (the rest wait, within the timeout).
+        audio_workers: worker processes that score audio requests in parallel (0: in the
+            request thread, one recording per scene at a time; service/audio_pool.py).
         likelihoods: instruction likelihoods offered (a subset of SERVICE_LIKELIHOODS; default:
             those whose backend is installed or configured).
         llm: the language model of the "llm" likelihood (default: ``SIFTOM_LLM_*``, see
@@ -92,6 +95,7 @@ class ServiceSettings:
     max_audio_seconds: float = 30.0
     request_timeout_s: float = 20.0
     workers: int = 4
+    audio_workers: int = 0
     likelihoods: tuple[str, ...] | None = None
     cache_size: int = 256
     plan_max_time: float = 0.3
@@ -116,34 +120,16 @@ class ServiceSettings:
             raise ObservationError(f"request_timeout_s must be > 0, got {self.request_timeout_s}")
         if self.workers < 1 or self.cache_size < 1:
             raise ObservationError("workers and cache_size must be >= 1")
-        bad = [lk for lk in self.likelihoods if lk not in SERVICE_LIKELIHOODS]
+        if not 0 <= self.audio_workers <= 64:
+            raise ObservationError(f"audio_workers must be in [0, 64], got {self.audio_workers}")
+        bad = [lk for lk in self.offered if lk not in SERVICE_LIKELIHOODS]
         if bad or not self.likelihoods:
             raise ObservationError(f"likelihoods must be a non-empty subset of {SERVICE_LIKELIHOODS}, got {bad}")
 
-
-class _LRU:
-    """A small thread-safe LRU map with get-or-create under a per-map lock."""
-
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self._d: OrderedDict[Any, Any] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get_or_create(self, key: Any, make: Callable[[], T]) -> T:
-        with self._lock:
-            if key in self._d:
-                self._d.move_to_end(key)
-                return self._d[key]
-        value = make()  # outside the map lock: creation may be slow
-        with self._lock:
-            self._d[key] = value
-            self._d.move_to_end(key)
-            while len(self._d) > self.size:
-                self._d.popitem(last=False)
-        return value
-
-    def __len__(self) -> int:
-        return len(self._d)
+    @property
+    def offered(self) -> tuple[str, ...]:
+        """The likelihoods offered (``likelihoods`` once resolved at construction)."""
+        return self.likelihoods or ()
 
 
 @dataclass
@@ -188,13 +174,21 @@ class Runtime:
         self.map_dir = data_dir / "maps"
         self.map_dir.mkdir(parents=True, exist_ok=True)
         self.started = time.time()
-        self._model_locks: dict[tuple[str, str], threading.Lock] = {}
-        self._locks_lock = threading.Lock()
-        self._online = _LRU(settings.cache_size)
-        self._plans = _LRU(1024)
-        self._engines = _LRU(8)
+        self._online = Cache(settings.cache_size)
+        self._plans = Cache(1024)
+        self._engines = Cache(8)
         self._render_lock = threading.Lock()
         self.requests = 0
+        self.audio_pool: Any = None
+        if settings.audio_workers > 0:
+            from siftom.service.audio_pool import AudioPool
+
+            self.audio_pool = AudioPool(settings)
+
+    def close(self) -> None:
+        """Stop the audio worker processes, if any."""
+        if self.audio_pool is not None:
+            self.audio_pool.close()
 
     # ----- scenarios ---------------------------------------------------------------------
     @staticmethod
@@ -218,16 +212,12 @@ class Runtime:
         return out
 
     def check_likelihood(self, name: str) -> None:
-        if name not in self.settings.likelihoods:
+        if name not in self.settings.offered:
             # a request field, not a path: 422 (ObservationError), with the valid names
             raise ObservationError(str(unknown_name("instruction likelihood on this server", name,
-                                                    self.settings.likelihoods)))
+                                                    self.settings.offered)))
 
     # ----- inference ---------------------------------------------------------------------
-    def _model_lock(self, mode: str, likelihood: str) -> threading.Lock:
-        with self._locks_lock:
-            return self._model_locks.setdefault((mode, likelihood), threading.Lock())
-
     def _online_for(self, sid: str, n: int, mode: str, likelihood: str) -> OnlineInference:
         sc = self.scenario(sid)
 
@@ -245,15 +235,14 @@ class Runtime:
         """Run inference (thread-safe); recorded actions use the cached action term."""
         self.check_likelihood(likelihood)
         sc = self.scenario(sid)
-        with self._model_lock(mode, likelihood):
-            if actions is not None:
-                from siftom.api import infer_actions
+        if actions is not None:
+            from siftom.api import infer_actions
 
-                return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
-            n = len(sc.actions) if n_actions is None else n_actions
-            if not 0 <= n <= len(sc.actions):
-                raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
-            return self._online_for(sid, n, mode, likelihood).posterior(instruction, top=top)
+            return infer_actions(sid, actions, instruction, mode, likelihood, self.settings.llm)
+        n = len(sc.actions) if n_actions is None else n_actions
+        if not 0 <= n <= len(sc.actions):
+            raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
+        return self._online_for(sid, n, mode, likelihood).posterior(instruction, top=top)
 
     def plan(self, sid: str, n_actions: int | None, actions: list[str] | None, command: str) -> RobotPlan | None:
         """The robot's plan for ``command`` from the state when the human spoke (cached)."""
@@ -329,14 +318,25 @@ class Runtime:
 
     def infer_audio(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
                     asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
-        """Detect speech in an uploaded recording, recognise it and infer (siftom.api.listen's path).
+        """Detect speech in an uploaded recording, recognise it and infer (siftom.api.listen's path),
+        in an audio worker process when ``audio_workers`` > 0.
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
         """
+        self.check_likelihood(likelihood)
+        self.scenario(sid)  # an unknown id fails before decoding
+        args = (sid, data, mode, likelihood, n_actions, asr_nbest, top, policy, decide)
+        if self.audio_pool is not None:
+            body: dict[str, Any] = self.audio_pool.infer_audio(*args)
+            return body
+        return self.infer_audio_here(*args)
+
+    def infer_audio_here(self, sid: str, data: bytes, mode: str, likelihood: str, n_actions: int | None,
+                         asr_nbest: int, top: int, policy: ClarifyPolicy, decide: str = "map") -> dict[str, Any]:
+        """:meth:`infer_audio` in this process."""
         from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, hear
 
-        self.check_likelihood(likelihood)
-        sc = self.scenario(sid)  # an unknown id fails before decoding
+        sc = self.scenario(sid)
         x = self.decode_audio(data)
         eng = self._engine_for(sc)
         with eng.lock:

@@ -149,9 +149,8 @@ def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
 class SessionManager:
     """Create, advance, query and end sessions; thread-safe (see module doc)."""
 
-    def __init__(self, store: SessionStore, limits: SessionLimits, model_lock: Any) -> None:
+    def __init__(self, store: SessionStore, limits: SessionLimits) -> None:
         self.store, self.limits = store, limits
-        self._model_lock = model_lock  # (mode, likelihood) -> threading.Lock shared with /v1/infer
         self._live: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
         self._loading: dict[str, threading.Lock] = {}
@@ -362,16 +361,12 @@ class SessionManager:
         """Posterior over goals and commands given everything so far and what was heard
         (``extra``: more fields of the answer; ``idem``: see :meth:`append_reply`)."""
         sess = self.get(sid)
-        mode, lk = sess.options["mode"], sess.options["likelihood"]
         with sess.lock:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            if instruction is not None:
-                with self._model_lock(mode, lk):  # the likelihoods' caches are not thread-safe
-                    post = sess.online.posterior(instruction, top=top)
-            else:
-                post = sess.online.posterior(None, top=top)
+            # one likelihood serves every thread (it keeps nothing between calls)
+            post = sess.online.posterior(instruction, top=top)
             body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(post.commands, policy).to_json()

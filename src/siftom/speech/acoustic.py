@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from siftom.concurrency import guarded
 from siftom.errors import SiftomError
 from siftom.speech.asr.base import normalise_text
 from siftom.speech.asr.pocketsphinx import (
@@ -95,6 +96,7 @@ class ForcedAligner:
                 out.append(part)
         return " ".join(out)
 
+    @guarded
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> AlignmentScores:
         """Align every text against the audio; return their log scores in nats."""
         if not texts:

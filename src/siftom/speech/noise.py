@@ -46,7 +46,10 @@ def make_rng(rng: Rng) -> np.random.Generator:
 class NoiseSource(Protocol):
     """Anything that can produce ``n`` samples of 16 kHz noise."""
 
-    name: str
+    @property
+    def name(self) -> str:
+        """What the noise is called (a kind or a file name)."""
+        ...
 
     def sample(self, n: int, rng: Rng = None) -> np.ndarray:
         """Return ``n`` float32 samples."""

@@ -280,7 +280,9 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
         raise SceneGraphError(f"no surface named {want!r} to use as the target; pass target=CLASS_NAME")
     spec: dict[str, Any] = {"goals": goals} if goals is not None else {"goal_space": goal_space}
     known = {c for g in goal_library(spec, 0) for c, _n in g.counts}
-    objs, unknown, loose = [], Counter(), Counter()
+    objs: list[Any] = []
+    unknown: Counter[str] = Counter()
+    loose: Counter[str] = Counter()
     lib = "given" if goals is not None else goal_space
     why: dict[int, str] = {}  # graph node id -> why it is not in the world
     for nid in view.grabbables:
@@ -311,7 +313,8 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
         if node.id not in why and node.id not in parents and not view.is_grabbable(node.id):
             why[node.id] = "it holds no object a goal uses, so it is not a place of this world"
     objs = [o for o in objs if o[2] in set(parents)]
-    places, pidx = [], {}
+    places: list[Any] = []
+    pidx: dict[Any, int] = {}
     for nid in parents:
         node = graph.node(nid)
         pos = view.position(nid) or (0.0, 0.0, 0.0)

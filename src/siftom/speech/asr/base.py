@@ -92,9 +92,6 @@ ENGINES.register("pocketsphinx", "siftom.speech.asr.pocketsphinx:PocketsphinxEng
 ENGINES.register("pocketsphinx-vocab", "siftom.speech.asr.pocketsphinx:PocketsphinxEngine",
                  summary="pocketsphinx with an LM of the scene's command phrasings (the evaluator's default)",
                  requires=("pocketsphinx",), attrs={"scene": True})
-ENGINES.register("pocketsphinx-open", "siftom.likelihood.asr:open_engine",
-                 summary="the scene's phrasings mixed with frequent English words (open vocabulary)",
-                 requires=("pocketsphinx",), attrs={"scene": True})
 ENGINES.register("pocketsphinx-dual", "siftom.speech.asr.dual:DualEngine",
                  summary="pocketsphinx-vocab and pocketsphinx-open on the same audio, N-best lists mixed",
                  requires=("pocketsphinx",), attrs={"scene": True})

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from siftom.concurrency import guarded
 from siftom.errors import SiftomError
 from siftom.observation import Hypothesis
 from siftom.speech.asr.base import Transcript, Word, normalise_text
@@ -294,6 +295,7 @@ class PocketsphinxEngine:
                                        **(decoder_options or {}))
         self._logmath = self._decoder.get_logmath()
 
+    @guarded
     def transcribe(self, audio: np.ndarray | str | Path, nbest: int = 1) -> Transcript:
         """Decode the whole utterance; N-best from the lattice, de-duplicated by text."""
         if nbest < 1:

@@ -1,0 +1,71 @@
+"""``siftom bench inference|planner|latency``: speed of inference, planning and audio to command."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from siftom.bench.latency import SCENARIO, run_latency
+from siftom.bench.speed import run_inference_bench, run_planner_bench
+
+
+@click.command("inference")
+@click.option("--json", "as_json", is_flag=True)
+@click.option("--repeats", default=30, show_default=True)
+def bench_inference_cmd(as_json: bool, repeats: int) -> None:
+    """Inference speed: full p50, incremental update p50, scaling with goals (kitchen-v0)."""
+    res = run_inference_bench(repeats)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"{res['scenario']}: {res['num_items']} objects, {res['num_goals']} goals, "
+               f"{res['num_actions']} actions, {res['nbest']}-best -> {res['command']}")
+    click.echo(f"  full inference p50      {res['p50_ms']:.2f} ms")
+    click.echo(f"  one-action update p50   {res['update_p50_ms']:.2f} ms")
+    click.echo(f"  posterior only p50      {res['posterior_p50_ms']:.2f} ms")
+    for row in res["scaling"]:
+        click.echo(f"  {row['goals']:>6} goals            {row['p50_ms']:.2f} ms")
+
+
+@click.command("planner")
+@click.option("--json", "as_json", is_flag=True)
+@click.option("--repeats", default=20, show_default=True)
+def bench_planner_cmd(as_json: bool, repeats: int) -> None:
+    """Planner speed: Q* table for all goals x observed steps, A* nodes per second."""
+    res = run_planner_bench(repeats)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"{res['scenario']}: Q* for {res['num_goals']} goals x {res['num_actions']} steps x every action "
+               f"= {res['q_values']} values in {res['q_table_p50_ms']:.2f} ms (p50) "
+               f"= {res['v_per_second']:.3g} values/s")
+    click.echo(f"  A*: {res['astar_nodes_per_second']:.0f} nodes expanded per second "
+               f"({res['astar_nodes_expanded']} nodes on 6 household scenarios)")
+    click.echo(f"  one V*(s; g) with table build: {res['single_goal_value_ms']:.3f} ms")
+
+
+@click.command("latency")
+@click.option("--noise", default="babble", show_default=True, help="noise spec (siftom say --noise)")
+@click.option("--snr", type=float, default=10.0, show_default=True)
+@click.option("--repeats", type=int, default=3, show_default=True, help="timed runs per clip (the fastest counts)")
+@click.option("--quick", is_flag=True, help="4 clips instead of 8")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json: bool) -> None:
+    """Time from an audio file (1-4 s) to the chosen command, per instruction likelihood."""
+    res = run_latency(noise, snr, max(1, repeats), quick)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}")
+    for lk, r in res["likelihoods"].items():
+        click.echo(f"{lk:9s} p50 {r['p50_s'] * 1000:.0f} ms  ratio_p50 {r['ratio_p50']:.3f}  "
+                   f"ratio_p90 {r['ratio_p90']:.3f}  cpu_ratio_p50 {r['cpu_ratio_p50']:.3f}  commands {r['commands']}")
+
+
+def register(root: click.Group) -> None:
+    """Add the speed benchmarks to the ``bench`` group."""
+    from siftom.cli.bench import bench_group
+
+    for cmd in (bench_inference_cmd, bench_planner_cmd, bench_latency_cmd):
+        bench_group.add_command(cmd)

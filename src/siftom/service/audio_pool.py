@@ -1,0 +1,84 @@
+"""Audio requests scored in worker processes, so several run at once.
+
+pocketsphinx holds the GIL while it decodes, so audio requests in threads of one process run
+one after the other. With ``ServiceSettings.audio_workers = N > 0`` the service sends each
+audio request (decoding, voice-activity detection, recognition, the likelihood and the
+posterior) to one of N worker processes; each worker keeps its own recognisers, models and
+cached action terms warm, as the service process does. With 0, requests are scored in the
+request thread (the recogniser of a scene decodes one utterance at a time).
+
+The workers start with ``spawn`` (a fresh interpreter; never a fork of a threaded server) on
+the first audio request and stop with the app.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import multiprocessing
+import threading
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import TYPE_CHECKING, Any
+
+from siftom.errors import SiftomError
+
+if TYPE_CHECKING:
+    from siftom.service.runtime import Runtime, ServiceSettings
+
+_WORKER: Runtime | None = None  # the worker process's own runtime
+
+
+def _start(settings: ServiceSettings) -> None:
+    global _WORKER
+    from siftom.service.runtime import Runtime, default_data_dir
+
+    _WORKER = Runtime(settings, default_data_dir())
+
+
+def _infer_audio(args: tuple[Any, ...]) -> dict[str, Any]:
+    if _WORKER is None:
+        raise SiftomError("the audio worker did not start")
+    return _WORKER.infer_audio_here(*args)
+
+
+def _ready() -> bool:
+    return _WORKER is not None
+
+
+class AudioPool:
+    """N worker processes for audio requests (started on first use)."""
+
+    def __init__(self, settings: ServiceSettings) -> None:
+        self.size = settings.audio_workers
+        # the workers score in-process: they must not start pools of their own
+        self._settings = dataclasses.replace(settings, audio_workers=0)
+        self._pool: ProcessPoolExecutor | None = None
+        self._lock = threading.Lock()
+
+    def _executor(self) -> ProcessPoolExecutor:
+        with self._lock:
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(self.size, mp_context=multiprocessing.get_context("spawn"),
+                                                 initializer=_start, initargs=(self._settings,))
+            return self._pool
+
+    def warm(self) -> None:
+        """Start every worker now (each imports siftom once), instead of on the first requests."""
+        ex = self._executor()
+        for f in [ex.submit(_ready) for _ in range(self.size)]:
+            f.result()
+
+    def infer_audio(self, *args: Any) -> dict[str, Any]:
+        """``Runtime.infer_audio_here(*args)`` in a worker; its SiftomError is raised here."""
+        try:
+            return self._executor().submit(_infer_audio, args).result()
+        except BrokenProcessPool:
+            with self._lock:
+                self._pool = None  # a worker died (e.g. out of memory): start afresh next time
+            raise SiftomError("an audio worker process stopped; send the request again") from None
+
+    def close(self) -> None:
+        with self._lock:
+            if self._pool is not None:
+                self._pool.shutdown(wait=True, cancel_futures=True)
+                self._pool = None

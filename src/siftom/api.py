@@ -178,7 +178,7 @@ def listen(
     goals: Sequence[Any] | None = None,
     verb: str | None = None,
     mode: str = "full",
-    likelihood: str = "phonetic",
+    likelihood: str | None = None,
     engine: str = "pocketsphinx",
     nbest: int = DEFAULT_NBEST,
     top: int = 10,
@@ -193,15 +193,20 @@ def listen(
             World with ``start`` and ``goals``.
         actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
         mode: ``full``, ``speech-only`` or ``action-only``.
-        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
+        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``; None
+            (default): ``acoustic`` when the whisper extra is installed, else ``phonetic``
+            (``evidence['likelihood']`` and ``evidence['likelihood_reason']`` say which ran and why).
         engine: the ASR engine.
 
     Returns:
         Heard: the posterior, whether speech was heard, the transcript and timings. Without
         speech the posterior is the actions-alone one and ``message`` is "no speech heard".
     """
+    from siftom.inference.listen import with_likelihood
+    from siftom.likelihood.registry import resolve_likelihood
     from siftom.speech.audio import as_audio
 
+    likelihood, why = resolve_likelihood(likelihood, has_audio=True)
     t0 = time.perf_counter()
     sc = resolve_scene(scenario, world, actions, start, goals, verb)
     x = as_audio(audio)
@@ -223,5 +228,7 @@ def listen(
 
         online = ONLINE.get((sc.key, use_mode, use_lik), make)
         post = online.posterior(instruction, top=top)
+        if instruction is not None:
+            post = with_likelihood(post, use_lik, why)
     timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
     return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings)

@@ -156,10 +156,11 @@ def check_cmd(folder: str) -> None:
 @click.command("eval")
 @click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
-@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
-              "siftom-oracle-text, plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
-              "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic, "
-              "speech-only-acoustic (the audio itself, key-phrase alignment)")
+@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom "
+              "(the product's default: the acoustic likelihood with the whisper extra, else phonetic),"
+              "siftom-phonetic,siftom-oracle-text,siftom-eb,siftom-ask, plus siftom-llm,llm-end-to-end,"
+              "llm-ablated-siftom when an LLM is configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); "
+              "on request: siftom-acoustic (= siftom with Whisper), speech-only-acoustic")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True,
               help=f"ASR engine: {ENGINES.help_line()}")
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")

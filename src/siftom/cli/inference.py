@@ -76,7 +76,9 @@ def _read_nbest(path: Path) -> list[dict]:
               help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
 @click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
 @click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default="full")
-@click.option("--likelihood", default="phonetic", help=f"Instruction likelihood: {LIKELIHOODS.help_line()}.")
+@click.option("--likelihood", default=None,
+              help=f"Instruction likelihood: {LIKELIHOODS.help_line()}. Default: acoustic for --audio when the "
+                   "whisper extra is installed, else phonetic.")
 @click.option("--engine", default="pocketsphinx", help=f"ASR engine for --audio: {ENGINES.help_line()}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
 @click.option("--decide", "rule", default="map", show_default=True,
@@ -98,7 +100,7 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if likelihood == "llm":
         llm = llm_config(llm_backend, llm_base_url, llm_model)
     elif flags_given(llm_backend, llm_base_url, llm_model):
-        click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood})", err=True)
+        click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood or 'the default'})", err=True)
 
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
@@ -107,6 +109,9 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audio, mode, likelihood, engine,
                      png, as_json)
         return
+    from siftom.likelihood.registry import resolve_likelihood
+
+    likelihood, _why = resolve_likelihood(likelihood, has_audio=False)  # a transcript: no sound to score
     instruction = make_instruction(transcript, nbest, audio)
     if instruction is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
@@ -202,6 +207,8 @@ def print_posterior(post, console: Console | None = None) -> None:
                "guesses": "no object word heard by either: guesses around its words"}.get(
             post.evidence.get("whisper_use", ""), "no object word in it: not used")
         con.print(f'Whisper heard: "{post.evidence["whisper_heard"]}" ({use})')
+    if post.evidence.get("likelihood_reason"):
+        con.print(f"likelihood {post.evidence['likelihood']}: {post.evidence['likelihood_reason']}")
     t = Table(title="robot commands")
     t.add_column("command")
     t.add_column("P", justify="right")

@@ -139,6 +139,11 @@ def resolve_scene(scenario: Any, world: Any, actions: Sequence[Any] | None, star
     return Scene(w, s0, gs, vb, tuple(acts), key)
 
 
+def with_likelihood(post: Posterior, name: str, why: str) -> Posterior:
+    """``post`` with ``evidence['likelihood']`` (the instruction likelihood that ran) and its reason."""
+    return dataclasses.replace(post, evidence={**post.evidence, "likelihood": name, "likelihood_reason": why})
+
+
 def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
     """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings)."""
     from siftom.speech.vad import detect_speech, trim

@@ -251,10 +251,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         comps = schema.setdefault("components", {}).setdefault("schemas", {})
         js = InferRequest.model_json_schema(ref_template="#/components/schemas/{model}")
         comps.update(js.pop("$defs", {}))
-        js["properties"]["likelihood"]["enum"] = list(settings.likelihoods)
+        js["properties"]["likelihood"]["enum"] = ["auto", *settings.likelihoods]
         comps["InferRequest"] = js
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
-        form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.likelihoods), "default": "phonetic"}
+        form["properties"]["likelihood"] = {"type": "string", "enum": ["auto", *settings.likelihoods], "default": "auto"}
         comps["AudioInferForm"] = form
         comps.update(session_schemas(settings.likelihoods))
         app.openapi_schema = schema

@@ -214,7 +214,22 @@ class Runtime:
             out["error"] = self.settings.llm_error
         return out
 
+    def resolve_likelihood(self, name: str, instruction: Instruction | None) -> tuple[str, str]:
+        """(likelihood to run, why): "auto" is acoustic for a recording when this server offers it and
+        the whisper extra is installed, else phonetic (``siftom.likelihood.registry.resolve_likelihood``)."""
+        from siftom.likelihood.registry import AUTO, resolve_likelihood
+
+        if name != AUTO:
+            self.check_likelihood(name)
+            return name, "asked for"
+        has_audio = instruction is not None and instruction.has_audio and "acoustic" in self.settings.likelihoods
+        return resolve_likelihood(None, has_audio)
+
     def check_likelihood(self, name: str) -> None:
+        from siftom.likelihood.registry import AUTO
+
+        if name == AUTO:
+            return
         if name not in self.settings.likelihoods:
             # a request field, not a path: 422 (ObservationError), with the valid names
             raise ObservationError(str(unknown_name("instruction likelihood on this server", name,
@@ -270,7 +285,12 @@ class Runtime:
               n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy,
               decide: str = "map") -> dict[str, Any]:
         """The response body of ``POST /v1/infer``."""
+        from siftom.inference.listen import with_likelihood
+
+        likelihood, why = self.resolve_likelihood(likelihood, instruction)
         post = self.posterior(sid, instruction, mode, likelihood, n_actions, actions, top)
+        if instruction is not None:
+            post = with_likelihood(post, likelihood, why)
         body: dict[str, Any] = {"scenario": sid, **post.to_json(top=top)}
         body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
         body["clarification"] = clarify(post.commands, policy).to_json()

@@ -233,8 +233,9 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 elif mode == "speech-only" and heard is None:
                     command, prob = "none", 1.0  # nothing was heard: the robot does nothing
                 else:
-                    lk = ("llm" if m == "siftom-llm" else "phonetic" if m == "siftom-phonetic"
-                          else siftom_likelihood(opts))
+                    # transcripts (N-best, the oracle's reference) are scored by their phonemes
+                    lk = ("llm" if m == "siftom-llm" else siftom_likelihood(opts) if m == "siftom"
+                          else "phonetic" if opts.likelihood == "auto" or m == "siftom-phonetic" else opts.likelihood)
                     post = get_model(mode, lk, opts.llm).infer(Observation.from_scenario(sc, heard))
                     command, prob = post.command, float(post.commands[0][1])
                 memo[mk] = (command, prob, 0.0)

@@ -211,6 +211,12 @@ def test_say_then_infer_from_audio(client):
     assert res.status_code == 200, body
     assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
     assert body["command"] == "fetch(cereal)"
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    want = "acoustic" if whisper_available() else "phonetic"  # the default for a recording
+    assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    text = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the cereal"}).json()
+    assert text["likelihood"] == "phonetic" and text["evidence"]["likelihood_reason"].startswith("no audio")
 
 
 def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):

@@ -218,6 +218,12 @@ def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
     body = r.json()
     assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
     assert body["command"] == "fetch(tomato)"
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    want = "acoustic" if whisper_available() else "phonetic"  # the session's default ("auto") for a recording
+    assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the tomato"})
+    assert r.status_code == 200 and r.json()["likelihood"] == "phonetic"  # a transcript: its phonemes
     r = c.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("x.wav", b"not audio", "audio/wav")})
     assert r.status_code == 422 and "send WAV, FLAC or OGG" in r.json()["detail"]
     r = c.post(f"/v1/sessions/{sid}/instruction", content=b"hi", headers={"content-type": "text/plain"})

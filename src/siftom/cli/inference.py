@@ -14,6 +14,7 @@ from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
 from siftom.likelihood.registry import LIKELIHOODS
 from siftom.speech.asr.base import ENGINES
+from siftom.speech.cli_options import whisper_model_option
 
 
 def _bench_group(root: click.Group) -> click.Group:
@@ -63,6 +64,7 @@ def _read_nbest(path: Path) -> list[dict]:
 
 
 @click.command("infer")
+@whisper_model_option
 @click.option("--scenario", "scenario_id", default=None, help="A registered scenario id (see `siftom scenarios list`).")
 @click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None,
               help="Your own world JSON or VirtualHome graph (instead of --scenario).")

@@ -8,6 +8,7 @@ import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
+from siftom.speech.cli_options import whisper_model_option
 
 
 def _need_serve_extra() -> None:
@@ -19,6 +20,7 @@ def _need_serve_extra() -> None:
 
 
 @click.command("serve")
+@whisper_model_option
 @click.option("--host", default="127.0.0.1", show_default=True, help="interface to listen on")
 @click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True, help="TCP port")
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,

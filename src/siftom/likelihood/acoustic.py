@@ -206,6 +206,8 @@ class AcousticLikelihood:
         whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
             computes anyway) and use its words as a second carrier; the commands it names join the
             pruned set (``WhisperFactor``).
+        whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
+            default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -229,6 +231,7 @@ class AcousticLikelihood:
         whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
         whisper_prior: float = DEFAULT_WHISPER_PRIOR,
         whisper_listen: bool = True,
+        whisper_model: str | Path | None = None,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -262,7 +265,12 @@ class AcousticLikelihood:
         if not self.aligns and not self.uses_whisper:
             raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
                               "with neither there is no acoustic term; keep align=True")
-        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen)
+        if whisper_model is not None:
+            from siftom.speech.asr.whisper import check_model_dir
+
+            whisper_model = str(check_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
+        self.whisper_model = whisper_model
+        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model)
                          if self.uses_whisper else None)
         self._aligner = aligner
         self._loop: Any = None

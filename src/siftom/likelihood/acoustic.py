@@ -208,6 +208,8 @@ class AcousticLikelihood:
             pruned set (``WhisperFactor``).
         whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
             default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
+        tie_counts: when no count word was heard, no count of a class is favoured over another
+            (``likelihood.counts``).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -232,6 +234,7 @@ class AcousticLikelihood:
         whisper_prior: float = DEFAULT_WHISPER_PRIOR,
         whisper_listen: bool = True,
         whisper_model: str | Path | None = None,
+        tie_counts: bool = True,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -270,6 +273,8 @@ class AcousticLikelihood:
 
             whisper_model = str(check_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
         self.whisper_model = whisper_model
+        self.tie_counts = bool(tie_counts)
+        self.last_count_heard = True
         self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model)
                          if self.uses_whisper else None)
         self._aligner = aligner
@@ -317,8 +322,21 @@ class AcousticLikelihood:
         """Return log P(audio | command) for each command, shape (len(commands),).
 
         ``context``: optional log P(command | actions) up to a constant (used for pruning only).
+        When neither the recogniser's 1-best nor Whisper's transcript holds a count word, every
+        plural count of a class gets the same value (``likelihood.counts``; ``tie_counts=False``
+        turns it off).
         """
-        return self.combine(self.raw_scores(instruction, commands, context), len(commands))
+        out = self.combine(self.raw_scores(instruction, commands, context), len(commands))
+        if self.tie_counts and len(commands):
+            from siftom.likelihood.counts import count_heard, tie_unheard_counts
+
+            heard = [instruction.text] if instruction.nbest else []
+            if self._whisper is not None and self._whisper.listens:
+                heard.append(self._whisper.last_heard)
+            self.last_count_heard = count_heard(heard)
+            if not self.last_count_heard:
+                out = tie_unheard_counts(out, commands)
+        return out
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
@@ -410,7 +428,8 @@ class AcousticLikelihood:
 
     def evidence(self) -> dict[str, Any]:
         """What the last call used besides the N-best: its mode and, with the Whisper factor, Whisper's words."""
-        out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept}
+        out: dict[str, Any] = {"acoustic_mode": self.last_mode, "commands_scored": self.last_kept,
+                               "count_heard": self.last_count_heard}
         if self._whisper is not None and self._whisper.listens:
             out["whisper_heard"] = " ".join(self._whisper.last_heard)
             out["whisper_use"] = self._whisper.last_use  # "carrier", "guesses" or "none"

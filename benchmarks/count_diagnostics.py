@@ -23,12 +23,49 @@ def count_words(words: list[str]) -> list[int]:
     return [COUNTS[w] for w in words if w in COUNTS]
 
 
+class _Recorded:
+    """The acoustic likelihood with the count tie off, remembering its last scores."""
+
+    uses_context = True
+    name = "acoustic-untied"
+
+    def __init__(self) -> None:
+        from siftom.likelihood.acoustic import AcousticLikelihood
+
+        self.inner = AcousticLikelihood(tie_counts=False)
+        self.last = None
+
+    def log_prob(self, instruction, commands, context=None):
+        self.last = self.inner.log_prob(instruction, commands, context=context)
+        self.heard = [instruction.text, self.inner._whisper.last_heard if self.inner._whisper else []]
+        return self.last
+
+    def evidence(self):
+        return self.inner.evidence()
+
+
+class _Tied:
+    """The same scores with the counts nobody heard tied (``likelihood.counts``)."""
+
+    name = "acoustic-tied"
+
+    def __init__(self, rec: _Recorded) -> None:
+        self.rec = rec
+
+    def log_prob(self, instruction, commands):
+        from siftom.likelihood.counts import count_heard, tie_unheard_counts
+
+        out = self.rec.last
+        return out if count_heard(self.rec.heard) else tie_unheard_counts(out, commands)
+
+
 def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> None:
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.bench.trials import _engine, dataset_vocabulary
-    from siftom.inference.model import Observation
+    from siftom.inference.model import ModelConfig, Observation, SIFToM
+    from siftom.likelihood.counts import count_heard
     from siftom.world.commands import RobotCommand
 
     ds = load_dataset(dataset)
@@ -37,7 +74,8 @@ def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> Non
     done = set()
     if Path(out).exists():
         done = {json.loads(x)["id"] for x in open(out) if x.strip()}
-    full = get_model("full", "acoustic")
+    rec = _Recorded()
+    full, tied = SIFToM(ModelConfig("full"), rec), SIFToM(ModelConfig("full"), _Tied(rec))
     action = get_model("action-only", "phonetic")
     with open(out, "a") as f:
         for s in stimuli:
@@ -51,16 +89,23 @@ def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> Non
                    "action_top": ap.command, "action_p_gold": round(ap.prob(s.gold_command), 4),
                    "action_p_top": round(ap.commands[0][1], 4)}
             if instruction is None:
-                row.update(heard="", whisper="", chosen=ap.command, p=ap.commands[0][1])
+                row.update(heard="", whisper="", chosen=ap.command, p=ap.commands[0][1],
+                           tied=ap.command, p_tied=ap.commands[0][1], count_heard=False)
             else:
-                post = full.infer(Observation.from_scenario(sc, instruction))
-                row.update(heard=instruction.text, whisper=post.evidence.get("whisper_heard", ""),
+                obs = Observation.from_scenario(sc, instruction)
+                post = full.infer(obs)
+                pt = tied.infer(obs)
+                row.update(heard=instruction.text, whisper=" ".join(rec.heard[1]),
                            chosen=post.command, p=round(post.commands[0][1], 4),
-                           p_gold=round(post.prob(s.gold_command), 4),
-                           top=[(c, round(p, 3)) for c, p in post.commands[:4]])
+                           tied=pt.command, p_tied=round(pt.commands[0][1], 4), count_heard=count_heard(rec.heard),
+                           top=[(c, round(p, 3)) for c, p in post.commands[:4]],
+                           top_tied=[(c, round(p, 3)) for c, p in pt.commands[:4]])
             row["gold_class"], row["gold_count"] = gold.obj_class, gold.count
             f.write(json.dumps(row) + "\n")
             f.flush()
+
+
+KEY, PKEY = "chosen", "p"
 
 
 def summary(path: str) -> None:
@@ -72,7 +117,7 @@ def summary(path: str) -> None:
         b = "clean" if r["snr"] is None else f"{r['snr']:g}"
         ref = r["reference"].split()
         said = count_words(ref)
-        c = RobotCommand.parse(r["chosen"]) if r["chosen"] != "none" else None
+        c = RobotCommand.parse(r[KEY]) if r[KEY] != "none" else None
         cls_ok = c is not None and c.obj_class == r["gold_class"]
         cnt_ok = c is not None and c.count == r["gold_count"]
         d = by[b]
@@ -86,8 +131,8 @@ def summary(path: str) -> None:
         d["class right"] += cls_ok
         d["class right, count wrong"] += cls_ok and not cnt_ok
         d["class right, count wrong, count said"] += cls_ok and not cnt_ok and bool(said)
-        d["confident wrong"] += (not (cls_ok and cnt_ok)) and r["p"] >= 0.8
-        d["confident wrong: count only"] += cls_ok and not cnt_ok and r["p"] >= 0.8
+        d["confident wrong"] += (not (cls_ok and cnt_ok)) and r[PKEY] >= 0.8
+        d["confident wrong: count only"] += cls_ok and not cnt_ok and r[PKEY] >= 0.8
         d["correct"] += cls_ok and cnt_ok
     keys = sorted({k for d in by.values() for k in d})
     bands = [b for b in ("clean", "20", "10", "5") if b in by]
@@ -107,6 +152,9 @@ if __name__ == "__main__":
     ap.add_argument("--summary", action="store_true")
     a = ap.parse_args()
     if a.summary:
+        summary(a.out)
+        KEY, PKEY = "tied", "p_tied"
+        print("\ncounts nobody heard tied:")
         summary(a.out)
         sys.exit(0)
     run(a.dataset, a.out, a.start, a.step, a.limit)

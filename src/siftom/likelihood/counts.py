@@ -21,12 +21,24 @@ from siftom.world.commands import RobotCommand
 COUNT_WORDS = frozenset({"one", "two", "three", "four", "five", "six", "1", "2", "3", "4", "5", "6"})
 
 
+# Whisper writes a spoken count as its homophone ("let's get to plates out", "for bowls"): such a word
+# counts as a heard count unless a word that cannot follow a count comes next ("to the table", "for me")
+HOMOPHONES = frozenset({"to", "too", "for", "fore", "won", "tree"})
+NOT_AFTER_COUNT = frozenset({"the", "a", "an", "me", "you", "us", "it", "them", "him", "her", "my", "our", "your",
+                             "this", "that", "some", "be", "get", "go", "have", "do", "see", "help", "dinner",
+                             "lunch", "breakfast", "now", "later", "here", "there", "please", "when", "if"})
+
+
 def count_heard(transcripts: Iterable[Sequence[str] | str]) -> bool:
-    """Whether any transcript (a string or a word list) holds a count word ("two", "4", ...)."""
+    """Whether any transcript (a string or a word list) holds a count word ("two", "4", or a
+    homophone such as "to" followed by a word a count can precede)."""
     for t in transcripts:
-        words = t.lower().split() if isinstance(t, str) else [w.lower() for w in t]
-        if any(w.strip(".,!?") in COUNT_WORDS for w in words):
-            return True
+        words = [w.strip(".,!?") for w in (t.lower().split() if isinstance(t, str) else [w.lower() for w in t])]
+        for i, w in enumerate(words):
+            if w in COUNT_WORDS:
+                return True
+            if w in HOMOPHONES and i + 1 < len(words) and words[i + 1] not in NOT_AFTER_COUNT:
+                return True
     return False
 
 

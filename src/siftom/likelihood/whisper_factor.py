@@ -26,6 +26,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from siftom.likelihood.counts import COUNT_WORDS
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
@@ -51,10 +52,14 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]
         if idx:
-            frames.append((words[: idx[0]], words[idx[-1] + 1:]))
+            # a count heard after the object ("spoons four me", "the spoons, four of them"): the candidates
+            # say their count there too, so the count is scored where it was said
+            post = words[idx[-1]] in COUNT_WORDS and any(words[i] not in COUNT_WORDS for i in idx)
+            frames.append((words[: idx[0]], words[idx[-1] + 1:], post))
     if frames:
-        frames = list(dict.fromkeys((tuple(b), tuple(c)) for b, c in frames))
-        return [[(" ".join([*b, k, *c]), lp) for b, c in frames for k, lp in keys[i]] for i in kept], "key"
+        frames = list(dict.fromkeys((tuple(b), tuple(c), post) for b, c, post in frames))
+        return [[(" ".join([*b, count_last(k) if post else k, *c]), lp) for b, c, post in frames
+                 for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
         items = [closest_phrasing(commands[i], heard)]
@@ -65,6 +70,12 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand], 
             items += [(" ".join([*words[:-1], k]), lp) for k, lp in keys[i]]
         out.append(items)  # a text guessed twice counts twice: each kind of guess weighs 1
     return out, "sentence"
+
+
+def count_last(phrase: str) -> str:
+    """"four spoons" -> "spoons four" (a key phrase with its count after the object); others unchanged."""
+    words = phrase.split()
+    return " ".join([*words[1:], words[0]]) if len(words) > 1 and words[0] in COUNT_WORDS else phrase
 
 
 def whisper_available() -> bool:

@@ -33,6 +33,8 @@ from siftom.speech.audio import SAMPLE_RATE, as_audio
 MAX_S = 30.0
 FRAMES_PER_S = 100  # Whisper's log-Mel hop is 10 ms
 DEFAULT_PAD_S = 30.0
+DIGIT_WORDS = {str(i): w for i, w in enumerate(("zero", "one", "two", "three", "four", "five", "six", "seven",
+                                                "eight", "nine", "ten", "eleven", "twelve"))}
 MAX_TOKENS = 200  # Whisper's decoder holds 448 positions; a 30 s request is far shorter
 
 
@@ -136,7 +138,8 @@ class WhisperScorer:
         res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [self.start], beam_size=1,
                                   max_length=int(min(MAX_TOKENS, 20 + n / 10)), no_repeat_ngram_size=3)
         text = self.tokenizer.decode(res[0].sequences_ids[0])
-        return re.sub(r"[^a-z' ]", " ", text.lower().replace("-", " ")).split()
+        words = re.sub(r"[^a-z0-9' ]", " ", re.sub(r"(\d)([a-z])", r"\1 \2", text.lower().replace("-", " "))).split()
+        return [DIGIT_WORDS.get(w, w) for w in words]  # "4 spoons" -> "four spoons": counts stay counts
 
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
         """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""

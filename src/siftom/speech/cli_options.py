@@ -17,9 +17,13 @@ import click
 def _apply(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
     if value is None:
         return
+    from siftom.errors import SiftomError
     from siftom.speech.asr.whisper import WHISPER_MODEL_ENV, check_model_dir
 
-    os.environ[WHISPER_MODEL_ENV] = str(check_model_dir(value).resolve())
+    try:
+        os.environ[WHISPER_MODEL_ENV] = str(check_model_dir(value).resolve())
+    except SiftomError as exc:  # a usage error: exit 2 with the fix
+        raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
 
 
 def whisper_model_option(f: Callable[..., Any]) -> Callable[..., Any]:

@@ -125,18 +125,26 @@ class WhisperScorer:
         self.last_seconds = time.perf_counter() - t0
         return out
 
-    def transcribe_encoded(self, encoded: tuple[Any, int]) -> list[str]:
+    def transcribe_encoded(self, encoded: tuple[Any, int], prompt: str | None = None) -> list[str]:
         """Whisper's own greedy transcript of an encoded clip, as lowercase words without punctuation.
 
         Repeated trigrams are blocked and the length is capped by the clip's duration (Whisper
         tiny.en loops on short noisy clips otherwise); used as a carrier for the candidates, never
-        as the decision itself.
+        as the decision itself. ``prompt`` (e.g. the scene's object names) goes before the start
+        sequence after ``<|startofprev|>``; CTranslate2 counts those tokens in ``max_length``, so
+        the cap is raised by the prompt's length (without that, a long prompt leaves no room and
+        the transcript comes back empty).
         """
         import re
 
         enc, n = encoded
-        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [self.start], beam_size=1,
-                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)), no_repeat_ngram_size=3)
+        start = self.start
+        if prompt:
+            start = [self.tokenizer.sot_prev, *self.tokenizer.encode(" " + prompt.strip())[-(MAX_TOKENS // 2):],
+                     *self.start]
+        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [start], beam_size=1,
+                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)) + len(start) - len(self.start),
+                                  no_repeat_ngram_size=3)
         text = self.tokenizer.decode(res[0].sequences_ids[0])
         words = re.sub(r"[^a-z0-9' ]", " ", re.sub(r"(\d)([a-z])", r"\1 \2", text.lower().replace("-", " "))).split()
         return [DIGIT_WORDS.get(w, w) for w in words]  # "4 spoons" -> "four spoons": counts stay counts

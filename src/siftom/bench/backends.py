@@ -55,7 +55,7 @@ class LocalBackend:
             for i, it in enumerate(items):
                 yield i, fn(it, shared)
             return
-        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+        ctx = multiprocessing.get_context(_start_method())
         self._pool = ctx.Pool(min(self.workers, len(items)), initializer=_init_worker, initargs=(fn, shared))
         try:
             yield from self._pool.imap_unordered(_call, list(enumerate(items)))
@@ -73,6 +73,22 @@ class LocalBackend:
 
 
 _WORK: tuple[Work, Any] | None = None
+
+
+# libraries whose thread pools do not survive fork(): a forked worker that uses them can hang
+_FORK_UNSAFE = ("ctranslate2", "onnxruntime", "torch")
+
+
+def _start_method() -> str:
+    """fork (fast: the parent's tables are shared) unless this process already runs a library whose
+    thread pool a fork would break (Whisper's CTranslate2 after an acoustic model ran here): then a
+    fresh interpreter per worker (forkserver or spawn)."""
+    import sys
+
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and not any(m in sys.modules for m in _FORK_UNSAFE):
+        return "fork"
+    return "forkserver" if "forkserver" in methods else "spawn"
 
 
 def _init_worker(fn: Work, shared: Any) -> None:

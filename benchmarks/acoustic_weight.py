@@ -42,7 +42,7 @@ def collect(dataset: str, out: str, start: int, step: int) -> None:
     engine = _engine("pocketsphinx-vocab", dataset_vocabulary(ds.stimuli))
     rec = _Recorded()
     model = SIFToM(ModelConfig("full"), rec)
-    done = {json.loads(x)["id"] for x in open(out)} if Path(out).exists() else set()
+    done = {json.loads(x)["id"] for x in Path(out).read_text().splitlines()} if Path(out).exists() else set()
     with open(out, "a") as f:
         for s in list(ds.stimuli)[start::step]:
             if s.id in done:
@@ -64,7 +64,7 @@ def score(paths: list[str], gammas: list[float]) -> None:
     from siftom.logspace import logsumexp
 
     for path in paths:
-        rows = [json.loads(x) for x in open(path) if x.strip()]
+        rows = [json.loads(x) for x in Path(path).read_text().splitlines() if x.strip()]
         print(f"\n{path} ({len(rows)} stimuli): gamma | acc % | confident-wrong % | NLL | per band acc")
         for g in gammas:
             acc, cw, nll, band = [], [], [], {}

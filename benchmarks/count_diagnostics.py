@@ -73,7 +73,7 @@ def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> Non
     engine = _engine("pocketsphinx-vocab", dataset_vocabulary(ds.stimuli))
     done = set()
     if Path(out).exists():
-        done = {json.loads(x)["id"] for x in open(out) if x.strip()}
+        done = {json.loads(x)["id"] for x in Path(out).read_text().splitlines() if x.strip()}
     rec = _Recorded()
     full, tied = SIFToM(ModelConfig("full"), rec), SIFToM(ModelConfig("full"), _Tied(rec))
     action = get_model("action-only", "phonetic")
@@ -111,7 +111,7 @@ KEY, PKEY = "chosen", "p"
 def summary(path: str) -> None:
     from siftom.world.commands import RobotCommand
 
-    rows = [json.loads(x) for x in open(path) if x.strip()]
+    rows = [json.loads(x) for x in Path(path).read_text().splitlines() if x.strip()]
     by = defaultdict(lambda: defaultdict(int))
     for r in rows:
         b = "clean" if r["snr"] is None else f"{r['snr']:g}"

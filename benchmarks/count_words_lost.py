@@ -43,7 +43,7 @@ def main() -> None:
     a = ap.parse_args()
     by: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
     for res in a.results:
-        for line in open(Path(res) / "results.jsonl"):
+        for line in (Path(res) / "results.jsonl").read_text().splitlines():
             r = json.loads(line)
             b = "clean" if r["snr_db"] is None else f"{r['snr_db']:g} dB"
             gold = RobotCommand.parse(r["gold_command"])

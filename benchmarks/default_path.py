@@ -28,7 +28,7 @@ def main() -> None:
     print("| set | model | clean | 20 dB | 10 dB | 5 dB | mean | confident-wrong |")
     print("|---|---|---|---|---|---|---|---|")
     for res in a.results:
-        rows = [json.loads(x) for x in open(Path(res) / "results.jsonl") if x.strip()]
+        rows = [json.loads(x) for x in (Path(res) / "results.jsonl").read_text().splitlines() if x.strip()]
         for m in models:
             rs = [r for r in rows if m in r["models"]]
             if not rs:

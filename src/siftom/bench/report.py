@@ -51,7 +51,7 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     if not rows:
         raise DatasetError("no evaluated stimuli to summarise; run 'siftom eval' first")
     models = models_in(rows)
-    out: dict[str, Any] = {"n_stimuli": len(rows), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
+    out: dict[str, Any] = {"n_stimuli": len({r["id"] for r in rows}), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
                            "models": {}}
     for m in models:
         trials = [r["models"][m] for r in rows if m in r["models"]]
@@ -283,16 +283,27 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
         rows = sorted(rows, key=lambda r: r["id"])
     if seed is None:
         seed = int(run.get("seed", 0))
-    summary = summarise(rows, seed=seed)
+    from siftom.bench.human import human_summary, load_human, people_section
+    from siftom.bench.ratings import RATINGS, ratings_summary
+    from siftom.bench.results_io import read_jsonl
+
+    human = load_human(root)  # people's answers as trials of the model "human" (bench/human.py)
+    ratings = read_jsonl(root / RATINGS)
+    summary = summarise(rows + human, seed=seed)
+    if human:
+        summary["human"] = human_summary(human, seed)
+    if ratings:
+        summary["ratings"] = ratings_summary(ratings, seed)
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
-    figs = render_figures(rows, summary, root) if figures else []
+    figs = render_figures(rows + human, summary, root) if figures else []
     from siftom.bench import reliability
 
     rel = reliability.reliability(rows, list(summary["models"]))
     summary["reliability"] = rel
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     rel_fig = reliability.render(rel, root) if figures else None
-    _write(root / "report.md", render_report(summary, run, figs) + "\n" + reliability.section(rel, rel_fig))
+    _write(root / "report.md", render_report(summary, run, figs) + "\n" + people_section(summary)
+           + reliability.section(rel, rel_fig))
     return summary
 
 

@@ -20,6 +20,7 @@ _AREAS = (
     "siftom.cli.inference",
     "siftom.cli.speech",
     "siftom.cli.bench",
+    "siftom.cli.people",
     "siftom.cli.service",
     "siftom.cli.perception",
     "siftom.cli.demo",

@@ -175,9 +175,11 @@ def check_cmd(folder: str) -> None:
 @click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
+@click.option("--human", "human", type=click.Path(file_okay=False), default=None,
+              help="an annotation folder (siftom annotate --out): its answers join the report as the model 'human'")
 @llm_options
 def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool,
+             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool, human: str | None,
              llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.backends.config import llm_configured
@@ -199,6 +201,10 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
     with RunLock(out), _backend(backend, workers, ray_address) as be:
         with _bar("evaluating", not as_json) as bar:
             run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
+        if human is not None:
+            from siftom.bench.human import score_answers
+
+            score_answers(human, out, dataset)
         summary = write_report(out)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -212,13 +218,28 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
 @click.argument("results", type=click.Path(file_okay=False))
 @click.option("--seed", type=int, default=None, help="bootstrap seed (default: the run's)")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
-def report_cmd(results: str, seed: int | None, as_json: bool) -> None:
-    """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl."""
+@click.option("--human", "human", type=click.Path(file_okay=False), default=None,
+              help="an annotation folder (siftom annotate --out): score its answers as the model 'human'")
+@click.option("--ratings", "ratings", type=click.Path(), multiple=True,
+              help="a ratings.jsonl of 'siftom serve --data-dir DIR' (or DIR): add people's ratings per model")
+@click.option("--no-figures", is_flag=True, help="write summary.json and report.md only (faster)")
+def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None, ratings: tuple[str, ...],
+               no_figures: bool) -> None:
+    """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl
+    (and RESULTS/human.jsonl, RESULTS/ratings.jsonl when present)."""
     from siftom.bench.report import main_table, write_report
     from siftom.bench.runlock import RunLock
 
     with RunLock(results) if os.path.isdir(results) else nullcontext():
-        summary = write_report(results, seed=seed)
+        if human is not None:
+            from siftom.bench.human import score_answers
+
+            score_answers(human, results)
+        for r in ratings:
+            from siftom.bench.ratings import import_ratings
+
+            import_ratings(r, results)
+        summary = write_report(results, seed=seed, figures=not no_figures)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
 
 

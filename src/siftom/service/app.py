@@ -9,7 +9,7 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
-  (:mod:`siftom.service.session_api`).
+  (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`).
 
 CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
 stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
@@ -242,6 +242,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     from siftom.service.perceive import install_session_frames
 
     install_session_frames(app, folder)  # POST /v1/sessions/{id}/frames (actions read from camera frames)
+    from siftom.service.ratings_api import install_ratings
+
+    install_ratings(app, rt, run_cpu)  # the /rate page and POST /v1/sessions/{id}/rating
 
     # ----- schema ----------------------------------------------------------------------------
     def openapi() -> dict[str, Any]:

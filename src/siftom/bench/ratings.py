@@ -1,0 +1,83 @@
+"""People's ratings of the robot after a trial (paper, Human-Robot Experiment, Metrics).
+
+After a trial with a session of the service, the participant rates three statements on a
+7-point Likert scale (1 = strongly disagree, 7 = strongly agree); their mean is the trial's
+helpfulness. The service stores one JSON line per rating in ``DATA_DIR/ratings.jsonl`` with the
+model the session ran; ``siftom report RESULTS --ratings FILE`` copies them into the results
+folder and reports the mean per model with a bootstrap CI.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.bench.results_io import read_jsonl
+from siftom.errors import DatasetError
+
+RATINGS = "ratings.jsonl"
+SCALE = (1, 7)
+STATEMENTS = (
+    "The robot performed the task as expected, considering the difficulty of the task.",
+    "The robot understood what I needed.",
+    "The robot performed on par with or better than what I would expect from a human.",
+)
+
+
+def session_model(mode: str, likelihood: str) -> str:
+    """The evaluator's name for the model a session ran (``siftom``, ``speech-only``, ...)."""
+    if mode == "full":
+        return "siftom" if likelihood == "phonetic" else f"siftom-{likelihood}"
+    return mode
+
+
+def check_scores(scores: Any) -> list[int]:
+    """Three integers from 1 to 7, one per statement; DatasetError otherwise."""
+    lo, hi = SCALE
+    if (not isinstance(scores, list | tuple) or len(scores) != len(STATEMENTS)
+            or not all(isinstance(x, int) and not isinstance(x, bool) and lo <= x <= hi for x in scores)):
+        raise DatasetError(f"give {len(STATEMENTS)} ratings, each a whole number from {lo} "
+                           f"(strongly disagree) to {hi} (strongly agree); got {scores!r}")
+    return list(scores)
+
+
+def import_ratings(source: str | Path, results: str | Path) -> int:
+    """Add the ratings of ``source`` (a ratings.jsonl) to ``RESULTS/ratings.jsonl``; return how many were new."""
+    src = Path(source)
+    if src.is_dir():
+        src = src / RATINGS
+    if not src.is_file():
+        raise DatasetError(f"{str(src)!r} does not exist; give the ratings.jsonl in the service's --data-dir")
+    new = read_jsonl(src)
+    for n, r in enumerate(new, 1):
+        if not isinstance(r, dict) or "id" not in r or "model" not in r:
+            raise DatasetError(f"{src}:{n}: a rating needs 'id', 'model' and 'scores'; is this a ratings file?")
+        check_scores(r.get("scores"))
+    dest = Path(results) / RATINGS
+    have = read_jsonl(dest)
+    seen = {r["id"] for r in have}
+    add = [r for r in new if r["id"] not in seen]
+    if add:
+        tmp = dest.with_name(f".{RATINGS}.{os.getpid()}.tmp")
+        tmp.write_text("".join(json.dumps(r) + "\n" for r in [*have, *add]), encoding="utf-8")
+        os.replace(tmp, dest)
+    return len(add)
+
+
+def ratings_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
+    """Per model: mean of the three statements per trial (helpfulness) with a CI, and each statement's mean."""
+    from siftom.bench.metrics import bootstrap_ci
+
+    out: dict[str, Any] = {}
+    for m in sorted({r["model"] for r in rows}):
+        s = np.array([r["scores"] for r in rows if r["model"] == m], dtype=float)
+        per_trial = s.mean(axis=1)
+        lo, hi = bootstrap_ci(per_trial, seed=seed + 3)
+        out[m] = {"n": len(s), "mean": round(float(per_trial.mean()), 3), "mean_ci": [round(lo, 3), round(hi, 3)],
+                  "sd": round(float(per_trial.std(ddof=1)) if len(s) > 1 else 0.0, 3),
+                  "statements": [round(float(v), 3) for v in s.mean(axis=0)]}
+    return out

@@ -1,0 +1,132 @@
+"""People in the loop: ``collect`` (record instructions), ``annotate`` (the human baseline),
+``dataset mix`` (noisy copies of recordings)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from siftom.errors import DatasetError
+
+
+def _consent(path: str | None, default: str) -> str:
+    if path is None:
+        return default
+    try:
+        return Path(path).read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"cannot read the consent text {path!r} ({exc.__class__.__name__}); give a UTF-8 text file") from None
+
+
+def _serve(app: object, host: str, port: int, what: str) -> None:
+    from siftom.cli.service import _need_serve_extra
+
+    _need_serve_extra()
+    import uvicorn
+
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        click.echo(f"note: listening on {host}: other machines can reach the page; browsers allow the microphone "
+                   "only on localhost or over https", err=True)
+    click.echo(f"siftom: {what} at http://{host}:{port}/ (Ctrl-C to stop)", err=True)
+    uvicorn.run(app, host=host, port=port, log_level="warning")
+
+
+_host = click.option("--host", default="127.0.0.1", show_default=True,
+                     help="interface to listen on (loopback: nothing leaves the machine)")
+
+
+@click.command("collect")
+@click.option("--domain", default="household-table-v0", show_default=True, help="household-table-v0 | kitchen-v0")
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True,
+              help="dataset folder to record into (created; more participants add to it)")
+@click.option("--scenarios", type=click.IntRange(1, 10_000), default=26, show_default=True,
+              help="scenarios per participant (registered first, then generated)")
+@click.option("--participant", default=None, help="participant id (default: asked on the page)")
+@click.option("--consent", "consent", type=click.Path(dir_okay=False), default=None,
+              help="a text file with the consent text to show (default: a generic one)")
+@click.option("--max-seconds", type=click.FloatRange(1, 120), default=30.0, show_default=True,
+              help="longest recording accepted")
+@_host
+@click.option("--port", type=click.IntRange(1, 65535), default=8010, show_default=True, help="TCP port")
+def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, consent: str | None,
+                max_seconds: float, host: str, port: int) -> None:
+    """Serve a page that records participants asking the robot for help, into a dataset folder.
+
+    Each participant agrees to the consent text, then sees each scenario (the scene after each of
+    the person's actions and the goal in words), records what they would ask the robot and types
+    what they said. Then: siftom dataset mix OUT, siftom dataset check OUT, siftom eval.
+    """
+    from siftom.bench.collect import CONSENT_TEXT, CollectOptions
+    from siftom.bench.runlock import RunLock
+    from siftom.service.collect_app import create_collect_app
+
+    opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
+                          consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
+    Path(out).mkdir(parents=True, exist_ok=True)
+    with RunLock(out):  # one server per folder: several participants may share it, two servers may not
+        _serve(create_collect_app(out, opts), host, port, f"recording page for {out}")
+
+
+@click.command("annotate")
+@click.argument("dataset", type=click.Path(file_okay=False))
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True,
+              help="annotation folder (plan.json, answers.jsonl; resumes if it exists)")
+@click.option("--per-stimulus", type=click.IntRange(1, 1000), default=3, show_default=True,
+              help="annotators per stimulus")
+@click.option("--per-annotator", type=click.IntRange(1, 100_000), default=None,
+              help="stimuli per annotator (default: every stimulus once)")
+@click.option("--seed", type=int, default=0, show_default=True, help="seed of the order and the assignments")
+@click.option("--consent", "consent", type=click.Path(dir_okay=False), default=None,
+              help="a text file with the consent text to show (default: a generic one)")
+@_host
+@click.option("--port", type=click.IntRange(1, 65535), default=8011, show_default=True, help="TCP port")
+def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int | None, seed: int,
+                 consent: str | None, host: str, port: int) -> None:
+    """Serve the human-baseline page: people hear each stimulus, type it and choose what to bring.
+
+    Score the answers next to the models with: siftom report RESULTS --human OUT (RESULTS: siftom
+    eval --dataset DATASET --out RESULTS).
+    """
+    from siftom.bench.human import ANNOTATOR_CONSENT, AnnotateOptions
+    from siftom.service.annotate_app import create_annotate_app
+
+    opts = AnnotateOptions(per_stimulus=per_stimulus, per_annotator=per_annotator, seed=seed,
+                           consent=_consent(consent, ANNOTATOR_CONSENT))
+    from siftom.bench.runlock import RunLock
+
+    Path(out).mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        app = create_annotate_app(dataset, out, opts)
+        _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)")
+
+
+@click.command("mix")
+@click.argument("folder", type=click.Path(file_okay=False))
+@click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
+              help="folder of noise WAVs named CATEGORY_NN.wav (default: the recordings shipped with siftom)")
+@click.option("--noises", default=None, help="comma-separated categories of the noise folder (default: all)")
+@click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy copy per SNR (dB)")
+@click.option("--seed", type=int, default=0, show_default=True, help="seed of the noise excerpts")
+@click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
+def mix_cmd(folder: str, noise_dir: str | None, noises: str | None, snr: str, seed: int, as_json: bool) -> None:
+    """Add noisy copies of every clean recording in a dataset FOLDER (clean + noisy: 130 -> 520)."""
+    from siftom.bench.mix import MixOptions, mix_dataset
+    from siftom.cli.bench import _csv, _snrs
+
+    ds, written = mix_dataset(folder, MixOptions(noise_dir=noise_dir, noises=_csv(noises), snrs=_snrs(snr), seed=seed))
+    clean = sum(1 for s in ds.stimuli if s.noise is None)
+    if as_json:
+        click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "clean": clean, "mixed": written}))
+    else:
+        click.echo(f"{written} noisy copies of {clean} clean recordings; {ds.root} now holds {len(ds.stimuli)} stimuli")
+
+
+def register(root: click.Group) -> None:
+    """Add ``collect``, ``annotate`` and ``dataset mix``."""
+    root.add_command(collect_cmd)
+    root.add_command(annotate_cmd)
+    dataset = root.commands.get("dataset")
+    if isinstance(dataset, click.Group):
+        dataset.add_command(mix_cmd)

@@ -1,0 +1,93 @@
+"""The annotation page (``siftom annotate``): the human baseline (:mod:`siftom.bench.human`).
+
+An annotator agrees to the consent text, then gets one stimulus per page: the scene after each
+observed action (not the goal), the recording, a box for what they heard and a form with the
+scene's items (and counts). Endpoints: ``GET /api/annotation``, ``POST /api/annotators``,
+``GET /api/annotators/{a}/next``, ``GET /api/annotators/{a}/{pos}/audio.wav``,
+``GET /api/annotators/{a}/{pos}/frames/{step}.png``, ``POST /api/annotators/{a}/answers``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi import Path as PathParam
+from fastapi.responses import FileResponse
+from pydantic import BaseModel, Field
+
+from siftom.bench.collect import action_words
+from siftom.bench.human import ANNOTATOR_ID, AnnotateOptions, Annotation, answer_form
+from siftom.bench.stimuli import scenario_for
+from siftom.service.people import Frames, page_app, png_response
+
+AID = PathParam(pattern=ANNOTATOR_ID.pattern, description="the annotator id POST /api/annotators gave")
+
+
+class Join(BaseModel):
+    annotator: str | None = Field(default=None, max_length=32)
+    agree: bool
+
+
+class Answer(BaseModel):
+    position: int = Field(ge=0)
+    typed: str = Field(max_length=500)
+    item: str = Field(min_length=1, max_length=64)
+    count: int | None = Field(default=None, ge=1, le=99)
+    seconds: float | None = Field(default=None, ge=0, le=86400)
+
+
+def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateOptions) -> FastAPI:
+    """The annotation page and its API over ``dataset``, writing into ``out``."""
+    ann = Annotation(dataset, out, options)
+    frames = Frames(Path(out) / ".frames")
+    app, run_cpu = page_app("siftom annotate", "annotate.html")
+    app.state.annotation = ann
+
+    def view(aid: str) -> dict[str, Any]:
+        ids = ann.assignment(aid)
+        pos = ann.next_position(aid)
+        base = {"annotator": aid, "total": len(ids), "answered": len(ann.answered(aid))}
+        if pos is None:
+            return {**base, "done": True}
+        sc = scenario_for(ann.stimulus_at(aid, pos))
+        return {**base, "done": False, "position": pos,
+                "actions": [action_words(sc.world, a, "The person") for a in sc.actions], "steps": len(sc.actions),
+                "form": answer_form(sc)}
+
+    @app.get("/api/annotation")
+    async def info() -> dict[str, Any]:
+        return {"consent": options.consent, "per_stimulus": options.per_stimulus,
+                "assignments": len(ann.assignments), "stimuli": len(ann.ds.stimuli)}
+
+    @app.post("/api/annotators")
+    async def join(req: Join) -> dict[str, Any]:
+        from siftom.service.problems import ProblemError
+
+        if not req.agree:
+            raise ProblemError(422, "no-consent", "annotating needs your agreement to the text above; tick the box "
+                               "to agree, or close the page to stop")
+        who = await run_cpu(ann.join, req.annotator or None)
+        return await run_cpu(view, who["annotator"])
+
+    @app.get("/api/annotators/{aid}/next")
+    async def next_(aid: str = AID) -> dict[str, Any]:
+        return await run_cpu(view, aid)
+
+    @app.get("/api/annotators/{aid}/{pos}/audio.wav", response_class=FileResponse)
+    async def audio(pos: int, aid: str = AID) -> FileResponse:
+        s = ann.stimulus_at(aid, pos)
+        return FileResponse(ann.ds.audio_path(s), media_type="audio/wav")
+
+    @app.get("/api/annotators/{aid}/{pos}/frames/{step}.png", response_class=FileResponse)
+    async def frame(pos: int, step: int, aid: str = AID) -> FileResponse:
+        sc = scenario_for(ann.stimulus_at(aid, pos))
+        return png_response(await run_cpu(frames.png, sc, step))
+
+    @app.post("/api/annotators/{aid}/answers", status_code=201)
+    async def answer(req: Answer, aid: str = AID) -> dict[str, Any]:
+        await run_cpu(ann.answer, aid, req.position, req.typed, req.item, req.count, req.seconds)
+        return await run_cpu(view, aid)
+
+    return app

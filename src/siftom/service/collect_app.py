@@ -1,0 +1,77 @@
+"""The recording page (``siftom collect``): participants see each scenario and record what they
+would ask the robot; recordings land in a dataset folder (:mod:`siftom.bench.collect`).
+
+Endpoints: ``GET /api/collection`` (domain, consent text, how many scenarios),
+``POST /api/participants`` (agree to the consent text), ``GET /api/prompts/{k}`` (scenario
+``k``: actions, goal in words, what to ask for), ``GET /api/prompts/{k}/frames/{step}.png``,
+``POST /api/recordings`` (multipart: ``participant``, ``index``, ``reference``, ``audio``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.responses import FileResponse
+from pydantic import BaseModel, Field
+
+from siftom.bench.collect import Collection, CollectOptions
+from siftom.service.people import Frames, page_app, png_response
+from siftom.service.problems import ProblemError, read_audio_form
+
+
+class Agreement(BaseModel):
+    participant: str = Field(min_length=1, max_length=32)
+    agree: bool
+
+
+def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
+    """The recording page and its API, writing into the dataset folder ``out``."""
+    coll = Collection(out, options)
+    frames = Frames(Path(out) / ".frames")
+    app, run_cpu = page_app("siftom collect", "collect.html")
+    app.state.collection = coll
+
+    def index_of(k: int) -> int:
+        if not 0 <= k < len(coll.prompts):
+            raise ProblemError(404, "no-scenario", f"there is no scenario {k}; this collection has "
+                               f"{len(coll.prompts)} (0 to {len(coll.prompts) - 1})")
+        return k
+
+    @app.get("/api/collection")
+    async def info() -> dict[str, Any]:
+        return {"domain": options.domain, "scenarios": len(coll.prompts), "consent": options.consent,
+                "participant": options.participant, "max_seconds": options.max_seconds}
+
+    @app.post("/api/participants")
+    async def agree(req: Agreement) -> dict[str, Any]:
+        if not req.agree:
+            raise ProblemError(422, "no-consent", "recording needs your agreement to the text above; "
+                               "tick the box to agree, or close the page to stop")
+        if options.participant is not None and req.participant != options.participant:
+            raise ProblemError(422, "participant", f"this page records participant {options.participant!r}")
+        await run_cpu(coll.agree, req.participant)
+        return {"participant": req.participant, "done": coll.done(req.participant), "scenarios": len(coll.prompts)}
+
+    @app.get("/api/prompts/{k}")
+    async def prompt(k: int) -> dict[str, Any]:
+        return coll.prompt(index_of(k)).to_json()
+
+    @app.get("/api/prompts/{k}/frames/{step}.png", response_class=FileResponse)
+    async def frame(k: int, step: int) -> FileResponse:
+        sc = coll.scenario(index_of(k))
+        return png_response(await run_cpu(frames.png, sc, step))
+
+    @app.post("/api/recordings", status_code=201)
+    async def record(request: Request) -> dict[str, Any]:
+        fields, data = await read_audio_form(request, max_fields=4, max_part_size=8 * 2**20)
+        try:
+            k = int(fields.get("index", ""))
+        except ValueError:
+            raise ProblemError(422, "validation", "index: give the scenario index as a whole number") from None
+        pid = fields.get("participant", "")
+        stim = await run_cpu(coll.save, pid, index_of(k), data, fields.get("reference", ""))
+        return {"id": stim.id, "audio": stim.audio, "duration_s": stim.duration_s, "done": coll.done(pid)}
+
+    return app

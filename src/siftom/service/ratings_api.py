@@ -1,0 +1,76 @@
+"""Ratings after a trial with a session (``/rate`` page, ``POST /v1/sessions/{id}/rating``).
+
+After the robot acted on an instruction, the participant may rate it on the paper's three
+7-point statements (:data:`siftom.bench.ratings.STATEMENTS`). Each rating is one JSON line in
+``DATA_DIR/ratings.jsonl`` with the session, the model it ran and the command it chose;
+``siftom report RESULTS --ratings DATA_DIR/ratings.jsonl`` reports the mean per model.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+import threading
+import time
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi import Path as PathParam
+from fastapi.responses import FileResponse, JSONResponse
+from pydantic import BaseModel, Field
+
+from siftom.bench.ratings import RATINGS, SCALE, STATEMENTS, session_model
+from siftom.service.people import STATIC
+from siftom.service.problems import PROBLEM_JSON, ProblemError
+from siftom.service.session_schemas import SESSION_ID
+
+
+class RatingRequest(BaseModel):
+    """Three ratings from 1 (strongly disagree) to 7 (strongly agree), one per statement."""
+
+    scores: list[int] = Field(min_length=len(STATEMENTS), max_length=len(STATEMENTS),
+                              description="one whole number from 1 to 7 per statement, in order")
+    rater: str | None = Field(default=None, max_length=32, pattern=r"^[A-Za-z0-9_-]+$",
+                              description="the participant's id (optional)")
+    model: str | None = Field(default=None, max_length=64, pattern=r"^[A-Za-z0-9_.+-]+$",
+                              description="a label for the condition (default: the session's model, e.g. siftom)")
+
+
+def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
+    """Add the rating page and endpoints; ratings go to ``rt.data_dir / 'ratings.jsonl'``."""
+    lock = threading.Lock()
+    problems = {c: {"content": {PROBLEM_JSON: {}}} for c in (404, 422)}
+
+    @app.get("/rate", include_in_schema=False)
+    async def page() -> FileResponse:
+        return FileResponse(STATIC / "rate.html", media_type="text/html")
+
+    @app.get("/v1/ratings/statements", tags=["sessions"])
+    async def statements() -> dict[str, Any]:
+        """The statements to rate after a trial and the scale."""
+        return {"statements": list(STATEMENTS), "scale": list(SCALE),
+                "labels": {"1": "strongly disagree", "4": "neither agree nor disagree", "7": "strongly agree"}}
+
+    @app.post("/v1/sessions/{session_id}/rating", tags=["sessions"], status_code=201, responses=problems)
+    async def rate(req: RatingRequest,
+                   session_id: str = PathParam(pattern=SESSION_ID, description="the session that was rated")
+                   ) -> JSONResponse:
+        """Store the participant's ratings of the robot in this session's last trial."""
+        lo, hi = SCALE
+        if not all(lo <= x <= hi for x in req.scores):
+            raise ProblemError(422, "validation", f"scores: each rating is a whole number from {lo} to {hi}")
+        mgr = app.state.sessions
+
+        def work() -> dict[str, Any]:
+            sess = mgr.get(session_id)  # an unknown id is a 404
+            last = sess.last or {}
+            rec = {"id": secrets.token_hex(8), "session": session_id,
+                   "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
+                   "command": last.get("command"), "n_actions": len(sess.actions), "scores": list(req.scores),
+                   "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+            with lock, open(rt.data_dir / RATINGS, "a", encoding="utf-8") as f:
+                f.write(json.dumps(rec) + "\n")
+            return rec
+
+        rec = await run_cpu(work)
+        return JSONResponse({**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}, status_code=201)

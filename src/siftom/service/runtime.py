@@ -192,6 +192,24 @@ class Runtime:
         self._engines = _LRU(8)
         self._render_lock = threading.Lock()
         self.requests = 0
+        self._warm = threading.Thread(target=self._load_default_audio_model, daemon=True)
+        self._warm.start()
+
+    def _load_default_audio_model(self) -> None:
+        """Load the acoustic model (Whisper) in the background, so the first recording, which gets it
+        by default, does not wait for the model to load."""
+        from siftom.likelihood.registry import resolve_likelihood
+
+        if "acoustic" not in self.settings.likelihoods or resolve_likelihood(None, True)[0] != "acoustic":
+            return
+        try:
+            with self._model_lock("full", "acoustic"):
+                lk = get_model("full", "acoustic").likelihood
+                whisper = getattr(lk, "_whisper", None)
+                if whisper is not None:
+                    whisper.scorer  # noqa: B018 - loads the model
+        except SiftomError:  # reported by the first request that needs it
+            pass
 
     # ----- scenarios ---------------------------------------------------------------------
     @staticmethod

@@ -4,7 +4,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
-EXTRAS ?= fast,whisper,serve,dev
+EXTRAS ?= fast,whisper,serve,stream,ros,dev
 
 .PHONY: demo test test-slow test-browser lint setup sysdeps sysdeps-browser clean
 

@@ -22,6 +22,7 @@ _AREAS = (
     "siftom.cli.bench",
     "siftom.cli.people",
     "siftom.cli.service",
+    "siftom.cli.stream",
     "siftom.cli.perception",
     "siftom.cli.demo",
     "siftom.cli.plugins",

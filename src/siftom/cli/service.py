@@ -36,9 +36,16 @@ def _need_serve_extra() -> None:
               help="most objects a session's world may hold (422 above)")
 @click.option("--max-session-actions", type=click.IntRange(1, 1_000_000), default=2000, show_default=True,
               help="most actions one session may observe (422 above)")
+@click.option("--max-streams", type=click.IntRange(1, 10_000), default=8, show_default=True,
+              help="WS /v1/sessions/{id}/listen streams open at once (more are closed with 1013)")
+@click.option("--max-utterance", type=click.FloatRange(1, 120), default=15.0, show_default=True,
+              help="seconds of speech after which a streamed utterance is cut and answered")
+@click.option("--stream-idle", type=click.FloatRange(0.1, 86400), default=30.0, show_default=True,
+              help="seconds without a message after which a stream is closed (4408)")
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, session_idle: float,
-              max_world_bytes: int, max_world_items: int, max_session_actions: int,
+              max_world_bytes: int, max_world_items: int, max_session_actions: int, max_streams: int,
+              max_utterance: float, stream_idle: float,
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
@@ -55,7 +62,10 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
                            max_world_items=max_world_items, max_actions=max_session_actions)
     llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
     # a world of max_world_bytes must fit in a request body
-    settings = ServiceSettings(sessions=limits, llm=llm,
+    from siftom.service.stream_settings import StreamLimits
+
+    stream = StreamLimits(max_streams=max_streams, max_utterance_s=max_utterance, max_idle_s=stream_idle)
+    settings = ServiceSettings(sessions=limits, llm=llm, stream=stream,
                                max_body_bytes=max(ServiceSettings().max_body_bytes, max_world_bytes + 4096))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
     uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")

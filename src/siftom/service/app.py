@@ -9,7 +9,9 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
-  (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`).
+  (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`);
+  ``WS /v1/sessions/{id}/listen``: streamed microphone audio, answered utterance by utterance
+  (:mod:`siftom.service.stream_api`).
 
 CPU work runs in a worker thread under a capacity limit and a time limit, so the event loop
 stays responsive; the shared parts are locked in :mod:`siftom.service.runtime`.
@@ -135,7 +137,8 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
             "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
             "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
                        "request_timeout_s": settings.request_timeout_s,
-                       "sessions": dataclasses.asdict(settings.sessions)},
+                       "sessions": dataclasses.asdict(settings.sessions),
+                       "stream": dataclasses.asdict(settings.stream)},
         }
 
     # ----- scenarios -------------------------------------------------------------------------
@@ -238,7 +241,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
     # ----- sessions --------------------------------------------------------------------------
     from siftom.service.session_api import install_sessions, session_schemas
 
-    install_sessions(app, rt, run_cpu)
+    mgr = install_sessions(app, rt, run_cpu)
+    from siftom.service.stream_api import install_stream
+
+    install_stream(app, rt, mgr, run_cpu)  # WS /v1/sessions/{id}/listen (streamed microphone audio)
     from siftom.service.perceive import install_session_frames
 
     install_session_frames(app, folder)  # POST /v1/sessions/{id}/frames (actions read from camera frames)

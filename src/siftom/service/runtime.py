@@ -34,6 +34,7 @@ from siftom.inference.model import OnlineInference, Posterior
 from siftom.observation import Instruction
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.sessions import SessionLimits
+from siftom.service.stream_settings import StreamLimits
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 T = TypeVar("T")
@@ -84,6 +85,7 @@ class ServiceSettings:
         cache_size: cached OnlineInference objects (one per scenario, prefix, mode, likelihood).
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
         sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
+        stream: limits of the streaming endpoint (streams, utterance length, idle time; StreamLimits).
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -96,6 +98,7 @@ class ServiceSettings:
     llm: LLMConfig | None = None
     llm_error: str = ""
     sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
+    stream: StreamLimits = field(default_factory=lambda: StreamLimits())
 
     def __post_init__(self) -> None:
         if self.llm is None and not self.llm_error:

@@ -3,7 +3,7 @@
 
 const $ = (id) => document.getElementById(id);
 const SVG = "http://www.w3.org/2000/svg";
-const state = { scenario: null, step: 0, result: null, timer: null, recorder: null };
+const state = { scenario: null, step: 0, result: null, timer: null, recorder: null, live: null };
 
 function svg(tag, attrs, parent, text) {
   const el = document.createElementNS(SVG, tag);
@@ -324,6 +324,88 @@ async function toWav16k(blob) {
   return new Blob([buf], { type: "audio/wav" });
 }
 
+// ----- live microphone: streamed as 16 kHz PCM over WS /v1/sessions/{id}/listen ---------------
+// The page opens a session over the scenario's world with the actions seen so far, streams the
+// microphone through an AudioWorklet, and shows each decision the server sends when the person
+// stops speaking. Press again to stop.
+async function toggleStream() {
+  if (state.live) { stopStream("stopped"); return; }
+  if (!navigator.mediaDevices || !window.AudioWorkletNode) { setStatus("this browser cannot stream audio", true); return; }
+  const live = { ws: null, ctx: null, media: null, ready: false, pending: [], decided: -1 };
+  state.live = live;
+  $("stream").classList.add("recording");
+  $("stream").textContent = "■ Stop listening";
+  try {
+    const sess = await api("/v1/sessions/from-scenario", {
+      method: "POST", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ scenario: state.scenario.id, n_actions: state.step }),
+    });
+    live.media = await navigator.mediaDevices.getUserMedia({
+      audio: { channelCount: 1, echoCancellation: false, noiseSuppression: false, autoGainControl: false },
+    });
+    try {
+      live.ctx = new AudioContext({ sampleRate: 16000 });  // the browser resamples the microphone
+      live.source = live.ctx.createMediaStreamSource(live.media);
+    } catch (e) {  // browsers that cannot: the worklet interpolates from the device rate
+      if (live.ctx) live.ctx.close();
+      live.ctx = new AudioContext();
+      live.source = live.ctx.createMediaStreamSource(live.media);
+    }
+    await live.ctx.audioWorklet.addModule("/static/pcm-worklet.js");
+    const node = new AudioWorkletNode(live.ctx, "pcm16k");
+    const proto = location.protocol === "https:" ? "wss:" : "ws:";
+    live.ws = new WebSocket(`${proto}//${location.host}/v1/sessions/${encodeURIComponent(sess.id)}/listen?partial=1`);
+    live.ws.binaryType = "arraybuffer";
+    node.port.onmessage = (e) => {  // until the server is ready, keep the audio (up to 10 s) and send it then
+      if (live.ready && live.ws.readyState === WebSocket.OPEN) live.ws.send(e.data);
+      else if (live.pending.length < 500) live.pending.push(e.data);
+    };
+    live.ws.onmessage = (e) => onStreamEvent(JSON.parse(e.data));
+    live.ws.onclose = (e) => { if (state.live === live) stopStream(e.code === 1000 ? "stopped" : `stream closed (${e.code}): ${e.reason}`, e.code !== 1000); };
+    live.source.connect(node);
+    node.connect(live.ctx.destination);  // the worklet writes no output: silence, but it keeps running
+  } catch (e) { stopStream(`microphone: ${e.message}`, true); }
+}
+
+function onStreamEvent(ev) {
+  const live = state.live;
+  if (!live) return;
+  if (ev.event === "ready") {
+    live.ready = true;
+    for (const chunk of live.pending) live.ws.send(chunk);
+    live.pending = [];
+    setStatus("listening… speak, then pause");
+  }
+  else if (ev.event === "speech_started") setStatus("hearing you…");
+  else if (ev.event === "heard" && ev.text && ev.utterance > live.decided) setStatus(`hearing you… “${ev.text}”`);
+  else if (ev.event === "speech_ended") setStatus("recognising…");
+  else if (ev.event === "no_speech") setStatus("listening… (no words in that)");
+  else if (ev.event === "error") setStatus(ev.detail, true);
+  else if (ev.event === "decision") {
+    live.decided = ev.utterance;
+    $("instruction").value = ev.heard;
+    showResult(ev);
+    const d = $("stream-decision");
+    d.hidden = false;
+    const t = ev.timings || {};
+    d.textContent = `heard “${ev.heard}” → ${ev.decision}` + (t.wait !== undefined ? ` (answered ${(1000 * t.wait).toFixed(0)} ms after the pause was detected)` : "");
+    $("stream-decision").dataset.decision = ev.decision;
+  }
+}
+
+function stopStream(message, isError) {
+  const live = state.live;
+  state.live = null;
+  $("stream").classList.remove("recording");
+  $("stream").textContent = "🎙 Listen";
+  if (live) {
+    if (live.ws && live.ws.readyState === WebSocket.OPEN) live.ws.send(JSON.stringify({ type: "end" }));
+    if (live.media) live.media.getTracks().forEach((t) => t.stop());
+    if (live.ctx) live.ctx.close();
+  }
+  if (message && !/^inferred/.test($("status").textContent)) setStatus(message, isError);
+}
+
 // ----- wiring ----------------------------------------------------------------------------------
 window.addEventListener("DOMContentLoaded", () => {
   $("scenario").addEventListener("change", (e) => selectScenario(e.target.value).catch((err) => setStatus(err.message, true)));
@@ -332,6 +414,7 @@ window.addEventListener("DOMContentLoaded", () => {
   $("ask-form").addEventListener("submit", inferText);
   $("say").addEventListener("click", sayAndInfer);
   $("record").addEventListener("click", toggleRecord);
+  $("stream").addEventListener("click", toggleStream);
   offerAcoustic().then(loadScenarios).then(() => { document.body.dataset.ready = "1"; })
     .catch((e) => setStatus(e.message, true));
 });

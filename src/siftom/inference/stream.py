@@ -1,0 +1,205 @@
+"""Listen to a stream: utterances cut by the voice-activity detector, each recognised and answered.
+
+One class, :class:`StreamListener`, serves every live input (the WebSocket endpoint, ``siftom
+listen --mic/--wav`` and the ROS bridge), so they cut utterances the same way::
+
+    chunks --> UtteranceSegmenter --> speech_started ... speech_ended(utterance)
+                                                             |
+                     recognise(samples) -> (Instruction | None, transcript)   (ASR, no side effects)
+                                                             |
+                     answer(instruction, transcript) -> dict                   (the posterior, the decision)
+
+:meth:`StreamListener.feed` only runs the detector (about 1 ms per 32 ms frame), so a caller can
+call it from an event loop; :meth:`StreamListener.respond` does the recognition and inference
+and blocks, so callers run it in a worker thread while the stream goes on.
+
+**Early recognition.** When the person has been silent for ``post_roll_s`` the utterance's
+samples are already final unless speech resumes (the end is only declared after
+``min_silence_s``), so the listener starts recognising them then, in its own thread; when the
+end is declared and nothing changed, :meth:`respond` takes that result instead of starting
+over. If the person speaks again the early result is dropped. With ``version`` (a function
+returning a token that changes whenever the answer would, e.g. the number of actions
+observed) the answer is computed early too, and used when the token is unchanged at the end;
+without it (an answer that writes state, e.g. a session's last answer) the answer always runs
+after the end is declared.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from siftom.observation import Instruction
+from siftom.speech.segment import (
+    Event,
+    FrameScorer,
+    SegmentOptions,
+    Utterance,
+    UtteranceSegmenter,
+)
+
+NO_WORDS = "no words recognised"
+
+
+@dataclass(frozen=True)
+class Recognised:
+    """What the recogniser made of an utterance.
+
+    Attributes:
+        instruction: the N-best list (and the samples) for the likelihoods; None without words.
+        transcript: the engine's transcript (``to_json()``), or None when it was not run.
+        seconds: recognition wall time.
+        why: why there is no instruction ('' when there is one).
+    """
+
+    instruction: Instruction | None
+    transcript: Any
+    seconds: float
+    why: str = ""
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    @property
+    def text(self) -> str:
+        return self.transcript.text if self.transcript is not None else ""
+
+
+Recognise = Callable[[np.ndarray], Recognised]
+Answer = Callable[[Recognised, Utterance], dict[str, Any]]
+
+
+class StreamListener:
+    """Cut a 16 kHz stream into utterances and answer each (see module doc).
+
+    Args:
+        recognise: samples -> :class:`Recognised` (thread-safe, no side effects: it may run early).
+        answer: (recognised, utterance) -> the answer's JSON fields (posterior, decision, ...).
+        options: the segmentation's thresholds and durations.
+        scorer: the frame scorer (default: Silero VAD).
+        early: start recognising after ``post_roll_s`` of silence (module doc).
+        version: with ``early``, answer early too while this token stays the same (module doc);
+            ``answer`` must then have no side effects.
+    """
+
+    def __init__(self, recognise: Recognise, answer: Answer, options: SegmentOptions | None = None,
+                 scorer: FrameScorer | None = None, early: bool = True,
+                 version: Callable[[], Any] | None = None) -> None:
+        self.segmenter = UtteranceSegmenter(options, scorer)
+        self._recognise, self._answer, self.early, self._version = recognise, answer, early, version
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-early-asr") if early else None
+        self._early: tuple[tuple[int, float, int], Future[tuple[Recognised, Any, Any]]] | None = None
+        self._lock = threading.Lock()
+        self.utterances = 0
+
+    @property
+    def options(self) -> SegmentOptions:
+        return self.segmenter.options
+
+    def feed(self, chunk: bytes | bytearray | memoryview | np.ndarray) -> list[Event]:
+        """Add audio; returns speech_started / speech_ended events (cheap: the detector only)."""
+        events = self.segmenter.feed(chunk)
+        self._maybe_start_early()
+        return events
+
+    def finish(self) -> list[Event]:
+        """End of the stream: an utterance in progress ends now."""
+        return self.segmenter.finish()
+
+    def close(self) -> None:
+        """Stop the early-recognition thread (pending work is dropped)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+
+    def _maybe_start_early(self) -> None:
+        if self._pool is None:
+            return
+        preview = self.segmenter.tentative()
+        with self._lock:
+            if preview is None:
+                return
+            key = (preview.index, preview.start_s, len(preview.samples))
+            if self._early is not None and self._early[0] == key:
+                return
+            self._early = (key, self._pool.submit(self._early_job, preview))
+
+    def _early_job(self, preview: Utterance) -> tuple[Recognised, Any, Any]:
+        rec = self._recognise(preview.samples)
+        if self._version is None or rec.instruction is None:
+            return rec, None, None
+        token = self._version()
+        t0 = time.perf_counter()
+        body = self._answer(rec, preview)
+        return rec, token, (body, time.perf_counter() - t0)
+
+    def respond(self, utterance: Utterance) -> dict[str, Any]:
+        """Recognise and answer one utterance (blocks).
+
+        Returns a ``decision`` event: the answer's fields plus what was heard, the utterance's
+        times and ``timings`` in seconds: ``asr`` and ``answer`` (how long each took), ``wait``
+        (from this call to the answer: less than their sum when they ran early), ``asr_early``
+        and ``answer_early`` (whether each ran before the end was declared). An utterance without words (the
+        second detector found no speech in it, or the recogniser no words) gives a ``no_speech``
+        event instead and is not answered.
+        """
+        t0 = time.perf_counter()
+        key = (utterance.index, utterance.start_s, len(utterance.samples))
+        early = None
+        with self._lock:
+            if self._early is not None and self._early[0] == key:
+                early = self._early[1]
+            self._early = None
+        rec, token, body = None, None, None
+        if early is not None:
+            try:
+                rec, token, body = early.result()
+            except Exception:  # the early run failed: recognise again below, where errors surface
+                rec = None
+        if rec is None:
+            rec = self._recognise(utterance.samples)
+        t1 = time.perf_counter()
+        if rec.instruction is None:  # noise, a cough, words outside any phrasing: nothing to answer
+            return {"event": "no_speech", **utterance.to_json(), "heard": rec.text, "message": rec.why,
+                    "timings": {"asr": round(rec.seconds, 4), "wait": round(t1 - t0, 4), "asr_early": early is not None}}
+        answered_early = body is not None and self._version is not None and self._version() == token
+        if answered_early:
+            body, answer_s = body
+        else:  # nothing was answered early, or the state changed since (a new action)
+            body = self._answer(rec, utterance)
+            answer_s = time.perf_counter() - t1
+        t2 = time.perf_counter()
+        self.utterances += 1
+        heard = {
+            "heard": rec.text,
+            "nbest": [{"text": h.text, "score": round(float(h.score), 4)}
+                      for h in (rec.instruction.nbest if rec.instruction is not None else ())],
+            "speech_heard": rec.instruction is not None,
+            "message": rec.why,
+        }
+        return {"event": "decision", **utterance.to_json(), **heard, **body,
+                "timings": {"asr": round(rec.seconds, 4), "answer": round(answer_s, 4),
+                            "wait": round(t2 - t0, 4),
+                            "asr_early": early is not None, "answer_early": answered_early}}
+
+
+def recogniser(engine: Any, nbest: int, lock: Any = None) -> Recognise:
+    """Recognition of an utterance the detector cut: ``engine`` (e.g. pocketsphinx biased to the
+    home's phrasings) gives the N-best list and word times; no words gives no instruction.
+    ``lock`` guards an engine shared between threads."""
+
+    guard = lock if lock is not None else threading.Lock()
+
+    def run(samples: np.ndarray) -> Recognised:
+        t0 = time.perf_counter()
+        with guard:
+            tr = engine.transcribe(samples, nbest=nbest)
+        if not tr.text:
+            return Recognised(None, tr, time.perf_counter() - t0, NO_WORDS)
+        instruction = tr.to_instruction(samples=samples)
+        return Recognised(instruction, tr, time.perf_counter() - t0)
+
+    return run

@@ -1,0 +1,205 @@
+"""A ROS bridge: the robot's microphone and perception topics in, decisions out (docs/ros.md).
+
+Talks to ``rosbridge_server`` with the rosbridge v2 JSON protocol over WebSocket (roslibpy,
+asyncio transport), so nothing of ROS has to be installed next to siftom:
+
+* **audio** (``audio_common_msgs/AudioData``, 16 kHz mono 16-bit PCM; ``data`` is a uint8 array,
+  sent by rosbridge as base64 or as a list of numbers) goes through the same
+  :class:`~siftom.service.listener.HomeListener` as ``siftom listen``: utterances are cut by the
+  voice-activity detector and answered;
+* **text** (``std_msgs/String``, e.g. another node's speech recogniser) is answered at once as
+  the transcript of an utterance;
+* **actions** (``std_msgs/String``: one or more siftom or VirtualHome script lines) update the
+  posterior as they come;
+* each answer is published as ``std_msgs/String`` whose ``data`` is the decision's JSON
+  (``heard``, ``command``, ``prob``, ``decision`` act/ask/wait, ``question``, ``commands``,
+  ``timings``) on ``/siftom/decision``.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import json
+import queue
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import urlparse
+
+import numpy as np
+
+from siftom.errors import AudioError, BackendUnavailableError, OptionsError, SiftomError
+from siftom.service.listener import HomeListener, compact, run_listener
+
+
+@dataclass(frozen=True)
+class RosTopics:
+    """Topic names and message types (``siftom ros --audio-topic ...``; remap to your robot's).
+
+    Attributes:
+        audio: the microphone topic ('' to not subscribe); ``audio_type`` its message type.
+        text: a topic of recognised text ('' to not subscribe); ``text_type`` its message type.
+        actions: the person's actions, one or more script lines per message ('' to not subscribe).
+        decision: where each decision is published.
+    """
+
+    audio: str = "/audio/audio"
+    audio_type: str = "audio_common_msgs/AudioData"
+    text: str = ""
+    text_type: str = "std_msgs/String"
+    actions: str = "/siftom/actions"
+    actions_type: str = "std_msgs/String"
+    decision: str = "/siftom/decision"
+    decision_type: str = "std_msgs/String"
+
+    def __post_init__(self) -> None:
+        for name in ("audio", "text", "actions", "decision"):
+            topic = getattr(self, name)
+            if topic and not topic.startswith("/"):
+                raise OptionsError(f"the {name} topic must be an absolute ROS name such as /{topic}")
+        if not self.decision:
+            raise OptionsError("the decision topic cannot be empty")
+        if not (self.audio or self.text):
+            raise OptionsError("subscribe to an audio topic, a text topic or both")
+
+
+def parse_url(url: str) -> tuple[str, int, bool]:
+    """``ws://HOST:PORT`` -> (host, port, secure); rosbridge's port 9090 by default."""
+    u = urlparse(url if "://" in url else f"ws://{url}")
+    if u.scheme not in ("ws", "wss") or not u.hostname:
+        raise OptionsError(f"--rosbridge must look like ws://HOST:9090, not {url!r}")
+    return u.hostname, u.port or 9090, u.scheme == "wss"
+
+
+def audio_bytes(msg: dict[str, Any]) -> bytes:
+    """The PCM bytes of an AudioData message: ``data`` as base64 text or a list of 0-255 numbers;
+    a WAV header at the start of a chunk is skipped."""
+    data = msg.get("data")
+    if isinstance(data, str):
+        try:
+            raw = base64.b64decode(data, validate=True)
+        except ValueError:
+            raise AudioError("AudioData.data is neither base64 nor a list of bytes") from None
+    elif isinstance(data, list):
+        try:
+            raw = bytes(data)
+        except (TypeError, ValueError):
+            raise AudioError("AudioData.data must hold numbers 0-255") from None
+    else:
+        raise AudioError("an AudioData message needs a 'data' field (uint8 array)")
+    if raw[:4] == b"RIFF" and raw[8:12] == b"WAVE":
+        raw = raw[44:]
+    return raw[: len(raw) - len(raw) % 2]
+
+
+class RosBridge:
+    """Subscribe, listen, publish (see module doc). ``run()`` blocks until :meth:`stop`."""
+
+    def __init__(self, home: HomeListener, url: str, topics: RosTopics | None = None,
+                 out: Callable[[dict[str, Any]], None] | None = None, connect_timeout: float = 10.0) -> None:
+        try:
+            import roslibpy
+        except ModuleNotFoundError:
+            raise BackendUnavailableError('the ROS bridge needs roslibpy: pip install "siftom[ros]"') from None
+        self.home, self.topics, self.url = home, topics or RosTopics(), url
+        self._out = out or (lambda obj: print(json.dumps(obj), file=sys.stderr, flush=True))
+        host, port, secure = parse_url(url)
+        self._roslibpy = roslibpy
+        self.ros = roslibpy.Ros(host=host, port=port, is_secure=secure, transport="asyncio")
+        try:
+            self.ros.run(timeout=connect_timeout)
+        except Exception as exc:
+            self._terminate()
+            raise BackendUnavailableError(f"cannot reach rosbridge at {url} ({type(exc).__name__}); start it on "
+                                          "the robot: ros2 launch rosbridge_server rosbridge_websocket_launch.xml "
+                                          "(ROS 1: roslaunch rosbridge_server rosbridge_websocket.launch)") from None
+        self._audio: queue.Queue[bytes | None] = queue.Queue(maxsize=500)  # 10 s of 20 ms chunks
+        self._lock = threading.Lock()
+        self.published: list[dict[str, Any]] = []
+        t = self.topics
+        self._decision = roslibpy.Topic(self.ros, t.decision, t.decision_type)
+        self._decision.advertise()
+        self._subs = []
+        for name, typ, cb in ((t.actions, t.actions_type, self._on_actions), (t.text, t.text_type, self._on_text),
+                              (t.audio, t.audio_type, self._on_audio)):
+            if name:
+                topic = roslibpy.Topic(self.ros, name, typ, queue_length=0)
+                topic.subscribe(cb)
+                self._subs.append(topic)
+
+    # ----- callbacks (roslibpy's thread) ----------------------------------------------------
+    def _on_actions(self, msg: dict[str, Any]) -> None:
+        lines = [ln.strip() for ln in str(msg.get("data", "")).splitlines() if ln.strip() and not ln.startswith("#")]
+        try:
+            added = self.home.observe(lines)
+            self._out({"event": "actions", "added": added, "n_actions": len(self.home.actions)})
+        except SiftomError as exc:
+            self._out({"event": "error", "actions": lines, "detail": str(exc)})
+
+    def _on_text(self, msg: dict[str, Any]) -> None:
+        text = str(msg.get("data", "")).strip()
+        if text:
+            threading.Thread(target=self._answer_text, args=(text,), daemon=True).start()
+
+    def _answer_text(self, text: str) -> None:
+        try:
+            self.publish(self.home.answer_text(text))
+        except SiftomError as exc:  # e.g. the acoustic likelihood, which needs the audio
+            self._out({"event": "error", "heard": text, "detail": str(exc)})
+
+    def _on_audio(self, msg: dict[str, Any]) -> None:
+        try:
+            chunk = audio_bytes(msg)
+        except AudioError as exc:
+            self._out({"event": "error", "detail": str(exc)})
+            return
+        try:
+            self._audio.put_nowait(chunk)
+        except queue.Full:  # the listener fell behind: drop the oldest audio rather than block ROS
+            self._out({"event": "error", "detail": "audio queue full: dropped a chunk"})
+
+    # ----- decisions ---------------------------------------------------------------------------
+    def publish(self, answer: dict[str, Any]) -> None:
+        """Publish an answer (decision or no_speech) on the decision topic and log it."""
+        body = compact(answer)
+        with self._lock:
+            self.published.append(body)
+        self._out(body)
+        if body.get("event") in ("decision", "no_speech"):
+            self._decision.publish(self._roslibpy.Message({"data": json.dumps(body)}))
+
+    def _chunks(self) -> Iterator[bytes]:
+        while (chunk := self._audio.get()) is not None:
+            yield chunk
+
+    def run(self) -> None:
+        """Listen until :meth:`stop` (or Ctrl-C)."""
+        try:
+            run_listener(self.home, self._chunks(), self.publish, realtime=True)
+        finally:
+            self._terminate()
+
+    def stop(self) -> None:
+        self._audio.put(None)
+
+    def _terminate(self) -> None:
+        with contextlib.suppress(Exception):  # closing a connection that is already gone
+            for topic in getattr(self, "_subs", []):
+                topic.unsubscribe()
+            if hasattr(self, "_decision"):
+                self._decision.unadvertise()
+            self.ros.close()
+        with contextlib.suppress(Exception):
+            self.ros.terminate()
+
+
+def audio_message(pcm: bytes) -> dict[str, Any]:
+    """An ``audio_common_msgs/AudioData`` message as rosbridge sends it (``data`` in base64)."""
+    return {"data": base64.b64encode(pcm).decode()}
+
+
+def pcm16(x: np.ndarray) -> bytes:
+    return (np.clip(x, -1.0, 1.0) * 32767).astype("<i2").tobytes()

@@ -1,0 +1,315 @@
+"""``WS /v1/sessions/{id}/listen``: a session's microphone, streamed (docs/streaming.md).
+
+The client sends 16 kHz mono 16-bit little-endian PCM as binary messages of any size; the
+server cuts utterances with the voice-activity detector (:class:`~siftom.inference.stream.StreamListener`)
+and sends JSON text events: ``ready``, ``speech_started``, ``speech_ended``, then ``decision``
+(the session's posterior with the actions observed so far, and ``act`` / ``ask`` / ``wait``) or
+``no_speech`` for each utterance; ``actions`` after an ``{"type": "actions"}`` command;
+``error`` when one utterance could not be answered; with ``?partial=1`` also ``heard`` (the words
+so far, once per second of speech). Recognition and inference run in worker
+threads, so audio keeps flowing while an utterance is answered, and actions posted to
+``/v1/sessions/{id}/actions`` meanwhile count for the next answer.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import re
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ConfigDict, Field
+
+from siftom.assist.clarify import ClarifyPolicy
+from siftom.errors import SiftomError, UnknownNameError
+from siftom.service.listener import decision_kind
+from siftom.service.problems import ProblemError
+from siftom.service.schemas import MAX_SCENARIO_ID
+from siftom.service.session_api import _problems
+from siftom.service.session_schemas import SESSION_ID, SessionView
+from siftom.service.sessions import SessionManager
+from siftom.service.stream_settings import (
+    CLOSE_ALREADY_STREAMING,
+    CLOSE_BAD_PARAMETER,
+    CLOSE_BUSY,
+    CLOSE_IDLE,
+    CLOSE_INTERNAL,
+    CLOSE_NORMAL,
+    CLOSE_TOO_BIG,
+    CLOSE_UNKNOWN_SESSION,
+    CLOSE_UNSUPPORTED,
+    StreamLimits,
+)
+from siftom.speech.asr import DEFAULT_NBEST
+from siftom.speech.audio import SAMPLE_RATE
+
+RunCpu = Callable[..., Awaitable[Any]]
+PARTIAL_EVERY_S = 1.0  # with ?partial=1, a "heard" event per second of speech
+
+
+class StreamClosed(Exception):
+    """Close the WebSocket with ``code`` and ``reason`` (at most 123 bytes)."""
+
+    def __init__(self, code: int, reason: str) -> None:
+        super().__init__(reason)
+        self.code, self.reason = code, reason.encode()[:123].decode(errors="ignore")
+
+
+def _params(query: Any) -> tuple[int, ClarifyPolicy, int, bool]:
+    """top, clarifying policy, N-best size and partial results from the query string (4422 when invalid)."""
+    def number(name: str, default: float, lo: float, hi: float, kind: type = float) -> Any:
+        raw = query.get(name)
+        if raw is None:
+            return kind(default)
+        try:
+            value = kind(raw)
+        except ValueError:
+            raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name}={raw!r} is not a number") from None
+        if not lo <= value <= hi:
+            raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name} must be in [{lo:g}, {hi:g}], got {raw}")
+        return value
+
+    top = number("top", 5, 1, 20, int)
+    policy = ClarifyPolicy(number("threshold", ClarifyPolicy().threshold, 0, 1),
+                           number("cost", ClarifyPolicy().cost, 0, 1))
+    return top, policy, number("nbest", DEFAULT_NBEST, 1, 10, int), number("partial", 0, 0, 1, int) == 1
+
+
+class ScenarioSession(BaseModel):
+    """A session over a registered scenario's world, having seen its first ``n_actions`` actions."""
+
+    model_config = ConfigDict(extra="forbid")
+    scenario: str = Field(min_length=1, max_length=MAX_SCENARIO_ID, examples=["kitchen-cereal-v0"])
+    n_actions: int | None = Field(default=None, ge=0, le=10_000,
+                                  description="the scenario's recorded actions already seen (default: all)")
+
+
+def scenario_spec(sc: Any) -> dict[str, Any]:
+    """The world JSON of a registered scenario (its domain's doors included), for a session."""
+    from siftom.world.domains import household, kitchen
+    from siftom.world.io import scene_to_json
+
+    doors = {"household-table-v0": household.DOORS, "kitchen-v0": kitchen.DOORS}.get(sc.domain)
+    return {"world": scene_to_json(sc.world, sc.start, sc.goals, sc.verb, doors), "goals": None,
+            "goal_space": None, "target": None}
+
+
+def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) -> None:
+    """Add ``WS /v1/sessions/{id}/listen`` (limits: ``rt.settings.stream``) and
+    ``POST /v1/sessions/from-scenario`` (a session to stream into from the web page)."""
+    limits: StreamLimits = rt.settings.stream
+    open_streams: set[str] = set()
+    app.state.streams = open_streams
+    admitted = [0]  # streams past the max_streams check (counted before any await: no race)
+
+    @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
+              responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
+    async def session_from_scenario(req: ScenarioSession) -> JSONResponse:
+        """Start a session over a registered scenario's world with its first ``n_actions`` actions
+        already observed (the web page streams its microphone into it)."""
+        try:
+            sc = rt.scenario(req.scenario)
+        except UnknownNameError as exc:
+            raise ProblemError(422, "unknown-scenario", str(exc)) from None
+        n = len(sc.actions) if req.n_actions is None else req.n_actions
+        if n > len(sc.actions):
+            raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
+
+        def work() -> dict[str, Any]:
+            sess = mgr.create(scenario_spec(sc), {"mode": "full", "likelihood": "phonetic"})
+            mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
+            return mgr.view(mgr.get(sess.id))
+
+        view = await run_cpu(work)
+        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
+
+    @app.websocket("/v1/sessions/{session_id}/listen")
+    async def listen(ws: WebSocket, session_id: str) -> None:
+        await ws.accept()
+        if admitted[0] >= limits.max_streams:
+            with contextlib.suppress(Exception):
+                await ws.close(CLOSE_BUSY, f"{limits.max_streams} streams are open, the most this server "
+                               "allows (--max-streams); try again later")
+            return
+        admitted[0] += 1
+        try:
+            if not re.fullmatch(SESSION_ID, session_id):
+                raise StreamClosed(CLOSE_UNKNOWN_SESSION, "not a session id; create one with POST /v1/sessions")
+            if session_id in open_streams:
+                raise StreamClosed(CLOSE_ALREADY_STREAMING, "this session is already streaming; close the "
+                                   "other stream first")
+            open_streams.add(session_id)  # before any await: a second stream on it is refused
+            try:
+                top, policy, nbest, partial = _params(ws.query_params)
+                try:
+                    sess = await run_cpu(mgr.get, session_id)
+                except ProblemError as exc:
+                    raise StreamClosed(CLOSE_UNKNOWN_SESSION,
+                                       exc.detail if exc.status == 404 else str(exc)) from None
+                await _stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits, partial)
+            finally:
+                open_streams.discard(session_id)
+        except StreamClosed as exc:
+            with contextlib.suppress(Exception):
+                await ws.close(exc.code, exc.reason)
+        except WebSocketDisconnect:
+            pass
+        except ProblemError as exc:  # e.g. building the recogniser ran over the time limit (503)
+            code = CLOSE_BUSY if exc.status == 503 else CLOSE_INTERNAL
+            with contextlib.suppress(Exception):
+                await ws.close(code, StreamClosed(code, exc.detail).reason)
+        finally:
+            admitted[0] -= 1
+
+
+async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
+                  policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False) -> None:
+    from siftom.inference.stream import Recognised, StreamListener, recogniser
+    from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
+
+    sid = sess.id
+    eng = await run_cpu(rt._engine_for, sess.scene)  # pocketsphinx biased to this world's phrasings
+
+    def answer(rec: Recognised, utt: Utterance) -> dict[str, Any]:
+        asr = rec.transcript.to_json() if rec.transcript is not None else None
+        body = mgr.instruct(sid, rec.instruction, top, policy, asr=asr)
+        body.pop("session", None)
+        rule = body.pop("decision", None)
+        if rule is not None:
+            body["rule"] = rule
+        body["decision"] = decision_kind({**body, "decision": rule})
+        body["question"] = body["clarification"]["question"] if body["decision"] == "ask" else ""
+        return body
+
+    options = SegmentOptions(max_utterance_s=limits.max_utterance_s)
+    recognise = recogniser(eng.engine, nbest, eng.lock)
+    listener = StreamListener(recognise, answer, options)
+    partials: dict[str, Any] = {"next": PARTIAL_EVERY_S, "task": None}
+    send_lock = asyncio.Lock()
+    queue: asyncio.Queue[Utterance | None] = asyncio.Queue()
+    waiting = 0
+
+    async def send(obj: dict[str, Any]) -> None:
+        async with send_lock:
+            await ws.send_text(json.dumps(obj))
+
+    async def answers() -> None:
+        nonlocal waiting
+        while (utt := await queue.get()) is not None:
+            try:
+                await send(await run_cpu(listener.respond, utt))
+            except ProblemError as exc:
+                await send({"event": "error", "utterance": utt.index, "status": exc.status, "detail": exc.detail})
+            except SiftomError as exc:
+                await send({"event": "error", "utterance": utt.index, "status": 422, "detail": str(exc)})
+            except Exception as exc:  # a bug in one answer: say so, keep listening
+                await send({"event": "error", "utterance": utt.index, "status": 500,
+                            "detail": f"internal error: {type(exc).__name__}"})
+            finally:
+                waiting -= 1
+
+    async def heard_so_far(index: int, t: float, samples: Any) -> None:
+        try:
+            rec = await run_cpu(recognise, samples)
+            await send({"event": "heard", "utterance": index, "partial": True, "t": round(t, 3), "text": rec.text})
+        except Exception:  # a partial result is only a courtesy: the final answer reports errors
+            pass
+
+    def maybe_partial() -> None:
+        """With ?partial=1: every PARTIAL_EVERY_S of speech, recognise what was said so far."""
+        now = listener.segmenter.current()
+        if now is None:
+            partials["next"] = PARTIAL_EVERY_S
+            return
+        index, start, samples = now
+        t = listener.segmenter.time_s
+        task = partials["task"]
+        if t - start >= partials["next"] and (task is None or task.done()):
+            partials["next"] = t - start + PARTIAL_EVERY_S
+            partials["task"] = asyncio.create_task(heard_so_far(index, t, samples))
+
+    async def handle(events: list[Any]) -> None:
+        nonlocal waiting
+        if partial:
+            maybe_partial()
+        for ev in events:
+            await send(ev.to_json())
+            if isinstance(ev, SpeechEnded):
+                if waiting >= limits.max_pending:
+                    raise StreamClosed(CLOSE_BUSY, f"{waiting} utterances are waiting for their answer "
+                                       f"(max_pending {limits.max_pending}); send audio in real time")
+                waiting += 1
+                queue.put_nowait(ev.utterance)
+
+    worker = asyncio.create_task(answers())
+    await send({"event": "ready", "session": sid, "sample_rate": SAMPLE_RATE, "format": "s16le",
+                "n_actions": len(sess.actions), "limits": {"max_utterance_s": limits.max_utterance_s,
+                                                          "max_idle_s": limits.max_idle_s,
+                                                          "max_chunk_bytes": limits.max_chunk_bytes}})
+    try:
+        while True:
+            try:
+                msg = await asyncio.wait_for(ws.receive(), timeout=limits.max_idle_s)
+            except TimeoutError:
+                raise StreamClosed(CLOSE_IDLE, f"nothing received for {limits.max_idle_s:g} s (max_idle_s); "
+                                   "send audio continuously, silence included") from None
+            if msg["type"] == "websocket.disconnect":
+                return
+            data, text = msg.get("bytes"), msg.get("text")
+            if data is not None:
+                if len(data) > limits.max_chunk_bytes:
+                    raise StreamClosed(CLOSE_TOO_BIG, f"a message of {len(data)} bytes; send at most "
+                                       f"{limits.max_chunk_bytes} bytes per message")
+                if len(data) % 2:
+                    raise StreamClosed(CLOSE_UNSUPPORTED, "16-bit PCM needs an even number of bytes per message")
+                await handle(listener.feed(data))
+                continue
+            command = _command(text)
+            if command["type"] == "end":
+                await handle(listener.finish())
+                queue.put_nowait(None)
+                await worker
+                if partials["task"] is not None:
+                    await partials["task"]
+                raise StreamClosed(CLOSE_NORMAL, "end of stream")
+            try:
+                added, n = await run_cpu(_append, mgr, sid, command["actions"])
+                await send({"event": "actions", "added": added, "n_actions": n})
+            except (SiftomError, ProblemError) as exc:
+                await send({"event": "error", "status": getattr(exc, "status", 422),
+                            "detail": getattr(exc, "detail", str(exc))})
+    except StreamClosed:
+        raise
+    except WebSocketDisconnect:
+        return
+    except Exception as exc:  # a bug: say so and close rather than hang the client
+        raise StreamClosed(CLOSE_INTERNAL, f"internal error: {type(exc).__name__}") from exc
+    finally:
+        worker.cancel()
+        if partials["task"] is not None:
+            partials["task"].cancel()
+        listener.close()
+
+
+def _append(mgr: SessionManager, sid: str, lines: list[str]) -> tuple[list[str], int]:
+    added = mgr.append(sid, lines)
+    return added, len(mgr.get(sid).actions)
+
+
+def _command(text: str | None) -> dict[str, Any]:
+    """A text message: ``{"type": "end"}`` or ``{"type": "actions", "actions": [lines]}``."""
+    try:
+        obj = json.loads(text or "")
+    except ValueError:
+        obj = None
+    if isinstance(obj, dict) and obj.get("type") == "end":
+        return obj
+    if (isinstance(obj, dict) and obj.get("type") == "actions" and isinstance(obj.get("actions"), list)
+            and all(isinstance(a, str) for a in obj["actions"]) and len(obj["actions"]) <= 100):
+        return obj
+    raise StreamClosed(CLOSE_UNSUPPORTED, 'text messages are {"type": "end"} or {"type": "actions", "actions": '
+                       "[lines]}; send audio as binary messages")

@@ -22,7 +22,11 @@ def main() -> None:
     ap.add_argument("results", nargs="+")
     ap.add_argument("--models", default="siftom,siftom-phonetic,siftom-oracle-text")
     ap.add_argument("--threshold", type=float, default=0.8)
+    ap.add_argument("--compact", action="store_true", help="one row per set: means, gap to the oracle, confident-wrong")
     a = ap.parse_args()
+    if a.compact:
+        compact(a.results, a.threshold)
+        return
     models = a.models.split(",")
     bands = ["clean", "20", "10", "5"]
     print("| set | model | clean | 20 dB | 10 dB | 5 dB | mean | confident-wrong |")
@@ -42,6 +46,26 @@ def main() -> None:
                            for r in rs) / len(rs)
             print(f"| {Path(res).name} | {m} | " + " | ".join(f"{acc[b]:.1f}" for b in bands)
                   + f" | {mean:.1f} | {cw:.1f} % |")
+
+
+def compact(results: list[str], threshold: float) -> None:
+    bands = ["clean", "20", "10", "5"]
+    print("| set | `siftom` (default) | `siftom-phonetic` | oracle text | gap | confident-wrong (default / phonetic) |")
+    print("|---|---|---|---|---|---|")
+    for res in results:
+        rows = [json.loads(x) for x in (Path(res) / "results.jsonl").read_text().splitlines() if x.strip()]
+
+        def mean(m: str) -> float:
+            return sum(100 * sum(r["models"][m]["correct"] for r in rows if band(r) == b)
+                       / max(1, sum(band(r) == b for r in rows)) for b in bands) / len(bands)
+
+        def cw(m: str) -> float:
+            return 100 * sum((not r["models"][m]["correct"]) and r["models"][m]["prob"] >= threshold
+                             for r in rows) / len(rows)
+
+        d, p, o = mean("siftom"), mean("siftom-phonetic"), mean("siftom-oracle-text")
+        print(f"| {Path(res).name} ({len(rows)}) | {d:.1f} | {p:.1f} | {o:.1f} | {o - d:.1f} | "
+              f"{cw('siftom'):.1f} / {cw('siftom-phonetic'):.1f} % |")
 
 
 if __name__ == "__main__":

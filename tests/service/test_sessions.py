@@ -21,7 +21,8 @@ VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 
 
 def _client(folder: Path, **limits) -> TestClient:
-    settings = ServiceSettings(sessions=SessionLimits(**limits)) if limits else None
+    # a cold first recording (recogniser, Whisper, caches) takes longer than 20 s on a loaded machine
+    settings = ServiceSettings(sessions=SessionLimits(**limits) if limits else SessionLimits(), request_timeout_s=120.0)
     return TestClient(create_app(folder, settings), raise_server_exceptions=False)
 
 
@@ -212,6 +213,7 @@ def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
     wav = c.post("/v1/say", json={"text": "can you get me the tomato"})
     if wav.status_code != 200:
         pytest.skip(f"no TTS voice: {wav.text[:200]}")
+    c.app.state.runtime._warm.join()  # the default audio model loads at start (slow on a loaded machine)
     r = c.post(f"/v1/sessions/{sid}/instruction", data={"asr_nbest": "3"},
                files={"audio": ("say.wav", wav.content, "audio/wav")})
     assert r.status_code == 200, r.text

@@ -209,8 +209,10 @@ class Runtime:
             with self._model_lock("full", "acoustic"):
                 lk = get_model("full", "acoustic").likelihood
                 whisper = getattr(lk, "_whisper", None)
-                if whisper is not None:
-                    whisper.scorer  # noqa: B018 - loads the model
+                if whisper is not None:  # load the model and run it once (its first pass is the slowest)
+                    import numpy as np
+
+                    whisper.scorer.score(np.zeros(16_000, dtype=np.float32), ["bring me the cup"])
         except SiftomError:  # reported by the first request that needs it
             pass
 

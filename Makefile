@@ -4,9 +4,9 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
-EXTRAS ?= fast,whisper,serve,stream,ros,dev
+EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs
 
-.PHONY: demo test test-slow test-browser lint setup sysdeps sysdeps-browser clean
+.PHONY: demo test test-slow test-browser lint setup sysdeps sysdeps-browser clean docs results
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -55,8 +55,17 @@ test-slow: setup $(VENV)/.installed-ray
 test-browser: setup sysdeps-browser
 	$(BIN)/python -m pytest -q -m browser
 
+# the documentation site (MkDocs Material) into site/; `make test` builds it with --strict too
+docs: setup
+	$(BIN)/mkdocs build --strict
+
+# every number the docs quote: build and evaluate the sets of results/plan.toml (hours on 2 cores;
+# resumable), then regenerate docs/results/*.md and the README's table from results/*.json
+results: setup
+	$(BIN)/siftom bench reproduce --plan results/plan.toml --out results/ --workers 2
+
 lint: setup
 	$(BIN)/ruff check src tests
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build site *.egg-info

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 _API = ("listen", "infer_scenario", "infer_actions", "make_instruction", "transcribe_for", "get_model")
 __all__ = ["__version__", *_API]

@@ -6,6 +6,7 @@ the human's actions in ``Predicate(agent, object, location)`` form, and what was
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from functools import lru_cache
@@ -230,5 +231,10 @@ def listen(
         post = online.posterior(instruction, top=top)
         if instruction is not None:
             post = with_likelihood(post, use_lik, why)
+        said = not post.evidence.get("no_instruction")
+        if not said:  # words, but none near a command: the actions alone, and no command issued
+            use_mode, use_lik = "action-only", "phonetic"
+            alone = ONLINE.get((sc.key, use_mode, use_lik), make).posterior(None, top=top)
+            post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
     timings = {"load": t_load, **timings, "infer": time.perf_counter() - t1}
-    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings)
+    return Heard(post, instruction is not None, tr, vad, time.perf_counter() - t0, timings, instruction=said)

@@ -51,7 +51,7 @@ def test_with_the_truth_known_expected_benefit_picks_the_fastest_team():
     post, pm = _point_mass(sc)
     from dataclasses import replace
 
-    certain = replace(post, joint=pm)
+    certain = replace(post, joint=pm, evidence={})  # the point mass stands for a heard instruction
     where = Situation.from_scenario(sc)
     best = max(simulate_scenario(sc, c).speedup for c in team_values(pm, sc.world, sc.target).actions[:-1])
     for unit in ("steps", "speedup"):

@@ -259,3 +259,25 @@ def test_siftom_llm_and_chat_baselines_run_against_an_endpoint(tiny: Path, tmp_p
     run = json.loads((tmp_path / "r" / "run.json").read_text())
     assert run["options"]["llm"] == {"backend": "openai", "base_url": fake_openai.url, "model": "m",
                                      "prompt": "sounds"}
+
+
+def test_a_trial_whose_answer_cannot_be_said_is_not_evaluable_and_the_eval_goes_on(
+        tiny: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a dataset whose noise is not available here (e.g. built from recordings elsewhere)
+    ds = tmp_path / "ds"
+    shutil.copytree(tiny, ds)
+    manifest = ds / "manifest.jsonl"
+    manifest.write_text(manifest.read_text().replace('"noise": "pink"', '"noise": "cat_meowing"'))
+    monkeypatch.setenv("SIFTOM_QUESTION_PENALTY", "0")  # ask whenever a question is worth 2 steps
+    run = evaluate(ds, tmp_path / "r", EvalOptions(models=("siftom", "siftom-ask")))
+    rows = load_results(tmp_path / "r")
+    assert len(rows) == len(load_dataset(ds).stimuli) == run.evaluated
+    skipped = [r for r in rows if "siftom-ask" in r.get("not_evaluable", {})]
+    assert skipped, "the asking model asks on a tiny household set"
+    assert all("siftom" in r["models"] for r in rows)  # the other models were evaluated on every trial
+    assert "cat_meowing" in skipped[0]["not_evaluable"]["siftom-ask"]
+    summary = write_report(tmp_path / "r", figures=False)
+    assert summary["not_evaluable"]["siftom-ask"]["n"] == len(skipped)
+    if "siftom-ask" in summary["models"]:
+        assert summary["models"]["siftom-ask"]["n"] == len(rows) - len(skipped)
+    assert "Not evaluable for siftom-ask" in (tmp_path / "r" / "report.md").read_text()

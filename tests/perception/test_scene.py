@@ -99,7 +99,7 @@ def test_scenario_frames_are_distinct_pictures_and_steps_are_checked(frames, tmp
 VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome"
 
 
-@pytest.mark.skipif(not (VIRTUALHOME / "apartment_graph_2.json").exists(), reason="needs ../shared/data/virtualhome")
+@pytest.mark.skipif(not (VIRTUALHOME / "apartment_graph_2.json").exists(), reason="needs data/virtualhome/apartment_graph_2.json")
 def test_a_real_apartment_is_a_known_world():
     from siftom.perception.pipeline import known_world
 

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 
 import pytest
 
+if os.environ.get("CI", "").strip().lower() in ("true", "1", "yes"):
+    # CI must not skip the service tests for a missing install step: fail to import instead.
+    import fastapi  # noqa: F401
+    import httpx  # noqa: F401
 pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
 pytest.importorskip("httpx", reason="needs httpx (the dev extra)")
 

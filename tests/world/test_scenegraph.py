@@ -32,7 +32,7 @@ VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome"
 
 needs_virtualhome = pytest.mark.skipif(
     not (VIRTUALHOME / "apartment_graph.json").exists(),
-    reason=f"real VirtualHome graphs not found at {VIRTUALHOME} (../shared is absent)",
+    reason=f"real VirtualHome graphs not found at {VIRTUALHOME}",
 )
 
 

@@ -347,8 +347,13 @@ def get_rule(name: str, **options: Any) -> DecisionRule:
 
 
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
-    """Apply the named decision rule."""
-    return get_rule(rule, **options)(post, where)
+    """Apply the named decision rule; words that hold no instruction (``evidence['no_instruction']``,
+    likelihood/nearness.py) are not acted on: the robot does nothing."""
+    chosen = get_rule(rule, **options)
+    if post.evidence.get("no_instruction"):
+        return Decision(rule, NONE, NONE, 0.0, 0.0,
+                        reason=f"no instruction heard ({post.evidence.get('no_instruction_reason', '')})")
+    return chosen(post, where)
 
 
 def answer_log_likelihood(log_lik: Sequence[float] | np.ndarray, reliability: float = 1.0) -> np.ndarray:

@@ -155,7 +155,7 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
     # the other cell must not sound like a number: "none" is heard as "one" and "no plates" as
     # "four plates" (4 of 10 heard right on household seed 0); "nothing" / "I don't need any" were
     # heard right 82 / 92 / 100 / 100 % at 5 / 10 / 20 dB / clean against 69 / 82 / 90 / 85 % for
-    # the "no" phrases (100 seed-1 household stimuli, benchmarks/count_none_phrases.py)
+    # the "no" phrases (100 seed-1 household stimuli; docs/decisions.md)
     cells = (*cells, NOTHING)
     keys = tuple((number_word(n),) for n in counts) + (_NOTHING_KEYS,)
     return Question("count", f"How many {plural}?", opts, cells, keys)

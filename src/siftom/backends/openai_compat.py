@@ -3,7 +3,7 @@
 * :meth:`OpenAIClient.score` (the :class:`~siftom.backends.scoring.TextScorer` contract): prompt
   log-probs from ``/completions`` with ``echo=True, logprobs=1, max_tokens=0`` (vLLM, the
   llama.cpp server; many hosted APIs do not offer it). The llama.cpp server's prompt log-probs
-  are shifted by one token for models without a BOS token (upstream issue #1983); prefer the
+  are shifted by one token for models without a BOS token (a known llama.cpp server bug); prefer the
   in-process backend for those.
 * :meth:`OpenAIClient.chat`: ``/chat/completions`` with optional ``logprobs``/``top_logprobs``,
   ``n`` samples, JSON-schema structured output (``response_format``) and image content parts,
@@ -229,7 +229,7 @@ class OpenAIClient:
         text = self.message_text(data)
         try:
             return json.loads(text)
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):
             raise EndpointCapabilityError(
                 f"{self.model} at {self.base_url} answered text that is not JSON ({text[:120]!r}) "
                 "although a JSON schema was requested; the endpoint may ignore response_format: "
@@ -326,7 +326,7 @@ class OpenAIClient:
                 continue
             try:
                 data = json.loads(raw.decode("utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError):
+            except (UnicodeDecodeError, ValueError, RecursionError):  # ValueError: bad JSON, a 5000-digit int
                 problem = f"malformed answer (not JSON): {raw[:120]!r}"
                 continue
             if not isinstance(data, dict):

@@ -34,6 +34,7 @@ from siftom.assist.questions import (
     confirm_question,
     count_question,
 )
+from siftom.errors import DatasetError, SiftomError
 
 FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
 # How often a spoken answer is heard as the cell it names, per question kind and SNR (dB;
@@ -91,6 +92,10 @@ def _noise_dir(dataset_root: str) -> str | None:
     nd = json.loads(spec.read_text(encoding="utf-8")).get("options", {}).get("noise_dir")
     if not nd:
         return None
+    from siftom.bench.stimuli import RECORDED, noise_folder
+
+    if nd == RECORDED:
+        return str(noise_folder(nd))
     for base in (Path.cwd(), Path(dataset_root)):
         p = Path(nd) if Path(nd).is_absolute() else base / nd
         if p.is_dir():
@@ -115,11 +120,25 @@ def answer_audio(stimulus: Any, text: str, dataset_root: str, salt: int = 0) -> 
 Listen = Callable[[np.ndarray, tuple[str, ...]], Any]  # (audio, grammar) -> Transcript
 
 
+class AnswerUnavailableError(DatasetError):
+    """The human's answer cannot be synthesised: its voice or its noise is not available here."""
+
+
 def ask_and_hear(question: Question, cell: int, stimulus: Any, dataset_root: str, listen: Listen,
                  salt: int = 0) -> dict[str, Any]:
-    """Say the answer of ``cell`` to ``question`` and hear it with the question's grammar."""
+    """Say the answer of ``cell`` to ``question`` and hear it with the question's grammar.
+
+    Raises:
+        AnswerUnavailableError: the stimulus's voice or noise is not available (e.g. a dataset
+            of recordings, or a noise folder that is not here); the trial cannot be evaluated.
+    """
     text = answer_phrase(question, cell, stimulus.id)
-    tr = listen(answer_audio(stimulus, text, dataset_root, salt), question.grammar())
+    try:
+        audio = answer_audio(stimulus, text, dataset_root, salt)
+    except (SiftomError, OSError) as exc:
+        raise AnswerUnavailableError(f"cannot say the answer in voice {stimulus.voice!r} with noise "
+                                     f"{stimulus.noise!r}: {exc}") from None
+    tr = listen(audio, question.grammar())
     texts = [h.text for h in tr.nbest] or [tr.text]
     # the 1-best names the cell; when it names none ("of of those"), the first N-best that does
     heard, hc = texts[0], None

@@ -45,6 +45,7 @@ from siftom.bench.stimuli import (
     Dataset,
     Speaker,
     Stimulus,
+    noise_folder,
     resolve_scenario,
     select_scenarios,
 )
@@ -66,7 +67,7 @@ def make_speakers(opts: BuildOptions) -> list[Speaker]:
 
 def noise_categories(folder: str | Path) -> list[str]:
     """Categories of a noise folder: file names ``CATEGORY_NN.wav`` without the number."""
-    root = Path(folder)
+    root = noise_folder(folder)
     sub = root / "noise_train"
     base = sub if sub.is_dir() else root
     cats = {re.sub(r"[_-]?\d+$", "", p.stem) for p in base.iterdir() if p.suffix.lower() == ".wav"}
@@ -83,7 +84,7 @@ def resolve_noises(opts: BuildOptions) -> list[tuple[str, Any]]:
         out = []
         for n in names:
             if n in cats:
-                out.append((n, FolderNoise(opts.noise_dir, categories=(n,))))
+                out.append((n, FolderNoise(noise_folder(opts.noise_dir), categories=(n,))))
             else:
                 try:
                     out.append((Path(n).stem if n.endswith(".wav") else n, get_noise(n)))
@@ -231,14 +232,31 @@ def build_dataset(
     from siftom.bench.backends import make_backend
     from siftom.bench.runlock import RunLock, stop_on_signals
 
-    with RunLock(out), stop_on_signals():
-        owned = backend is None or isinstance(backend, str)
-        be = make_backend(backend or "local", workers) if owned else backend
-        try:
-            return _build(opts, Path(out), be, progress)
-        finally:
-            if owned:
-                be.shutdown()
+    fresh = not Path(out).exists()
+    try:
+        with RunLock(out), stop_on_signals():
+            owned = backend is None or isinstance(backend, str)
+            be = make_backend(backend or "local", workers) if owned else backend
+            try:
+                return _build(opts, Path(out), be, progress)
+            finally:
+                if owned:
+                    be.shutdown()
+    except Exception:
+        if fresh:
+            _remove_if_empty(Path(out))
+        raise
+
+
+def _remove_if_empty(root: Path) -> None:
+    """Remove a folder this build created when it failed before writing any audio (nothing to resume)."""
+    audio = root / AUDIO_DIR
+    if audio.is_dir() and not any(audio.iterdir()):
+        audio.rmdir()
+    left = {p.name for p in root.iterdir()} if root.is_dir() else {"?"}
+    if left <= {SPEC}:
+        (root / SPEC).unlink(missing_ok=True)
+        root.rmdir()
 
 
 def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int], None] | None) -> Dataset:

@@ -2,7 +2,7 @@
 
 For each scenario the posterior is computed from scratch (phonetic caches and per-state
 cost-to-go tables cleared, as in ``siftom bench inference``), then each rule decides from
-scratch (its per-state tables cleared too). The issue's floor: expected-benefit within 2x the
+scratch (its per-state tables cleared too). The target: expected-benefit within 2x the
 inference time. Numbers are wall-clock medians on one process.
 """
 

@@ -135,6 +135,8 @@ def penalty_curve(rows: list[dict[str, Any]], penalties: Any) -> list[dict[str, 
     for x in penalties:
         res = []
         for r in rows:
+            if "siftom-ask" not in r["models"] or "siftom-eb" not in r["models"]:
+                continue  # not evaluable for one of them (its answer could not be synthesised)
             a, e = r["models"]["siftom-ask"], r["models"]["siftom-eb"]
             if a.get("penalty", 0.0) != 0.0:
                 raise ValueError("tune on a run made with SIFTOM_QUESTION_PENALTY=0")

@@ -46,7 +46,7 @@ from siftom.bench.results_io import (
     split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
-from siftom.bench.stimuli import Dataset, Stimulus, load_dataset
+from siftom.bench.stimuli import Dataset, Stimulus, check_seed, load_dataset
 from siftom.bench.trials import (
     ACOUSTIC_MODELS,
     DEFAULT_ENGINE,
@@ -94,6 +94,7 @@ class EvalOptions:
     llm: Any = None  # siftom.backends.config.LLMConfig
 
     def __post_init__(self) -> None:
+        check_seed(self.seed)
         if not self.models:
             raise DatasetError(f"give at least one model; available: {', '.join(MODELS)}")
         for m in self.models:

@@ -56,6 +56,13 @@ def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOO
     for m in models:
         trials = [r["models"][m] for r in rows if m in r["models"]]
         out["models"][m] = summarise_model(trials, seed=seed, n_boot=n_boot).to_json()
+    skipped: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        for m, why in r.get("not_evaluable", {}).items():
+            s = skipped.setdefault(m, {"n": 0, "reasons": {}})
+            s["n"] += 1
+            s["reasons"][why] = s["reasons"].get(why, 0) + 1
+    out["not_evaluable"] = skipped  # model -> trials it could not be evaluated on, and why
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
     out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
@@ -229,6 +236,9 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
         f"The gold command itself gives a mean speedup of {summary.get('gold_command_speedup')}.",
         "",
     ]
+    for m, s in (summary.get("not_evaluable") or {}).items():
+        why = "; ".join(f"{k} ({v})" for k, v in list(s["reasons"].items())[:3])
+        parts += [f"Not evaluable for {m}: {s['n']} trials, left out of its row above: {why}", ""]
     names = [p.name for p in figures]
     if FIG_MAIN in names:
         parts += [f"![accuracy and speedup]({FIG_MAIN})", ""]

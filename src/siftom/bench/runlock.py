@@ -84,13 +84,16 @@ class RunLock:
     """Exclusive ownership of a results folder, re-entrant within one thread.
 
     Use as a context manager; ``took_over`` holds the record of a stale lock that was taken over.
+    ``fix`` ends the refusal's message: what the user can do instead.
 
     Raises:
         RunLockedError: another live process owns the folder.
     """
 
-    def __init__(self, folder: str | Path) -> None:
+    def __init__(self, folder: str | Path, fix: str = "wait for it to finish (or stop it), or give another --out folder"
+                 ) -> None:
         self.folder = Path(folder)
+        self.fix = fix
         self.path = self.folder / LOCK
         self.took_over: dict[str, Any] | None = None
         self._key: tuple[str, int] = ("", 0)
@@ -120,8 +123,7 @@ class RunLock:
             try:
                 if not self._flock(fd):
                     raise RunLockedError(
-                        f"{self.folder} is being written by {_describe(read_owner(self.folder))}; "
-                        "wait for it to finish (or stop it), or give another --out folder"
+                        f"{self.folder} is being written by {_describe(read_owner(self.folder))}; {self.fix}"
                     )
                 try:
                     same = os.fstat(fd).st_ino == os.stat(self.path).st_ino

@@ -41,6 +41,24 @@ class Speaker:
     pitch: float = 1.0
 
 
+RECORDED = "recorded"
+
+
+def noise_folder(noise_dir: str | Path) -> Path:
+    """The folder a ``--noise-dir`` value names: ``recorded`` is the recordings shipped with siftom."""
+    if str(noise_dir) == RECORDED:
+        from siftom.speech.noise import RECORDED_NOISE_DIR
+
+        return Path(RECORDED_NOISE_DIR)
+    return Path(noise_dir)
+
+
+def check_seed(seed: object, name: str = "--seed") -> None:
+    """Seeds are integers >= 0 (numpy's generators take nothing else)."""
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise DatasetError(f"{name} must be an integer >= 0, got {seed!r}")
+
+
 @dataclass(frozen=True)
 class BuildOptions:
     """What to build. Validated at construction.
@@ -50,8 +68,9 @@ class BuildOptions:
         scenarios: how many scenarios (registered ones first, then generated).
         speakers: how many speakers; voices are used in order and repeat when fewer.
         voices: TTS voice names (``siftom voices``).
-        noise_dir: a folder of noise WAVs named ``CATEGORY_NN.wav`` (or MS-SNSD style); None
-            uses synthetic noise.
+        noise_dir: a folder of noise WAVs named ``CATEGORY_NN.wav`` (or MS-SNSD style);
+            ``"recorded"`` is the real recordings shipped with siftom
+            (``siftom.speech.noise.RECORDED_NOISE_DIR``); None uses synthetic noise.
         noises: noise types: categories of ``noise_dir`` (default: all of them) or synthetic
             kinds (default: babble, pink, hum), or WAV paths.
         snrs: one noisy condition per SNR in dB; () keeps only clean clips.
@@ -76,6 +95,10 @@ class BuildOptions:
     room: float | None = None
 
     def __post_init__(self) -> None:
+        check_seed(self.seed)
+        from siftom.scenarios.base import get_domain
+
+        get_domain(self.domain)  # unknown domain: UnknownNameError with suggestions, before any work
         if self.scenarios < 1:
             raise DatasetError(f"--scenarios must be >= 1, got {self.scenarios}")
         if self.speakers < 1:
@@ -86,7 +109,7 @@ class BuildOptions:
             raise DatasetError(f"--snr values must be finite numbers of dB, got {self.snrs}")
         if len(set(self.snrs)) != len(self.snrs):
             raise DatasetError(f"--snr lists a value twice: {self.snrs}")
-        if self.noise_dir is not None and not Path(self.noise_dir).is_dir():
+        if self.noise_dir is not None and not noise_folder(self.noise_dir).is_dir():
             raise DatasetError(f"--noise-dir {self.noise_dir!r} is not a folder; give a folder of noise WAVs")
         if self.phrasings is not None:
             from siftom.likelihood.carriers import load_carriers

@@ -33,6 +33,7 @@ import io
 import itertools
 import json
 import tomllib
+import typing
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,7 @@ from siftom.bench.report import write_report
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.bench.stimuli import SPEC, BuildOptions, load_dataset
 from siftom.errors import DatasetError, SiftomError
+from siftom.safejson import read_text
 
 BUILD_FIELDS = tuple(f.name for f in dataclasses.fields(BuildOptions))
 EVAL_FIELDS = tuple(f.name for f in dataclasses.fields(EvalOptions))
@@ -78,6 +80,32 @@ def _coerce(name: str, value: Any) -> Any:
     return value
 
 
+_HINTS = {**typing.get_type_hints(BuildOptions), **typing.get_type_hints(EvalOptions)}
+_KINDS: dict[Any, tuple[str, Callable[[Any], bool]]] = {
+    int: ("an integer", lambda v: isinstance(v, int) and not isinstance(v, bool)),
+    float: ("a number", lambda v: isinstance(v, int | float) and not isinstance(v, bool)),
+    str: ("a string", lambda v: isinstance(v, str)),
+    bool: ("true or false", lambda v: isinstance(v, bool)),
+}
+
+
+def _check_type(where: str, name: str, value: Any) -> None:
+    """DatasetError naming ``where`` (the TOML key) when ``value`` does not fit option ``name``'s type."""
+    hint = _HINTS.get(name, Any)
+    args = [a for a in typing.get_args(hint) if a is not type(None)]
+    if typing.get_origin(hint) is tuple:  # tuple[X, ...]: a list of X (or one X)
+        desc, ok = _KINDS.get(args[0], ("anything", lambda v: True))
+        items = value if isinstance(value, list | tuple) else [value]
+        bad = next((v for v in items if not ok(v)), None)
+        if bad is not None or not items:
+            raise DatasetError(f"{where}: {name} must be a list of {desc.removeprefix('an ').removeprefix('a ')}s, "
+                               f"got {value!r}")
+        return
+    kind = hint if hint in _KINDS else (args[0] if len(args) == 1 and args[0] in _KINDS else None)
+    if kind is not None and not _KINDS[kind][1](value):
+        raise DatasetError(f"{where}: {name} must be {_KINDS[kind][0]}, got {value!r}")
+
+
 def _hash(obj: Any) -> str:
     return hashlib.sha1(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:10]
 
@@ -88,24 +116,32 @@ def load_config(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise DatasetError(f"sweep config {str(p)!r} does not exist; see docs/scaling.md for an example")
     try:
-        cfg = tomllib.loads(p.read_text(encoding="utf-8"))
+        cfg = tomllib.loads(read_text(p, "sweep config", DatasetError))
     except tomllib.TOMLDecodeError as exc:
         raise DatasetError(f"{p}: not valid TOML ({exc})") from None
     unknown = set(cfg) - {"dataset", "eval", "axes"}
     if unknown:
         raise DatasetError(f"{p}: unknown section(s) {', '.join(sorted(unknown))}; use [dataset], [eval] and [axes]")
     axes = cfg.get("axes", {})
+    if not isinstance(axes, dict):
+        raise DatasetError(f"{p}: [axes] must be a table, e.g. seeds = [0, 1]")
     if not axes:
         raise DatasetError(f"{p}: give at least one axis under [axes], e.g. seeds = [0, 1]")
     for k, v in axes.items():
         if not isinstance(v, list) or not v:
             raise DatasetError(f"{p}: axis {k!r} must be a non-empty list, e.g. {k} = [0, 1]")
         _axis_field(k)
+        for v in axes[k]:
+            _check_type(f"{p}: [axes] {k}", _axis_field(k), v)
     for section, fields in (("dataset", BUILD_FIELDS), ("eval", EVAL_FIELDS)):
+        if not isinstance(cfg.get(section, {}), dict):
+            raise DatasetError(f"{p}: [{section}] must be a table of options")
         bad = set(cfg.get(section, {})) - set(fields)
         if bad:
             raise DatasetError(f"{p}: [{section}] has unknown option(s) {', '.join(sorted(bad))}; "
                                f"valid: {', '.join(fields)}")
+        for k, v in cfg.get(section, {}).items():
+            _check_type(f"{p}: [{section}] {k}", k, v)
     return cfg
 
 
@@ -123,7 +159,7 @@ def plan(cfg: dict[str, Any], out: str | Path) -> list[Cell]:
             values[key] = v
         try:
             bo, eo = BuildOptions(**b), EvalOptions(**e)
-        except TypeError as exc:
+        except (SiftomError, TypeError, ValueError) as exc:  # every cell is checked before the first one runs
             raise DatasetError(f"sweep cell {values}: {exc}") from None
         dkey = _hash(bo.to_json())
         ekey = _hash({"dataset": dkey, "eval": eo.to_json(), "seed": eo.seed})

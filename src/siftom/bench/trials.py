@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from siftom.bench.answers import AnswerUnavailableError
 from siftom.bench.decisions import DECISION_MODELS, decision_fields, run_decision_model
 from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
@@ -187,6 +188,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
         instr = _instruction(tr["nbest"]) if tr["nbest"] else _instruction([{"text": tr["text"], "score": 0.0}])
         before = set(_TEAM)
         models: dict[str, Any] = {}
+        not_evaluable: dict[str, str] = {}  # model -> why this trial could not be evaluated for it
         for m in opts.models:
             t0 = time.perf_counter()
             prob = float("nan")
@@ -213,10 +215,15 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
             elif m in DECISION_MODELS:  # decision rules and questions: bench/decisions.py
-                extra = run_decision_model(m, s, sc, instr, "phonetic" if opts.likelihood == "auto" else opts.likelihood,
-                                           task.root,
-                                           lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
-                                           .transcribe(x, nbest=opts.nbest))
+                try:
+                    extra = run_decision_model(m, s, sc, instr,
+                                               "phonetic" if opts.likelihood == "auto" else opts.likelihood,
+                                               task.root,
+                                               lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
+                                               .transcribe(x, nbest=opts.nbest))
+                except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on
+                    not_evaluable[m] = str(exc)
+                    continue
                 command, prob = extra.pop("command"), float(extra.pop("prob"))
             else:
                 mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")
@@ -262,6 +269,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
                            "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
             "models": models,
+            **({"not_evaluable": not_evaluable} if not_evaluable else {}),
         }
         new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]
         yield row, new_tr, new_team

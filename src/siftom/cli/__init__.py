@@ -11,6 +11,7 @@ import sys
 
 import click
 
+from siftom import __version__
 from siftom.errors import SiftomError
 
 # Modules that contribute subcommands, in the order shown by --help.
@@ -26,11 +27,12 @@ _AREAS = (
     "siftom.cli.perception",
     "siftom.cli.demo",
     "siftom.cli.plugins",
+    "siftom.cli.results",
 )
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="siftom")
+@click.version_option(version=__version__, prog_name="siftom", message="%(prog)s %(version)s")
 def root() -> None:
     """siftom: follow noisy spoken instructions by inferring what the person is doing."""
 

@@ -106,10 +106,11 @@ def dataset_group() -> None:
 @click.option("--speakers", type=int, default=5, show_default=True, help="speakers per scenario")
 @click.option("--voices", default=None, help="comma-separated voices (siftom voices); default: 2 flite + 3 espeak Klatt")
 @click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
-              help="folder of noise WAVs named CATEGORY_NN.wav; default: synthetic noise")
+              help="folder of noise WAVs named CATEGORY_NN.wav, or 'recorded' for the real "
+                   "household recordings shipped with siftom; default: synthetic noise")
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
-@click.option("--seed", type=int, default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for phrasings, speakers and noise")
 @click.option("--room", type=float, default=None,
               help="reverberation time RT60 in seconds: the speaker is heard across a reverberant room "
                    "(a seeded synthetic impulse response per clip) before the noise")
@@ -172,7 +173,7 @@ def check_cmd(folder: str) -> None:
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
-@click.option("--seed", type=int, default=0, show_default=True, help="bootstrap seed")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="bootstrap seed")
 @click.option("--overwrite", is_flag=True, help="start over when --out holds another run")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
 @click.option("--human", "human", type=click.Path(file_okay=False), default=None,
@@ -216,7 +217,7 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
 
 @click.command("report")
 @click.argument("results", type=click.Path(file_okay=False))
-@click.option("--seed", type=int, default=None, help="bootstrap seed (default: the run's)")
+@click.option("--seed", type=click.IntRange(min=0), default=None, help="bootstrap seed (default: the run's)")
 @click.option("--json", "as_json", is_flag=True, help="print summary.json")
 @click.option("--human", "human", type=click.Path(file_okay=False), default=None,
               help="an annotation folder (siftom annotate --out): score its answers as the model 'human'")

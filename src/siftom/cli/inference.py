@@ -13,6 +13,7 @@ from siftom.assist.decide import RULES
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
 from siftom.likelihood.registry import LIKELIHOODS
+from siftom.safejson import loads, read_text
 from siftom.speech.asr.base import ENGINES
 from siftom.speech.cli_options import whisper_model_option
 
@@ -26,11 +27,13 @@ def _bench_group(root: click.Group) -> click.Group:
 
 
 def _read_actions(path: Path) -> list[str]:
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, "actions file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError:
         return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("#")]
+    except (RecursionError, ValueError):  # JSON nested too deeply, or an integer too long to read
+        data = loads(text, f"actions file {str(path)!r}")
     if isinstance(data, dict):
         data = data.get("actions")
     if not isinstance(data, list) or not all(isinstance(a, str) for a in data):
@@ -53,9 +56,9 @@ def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noq
 
 def _read_nbest(path: Path) -> list[dict]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ObservationError(f"{path}: not JSON ({exc}); write the output of `siftom transcribe --json`") from None
+        data = loads(read_text(path, "N-best file"), f"N-best file {str(path)!r}")
+    except ObservationError as exc:
+        raise ObservationError(f"{exc}; write the output of `siftom transcribe --json`") from None
     if isinstance(data, dict):
         data = data.get("nbest")
     if not isinstance(data, list) or not data:
@@ -193,6 +196,10 @@ def _infer_audio(scenario_id, scene_file, actions_file, goal_space, target, audi
     if not heard.speech:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
+    elif not heard.instruction:
+        con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{heard.posterior.transcript}" holds no '
+                  f"command of this scene ({heard.posterior.evidence.get('no_instruction_reason', '')}); no command "
+                  "issued. The posterior below comes from the actions alone")
     print_posterior(heard.posterior, con)
     con.print(f"{heard.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
               "loading the recogniser and the scene; `siftom bench latency` times warm calls)")

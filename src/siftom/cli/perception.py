@@ -24,9 +24,11 @@ import click
 @click.option("--llm-base-url", default=None,
               help="OpenAI-compatible API root of the vision model, e.g. http://127.0.0.1:8080/v1 [env SIFTOM_LLM_BASE_URL].")
 @click.option("--no-cache", is_flag=True, help="Ask the model even when an answer is cached.")
+@click.option("--max-tokens", type=click.IntRange(256, 1_000_000), default=8192, show_default=True,
+              help="The longest answer asked for (a 50-object scene graph is ~6k tokens).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, target, no_goals, model, llm_base_url,
-                 no_cache, as_json) -> None:
+                 no_cache, max_tokens, as_json) -> None:
     """Turn camera FRAMES (in time order) into a world and the person's actions with a vision model."""
     from siftom.errors import PerceptionError
     from siftom.perception import Frame, VisionModel, perceive
@@ -34,14 +36,15 @@ def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, ta
     images = [Frame.from_path(f) for f in frames]
     world = None
     if world_file is not None:
-        try:
-            world = json.loads(Path(world_file).read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise PerceptionError(f"{world_file}: cannot read a world JSON ({exc})") from None
+        from siftom.safejson import loads, read_text
+
+        world = loads(read_text(world_file, "world file", PerceptionError), f"world file {world_file!r}",
+                      PerceptionError)
         if not isinstance(world, dict):
             raise PerceptionError(f"{world_file}: a world must be a JSON object")
     result = perceive(images, world=world, goal_space=goal_space, target=target, propose_goals=not no_goals,
-                      model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url))
+                      model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url,
+                                        max_tokens=max_tokens))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result.world, indent=1) + "\n", encoding="utf-8")
     actions_out.parent.mkdir(parents=True, exist_ok=True)

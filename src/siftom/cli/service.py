@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
 from siftom.speech.cli_options import whisper_model_option
+
+if TYPE_CHECKING:
+    from siftom.bench.runlock import RunLock
 
 
 def _need_serve_extra() -> None:
@@ -17,6 +21,23 @@ def _need_serve_extra() -> None:
             __import__(module)
         except ModuleNotFoundError:
             raise missing_extra("serve", package) from None
+
+
+def claim_data_dir(data_dir: str) -> RunLock:
+    """Hold ``DATA_DIR/.siftom.lock`` for the life of this process: one server per data folder.
+
+    Two servers on one folder would each cache sessions the other changes (answers from stale
+    state, appends refused forever). The kernel drops the lock when the process dies, however
+    it dies, so a restart after a crash is not refused.
+
+    Raises:
+        RunLockedError: another live process serves (or writes) the folder.
+    """
+    from siftom.bench.runlock import RunLock
+
+    lock = RunLock(data_dir, fix="stop that server first, or give this one another --data-dir")
+    lock.acquire()
+    return lock
 
 
 @click.command("serve")
@@ -54,6 +75,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
     _need_serve_extra()
     import uvicorn
 
+    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.service.sessions import SessionLimits
@@ -68,7 +90,11 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int, ses
     settings = ServiceSettings(sessions=limits, llm=llm, stream=stream,
                                max_body_bytes=max(ServiceSettings().max_body_bytes, max_world_bytes + 4096))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+    try:
+        uvicorn.run(create_app(data_dir, settings), host=host, port=port, log_level="info")
+    finally:
+        if lock is not None:
+            lock.release()
 
 
 @click.command("serve")

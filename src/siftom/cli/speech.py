@@ -17,7 +17,9 @@ def _vocab(spec: str | None) -> list[str] | None:
         return None
     p = Path(spec)
     if p.is_file():
-        items = [line.strip() for line in p.read_text(encoding="utf-8").splitlines()]
+        from siftom.safejson import read_text
+
+        items = [line.strip() for line in read_text(p, "--vocab file", SiftomError).splitlines()]
         items = [i for i in items if i and not i.startswith("#")]
     else:
         items = [s.strip() for s in spec.split(",") if s.strip()]
@@ -31,7 +33,7 @@ def _vocab(spec: str | None) -> list[str] | None:
 @click.option("--voice", "-v", default="flite-slt", show_default=True, help="voice name (siftom voices)")
 @click.option("--rate", type=float, default=1.0, show_default=True, help="speaking-rate multiplier")
 @click.option("--pitch", type=float, default=1.0, show_default=True, help="pitch multiplier")
-@click.option("--noise", default=None, help="white|pink|brown|babble|hum, a WAV file or a folder of them")
+@click.option("--noise", default=None, help="white|pink|brown|babble|hum, recorded[:CATEGORY] (the shipped recordings), a WAV file or a folder of them")
 @click.option("--snr", type=float, default=10.0, show_default=True, help="SNR in dB over active speech")
 @click.option("--seed", type=int, default=0, show_default=True, help="seed for the noise excerpt")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True, help="output WAV")

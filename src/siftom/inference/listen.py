@@ -30,6 +30,7 @@ from siftom.observation import Instruction
 from siftom.speech.asr import DEFAULT_NBEST
 
 NO_SPEECH = "no speech heard"
+NO_INSTRUCTION = "no instruction heard"
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,9 @@ class Heard:
         vad: the voice-activity detector's result.
         seconds: wall time from the audio (file read included) to the posterior.
         timings: seconds per stage (load, vad, asr, infer).
+        instruction: False when words were heard but none near a command of the scene
+            (``posterior.evidence['no_instruction_reason']`` says why): no command is issued,
+            and the posterior is the one from the actions alone.
     """
 
     posterior: Posterior
@@ -51,22 +55,25 @@ class Heard:
     vad: Any
     seconds: float
     timings: dict[str, float] = field(default_factory=dict)
+    instruction: bool = True
 
     @property
     def command(self) -> str:
-        """The chosen robot command."""
-        return self.posterior.command
+        """The chosen robot command ("none" when the words held no instruction)."""
+        return self.posterior.command if self.instruction or not self.speech else "none"
 
     @property
     def message(self) -> str:
-        """"no speech heard" or ''."""
-        return "" if self.speech else NO_SPEECH
+        """"no speech heard", "no instruction heard" or ''."""
+        return NO_SPEECH if not self.speech else "" if self.instruction else NO_INSTRUCTION
 
     def to_json(self, top: int = 10) -> dict[str, Any]:
         """The posterior's JSON plus ``speech_heard``, ``message``, ``asr``, ``vad`` and timings."""
         out = self.posterior.to_json(top=top)
         out.update({
+            "command": self.command,
             "speech_heard": self.speech,
+            "instruction_heard": self.speech and self.instruction,
             "message": self.message,
             "asr": self.transcript.to_json() if self.transcript is not None else None,
             "vad": self.vad.to_json(),

@@ -182,6 +182,18 @@ class Posterior:
         }
 
 
+def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand]) -> dict[str, Any]:
+    """``{no_instruction: True, no_instruction_reason}`` when no heard word is near a command of
+    the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given."""
+    from siftom.likelihood.nearness import heard_texts, nearness
+
+    texts = heard_texts(instruction.nbest)
+    if not texts:
+        return {}
+    near = nearness(texts, commands)
+    return {} if near.near else {"no_instruction": True, "no_instruction_reason": near.reason()}
+
+
 class SIFToM:
     """The model: build once per observation stream; ``infer`` or use ``online`` updates."""
 
@@ -308,6 +320,7 @@ class OnlineInference:
             else:
                 raw = lk.log_prob(instruction, cmds)
             evidence = lk.evidence() if hasattr(lk, "evidence") else {}
+            evidence = {**evidence, **_no_instruction(instruction, cmds)}
             instr = np.asarray(raw, dtype=np.float64) * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")

@@ -29,6 +29,7 @@ from siftom.errors import BackendUnavailableError, PerceptionError
 from siftom.perception.frames import Frame
 from siftom.perception.prompts import SYSTEM
 from siftom.perception.schemas import SCHEMAS, check_schema
+from siftom.safejson import loads
 
 T = TypeVar("T")
 ENV_VLM_MODEL = "SIFTOM_VLM_MODEL"
@@ -71,10 +72,9 @@ def parse_answer(content: str | None) -> Any:
     m = _FENCE.match(content)
     text = m.group(1) if m else content
     try:
-        value = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PerceptionError(f"the answer is not JSON ({exc.msg} at line {exc.lineno} column {exc.colno}): "
-                              f"{content[:80]!r}") from None
+        value = loads(text, "the answer", PerceptionError)
+    except PerceptionError as exc:
+        raise PerceptionError(f"{exc}: {content[:80]!r}") from None
     if not isinstance(value, dict):
         raise PerceptionError(f"the answer is a JSON {type(value).__name__}, not an object")
     return value
@@ -171,6 +171,7 @@ class VisionModel:
             raise BackendUnavailableError(f"{stage}: the endpoint's answer has no choices[0].message.content; "
                                           "is it an OpenAI-compatible chat endpoint?") from None
         if choice.get("finish_reason") == "length":
-            raise PerceptionError(f"{stage}: the answer was cut off at {self.max_tokens} tokens; raise max_tokens "
-                                  "(--max-tokens) or show fewer objects per frame")
+            raise PerceptionError(f"{stage}: the answer was cut off at {self.max_tokens} tokens; raise it "
+                                  "(siftom perceive --max-tokens N, or VisionModel(max_tokens=N)) or show fewer "
+                                  "objects per frame")
         return content

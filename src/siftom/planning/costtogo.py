@@ -20,7 +20,7 @@ Searching for each is far too slow, so this module exploits the structure of the
 
 With opening costs left out (``relaxed=True``) the value is the exact optimum of the relaxed
 problem, a lower bound used as the A* heuristic. With them it is the cost of a concrete plan;
-it equals A* on every state of the built-in scenarios (benchmarks/costtogo_scenarios.py) and
+it equals A* on every state of the built-in scenarios (recipes/costtogo_scenarios.py) and
 can be a step over where two classes could share a container (docs/planning.md).
 """
 

@@ -23,7 +23,6 @@ import dataclasses
 import functools
 import time
 from collections.abc import Callable
-from importlib import metadata
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -62,10 +61,9 @@ R = TypeVar("R")
 
 
 def _version() -> str:
-    try:
-        return metadata.version("siftom")
-    except metadata.PackageNotFoundError:
-        return "0+unknown"
+    from siftom import __version__
+
+    return __version__
 
 
 def _problems(*codes: int) -> dict[int | str, dict[str, Any]]:

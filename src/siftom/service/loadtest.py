@@ -61,7 +61,7 @@ class LoadResult:
         return asdict(self)
 
     def meets(self, min_rps: float = 50.0, max_p99_ms: float = 200.0) -> bool:
-        """Whether the target of issue 6 is met (>= 50 req/s, p99 < 200 ms, no errors)."""
+        """Whether the service target is met (>= 50 req/s, p99 < 200 ms, no errors)."""
         return self.errors == 0 and self.rps >= min_rps and self.p99_ms < max_p99_ms
 
 

@@ -13,7 +13,8 @@ from typing import Any, Literal
 
 import anyio
 import anyio.to_thread
-from fastapi import FastAPI
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse
 from pydantic import Field
 
 from siftom.errors import BackendUnavailableError, PerceptionError
@@ -38,6 +39,21 @@ class PerceiveRequest(Strict):
     propose_goals: bool = Field(default=True, description="ask the model for goals")
 
 
+def vision_model(app: FastAPI, folder: Path) -> Any:
+    """The vision model at the server's LLM endpoint (``siftom serve --llm-base-url/--llm-model``,
+    else ``SIFTOM_LLM_*``); ``SIFTOM_VLM_MODEL`` names a different model at that endpoint."""
+    import os
+
+    from siftom.perception import VisionModel
+    from siftom.perception.vlm import ENV_VLM_MODEL
+
+    llm = app.state.runtime.settings.llm
+    if llm is not None and llm.backend == "openai":
+        return VisionModel(model=os.environ.get(ENV_VLM_MODEL) or llm.model, cache_dir=folder, base_url=llm.base_url,
+                           api_key=llm.api_key, timeout_s=llm.timeout_s, max_retries=llm.max_retries)
+    return VisionModel(cache_dir=folder)
+
+
 def install(app: FastAPI, folder: Path) -> None:
     """Add the route; accepted answers are cached under ``folder/perception``."""
 
@@ -46,7 +62,7 @@ def install(app: FastAPI, folder: Path) -> None:
                          "configured"), (502, "the vision model failed or its answers were rejected"))})
     async def perceive_route(req: PerceiveRequest) -> dict[str, Any]:
         """Turn camera frames into a world, the person's actions and a goal space with a vision model."""
-        from siftom.perception import Frame, VisionModel, perceive
+        from siftom.perception import Frame, perceive
         from siftom.perception.pipeline import known_world
 
         try:
@@ -56,7 +72,7 @@ def install(app: FastAPI, folder: Path) -> None:
         except PerceptionError as exc:
             raise ProblemError(422, "invalid-observation", str(exc)) from None
         try:
-            model = VisionModel(cache_dir=folder)
+            model = vision_model(app, folder)
         except BackendUnavailableError as exc:
             raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
         work = functools.partial(perceive, frames, world=req.world, goal_space=req.goal_space, target=req.target,
@@ -93,20 +109,25 @@ def install_session_frames(app: FastAPI, folder: Path) -> None:
                          **{c: {"description": d} for c, d in ((404, "no such session"), (422, "bad frames, or "
                             "perceived actions impossible in the session's state"), (501, "no vision model configured"),
                             (502, "the vision model failed or its answers were rejected"))}})
-    async def session_frames(req: SessionFramesRequest,
-                             session_id: str = PathParam(pattern=SESSION_ID)) -> dict[str, Any]:
+    async def session_frames(req: SessionFramesRequest, request: Request,
+                             session_id: str = PathParam(pattern=SESSION_ID)) -> JSONResponse:
         """Frames instead of action lines: the vision model reads the person's actions between
         consecutive frames (checked against the session's world and state), and they are appended."""
-        from siftom.perception import Frame, VisionModel
+        from siftom.perception import Frame
         from siftom.perception.pipeline import perceive_actions
+        from siftom.service.idempotency import REPLAYED, idem_of
 
+        idem = idem_of(request.headers, "frames", req.model_dump())
+        first = await anyio.to_thread.run_sync(mgr.replayed, session_id, idem)  # 404 before any model call
+        if first is not None:
+            return JSONResponse(first, headers={REPLAYED: "true"})
         try:
             frames = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
         except PerceptionError as exc:
             raise ProblemError(422, "invalid-observation", str(exc)) from None
         sess = mgr.get(session_id)  # 404 before any model call
         try:
-            model = VisionModel(cache_dir=folder)
+            model = vision_model(app, folder)
         except BackendUnavailableError as exc:
             raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
         work = functools.partial(perceive_actions, sess.scene.world, sess.online.state, frames, model)
@@ -118,12 +139,8 @@ def install_session_frames(app: FastAPI, folder: Path) -> None:
                                "frames") from None
         except (PerceptionError, BackendUnavailableError) as exc:
             raise ProblemError(502, "vision-model-failed", str(exc)) from None
-
-        def append() -> dict[str, Any]:
-            # checked again at the session's state now: another producer may have added actions meanwhile
-            added = mgr.append(session_id, lines, source="perceive")
-            view = mgr.view(mgr.get(session_id))
-            return {"id": session_id, "added": added, "n_actions": view["n_actions"],
-                    "state": view["state"], "belief": view["belief"]}
-
-        return await anyio.to_thread.run_sync(append)
+        # checked again at the session's state now: another producer may have added actions meanwhile;
+        # the answer is the state right after these actions
+        body = await anyio.to_thread.run_sync(
+            functools.partial(mgr.append_reply, session_id, lines, None, idem, "perceive"))
+        return JSONResponse(body)

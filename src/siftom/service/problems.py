@@ -105,6 +105,43 @@ def install_handlers(app: FastAPI) -> None:
         log.exception("unhandled error on %s %s", request.method, request.url.path)
         return problem_response(500, "internal", "an internal error occurred; the server log has the details")
 
+    app.add_middleware(_KeepConnectionMiddleware)
+
+
+class _KeepConnectionMiddleware:
+    """Answer an unhandled exception with a 500 problem here, so it does not reach the server,
+    which would drop the keep-alive connection (the client's next request would be reset)."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        started = False
+
+        async def tracking_send(msg: Message) -> None:
+            nonlocal started
+            if msg["type"] == "http.response.start":
+                started = True
+            await send(msg)
+
+        try:
+            await self.app(scope, receive, tracking_send)
+        except _TooLarge:
+            raise
+        except Exception:
+            if started:
+                raise
+            log.exception("unhandled error on %s %s", scope.get("method"), scope.get("path"))
+            body = json.dumps(problem(500, "internal", "an internal error occurred; the server log has the "
+                                      "details")).encode()
+            await send({"type": "http.response.start", "status": 500,
+                        "headers": [(b"content-type", PROBLEM_JSON.encode()),
+                                    (b"content-length", str(len(body)).encode())]})
+            await send({"type": "http.response.body", "body": body})
+
 
 class _TooLarge(Exception):
     pass
@@ -199,8 +236,13 @@ async def read_audio_form(request: Request, *, max_fields: int, max_part_size: i
 
     try:
         form = await request.form(max_files=1, max_fields=max_fields, max_part_size=max_part_size)
+    except _TooLarge:  # a chunked body over the limit: BodyLimitMiddleware answers 413
+        raise
     except Exception as exc:  # malformed multipart, too many parts
         detail = getattr(exc, "detail", None) or str(exc) or "malformed multipart body"
+        if "maximum size" in str(detail):
+            raise ProblemError(413, "too-large", f"a part of the form is larger than the {max_part_size} bytes "
+                               "allowed; send a shorter recording") from None
         raise ProblemError(400, "bad-multipart", f"cannot read the form: {detail}") from None
     try:
         audio = form.get("audio")

@@ -373,7 +373,7 @@ class Runtime:
 
         Without speech the posterior comes from the actions alone and ``speech_heard`` is false.
         """
-        from siftom.inference.listen import NO_SPEECH, hear
+        from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, hear
 
         self.check_likelihood(likelihood)
         sc = self.scenario(sid)  # an unknown id fails before decoding
@@ -388,6 +388,8 @@ class Runtime:
         body["asr"] = tr.to_json() if tr is not None else None
         body["speech_heard"] = instruction is not None
         body["message"] = "" if instruction is not None else NO_SPEECH
+        if (body.get("evidence") or {}).get("no_instruction"):  # words near no command of the scene
+            body["message"] = NO_INSTRUCTION
         body["vad"] = vad.to_json()
         return body
 

@@ -6,6 +6,8 @@
 * ``POST /v1/sessions/{id}/instruction``: a transcript, an N-best list (JSON) or a recording
   (multipart) -> posterior, command, clarifying question when it pays, the robot's plan.
 * ``GET /v1/sessions/{id}``; ``DELETE /v1/sessions/{id}``.
+
+Every mutating request takes an ``Idempotency-Key`` header (:mod:`siftom.service.idempotency`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from fastapi.responses import JSONResponse, Response
 
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
+from siftom.service.idempotency import REPLAYED, idem_of
 from siftom.service.problems import PROBLEM_JSON, ProblemError, read_audio_form
 from siftom.service.session_schemas import (
     AUDIO_INSTRUCTION_SCHEMA,
@@ -51,6 +54,11 @@ def _need_json(request: Request) -> None:
     media = _media(request)
     if not (media == "application/json" or media.endswith("+json")):
         raise ProblemError(415, "media-type", f"send application/json, not {media or 'no Content-Type'}")
+
+
+def _replay(first: dict[str, Any]) -> JSONResponse:
+    """The first answer to a retried Idempotency-Key, marked as replayed."""
+    return JSONResponse(first, headers={REPLAYED: "true"})
 
 
 def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
@@ -92,9 +100,10 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
 
     @app.delete("/v1/sessions/{session_id}", tags=["sessions"], status_code=204, response_class=Response,
                 responses=_problems(404, 422))
-    async def delete_session(session_id: str = sid_param) -> Response:
-        """End the session (its stored record is deleted)."""
-        await run_cpu(mgr.delete, session_id)
+    async def delete_session(request: Request, session_id: str = sid_param) -> Response:
+        """End the session (its stored record is deleted); a retry with the same Idempotency-Key is 204 again."""
+        idem = idem_of(request.headers, "close")
+        await run_cpu(mgr.delete, session_id, idem.key if idem else None)
         return Response(status_code=204)
 
     @app.post("/v1/sessions/{session_id}/actions", tags=["sessions"],
@@ -104,15 +113,13 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
     async def add_actions(request: Request, session_id: str = sid_param) -> JSONResponse:
         """Append observed actions (all or none) and update the belief incrementally."""
         _need_json(request)
-        req = ActionsRequest.model_validate_json(await request.body())
-
-        def work() -> dict[str, Any]:
-            added, replayed = mgr.append_once(session_id, list(req.actions), req.after)
-            view = mgr.view(mgr.get(session_id))
-            return {"id": session_id, "added": added, "n_actions": view["n_actions"],
-                    "state": view["state"], "belief": view["belief"], "replayed": replayed}
-
-        return JSONResponse(await run_cpu(work))
+        raw = await request.body()
+        req = ActionsRequest.model_validate_json(raw)
+        idem = idem_of(request.headers, "actions", req.model_dump())
+        first = await run_cpu(mgr.replayed, session_id, idem)
+        if first is not None:
+            return _replay(first)
+        return JSONResponse(await run_cpu(mgr.append_reply, session_id, list(req.actions), req.after, idem))
 
     body_doc = {"required": True, "content": {
         "application/json": {"schema": {"$ref": "#/components/schemas/InstructionRequest"}},
@@ -125,18 +132,26 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
         media = _media(request)
         if media == "application/json" or media.endswith("+json"):
             req = InstructionRequest.model_validate_json(await request.body())
+            idem = idem_of(request.headers, "instruction", req.model_dump())
+            first = await run_cpu(mgr.replayed, session_id, idem)
+            if first is not None:
+                return _replay(first)
             policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
             nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
             ins = make_instruction(transcript=req.transcript, nbest=nbest)
-            return JSONResponse(await run_cpu(mgr.instruct, session_id, ins, req.top, policy))
+            return JSONResponse(await run_cpu(mgr.instruct, session_id, ins, req.top, policy, None, None, idem))
         if media == "multipart/form-data":
-            return JSONResponse(await _audio(request, session_id))
+            return await _audio(request, session_id)
         raise ProblemError(415, "media-type", "send application/json (a transcript or N-best list) or "
                            f"multipart/form-data (an audio file), not {media or 'no Content-Type'}")
 
-    async def _audio(request: Request, session_id: str) -> dict[str, Any]:
+    async def _audio(request: Request, session_id: str) -> JSONResponse:
         fields, data = await read_audio_form(request, max_fields=8, max_part_size=settings.max_body_bytes)
         opts = AudioInstructionFields.model_validate(fields)
+        idem = idem_of(request.headers, "instruction-audio", {k: str(v) for k, v in fields.items()}, data)
+        first = await run_cpu(mgr.replayed, session_id, idem)
+        if first is not None:
+            return _replay(first)
 
         def work() -> dict[str, Any]:
             from siftom.inference.listen import NO_SPEECH, hear
@@ -146,14 +161,12 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
             eng = rt._engine_for(sess.scene)  # a decoder biased to this world's command phrasings
             with eng.lock:  # voice-activity detection first: silence or noise is not words
                 instruction, tr, vad, _ = hear(x, eng.engine, opts.asr_nbest)
-            body = mgr.instruct(session_id, instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
-                                asr=tr.to_json() if tr is not None else None)
-            body["speech_heard"] = instruction is not None
-            body["message"] = "" if instruction is not None else NO_SPEECH
-            body["vad"] = vad.to_json()
-            return body
+            extra = {"speech_heard": instruction is not None, "message": "" if instruction is not None else NO_SPEECH,
+                     "vad": vad.to_json()}
+            return mgr.instruct(session_id, instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
+                                asr=tr.to_json() if tr is not None else None, extra=extra, idem=idem)
 
-        return await run_cpu(work)
+        return JSONResponse(await run_cpu(work))
 
     return mgr
 

@@ -63,7 +63,7 @@ class SessionLoadResult:
         return asdict(self)
 
     def meets(self, max_p99_ms: float = TARGET_P99_MS) -> bool:
-        """The target of issue 14: no errors, nothing lost, p99 < 200 ms per streamed request."""
+        """The sessions target: no errors, nothing lost, p99 < 200 ms per streamed request."""
         return self.errors == 0 and self.lost == 0 and self.p99_ms < max_p99_ms
 
 

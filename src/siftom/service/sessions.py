@@ -25,11 +25,12 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from siftom.api import get_model
-from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.listen import with_likelihood
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
+from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
 from siftom.service.store import SessionStore
 from siftom.world.io import (
@@ -55,7 +56,7 @@ class SessionLimits:
         max_sessions: sessions stored at once (429 above; DELETE ends one, idle ones expire).
         idle_s: a session not used for this long is deleted.
         max_world_bytes: largest world in a create request (413 above). The apartment graphs of
-            ../shared/data/virtualhome are 160-180 kB.
+            data/virtualhome are 160-180 kB.
         max_world_items: most objects a world may hold (422 above): inference cost grows with it.
         max_actions: most actions one session may observe (422 above).
         cache: live sessions kept in memory; the others are rebuilt from the store on use.
@@ -95,21 +96,21 @@ class Session:
 def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
     """The session's scene from a create request's spec (world, goals, goal_space, target), and warnings."""
     world = spec["world"]
+    ignored = _ignored_goal_space(spec)
     try:
         if "nodes" in world and "edges" in world:
             from siftom.world.io import scene_from_scenegraph
             from siftom.world.scenegraph import SceneGraph
 
-            space = spec.get("goal_space") or "household-table-v0"
+            space = (None if ignored else spec.get("goal_space")) or world.get("goal_space") or "household-table-v0"
             goals = spec.get("goals") or world.get("goals")
             scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.get("target") or world.get("target"),
                                           goal_space=space, goals=goals)
             lib_spec: dict[str, Any] = {"goals": goals} if goals else {"goal_space": space}
         else:
             obj = dict(world)
-            if spec.get("goal_space"):
+            if spec.get("goal_space") and not ignored:  # the world's own goals come first (docs/service.md)
                 obj["goal_space"] = spec["goal_space"]
-                obj.pop("goals", None)
             if spec.get("target"):
                 obj["target"] = spec["target"]
             scene = scene_from_json(obj)
@@ -125,9 +126,22 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
     if len(scene.world.items) > max_items:
         raise ObservationError(f"the world holds {len(scene.world.items)} objects, more than the {max_items} "
                                "this server allows (--max-world-items); leave out objects no goal mentions")
-    warnings = [*scene.notes,
+    warnings = [*([ignored] if ignored else []), *scene.notes,
                 *unmentioned_class_warnings(scene.world, goal_library(lib_spec, scene.goals[0].target))]
     return scene, warnings
+
+
+def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
+    """The warning when a request's ``goal_space`` loses to its ``goals`` or the world's own goals."""
+    space, world = spec.get("goal_space"), spec["world"]
+    if not space:
+        return None
+    if spec.get("goals"):
+        return f"goal_space {space!r} was ignored: the request's goals are used (goals come before goal_space)"
+    if isinstance(world, dict) and world.get("goals"):
+        return (f"goal_space {space!r} was ignored: the world lists its own goals, which come first; leave "
+                "them out of the world (or send goals) to choose the library")
+    return None
 
 
 def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
@@ -241,38 +255,68 @@ class SessionManager:
         return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
                        list(row.options.get("warnings", [])), row.last)
 
-    def delete(self, sid: str) -> None:
+    def delete(self, sid: str, key: str | None = None) -> None:
+        """End a session; a retry with the ``key`` that ended it succeeds again."""
         with self._lock:
             self._live.pop(sid, None)
-        if not self.store.delete(sid):
+        if not self.store.delete(sid, key) and not (key is not None and self.store.closed_by(sid, key)):
             raise ProblemError(404, "unknown-session", f"no session {sid!r}; nothing to delete")
 
     # ----- actions -----------------------------------------------------------------------------
     def append(self, sid: str, lines: list[str], source: str = "actions") -> list[str]:
         """Parse, check and add action lines (siftom or VirtualHome format), all or none; returns
         the actions added, in siftom's form (a script line may stand for none, one or two)."""
-        from siftom.world.vhscript import parse_actions
-
-        sess = self.get(sid)
-        with sess.lock:
-            acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
-            return self._add(sess, acts, source)
+        return self.append_reply(sid, lines, None, None, source)["added"]
 
     def append_once(self, sid: str, lines: list[str], after: int | None) -> tuple[list[str], bool]:
-        """:meth:`append`, safe to retry: ``after`` is the action count the client saw before it
-        first sent ``lines``. If those lines were already applied at that point (a retry after a
-        lost reply or a 503) they are returned again with ``replayed`` True and nothing is added;
-        any other mismatch is a 409 naming the session's count. ``after=None``: plain append."""
-        if after is None:
-            return self.append(sid, lines), False
+        """:meth:`append`, safe to retry with ``after`` (see :meth:`append_reply`)."""
+        body = self.append_reply(sid, lines, after)
+        return body["added"], body["replayed"]
+
+    def replayed(self, sid: str, idem: Idem | None) -> dict[str, Any] | None:
+        """The first answer to ``idem``'s key in this session, or None (422 if the key asked otherwise)."""
+        if idem is None:
+            return None
+        sess = self.get(sid)
+        with sess.lock:
+            return self._replayed(sess, idem)
+
+    def _replayed(self, sess: Session, idem: Idem | None) -> dict[str, Any] | None:
+        if idem is None:
+            return None
+        got = self.store.reply(sess.id, idem.key)
+        if got is None:
+            return None
+        check_same(idem, got.request)
+        reply = got.reply
+        if "pending" in reply:  # the service stopped between storing the actions and their answer
+            n, added = reply["pending"]
+            reply = self._actions_reply(sess, n, added, False)
+            self.store.put_reply(sess.id, idem.key, idem.request, reply)
+        return reply
+
+    def append_reply(self, sid: str, lines: list[str], after: int | None, idem: Idem | None = None,
+                     source: str = "actions") -> dict[str, Any]:
+        """Append action lines and answer with the session's state right after them.
+
+        ``after`` is the action count the client saw before it first sent ``lines``: if those
+        lines were already applied at that point (a retry after a lost reply or a 503) they are
+        returned again with ``replayed`` True and nothing is added; any other mismatch is a 409
+        naming the session's count. ``idem``: an Idempotency-Key; a key seen before returns its
+        first answer unchanged. The answer is built under the session's lock, so concurrent
+        requests each get their own state.
+        """
         from siftom.world.vhscript import parse_actions
 
         sess = self.get(sid)
         with sess.lock:
+            first = self._replayed(sess, idem)
+            if first is not None:
+                return first
             n = len(sess.actions)
-            if n == after:
+            if after is None or n == after:
                 acts, _ = parse_actions(sess.scene.world, sess.online.state, lines, first=0)
-                return self._add(sess, acts, "actions"), False
+                return self._add(sess, acts, source, idem)
             if after < n:
                 w, s = sess.scene.world, sess.scene.start
                 for text in sess.actions[:after]:
@@ -283,7 +327,7 @@ class SessionManager:
                     acts = None
                 texts = None if acts is None else [w.format_action(a) for a in acts]
                 if texts is not None and after + len(texts) == n and sess.actions[after:] == texts:
-                    return texts, True
+                    return self._actions_reply(sess, n, texts, True)
         raise ProblemError(409, "conflict", f"the session holds {n} actions, not the {after} this request was "
                            "sent after; GET the session to see them and send only what is new")
 
@@ -298,16 +342,20 @@ class SessionManager:
                 if why is not None:
                     raise ObservationError(f"{source} action {k} is impossible here: {why}")
                 s = apply(s, a)
-            return self._add(sess, actions, source)
+            return self._add(sess, actions, source)["added"]
 
-    def _add(self, sess: Session, acts: list[Action], source: str) -> list[str]:
+    def _add(self, sess: Session, acts: list[Action], source: str, idem: Idem | None = None) -> dict[str, Any]:
+        """Store and observe ``acts`` (the session's lock held); the answer to the request."""
         if len(sess.actions) + len(acts) > self.limits.max_actions:
             raise ObservationError(f"a session may observe at most {self.limits.max_actions} actions "
                                    "(--max-session-actions); start a new session for a new task")
         texts = [sess.scene.world.format_action(a) for a in acts]
+        n = len(sess.actions) + len(texts)
+        # the key is stored with the actions (one transaction); its full answer once it is known
+        pending = None if idem is None else (idem.key, idem.request, {"pending": [n, texts]})
         if texts:
             try:
-                self.store.append(sess.id, len(sess.actions), texts, source)  # durable before the reply
+                self.store.append(sess.id, len(sess.actions), texts, source, pending)  # durable before the reply
             except ProblemError as exc:
                 if exc.status == 404:  # deleted or expired meanwhile: forget the live copy too
                     with self._lock:
@@ -316,15 +364,34 @@ class SessionManager:
         for a in acts:
             sess.online.observe(a)
         sess.actions.extend(texts)
-        return texts
+        reply = self._actions_reply(sess, n, texts, False)
+        if idem is not None:
+            self.store.put_reply(sess.id, idem.key, idem.request, reply)
+        return reply
+
+    def _actions_reply(self, sess: Session, n: int, added: list[str], replayed: bool) -> dict[str, Any]:
+        """The answer to an actions request: what it added and the state after its ``n``-th action."""
+        online = sess.online
+        if n != len(sess.actions):  # an older request: replay the actions up to it
+            online = _online(sess.scene, sess.options)
+            for text in sess.actions[:n]:
+                online.observe(sess.scene.world.parse_action(text, online.state))
+        return {"id": sess.id, "added": list(added), "n_actions": n,
+                "state": _state_json(sess.scene.world, online.state),
+                "belief": self._belief(sess, online, n), "replayed": replayed}
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int, policy: ClarifyPolicy,
-                 asr: dict[str, Any] | None = None) -> dict[str, Any]:
-        """Posterior over goals and commands given everything so far and what was heard."""
+                 asr: dict[str, Any] | None = None, extra: dict[str, Any] | None = None,
+                 idem: Idem | None = None) -> dict[str, Any]:
+        """Posterior over goals and commands given everything so far and what was heard
+        (``extra``: more fields of the answer; ``idem``: see :meth:`append_reply`)."""
         sess = self.get(sid)
         mode = sess.options["mode"]
         with sess.lock:
+            first = self._replayed(sess, idem)
+            if first is not None:
+                return first
             if instruction is not None:
                 online, lk, why = _for_instruction(sess.online, sess.options, instruction)
                 with self._model_lock(mode, lk):  # the likelihoods' caches are not thread-safe
@@ -334,11 +401,17 @@ class SessionManager:
             body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(post.commands, policy).to_json()
+            if post.evidence.get("no_instruction"):  # nothing to act on, nothing to ask about
+                body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
+                                                      "no instruction heard").to_json()
             body["plan"] = self._plan(sess, post.command)
             if asr is not None:
                 body["asr"] = asr
+            body.update(extra or {})
+            if post.evidence.get("no_instruction"):  # words near no command (likelihood/nearness.py)
+                body["message"] = "no instruction heard"
             body = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
-            self.store.set_last(sid, body)
+            self.store.set_last(sid, body, None if idem is None else (idem.key, idem.request))
             sess.last = body
         return body
 
@@ -358,25 +431,26 @@ class SessionManager:
 
     # ----- views -------------------------------------------------------------------------------
     @staticmethod
-    def _belief(sess: Session) -> dict[str, Any]:
+    def _belief(sess: Session, online: OnlineInference | None = None, n: int | None = None) -> dict[str, Any]:
         """The top goals and commands from the actions alone (none before words in speech-only mode)."""
         if sess.options["mode"] == "speech-only":
             return {"goals": [], "commands": []}
-        post = sess.online.posterior(None, top=BELIEF_TOP)
-        return {"goals": [{"goal": g, "prob": p} for g, p in post.goals[:BELIEF_TOP]],
-                "commands": [{"command": c, "prob": p} for c, p in post.commands[:BELIEF_TOP]]}
+        if online is None or online is sess.online:
+            n = len(sess.actions)
+            if sess.belief is not None and sess.belief[0] == n:
+                return sess.belief[1]
+            online = sess.online
+        post = online.posterior(None, top=BELIEF_TOP)
+        belief = {"goals": [{"goal": g, "prob": p} for g, p in post.goals[:BELIEF_TOP]],
+                  "commands": [{"command": c, "prob": p} for c, p in post.commands[:BELIEF_TOP]]}
+        if online is sess.online:
+            sess.belief = (len(sess.actions), belief)
+        return belief
 
     def view(self, sess: Session) -> dict[str, Any]:
         """The session's state as JSON (the same before and after a restart)."""
         with sess.lock:
-            w, s = sess.scene.world, sess.online.state
-            if sess.belief is None or sess.belief[0] != len(sess.actions):
-                sess.belief = (len(sess.actions), self._belief(sess))
-            belief = sess.belief[1]
-            items: dict[str, list[str]] = {}
-            for i, loc in enumerate(s.item_at):
-                if loc != HELD:
-                    items.setdefault(w.places[loc].name, []).append(w.items[i].name)
+            w = sess.scene.world
             return {
                 "id": sess.id,
                 "created": sess.created,
@@ -389,13 +463,22 @@ class SessionManager:
                 "places": [p.name for p in w.places],
                 "n_actions": len(sess.actions),
                 "actions": list(sess.actions),
-                "state": {
-                    "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
-                    "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
-                    "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
-                    "items": items,
-                },
-                "belief": belief,
+                "state": _state_json(w, sess.online.state),
+                "belief": self._belief(sess),
                 "last_instruction": sess.last,
                 "warnings": list(sess.warnings),
             }
+
+
+def _state_json(w: Any, s: Any) -> dict[str, Any]:
+    """Where the agents are, what they hold, what is open and where every object is."""
+    items: dict[str, list[str]] = {}
+    for i, loc in enumerate(s.item_at):
+        if loc != HELD:
+            items.setdefault(w.places[loc].name, []).append(w.items[i].name)
+    return {
+        "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
+        "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
+        "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
+        "items": items,
+    }

@@ -8,14 +8,20 @@ failure this guards against; set ``synchronous=FULL`` for power loss at some spe
 Tables: ``sessions`` (the world as the client sent it, options, times, the last instruction's
 answer) and ``actions`` (one row per observed action in siftom's canonical form, with the
 source it came from: ``actions`` for the API, room for others such as ``perceive``).
+``replies`` keeps the first answer to each ``Idempotency-Key`` of a session, written in the
+same transaction as the change it answers, so a retry after a lost reply (or a restart) gets
+that answer again and changes nothing; ``closed`` remembers the keys of ``DELETE`` requests for
+as long as a session may stay idle.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sqlite3
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,7 +42,28 @@ CREATE TABLE IF NOT EXISTS actions (
     source TEXT NOT NULL,
     PRIMARY KEY (session, seq)
 );
+CREATE TABLE IF NOT EXISTS replies (
+    session TEXT NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+    key TEXT NOT NULL,
+    request TEXT NOT NULL,
+    reply TEXT NOT NULL,
+    PRIMARY KEY (session, key)
+);
+CREATE TABLE IF NOT EXISTS closed (
+    session TEXT NOT NULL,
+    key TEXT NOT NULL,
+    at REAL NOT NULL,
+    PRIMARY KEY (session, key)
+);
 """
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The first answer to an idempotent request: ``request`` fingerprints what was asked."""
+
+    request: str
+    reply: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -65,6 +92,17 @@ class SessionStore:
         self._db.execute("PRAGMA foreign_keys=ON")
         self._db.executescript(SCHEMA)
 
+    @contextlib.contextmanager
+    def _tx(self) -> Iterator[None]:
+        """One transaction (the connection is in autocommit mode); call with the lock held."""
+        self._db.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+        self._db.execute("COMMIT")
+
     def close(self) -> None:
         with self._lock:
             self._db.close()
@@ -76,14 +114,18 @@ class SessionStore:
                              (sid, now, now, json.dumps(spec, separators=(",", ":")), json.dumps(options)))
         return now
 
-    def append(self, sid: str, first_seq: int, texts: list[str], source: str) -> float:
-        """Append actions ``first_seq, first_seq+1, ...`` in one transaction."""
+    def append(self, sid: str, first_seq: int, texts: list[str], source: str,
+               reply: tuple[str, str, dict[str, Any]] | None = None) -> float:
+        """Append actions ``first_seq, first_seq+1, ...`` in one transaction; ``reply`` (key,
+        request, answer): the idempotency record written in the same transaction."""
         now = time.time()
         with self._lock:
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 self._db.executemany("INSERT INTO actions (session, seq, text, source) VALUES (?, ?, ?, ?)",
                                      [(sid, first_seq + k, t, source) for k, t in enumerate(texts)])
+                if reply is not None:
+                    self._put_reply(sid, *reply)
                 self._db.execute("UPDATE sessions SET updated = ? WHERE id = ?", (now, sid))
                 self._db.execute("COMMIT")
             except sqlite3.IntegrityError:
@@ -101,11 +143,36 @@ class SessionStore:
                 raise
         return now
 
-    def set_last(self, sid: str, last: dict[str, Any]) -> float:
+    def set_last(self, sid: str, last: dict[str, Any], reply: tuple[str, str] | None = None) -> float:
+        """Store the last instruction's answer; ``reply`` (key, request): it is also that key's answer."""
         now = time.time()
-        with self._lock:
+        with self._lock, self._tx():  # one transaction
             self._db.execute("UPDATE sessions SET last = ?, updated = ? WHERE id = ?", (json.dumps(last), now, sid))
+            if reply is not None:
+                self._put_reply(sid, *reply, last)
         return now
+
+    def _put_reply(self, sid: str, key: str, request: str, answer: dict[str, Any]) -> None:
+        self._db.execute("INSERT OR REPLACE INTO replies (session, key, request, reply) VALUES (?, ?, ?, ?)",
+                         (sid, key, request, json.dumps(answer)))
+
+    def put_reply(self, sid: str, key: str, request: str, answer: dict[str, Any]) -> None:
+        """Record (or complete) the first answer to ``key``."""
+        with self._lock, self._tx():
+            self._put_reply(sid, key, request, answer)
+
+    def reply(self, sid: str, key: str) -> Reply | None:
+        """The first answer given to ``key`` in session ``sid``, or None."""
+        with self._lock:
+            row = self._db.execute("SELECT request, reply FROM replies WHERE session = ? AND key = ?",
+                                   (sid, key)).fetchone()
+        return None if row is None else Reply(row[0], json.loads(row[1]))
+
+    def closed_by(self, sid: str, key: str) -> bool:
+        """Whether session ``sid`` was deleted by a request with this Idempotency-Key."""
+        with self._lock:
+            return self._db.execute("SELECT 1 FROM closed WHERE session = ? AND key = ?",
+                                    (sid, key)).fetchone() is not None
 
     def touch(self, sid: str) -> None:
         with self._lock:
@@ -121,9 +188,13 @@ class SessionStore:
         return StoredSession(row[0], row[1], row[2], json.loads(row[3]), json.loads(row[4]), acts,
                              json.loads(row[5]) if row[5] else None)
 
-    def delete(self, sid: str) -> bool:
-        with self._lock:
+    def delete(self, sid: str, key: str | None = None) -> bool:
+        """Delete a session; with ``key``, remember that this key closed it (one transaction)."""
+        with self._lock, self._tx():
             cur = self._db.execute("DELETE FROM sessions WHERE id = ?", (sid,))
+            if key is not None and cur.rowcount > 0:
+                self._db.execute("INSERT OR REPLACE INTO closed (session, key, at) VALUES (?, ?, ?)",
+                                 (sid, key, time.time()))
         return cur.rowcount > 0
 
     def count(self) -> int:
@@ -136,4 +207,5 @@ class SessionStore:
             ids = [r[0] for r in self._db.execute("SELECT id FROM sessions WHERE updated < ?", (before,))]
             if ids:
                 self._db.execute("DELETE FROM sessions WHERE updated < ?", (before,))
+            self._db.execute("DELETE FROM closed WHERE at < ?", (before,))
         return ids

@@ -43,8 +43,8 @@ def load_audio(path: str | Path, max_seconds: float = DEFAULT_MAX_SECONDS) -> np
     if duration > max_seconds:
         raise AudioError(
             f"audio file {str(p)!r} lasts {duration:.0f} s, more than the {max_seconds:.0f} s allowed "
-            "for one instruction; cut out the instruction (e.g. sox IN.wav OUT.wav trim START LENGTH) "
-            "or raise the limit (max_seconds)"
+            "for one instruction; cut out the instruction (e.g. sox IN.wav OUT.wav trim START LENGTH), "
+            "or from Python raise the limit: load_audio(path, max_seconds=...)"
         )
     try:
         data, rate = sf.read(str(p), dtype="float32", always_2d=True)
@@ -85,7 +85,8 @@ def as_audio(audio: np.ndarray | str | Path, max_seconds: float = DEFAULT_MAX_SE
     if x.size / SAMPLE_RATE > max_seconds:
         raise AudioError(
             f"the audio lasts {x.size / SAMPLE_RATE:.0f} s, more than the {max_seconds:.0f} s allowed "
-            "for one instruction; cut out the instruction or raise max_seconds"
+            "for one instruction; cut out the instruction, or from Python raise the limit: "
+            "as_audio(samples, max_seconds=...)"
         )
     if x.dtype == np.int16:
         x = x.astype(np.float32) / 32768.0

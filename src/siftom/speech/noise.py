@@ -281,12 +281,18 @@ class FileNoise:
 
 
 def get_noise(spec: str | Path | NoiseSource) -> NoiseSource:
-    """Resolve a noise spec: a synthetic kind, a WAV file, a folder, or ``FOLDER:category``."""
+    """Resolve a noise spec: a synthetic kind, a WAV file, a folder, or ``FOLDER:category``.
+
+    ``recorded`` (or ``recorded:babble,dishes``) is the real recordings shipped with siftom.
+    """
     if isinstance(spec, NoiseSource):
         return spec
     s = str(spec)
     if s in SYNTHETIC_KINDS:
         return SyntheticNoise(s)
+    if s == "recorded" or s.startswith("recorded:"):
+        cats = s.partition(":")[2]
+        return FolderNoise(RECORDED_NOISE_DIR, categories=tuple(c for c in cats.split(",") if c))
     p = Path(s)
     if p.is_file():
         return FileNoise(p)

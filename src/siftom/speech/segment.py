@@ -15,12 +15,9 @@ wheel) and turns the per-frame speech probability into events:
 Times are stream time (samples fed / 16 000), never the wall clock, so a file streamed faster
 than real time is segmented exactly as when streamed live.
 
-Beside :class:`siftom.speech.vad.StreamingVad` (speech regions of a stream, for whole-clip
-detection) this class keeps the utterance's audio, offers it early (:meth:`tentative`) and
-starts an utterance only after ``min_speech_s`` of *consecutive* speech frames: StreamingVad
-opens a region at one frame above threshold and reports its start once the region is
-``min_speech_s`` old, so a lone spike gives a start without an end (on a minute each of the
-recorded noise clips: one such start on dishes_02, dishes_05, dishes_06 and rain_05; none here).
+The whole-clip detector (:func:`siftom.speech.vad.detect_speech`) runs this segmenter over the
+clip, so a recording and a stream are cut the same way. An utterance starts only after
+``min_speech_s`` of *consecutive* speech frames: a lone spike never gives a start without an end.
 """
 
 from __future__ import annotations

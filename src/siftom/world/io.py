@@ -19,13 +19,14 @@ subset, 2-4 of each) or ``"kitchen-v0"`` (the recipe library).
 
 from __future__ import annotations
 
-import json
+import difflib
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from siftom.errors import ObservationError, SceneGraphError
+from siftom.errors import ObservationError, SceneGraphError, SiftomError
+from siftom.safejson import loads, read_text
 from siftom.world.model import NOTHING, Goal, Item, Place, State, World
 
 MAX_BYTES = 20 * 1024 * 1024
@@ -51,6 +52,8 @@ class LoadedScene:
 
 
 def _need(d: dict, key: str, where: str) -> Any:
+    if not isinstance(d, dict):
+        raise ObservationError(f"{where} must be an object with {key!r}")
     if key not in d:
         raise ObservationError(f"{where}: missing {key!r}")
     return d[key]
@@ -58,6 +61,17 @@ def _need(d: dict, key: str, where: str) -> Any:
 
 def scene_from_json(obj: Any) -> LoadedScene:
     """Build a scene from siftom's world JSON (see module docstring); clear errors on bad input."""
+    try:
+        return _scene_from_json(obj)
+    except SiftomError:
+        raise
+    except (TypeError, ValueError, KeyError, AttributeError, IndexError, OverflowError, RecursionError) as exc:
+        # a value of the wrong type somewhere the checks above do not look
+        raise ObservationError(f"the world is malformed ({type(exc).__name__}: {str(exc)[:160]}); docs/world.md "
+                               "gives the schema") from None
+
+
+def _scene_from_json(obj: Any) -> LoadedScene:
     if not isinstance(obj, dict):
         raise ObservationError("a world file must be a JSON object with 'places', 'items' and 'target'")
     if "nodes" in obj and "edges" in obj:
@@ -89,7 +103,7 @@ def scene_from_json(obj: Any) -> LoadedScene:
     pidx = {p.name: i for i, p in enumerate(places)}
 
     def place_of(name: Any, where: str) -> int:
-        if name not in pidx:
+        if not isinstance(name, str) or name not in pidx:
             from siftom.errors import unknown_name
 
             raise ObservationError(f"{where}: {unknown_name('place', str(name), pidx)}")
@@ -148,8 +162,26 @@ def feasible_goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
         if all(c in classes and sum(1 for it in world.items if it.cls == c) >= n for c, n in g.counts):
             feasible.append(g)
     if not feasible:
-        raise ObservationError("no goal in the goal space can be reached with the objects in this scene")
+        raise ObservationError("no goal in the goal space can be reached with the objects in this scene"
+                               + _why_unreachable(goals, world))
     return tuple(feasible)
+
+
+def _why_unreachable(goals: list[Goal], world: World, show: int = 3) -> str:
+    """What the first goals lack, with the scene's closest class names for a misspelt one."""
+    have = Counter(it.cls for it in world.items)
+    parts = []
+    for g in goals[:show]:
+        lacks = []
+        for c, n in g.counts:
+            if have[c] >= n:
+                continue
+            close = difflib.get_close_matches(c, list(have), n=2, cutoff=0.7) if have[c] == 0 else []
+            hint = f" (did you mean {' or '.join(repr(x) for x in close)}?)" if close else ""
+            lacks.append(f"{n} {c} (the scene has {have[c]}){hint}")
+        parts.append(f"{g.name!r} needs {', '.join(lacks)}")
+    more = f"; and {len(goals) - show} more goals" if len(goals) > show else ""
+    return ": " + "; ".join(parts) + more
 
 
 def unmentioned_class_warnings(world: World, library: list[Goal] | tuple[Goal, ...]) -> list[str]:
@@ -214,10 +246,7 @@ def load_scene(path: str | Path, goal_space: str | None = None, target: str | No
         raise ObservationError(f"{p}: no such file; give a world JSON or a VirtualHome graph")
     if p.stat().st_size > MAX_BYTES:
         raise ObservationError(f"{p}: file is larger than {MAX_BYTES // 2**20} MB")
-    try:
-        obj = json.loads(p.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ObservationError(f"{p}: not valid JSON ({exc})") from None
+    obj = loads(read_text(p, "world file"), f"world file {str(p)!r}")
     if isinstance(obj, dict) and "nodes" in obj and "edges" in obj:
         from siftom.world.scenegraph import SceneGraph
 
@@ -252,6 +281,8 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
     spec: dict[str, Any] = {"goals": goals} if goals is not None else {"goal_space": goal_space}
     known = {c for g in goal_library(spec, 0) for c, _n in g.counts}
     objs, unknown, loose = [], Counter(), Counter()
+    lib = "given" if goals is not None else goal_space
+    why: dict[int, str] = {}  # graph node id -> why it is not in the world
     for nid in view.grabbables:
         vh_cls = graph.node(nid).class_name
         cls = VH_ALIASES.get(vh_cls) or (vh_cls if vh_cls in known else None)
@@ -264,13 +295,21 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             parent = up.parent if up is not None else None
         if cls is None:
             unknown[vh_cls] += 1
+            why[nid] = f"no {lib} goal uses class {vh_cls!r} (add a goal that mentions it)"
         elif parent is None:
             loose[vh_cls] += 1
+            why[nid] = "it rests on no furniture in the graph (give it an ON or INSIDE edge)"
         else:
             objs.append((nid, cls, parent))
     holders = sorted({p for _n, _c, p in objs} - {tnode})
     parents = sorted([tnode] + holders[:max_places - 1])
-    notes = _left_out_notes("given" if goals is not None else goal_space, unknown, loose, holders[max_places - 1:], objs)
+    notes = _left_out_notes(lib, unknown, loose, holders[max_places - 1:], objs)
+    for nid, _c, parent in objs:
+        if parent not in parents:
+            why[nid] = f"its furniture is beyond the first {max_places} places kept (raise max_places)"
+    for node in graph.nodes:
+        if node.id not in why and node.id not in parents and not view.is_grabbable(node.id):
+            why[node.id] = "it holds no object a goal uses, so it is not a place of this world"
     objs = [o for o in objs if o[2] in set(parents)]
     places, pidx = [], {}
     for nid in parents:
@@ -289,7 +328,7 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
         if parent in pidx:
             items.append(Item(graph.node(nid).label, cls, node_id=nid))
             item_at.append(pidx[parent])
-    world = World(tuple(places), tuple(items), dist)
+    world = World(tuple(places), tuple(items), dist, left_out=why)
     open_mask = 0
     for nid, i in pidx.items():
         c = view.container(nid)
@@ -297,7 +336,10 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
             open_mask |= 1 << i
     t = pidx[tnode]
     start = State((t, t), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    feasible = feasible_goals(spec, world, t)
+    try:
+        feasible = feasible_goals(spec, world, t)
+    except ObservationError as exc:  # e.g. every class unknown: what was left out is the answer
+        raise ObservationError("; ".join([str(exc), *notes])) from None
     return LoadedScene(world, start, feasible, "fetch" if goal_space == "kitchen-v0" else "deliver", notes)
 
 

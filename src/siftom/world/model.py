@@ -120,6 +120,7 @@ class World:
     places: tuple[Place, ...]
     items: tuple[Item, ...]
     dist: np.ndarray = field(repr=False)
+    left_out: dict[int, str] = field(default_factory=dict, repr=False)  # graph node id -> why it is not here
 
     def __post_init__(self) -> None:
         n = len(self.places)

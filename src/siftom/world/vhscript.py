@@ -68,6 +68,9 @@ class _Ref:
                 if name in rooms:
                     self.room = name
                     return
+                if nid in world.left_out:
+                    raise ObservationError(f"{line!r}: node {nid} ({name}) is in the graph but was left out of this "
+                                           f"world: {world.left_out[nid]}")
                 raise ObservationError(
                     f"{line!r}: no place or object of this world has scene-graph id {nid}; "
                     f"use an id of the graph the session was created from ({_examples(world)})")

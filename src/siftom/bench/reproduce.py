@@ -1,0 +1,198 @@
+"""Results as data: run a plan of dataset builds and evaluations, stamp each summary.
+
+A plan (TOML) lists evaluation sets::
+
+    [defaults]
+    models = ["literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text"]
+
+    [[set]]
+    name = "household-s0"
+    title = "household, seed 0, recorded noise"
+    domain = "household-table-v0"
+    seed = 0
+    noise_dir = "recorded"          # the recordings shipped with siftom; omit for synthetic noise
+    # voices, noises, phrasings, scenarios, speakers, snr: as `siftom dataset build`
+
+For each set :func:`reproduce` builds the dataset (``OUT/runs/NAME/dataset``), evaluates it
+(``OUT/runs/NAME/results``, resumable) and writes ``OUT/NAME.json``: the evaluator's summary
+stamped with the package version, the dataset's fingerprint (a hash of its manifest), the
+machine (CPU count, platform) and the commands that made it. ``siftom.bench.pages`` turns
+those files into the documentation's results pages and the README's table.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from siftom.errors import DatasetError
+
+RESULT_FORMAT = 1
+SET_KEYS = {"name", "title", "domain", "seed", "noise_dir", "noises", "voices", "phrasings", "scenarios",
+            "speakers", "snr", "models", "engine"}
+
+
+@dataclass(frozen=True)
+class EvalSet:
+    """One evaluation set of a plan: how its dataset is built and which models are scored."""
+
+    name: str
+    title: str
+    domain: str
+    seed: int
+    models: tuple[str, ...]
+    noise_dir: str | None = None
+    noises: tuple[str, ...] = ()
+    voices: tuple[str, ...] = ()
+    phrasings: str | None = None
+    scenarios: int = 26
+    speakers: int = 5
+    snr: tuple[float, ...] = (20.0, 10.0, 5.0)
+    engine: str = "pocketsphinx-vocab"
+
+    def build_command(self, out: str) -> str:
+        """The ``siftom dataset build`` command line for this set."""
+        parts = [f"siftom dataset build --domain {self.domain} --out {out} --seed {self.seed}",
+                 f"--scenarios {self.scenarios} --speakers {self.speakers}",
+                 f"--snr {','.join(f'{x:g}' for x in self.snr) or 'none'}"]
+        if self.voices:
+            parts.append(f"--voices {','.join(self.voices)}")
+        if self.noise_dir:
+            parts.append(f"--noise-dir {self.noise_dir}")
+        if self.noises:
+            parts.append(f"--noises {','.join(self.noises)}")
+        if self.phrasings:
+            parts.append(f"--phrasings {self.phrasings}")
+        return " ".join(parts)
+
+    def eval_command(self, dataset: str, out: str) -> str:
+        """The ``siftom eval`` command line for this set."""
+        return (f"siftom eval --dataset {dataset} --out {out} --models {','.join(self.models)} "
+                f"--engine {self.engine}")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The sets of a plan file, in file order."""
+
+    path: str
+    sets: tuple[EvalSet, ...] = field(default_factory=tuple)
+
+
+def load_plan(path: str | Path) -> Plan:
+    """Read and check a plan TOML; raise DatasetError naming what to fix."""
+    p = Path(path)
+    if not p.is_file():
+        raise DatasetError(f"plan {str(p)!r} does not exist; give a TOML file with [[set]] tables")
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise DatasetError(f"plan {str(p)!r} is not valid TOML: {exc}") from None
+    defaults = dict(raw.get("defaults", {}))
+    sets = []
+    for i, s in enumerate(raw.get("set", [])):
+        merged = {**defaults, **s}
+        unknown = sorted(set(merged) - SET_KEYS)
+        if unknown:
+            raise DatasetError(f"plan set {i + 1}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(SET_KEYS))}")
+        for key in ("name", "domain", "models"):
+            if key not in merged:
+                raise DatasetError(f"plan set {i + 1}: missing {key!r}")
+        sets.append(EvalSet(
+            name=str(merged["name"]), title=str(merged.get("title", merged["name"])), domain=str(merged["domain"]),
+            seed=int(merged.get("seed", 0)), models=tuple(merged["models"]),
+            noise_dir=merged.get("noise_dir"), noises=tuple(merged.get("noises", ())),
+            voices=tuple(merged.get("voices", ())), phrasings=merged.get("phrasings"),
+            scenarios=int(merged.get("scenarios", 26)), speakers=int(merged.get("speakers", 5)),
+            snr=tuple(float(x) for x in merged.get("snr", (20, 10, 5))),
+            engine=str(merged.get("engine", "pocketsphinx-vocab"))))
+    if not sets:
+        raise DatasetError(f"plan {str(p)!r} lists no [[set]]")
+    names = [s.name for s in sets]
+    if len(set(names)) != len(names):
+        raise DatasetError(f"plan {str(p)!r} names a set twice: {names}")
+    return Plan(str(p), tuple(sets))
+
+
+def machine() -> dict[str, Any]:
+    """What the numbers were measured on."""
+    return {"cpu_count": os.cpu_count(), "platform": platform.platform(terse=True),
+            "machine": platform.machine(), "python": platform.python_version()}
+
+
+def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Build and evaluate one set; return the stamped result (also written to ``out/NAME.json``)."""
+    from siftom import __version__
+    from siftom.bench.dataset import build_dataset
+    from siftom.bench.evaluate import EvalOptions, evaluate
+    from siftom.bench.report import write_report
+    from siftom.bench.results_io import code_version, provenance
+    from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions, load_dataset
+
+    say = progress or (lambda _m: None)
+    work = out / "runs" / s.name
+    ds_dir, res_dir = work / "dataset", work / "results"
+    opts = BuildOptions(domain=s.domain, scenarios=s.scenarios, speakers=s.speakers, voices=s.voices or DEFAULT_VOICES,
+                        noise_dir=s.noise_dir, noises=s.noises, snrs=s.snr, seed=s.seed, phrasings=s.phrasings)
+    t0 = time.perf_counter()
+    if (ds_dir / "manifest.jsonl").is_file() and json.loads((ds_dir / "dataset.json").read_text()).get("options") == opts.to_json():
+        say(f"{s.name}: dataset already built")
+        ds = load_dataset(ds_dir)
+    else:
+        say(f"{s.name}: building the dataset")
+        ds = build_dataset(opts, ds_dir, backend=backend)
+    t_build = time.perf_counter() - t0
+    eval_opts = EvalOptions(models=s.models, engine=s.engine)
+    stale = _stale(res_dir, provenance(eval_opts.to_json(), ds.fingerprint))
+    if stale:
+        say(f"{s.name}: earlier results differ in {stale}; evaluating again from scratch")
+    say(f"{s.name}: evaluating {len(ds.stimuli)} stimuli")
+    evaluate(ds, res_dir, eval_opts, backend=backend, overwrite=bool(stale))
+    summary = write_report(res_dir, figures=False)
+    result = {
+        "format": RESULT_FORMAT,
+        "set": s.name, "title": s.title, "siftom": __version__, "source_sha1": code_version()["source_sha1"],
+        "dataset": {"fingerprint": ds.fingerprint, "stimuli": len(ds.stimuli), "domain": s.domain, "seed": s.seed},
+        "machine": machine(),
+        "commands": [s.build_command("DATASET"), s.eval_command("DATASET", "RESULTS")],
+        "seconds": {"build": round(t_build, 1), "total": round(time.perf_counter() - t0, 1)},
+        "summary": summary,
+    }
+    (out / f"{s.name}.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    return result
+
+
+def _stale(res_dir: Path, prov: dict[str, Any]) -> str:
+    """What differs between the rows already in ``res_dir`` and this run ('' when none or the same)."""
+    from siftom.bench.results_io import provenance_mismatch
+
+    path = res_dir / "results.jsonl"
+    if not path.is_file():
+        return ""
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        return "; ".join(provenance_mismatch(row.get("provenance"), prov))
+    return ""
+
+
+def reproduce(plan: Plan, out: str | Path, backend: Any, only: tuple[str, ...] = (),
+              progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+    """Run every set of ``plan`` (or those named in ``only``) into ``out``."""
+    root = Path(out)
+    root.mkdir(parents=True, exist_ok=True)
+    chosen = [s for s in plan.sets if not only or s.name in only]
+    missing = sorted(set(only) - {s.name for s in plan.sets})
+    if missing:
+        raise DatasetError(f"no set named {', '.join(missing)} in {plan.path}; sets: "
+                           + ", ".join(s.name for s in plan.sets))
+    return [run_set(s, root, backend, progress) for s in chosen]

@@ -1,0 +1,90 @@
+"""Words near no command of the scene are not an instruction (likelihood/nearness.py)."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from siftom.api import get_model, make_instruction
+from siftom.assist.decide import Situation, decide
+from siftom.likelihood.nearness import CHANCE_QUANTILE, nearness
+from siftom.scenarios.base import get_scenario
+
+
+def _online(sid: str):
+    sc = get_scenario(sid)
+    on = get_model("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb)
+    for a in sc.actions:
+        on.observe(a)
+    return sc, on
+
+
+def _commands(sid: str):
+    return _online(sid)[1].candidates()[4]
+
+
+@pytest.mark.parametrize("heard", ["the panel of", "i have the puck", "what", "hand", "would i'm missing"])
+def test_what_a_recogniser_made_of_noise_is_not_near_the_kitchen_commands(heard):
+    assert not nearness([heard], _commands("kitchen-cereal-v0")).near
+
+
+@pytest.mark.parametrize("sid, heard", [("kitchen-cereal-v0", "can you pass me the serial"),
+                                        ("kitchen-cereal-v0", "could you grab the olive oil please"),
+                                        ("household-table-v0/3", "bring me three forks")])
+def test_instructions_and_near_misses_are_near(sid, heard):
+    assert nearness([heard], _commands(sid)).near
+
+
+def test_the_chance_level_holds_on_words_it_was_not_measured_on():
+    import numpy as np
+
+    from siftom.likelihood.nearness import chance_threshold, scene_words, word_costs
+    from siftom.likelihood.phonemes import cmudict
+
+    # other words (seed 7; the levels came from seed 0): about 1 % count as near by chance
+    pool = sorted(w for w in cmudict() if w.isalpha() and len(w) > 2)
+    words = [pool[i] for i in np.random.default_rng(7).choice(len(pool), 400, replace=False)]
+    near = total = 0
+    for sid in ("kitchen-cereal-v0", "household-table-v0/3"):
+        sw = scene_words(_commands(sid))
+        for w in words:
+            for _w, k, r in word_costs(w, sw):
+                total += 1
+                near += r <= chance_threshold(k)
+    assert total > 500 and near / total <= 3 * CHANCE_QUANTILE
+
+
+def test_the_posterior_says_so_and_the_decision_rules_do_nothing():
+    sc, on = _online("kitchen-cereal-v0")
+    post = on.posterior(make_instruction("the panel of"))
+    assert post.evidence["no_instruction"] is True
+    assert "no heard word is near a command" in post.evidence["no_instruction_reason"]
+    where = Situation.from_scenario(sc)
+    for rule in ("map", "expected-benefit", "ask-or-act"):
+        d = decide(post, where, rule)
+        assert d.action == "none" and "no instruction heard" in d.reason
+    said = on.posterior(make_instruction("can you pass me the cereal"))
+    assert "no_instruction" not in said.evidence
+    assert decide(said, where, "map").action == said.command
+
+
+@pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+def test_listen_issues_no_command_for_words_that_hold_none(tmp_path, capsys):
+    from siftom.api import listen
+    from siftom.cli import main
+    from siftom.speech.tts import synthesize
+
+    x = synthesize("what time is it", "flite-slt")
+    heard = listen(x, scenario="kitchen-cereal-v0")
+    assert heard.speech and not heard.instruction
+    assert heard.command == "none" and heard.message == "no instruction heard"
+    assert heard.posterior.mode == "action-only"  # the actions-alone belief is still shown
+    js = heard.to_json()
+    assert js["command"] == "none" and js["instruction_heard"] is False and js["evidence"]["no_instruction"]
+    import soundfile as sf
+
+    wav = tmp_path / "x.wav"
+    sf.write(wav, x, 16000)
+    assert main(["infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav)]) == 0
+    assert "no instruction heard" in capsys.readouterr().out

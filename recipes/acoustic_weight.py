@@ -35,11 +35,12 @@ class _Recorded:
 def collect(dataset: str, out: str, start: int, step: int) -> None:
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary
+    from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
+    from siftom.speech.asr.base import get_engine
 
     ds = load_dataset(dataset)
-    engine = _engine("pocketsphinx-vocab", dataset_vocabulary(ds.stimuli))
+    engine = get_engine("pocketsphinx-vocab", vocabulary=dataset_vocabulary(ds.stimuli))
     rec = _Recorded()
     model = SIFToM(ModelConfig("full"), rec)
     done = {json.loads(x)["id"] for x in Path(out).read_text().splitlines()} if Path(out).exists() else set()

@@ -63,14 +63,15 @@ def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> Non
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary
+    from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.counts import count_heard
+    from siftom.speech.asr.base import get_engine
     from siftom.world.commands import RobotCommand
 
     ds = load_dataset(dataset)
     stimuli = list(ds.stimuli)[start::step][:limit]
-    engine = _engine("pocketsphinx-vocab", dataset_vocabulary(ds.stimuli))
+    engine = get_engine("pocketsphinx-vocab", vocabulary=dataset_vocabulary(ds.stimuli))
     done = set()
     if Path(out).exists():
         done = {json.loads(x)["id"] for x in Path(out).read_text().splitlines() if x.strip()}

@@ -55,11 +55,11 @@ def compact(results: list[str], threshold: float) -> None:
     for res in results:
         rows = [json.loads(x) for x in (Path(res) / "results.jsonl").read_text().splitlines() if x.strip()]
 
-        def mean(m: str) -> float:
+        def mean(m: str, rows: list = rows) -> float:
             return sum(100 * sum(r["models"][m]["correct"] for r in rows if band(r) == b)
                        / max(1, sum(band(r) == b for r in rows)) for b in bands) / len(bands)
 
-        def cw(m: str) -> float:
+        def cw(m: str, rows: list = rows) -> float:
             return 100 * sum((not r["models"][m]["correct"]) and r["models"][m]["prob"] >= threshold
                              for r in rows) / len(rows)
 

@@ -197,12 +197,24 @@ def _likelihood_key(likelihood: LikelihoodArg) -> Any:
     return likelihood if isinstance(likelihood, str) else ("object", id(likelihood), likelihood)
 
 
-def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: LikelihoodArg, st: Settings,
+def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: LikelihoodArg | None, st: Settings,
          mode: str | None = None, engine: str | None = None, nbest: int | None = None,
          top: int | None = None) -> Heard:
-    """The one path from a resolved scene and what was heard to the posterior (audio: VAD + ASR first)."""
+    """The one path from a resolved scene and what was heard to the posterior (audio: VAD + ASR first).
+
+    ``likelihood`` None or ``"auto"``: the best one the input allows (``resolve_likelihood``);
+    ``evidence['likelihood']`` and ``evidence['likelihood_reason']`` say which ran and why.
+    """
+    from siftom.inference.listen import with_likelihood
+    from siftom.likelihood.registry import resolve_likelihood
+
     t0 = time.perf_counter()
     opts = st.infer
+    has_audio = isinstance(heard, np.ndarray) or (isinstance(heard, Instruction) and heard.has_audio)
+    if likelihood is None or isinstance(likelihood, str):
+        likelihood, why = resolve_likelihood(likelihood, has_audio=has_audio)
+    else:
+        why = "given as an object"
     mode = mode or st.model.mode
     tr = vad = None
     timings: dict[str, float] = {}
@@ -217,6 +229,8 @@ def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: Lik
     use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
                          else (mode, likelihood))
     post = _online(sc, use_mode, use_lik, st).posterior(instruction, top=top or opts.top)
+    if instruction is not None:
+        post = with_likelihood(post, use_lik if isinstance(use_lik, str) else type(use_lik).__name__, why)
     said = True
     if vad is not None and instruction is not None and post.evidence.get("no_instruction"):
         # words, but none near a command of the scene: the actions alone, and no command issued
@@ -318,7 +332,7 @@ def listen(
     goals: Sequence[Any] | None = None,
     verb: str | None = None,
     mode: str = "full",
-    likelihood: LikelihoodArg = "phonetic",
+    likelihood: LikelihoodArg | None = None,
     engine: str = "pocketsphinx",
     nbest: int = DEFAULT_NBEST,
     top: int = 10,
@@ -337,7 +351,9 @@ def listen(
             World with ``start`` and ``goals``.
         actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
         mode: ``full``, ``speech-only`` or ``action-only``.
-        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``.
+        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``; None
+            (default): ``acoustic`` when the whisper extra is installed, else ``phonetic``
+            (``evidence['likelihood']`` and ``evidence['likelihood_reason']`` say which ran and why).
         engine: the ASR engine.
         decide: a decision rule name or rule (as in :func:`infer`).
 

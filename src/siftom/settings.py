@@ -61,14 +61,15 @@ class InferOptions:
     """How :func:`siftom.infer` hears and scores an instruction.
 
     Attributes:
-        likelihood: the instruction likelihood (``siftom plugins``: phonetic, acoustic, llm, ...).
+        likelihood: the instruction likelihood (``siftom plugins``: phonetic, acoustic, llm, ...);
+            ``auto``: acoustic for audio when the whisper extra is installed, else phonetic.
         engine: the ASR engine for audio.
         nbest: hypotheses the recogniser keeps.
         top: hypotheses kept in the posterior's ``hypotheses``.
         decide: the decision rule applied when ``infer(..., decide=None)`` (empty: none).
     """
 
-    likelihood: str = "phonetic"
+    likelihood: str = "auto"
     engine: str = "pocketsphinx"
     nbest: int = 10
     top: int = 10

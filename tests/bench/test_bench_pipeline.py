@@ -57,8 +57,8 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
     for name in ("results.jsonl", "summary.json", "report.md", "accuracy_speedup.png", "speedup_hist.png"):
         assert (tiny_results / name).is_file(), name
     summary = json.loads((tiny_results / "summary.json").read_text())
-    assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-oracle-text",
-                                      "siftom-eb", "siftom-ask"}
+    assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-phonetic",
+                                      "siftom-oracle-text", "siftom-eb", "siftom-ask"}
     for m in summary["models"].values():
         assert {"questions_per_trial", "confident_wrong_share", "no_speedup", "no_speedup_reasons"} <= set(m)
         assert set(m) >= SUMMARY_KEYS
@@ -73,6 +73,24 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
         assert row["models"]["siftom-oracle-text"]["helpful"] or row["models"]["siftom-oracle-text"]["correct"]
     r = rows[0]["models"]["siftom"]
     assert {"command", "correct", "helpful", "l_single", "l_team", "remedy_steps", "speedup"} <= set(r)
+
+
+
+def test_the_siftom_row_is_the_products_default_path(tiny: Path, tmp_path: Path) -> None:
+    """``siftom`` runs the likelihood a recording gets by default (acoustic with the whisper extra);
+    ``siftom-acoustic`` is its alias and ``siftom-phonetic`` keeps the N-best one."""
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    out = tmp_path / "d"
+    evaluate(tiny, out, EvalOptions(models=("siftom", "siftom-acoustic", "siftom-phonetic")), workers=1)
+    run = json.loads((out / "run.json").read_text())
+    want = "acoustic" if whisper_available() else "phonetic"
+    assert run["options"]["siftom_likelihood"] == want
+    for row in load_results(out):
+        m = row["models"]
+        assert want == "phonetic" or (m["siftom"]["command"], m["siftom"]["prob"]) == (m["siftom-acoustic"]["command"],
+                                                                  m["siftom-acoustic"]["prob"])
+        assert 0 < m["siftom-phonetic"]["prob"] <= 1
 
 
 def test_asking_model_speaks_the_answer_and_pays_for_the_question(tiny: Path, tmp_path: Path) -> None:
@@ -199,7 +217,7 @@ def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny: Path, tmp_pat
     from siftom.bench.decision_tuning import loss_aversion_curve
 
     # the curve re-infers with the run's (phonetic) likelihood: compare with the phonetic models
-    evaluate(tiny, tmp_path / "la", EvalOptions(models=("siftom", "siftom-phonetic-eb")))
+    evaluate(tiny, tmp_path / "la", EvalOptions(models=("siftom-phonetic", "siftom-phonetic-eb")))
     curve = loss_aversion_curve(tmp_path / "la", lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
     rows = load_results(tmp_path / "la")
 
@@ -207,8 +225,8 @@ def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny: Path, tmp_pat
         return sum(r["models"][model]["speedup"] for r in rows) / len(rows)
 
     assert curve["n"] == len(rows)
-    # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator
-    assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom"))
+    # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator's N-best rows
+    assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom-phonetic"))
     assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-phonetic-eb"))
     # no chance constraint (alpha = 1) is the risk-neutral rule
     assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])

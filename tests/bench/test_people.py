@@ -178,7 +178,8 @@ def test_an_annotation_folder_belongs_to_one_dataset(collection, tmp_path):
 
 
 def test_ratings():
-    assert session_model("full", "phonetic") == "siftom" and session_model("speech-only", "phonetic") == "speech-only"
+    assert session_model("full", "auto") == "siftom" and session_model("full", "phonetic") == "siftom-phonetic"
+    assert session_model("speech-only", "phonetic") == "speech-only"
     assert check_scores([1, 4, 7]) == [1, 4, 7]
     for bad in ([1, 2], [0, 4, 7], [1, 2, 8], [1.5, 2, 3], "123", [True, 2, 3]):
         with pytest.raises(DatasetError, match="from 1"):

@@ -59,8 +59,9 @@ def test_listen_hears_the_command(cereal_wav, likelihood):
     heard = listen(cereal_wav, scenario=SCENARIO, likelihood=likelihood)
     assert heard.speech and heard.command == "fetch(cereal)"
     evidence = heard.to_json()["evidence"]
+    assert evidence["likelihood"] == likelihood and evidence["likelihood_reason"] == "asked for"
     if likelihood == "phonetic":
-        assert evidence == {}
+        assert set(evidence) == {"likelihood", "likelihood_reason"}
     else:  # what the acoustic likelihood used is reported: its mode and, with Whisper, Whisper's own words
         from siftom.likelihood.whisper_factor import whisper_available
 
@@ -71,6 +72,37 @@ def test_listen_hears_the_command(cereal_wav, likelihood):
             assert evidence["whisper_use"] in ("carrier", "guesses", "none")
     assert heard.posterior.likelihood == likelihood
     assert set(heard.timings) >= {"load", "vad", "asr", "infer"}
+
+
+@needs_flite
+def test_the_default_likelihood_for_a_recording_is_the_best_installed(cereal_wav, monkeypatch):
+    """No likelihood named: acoustic with the whisper extra, phonetic without it; the answer says which and why."""
+    import siftom.likelihood.whisper_factor as wf
+
+    heard = listen(cereal_wav, scenario=SCENARIO)
+    want = "acoustic" if wf.whisper_available() else "phonetic"
+    assert heard.posterior.likelihood == want and heard.command == "fetch(cereal)"
+    assert heard.to_json()["evidence"]["likelihood"] == want
+    monkeypatch.setattr(wf, "whisper_available", lambda: False)  # as without the whisper extra
+    heard = listen(cereal_wav, scenario=SCENARIO)
+    assert heard.posterior.likelihood == "phonetic"
+    assert "siftom[whisper]" in heard.posterior.evidence["likelihood_reason"]
+
+
+@needs_flite
+def test_cli_infer_audio_defaults_to_the_acoustic_likelihood(cereal_wav):
+    from click.testing import CliRunner
+
+    from siftom.cli import root as main
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    r = CliRunner().invoke(main, ["infer", "--scenario", SCENARIO, "--audio", str(cereal_wav), "--json"])
+    assert r.exit_code == 0, r.output
+    body = json.loads(r.output[r.output.index("{"):])
+    want = "acoustic" if whisper_available() else "phonetic"
+    assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    r = CliRunner().invoke(main, ["infer", "--scenario", SCENARIO, "--transcript", "pass me the cereal", "--json"])
+    assert r.exit_code == 0 and json.loads(r.output)["likelihood"] == "phonetic"  # no sound to score
 
 
 @needs_flite

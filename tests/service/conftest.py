@@ -24,7 +24,9 @@ SMALL_BODY = 256 * 1024  # above a short recording, small enough to exceed cheap
 
 @pytest.fixture(scope="session")
 def app(tmp_path_factory: pytest.TempPathFactory):
-    return create_app(tmp_path_factory.mktemp("serve"), ServiceSettings(max_body_bytes=SMALL_BODY, max_audio_seconds=5.0))
+    # a cold first recording (recogniser, Whisper, caches) takes longer than 20 s on a loaded machine
+    return create_app(tmp_path_factory.mktemp("serve"), ServiceSettings(max_body_bytes=SMALL_BODY, max_audio_seconds=5.0,
+                                                                          request_timeout_s=120.0))
 
 
 @pytest.fixture(scope="session")

@@ -205,12 +205,19 @@ def test_oversized_body_is_413_by_length_and_by_stream(client, app):
 def test_say_then_infer_from_audio(client):
     r = client.post("/v1/say", json={"text": "can you pass me the cereal"})
     assert r.status_code == 200 and r.headers["content-type"] == "audio/wav" and r.content[:4] == b"RIFF"
+    client.app.state.runtime._warm.join()  # the default audio model loads at start (slow on a loaded machine)
     res = client.post("/v1/infer", data={"scenario": KITCHEN, "asr_nbest": "3"},
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()
     assert res.status_code == 200, body
     assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
     assert body["command"] == "fetch(cereal)"
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    want = "acoustic" if whisper_available() else "phonetic"  # the default for a recording
+    assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    text = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the cereal"}).json()
+    assert text["likelihood"] == "phonetic" and text["evidence"]["likelihood_reason"].startswith("no audio")
 
 
 def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):

@@ -21,7 +21,8 @@ VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 
 
 def _client(folder: Path, **limits) -> TestClient:
-    settings = ServiceSettings(sessions=SessionLimits(**limits)) if limits else None
+    # a cold first recording (recogniser, Whisper, caches) takes longer than 20 s on a loaded machine
+    settings = ServiceSettings(sessions=SessionLimits(**limits) if limits else SessionLimits(), request_timeout_s=120.0)
     return TestClient(create_app(folder, settings), raise_server_exceptions=False)
 
 
@@ -212,12 +213,19 @@ def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
     wav = c.post("/v1/say", json={"text": "can you get me the tomato"})
     if wav.status_code != 200:
         pytest.skip(f"no TTS voice: {wav.text[:200]}")
+    c.app.state.runtime._warm.join()  # the default audio model loads at start (slow on a loaded machine)
     r = c.post(f"/v1/sessions/{sid}/instruction", data={"asr_nbest": "3"},
                files={"audio": ("say.wav", wav.content, "audio/wav")})
     assert r.status_code == 200, r.text
     body = r.json()
     assert body["asr"]["engine"].startswith("pocketsphinx") and 1 <= len(body["nbest"]) <= 3
     assert body["command"] == "fetch(tomato)"
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    want = "acoustic" if whisper_available() else "phonetic"  # the session's default ("auto") for a recording
+    assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    r = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you get me the tomato"})
+    assert r.status_code == 200 and r.json()["likelihood"] == "phonetic"  # a transcript: its phonemes
     r = c.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("x.wav", b"not audio", "audio/wav")})
     assert r.status_code == 422 and "send WAV, FLAC or OGG" in r.json()["detail"]
     r = c.post(f"/v1/sessions/{sid}/instruction", content=b"hi", headers={"content-type": "text/plain"})

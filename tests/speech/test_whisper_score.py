@@ -109,6 +109,54 @@ def test_whisper_transcribes_a_clear_request(scorer):
 
 @needs_whisper
 @needs_flite
+def test_a_long_prompt_of_object_names_leaves_room_for_the_transcript(scorer):
+    """CTranslate2 counts the prompt in max_length: the transcript's cap is raised by it."""
+    from siftom.scenarios.base import get_scenario
+    from siftom.speech.tts import synthesize
+
+    names = ", ".join(c.replace("_", " ") for c in get_scenario("kitchen-cereal-v0").world.classes)
+    assert len(scorer.tokenizer.encode(names)) > 40  # longer than the cap for a 2 s clip
+    words = scorer.transcribe_encoded(scorer.encode(synthesize("could you bring me some milk", "flite-slt")),
+                                      prompt=names)
+    assert "milk" in words
+
+
+@needs_whisper
+def test_a_local_model_folder_is_the_whisper_model_setting(tmp_path, monkeypatch):
+    """whisper_model: the packaged tiny.en given by its folder (argument, setting, flag) is what runs;
+    a folder that is not a model is refused with the fix."""
+    from click.testing import CliRunner
+
+    from siftom.cli import root
+    from siftom.errors import BackendUnavailableError
+    from siftom.likelihood.acoustic import AcousticLikelihood
+    from siftom.speech.asr.whisper import WHISPER_MODEL_ENV, WhisperEngine, default_model_dir
+    from siftom.speech.whisper_score import WhisperScorer
+
+    folder = default_model_dir()
+    lk = AcousticLikelihood(whisper_model=folder)
+    assert lk._whisper.scorer.model_dir == folder
+    monkeypatch.setenv(WHISPER_MODEL_ENV, str(folder))
+    assert WhisperScorer(pad_s=3.0).model_dir == folder and WhisperEngine().model_dir == folder
+    with pytest.raises(BackendUnavailableError, match="ct2-transformers-converter"):
+        AcousticLikelihood(whisper_model=tmp_path)
+    monkeypatch.setenv(WHISPER_MODEL_ENV, str(tmp_path))
+    with pytest.raises(BackendUnavailableError, match="not a CTranslate2 whisper folder"):
+        WhisperScorer(pad_s=3.0)
+    monkeypatch.delenv(WHISPER_MODEL_ENV)
+    r = CliRunner().invoke(root, ["infer", "--whisper-model", str(tmp_path), "--scenario", "kitchen-cereal-v0",
+                                  "--transcript", "pass me the cereal"])
+    assert r.exit_code == 2 and "not a CTranslate2 whisper folder" in r.output
+    r = CliRunner().invoke(root, ["infer", "--whisper-model", str(folder), "--scenario", "kitchen-cereal-v0",
+                                  "--transcript", "pass me the cereal", "--json"])
+    assert r.exit_code == 0, r.output
+    import os
+
+    assert os.environ.pop(WHISPER_MODEL_ENV) == str(folder.resolve())  # the flag set the setting
+
+
+@needs_whisper
+@needs_flite
 @pytest.mark.parametrize(("said", "voice", "snr"), [("can you pass me the cereal", "flite-slt", None),
                                                     ("bring me the sugar", "flite-rms", 10.0),
                                                     ("i need the coffee", "flite-awb", 10.0)])

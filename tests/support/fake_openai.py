@@ -123,7 +123,7 @@ class FakeOpenAI:
                 raw = self.rfile.read(n) if n else b""
                 try:
                     body = json.loads(raw) if raw else None
-                except json.JSONDecodeError:
+                except (json.JSONDecodeError, UnicodeDecodeError):  # multipart, binary: see ``form``
                     body = None
                 path = self.path.split("?", 1)[0]
                 path = path[len("/v1"):] if path.startswith("/v1") else path
@@ -222,3 +222,33 @@ def chat_answer(*contents: str, top_logprobs: list[list[tuple[str, float]]] | No
                                                "top_logprobs": [{"token": t, "logprob": v} for t, v in alts]}]}
         choices.append(choice)
     return {"object": "chat.completion", "model": model, "choices": choices}
+
+
+def form(req: RecordedRequest) -> tuple[list[tuple[str, str]], dict[str, bytes]]:
+    """The fields (name, value) and files (name -> bytes) of a multipart/form-data request."""
+    from email.parser import BytesParser
+    from email.policy import HTTP
+
+    head = f"Content-Type: {req.headers.get('Content-Type', '')}\r\n\r\n".encode()
+    msg = BytesParser(policy=HTTP).parsebytes(head + req.raw)
+    fields, files = [], {}
+    for part in msg.iter_parts():
+        name = part.get_param("name", header="content-disposition")
+        data = part.get_payload(decode=True) or b""
+        if part.get_filename():
+            files[name] = data
+        else:
+            fields.append((name, data.decode()))
+    return fields, files
+
+
+def transcription_answer(text: str, avg_logprob: float = -0.3, no_speech_prob: float = 0.01,
+                         words: list[tuple[str, float, float]] | None = None) -> dict[str, Any]:
+    """A ``/audio/transcriptions`` verbose_json answer with one segment (and optional word times)."""
+    out: dict[str, Any] = {"task": "transcribe", "language": "english", "duration": 2.0, "text": text,
+                           "segments": [{"id": 0, "start": 0.0, "end": 2.0, "text": text,
+                                         "tokens": list(range(len(text.split()) + 1)),
+                                         "avg_logprob": avg_logprob, "no_speech_prob": no_speech_prob}]}
+    if words is not None:
+        out["words"] = [{"word": w, "start": a, "end": b} for w, a, b in words]
+    return out

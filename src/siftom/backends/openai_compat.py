@@ -259,17 +259,41 @@ class OpenAIClient:
     def post(self, path: str, body: dict[str, Any], *, use_cache: bool = True) -> dict[str, Any]:
         """POST JSON to ``base_url/path`` with retries; the answer as a dict (cached on disk)."""
         path = path.strip("/")
-        key = self.request_key(path, body)
+        return self._send(path, self.request_key(path, body), json.dumps(body).encode(), "application/json",
+                          use_cache)
+
+    def post_form(self, path: str, fields: Sequence[tuple[str, str]], files: Sequence[tuple[str, str, bytes, str]],
+                  *, use_cache: bool = True) -> dict[str, Any]:
+        """POST ``multipart/form-data`` (``fields``: (name, value); ``files``: (name, filename, bytes,
+        content type)) with the same retries and cache as :meth:`post`; the JSON answer as a dict."""
+        import uuid
+
+        path = path.strip("/")
+        canon = {"fields": [list(f) for f in fields],
+                 "files": [[n, fn, hashlib.sha256(b).hexdigest(), ct] for n, fn, b, ct in files]}
+        boundary = f"siftom-{uuid.uuid4().hex}"
+        parts: list[bytes] = []
+        for name, value in fields:
+            parts.append(f'--{boundary}\r\nContent-Disposition: form-data; name="{name}"\r\n\r\n{value}\r\n'
+                         .encode())
+        for name, filename, data, ctype in files:
+            parts.append(f'--{boundary}\r\nContent-Disposition: form-data; name="{name}"; filename="{filename}"'
+                         f"\r\nContent-Type: {ctype}\r\n\r\n".encode() + data + b"\r\n")
+        parts.append(f"--{boundary}--\r\n".encode())
+        return self._send(path, self.request_key(path, canon), b"".join(parts),
+                          f"multipart/form-data; boundary={boundary}", use_cache)
+
+    def _send(self, path: str, key: str, payload: bytes, content_type: str, use_cache: bool) -> dict[str, Any]:
+        """POST ``payload`` with retries and backoff; the JSON answer (cached under ``key``)."""
         if use_cache and self.response_cache is not None:
             hit = self.response_cache.get(key)
             if hit is not None:
                 self.cache_hits += 1
                 return json.loads(hit)
         url = f"{self.base_url}/{path}"
-        headers = {"Content-Type": "application/json"}
+        headers = {"Content-Type": content_type}
         if self.config.api_key:
             headers["Authorization"] = f"Bearer {self.config.api_key}"
-        payload = json.dumps(body).encode()
         attempts = self.config.max_retries + 1
         problem, wait = "", self.backoff_s
         for attempt in range(attempts):
@@ -308,7 +332,7 @@ class OpenAIClient:
             if not isinstance(data, dict):
                 problem = f"malformed answer (a JSON {type(data).__name__}, not an object)"
                 continue
-            if "error" in data and "choices" not in data:
+            if "error" in data and "choices" not in data and "text" not in data:
                 raise self._http_error(path, 200, json.dumps(data["error"])[:300])
             if use_cache and self.response_cache is not None:
                 self.response_cache.put(key, json.dumps(data))

@@ -162,6 +162,10 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
         else:
             if clean is None:
                 clean = synthesize(text, unit.speaker.voice, rate=unit.speaker.rate, pitch=unit.speaker.pitch)
+                if opts.room is not None:  # the talker across a reverberant room, one response per clip
+                    from siftom.speech.room import reverberate
+
+                    clean = reverberate(clean, opts.room, np.random.default_rng([opts.seed, unit.k, j, 4]))
             if noise is None:
                 x = clean
             else:
@@ -328,7 +332,8 @@ def write_datasheet(ds: Dataset, opts: BuildOptions, seconds: float | None = Non
            + (f" --noise-dir {opts.noise_dir}" if opts.noise_dir else "")
            + (f" --noises {','.join(opts.noises)}" if opts.noises else "")
            + f" --snr {','.join(f'{x:g}' for x in opts.snrs) or 'none'} --seed {opts.seed}"
-           + (f" --phrasings {opts.phrasings}" if opts.phrasings else ""))
+           + (f" --phrasings {opts.phrasings}" if opts.phrasings else "")
+           + (f" --room {opts.room:g}" if opts.room is not None else ""))
     examples = [s for s in st if s.noise is None][:6]
     text = f"""# Datasheet: {ds.root.name}
 

@@ -73,6 +73,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     run = json.loads((root / ev.RUN).read_text(encoding="utf-8"))
     ds = load_dataset(run["dataset"])
     likelihood = run["options"].get("likelihood", "phonetic")
+    likelihood = "phonetic" if likelihood == "auto" else likelihood  # the decision rules' N-best likelihood
     for t in ev._read_jsonl(root / ev.TEAM_CACHE):
         tr._TEAM.setdefault((t["key"], t["command"]), t)
     rows = {r["id"]: r for r in ev.load_results(root)}

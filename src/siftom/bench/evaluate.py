@@ -5,11 +5,14 @@ Models (names as in ``summary.json``):
 * ``literal-asr``: the 1-best transcript read by a classic command parser (``literal.py``);
 * ``speech-only``: SIFToM's instruction likelihood alone over the N-best list, uniform prior;
 * ``action-only``: SIFToM's goal inference from the observed actions alone (no speech);
-* ``siftom``: the full model, actions + N-best transcript;
+* ``siftom``: the product's default path, actions + the acoustic likelihood (N-best and
+  Whisper's score of the audio) when the whisper extra is installed, else the N-best phonetic one;
+* ``siftom-phonetic``: the full model, actions + the N-best phonetic likelihood;
 * ``siftom-oracle-text``: the full model given the reference transcript (an upper bound);
 * ``siftom-llm``: the full model with the paper's LLM instruction likelihood (``likelihood/llm.py``);
   with ``llm-end-to-end`` and ``llm-ablated-siftom`` it runs only when an LLM is configured;
-* on request, ``siftom-acoustic`` and ``speech-only-acoustic``: the audio itself (bench/acoustic_models.py).
+* on request, ``siftom-acoustic`` (the ``siftom`` row with Whisper) and ``speech-only-acoustic``: the
+  audio itself (bench/acoustic_models.py).
 
 Per stimulus the chosen command is scored against the gold one (object class and count exact;
 class only for ``fetch`` domains), called a helpful error when wrong but its class is part of
@@ -77,7 +80,9 @@ class EvalOptions:
         engine: ``pocketsphinx-vocab`` (a trigram LM built from the domain's command phrasings),
             ``pocketsphinx`` (generic LM) or ``whisper`` (faster-whisper).
         nbest: ASR hypotheses kept for the N-best models.
-        likelihood: SIFToM's instruction likelihood (``phonetic``).
+        likelihood: the ``siftom`` row's instruction likelihood; ``auto`` (default): the product's
+            default for a recording (acoustic with the whisper extra, else phonetic).
+            ``siftom-phonetic`` always runs the phonetic one.
         seed: seed of the bootstrap.
         llm: the language model of the LLM models (default: ``SIFTOM_LLM_*``).
     """
@@ -85,7 +90,7 @@ class EvalOptions:
     models: tuple[str, ...] = MODELS
     engine: str = DEFAULT_ENGINE
     nbest: int = DEFAULT_NBEST
-    likelihood: str = "phonetic"
+    likelihood: str = "auto"
     seed: int = 0
     llm: Any = None  # siftom.backends.config.LLMConfig
 
@@ -104,6 +109,10 @@ class EvalOptions:
         ENGINES.spec(self.engine)  # unknown names suggest close matches
         if self.nbest < 1:
             raise DatasetError(f"--nbest must be >= 1, got {self.nbest}")
+        if self.likelihood != "auto":
+            from siftom.likelihood.registry import LIKELIHOODS
+
+            LIKELIHOODS.spec(self.likelihood)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict (stored in run.json)."""
@@ -111,7 +120,12 @@ class EvalOptions:
                "likelihood": self.likelihood}
         if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
             out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
-        if any(m.endswith("-acoustic") or DECISION_MODELS.get(m, ("",))[0] == "acoustic" for m in self.models):
+        if "siftom" in self.models:
+            from siftom.bench.trials import siftom_likelihood
+
+            out["siftom_likelihood"] = siftom_likelihood(self)
+        if (any(m.endswith("-acoustic") or DECISION_MODELS.get(m, ("",))[0] == "acoustic" for m in self.models)
+                or out.get("siftom_likelihood") == "acoustic"):
             from siftom.likelihood.acoustic import DEFAULT_WHISPER_TEMPERATURE
             from siftom.likelihood.whisper_factor import whisper_available
 

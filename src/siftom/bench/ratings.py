@@ -31,7 +31,8 @@ STATEMENTS = (
 def session_model(mode: str, likelihood: str) -> str:
     """The evaluator's name for the model a session ran (``siftom``, ``speech-only``, ...)."""
     if mode == "full":
-        return "siftom" if likelihood == "phonetic" else f"siftom-{likelihood}"
+        # the evaluator's rows: "siftom" is the default path ("auto"), "siftom-phonetic" the N-best one
+        return "siftom" if likelihood == "auto" else f"siftom-{likelihood}"
     return mode
 
 

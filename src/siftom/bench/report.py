@@ -251,7 +251,9 @@ def render_figures(rows: Sequence[dict[str, Any]], summary: dict[str, Any], out:
     plt.close(fig)
 
     domains = sorted({str(r.get("scenario", "")).split("/")[0] for r in rows} - {""})
-    paths.append(_pareto_figure(summary, colors, out / FIG_PARETO, ", ".join(domains)))
+    pareto = _pareto_figure(summary, colors, out / FIG_PARETO, ", ".join(domains))
+    if pareto is not None:
+        paths.append(pareto)
 
     bd = summary["breakdowns"]["snr"]
     labels = list(bd)

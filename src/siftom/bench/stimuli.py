@@ -78,6 +78,9 @@ class BuildOptions:
         phrasings: a carrier file (one carrier with ``{np}`` per line) or a shipped set name
             (``free-v0``); carriers are drawn uniformly from it instead of the built-in
             grammar, noun phrases as before. None: ``sample_phrasing``.
+        room: reverberation time RT60 in seconds: every clip is heard across a reverberant room
+            (``siftom.speech.room``, a seeded synthetic impulse response per clip) before the
+            noise is added; None: dry speech.
     """
 
     domain: str = "household-table-v0"
@@ -89,6 +92,7 @@ class BuildOptions:
     snrs: tuple[float, ...] = DEFAULT_SNRS
     seed: int = 0
     phrasings: str | None = None
+    room: float | None = None
 
     def __post_init__(self) -> None:
         check_seed(self.seed)
@@ -111,13 +115,16 @@ class BuildOptions:
             from siftom.likelihood.carriers import load_carriers
 
             load_carriers(self.phrasings)  # DatasetError for a missing file or no {np} line
+        if self.room is not None and not (np.isfinite(self.room) and 0.05 <= self.room <= 3.0):
+            raise DatasetError(f"--room is a reverberation time RT60 in seconds (0.05-3), got {self.room}")
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict (stored in dataset.json)."""
         return {"domain": self.domain, "scenarios": self.scenarios, "speakers": self.speakers,
                 "voices": list(self.voices), "noise_dir": self.noise_dir, "noises": list(self.noises),
                 "snrs": list(self.snrs), "seed": self.seed,
-                **({"phrasings": self.phrasings} if self.phrasings is not None else {})}
+                **({"phrasings": self.phrasings} if self.phrasings is not None else {}),
+                **({"room": self.room} if self.room is not None else {})}
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import DatasetError
 from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.asr.base import ENGINES
+from siftom.speech.cli_options import whisper_model_option
 
 
 def _csv(value: str | None) -> tuple[str, ...]:
@@ -110,6 +111,9 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--room", type=float, default=None,
+              help="reverberation time RT60 in seconds: the speaker is heard across a reverberant room "
+                   "(a seeded synthetic impulse response per clip) before the noise")
 @click.option("--phrasings", "phrasings", default=None,
               help="carrier file: UTF-8, one carrier per line with {np}, '#' comments; or a shipped set "
                    "(free-v0, free-heldout-v0). Default: siftom's phrasing grammar")
@@ -117,7 +121,8 @@ def dataset_group() -> None:
 @_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, phrasings: str | None, workers: int | None, backend: str,
+              noises: str | None, snr: str, seed: int, phrasings: str | None, room: float | None, workers: int | None,
+              backend: str,
               ray_address: str | None,
               as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
@@ -126,7 +131,7 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed, phrasings=phrasings)
+                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room)
     t0 = time.perf_counter()
     with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
         ds = build_dataset(opts, out, progress=bar, backend=be)
@@ -155,14 +160,16 @@ def check_cmd(folder: str) -> None:
 
 
 @click.command("eval")
+@whisper_model_option
 @click.option("--dataset", "dataset", type=click.Path(file_okay=False), required=True, help="dataset folder")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="results folder (resumes if it exists)")
-@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom,"
-              "siftom-oracle-text,siftom-eb,siftom-ask (decision rules on the acoustic likelihood, "
+@click.option("--models", default=None, help="comma-separated; default: literal-asr,speech-only,action-only,siftom "
+              "(the product's default: the acoustic likelihood with the whisper extra, else phonetic),"
+              "siftom-phonetic,siftom-oracle-text,siftom-eb,siftom-ask (decision rules on the acoustic likelihood, "
               "docs/decisions.md), plus siftom-llm,llm-end-to-end,llm-ablated-siftom when an LLM is "
-              "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic, "
-              "speech-only-acoustic (the audio itself, key-phrase alignment), siftom-phonetic-eb, "
-              "siftom-phonetic-ask (the rules on the phonetic likelihood)")
+              "configured (--llm-* flags or SIFTOM_LLM_*, docs/llm.md); on request: siftom-acoustic "
+              "(= siftom with Whisper), speech-only-acoustic, siftom-phonetic-eb, siftom-phonetic-ask "
+              "(the rules on the phonetic likelihood)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True,
               help=f"ASR engine: {ENGINES.help_line()}")
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")

@@ -8,6 +8,7 @@ import click
 
 from siftom.bench.latency import SCENARIO, run_latency
 from siftom.bench.speed import run_inference_bench, run_planner_bench
+from siftom.speech.cli_options import whisper_model_option
 
 
 @click.command("inference")
@@ -46,9 +47,10 @@ def bench_planner_cmd(as_json: bool, repeats: int) -> None:
 
 
 @click.command("latency")
+@whisper_model_option
 @click.option("--noise", default="babble", show_default=True, help="noise spec (siftom say --noise)")
 @click.option("--snr", type=float, default=10.0, show_default=True)
-@click.option("--repeats", type=int, default=3, show_default=True, help="timed runs per clip (the fastest counts)")
+@click.option("--repeats", type=int, default=3, show_default=True, help="timed runs per clip (all of them count)")
 @click.option("--quick", is_flag=True, help="4 clips instead of 8")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json: bool) -> None:
@@ -57,7 +59,9 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
     if as_json:
         click.echo(json.dumps(res, indent=2))
         return
-    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}")
+    m = res["machine"]
+    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}; default likelihood "
+               f"{res['default']}; {m['cpus']} CPUs ({m['processor']}), load {m['load_1min']}")
     for lk, r in res["likelihoods"].items():
         click.echo(f"{lk:9s} p50 {r['p50_s'] * 1000:.0f} ms  ratio_p50 {r['ratio_p50']:.3f}  "
                    f"ratio_p90 {r['ratio_p90']:.3f}  cpu_ratio_p50 {r['cpu_ratio_p50']:.3f}  commands {r['commands']}")

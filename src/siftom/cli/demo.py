@@ -13,8 +13,11 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from siftom.speech.cli_options import whisper_model_option
+
 
 @click.command("demo")
+@whisper_model_option
 @click.option("--scenario", "scenario_id", default="kitchen-cereal-v0", show_default=True)
 @click.option("--text", default="can you pass me the cereal", show_default=True, help="What the human says.")
 @click.option("--voice", default="flite-slt", show_default=True, help="TTS voice (see `siftom voices`).")

@@ -15,6 +15,7 @@ from siftom.errors import ObservationError
 from siftom.likelihood.registry import LIKELIHOODS
 from siftom.safejson import loads, read_text
 from siftom.speech.asr.base import ENGINES
+from siftom.speech.cli_options import whisper_model_option
 
 
 def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
@@ -43,6 +44,7 @@ def _read_nbest(path: Path) -> list[dict]:
 
 
 @click.command("infer")
+@whisper_model_option
 @click.option("--scenario", "scenario_id", default=None, help="A registered scenario id (see `siftom scenarios list`).")
 @click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None,
               help="Your own world JSON or VirtualHome graph (instead of --scenario).")
@@ -157,6 +159,8 @@ def print_posterior(post, console: Console | None = None) -> None:
                "guesses": "no object word heard by either: guesses around its words"}.get(
             post.evidence.get("whisper_use", ""), "no object word in it: not used")
         con.print(f'Whisper heard: "{post.evidence["whisper_heard"]}" ({use})')
+    if post.evidence.get("likelihood_reason"):
+        con.print(f"likelihood {post.evidence['likelihood']}: {post.evidence['likelihood_reason']}")
     t = Table(title="robot commands")
     t.add_column("command")
     t.add_column("P", justify="right")

@@ -11,6 +11,7 @@ import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
+from siftom.speech.cli_options import whisper_model_option
 
 if TYPE_CHECKING:
     from siftom.bench.runlock import RunLock
@@ -42,6 +43,7 @@ def claim_data_dir(data_dir: str) -> RunLock:
 
 
 @click.command("serve")
+@whisper_model_option
 @click.option("--host", default="127.0.0.1", show_default=True, help="interface to listen on")
 @click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True, help="TCP port")
 @click.option("--data-dir", type=click.Path(file_okay=False), default=None,

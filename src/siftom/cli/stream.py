@@ -13,7 +13,7 @@ import click
 
 from siftom.errors import ObservationError, SiftomError
 
-LIKELIHOOD_CHOICES = ("phonetic", "acoustic", "llm")
+LIKELIHOOD_CHOICES = ("auto", "phonetic", "acoustic", "llm")
 
 
 def _home_options(f: Any) -> Any:
@@ -21,8 +21,9 @@ def _home_options(f: Any) -> Any:
         click.option("--scenario", "scenario", default=None, help="a registered scenario id (its world and goals)"),
         click.option("--scene", type=click.Path(exists=True, dir_okay=False), default=None,
                      help="a world JSON or VirtualHome scene graph file (docs/world.md)"),
-        click.option("--likelihood", type=click.Choice(LIKELIHOOD_CHOICES), default="phonetic", show_default=True,
-                     help="the instruction likelihood (acoustic scores the utterance's audio itself)"),
+        click.option("--likelihood", type=click.Choice(LIKELIHOOD_CHOICES), default="auto", show_default=True,
+                     help="the instruction likelihood (acoustic scores the utterance's audio itself; auto: acoustic "
+                          "with the whisper extra, else phonetic)"),
         click.option("--mode", type=click.Choice(["full", "speech-only"]), default="full", show_default=True),
         click.option("--top", type=click.IntRange(1, 20), default=3, show_default=True,
                      help="commands and goals in each answer"),

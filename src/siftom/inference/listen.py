@@ -120,6 +120,11 @@ ENGINES = Cache(8)
 ONLINE = Cache(64)
 
 
+def with_likelihood(post: Posterior, name: str, why: str) -> Posterior:
+    """``post`` with ``evidence['likelihood']`` (the instruction likelihood that ran) and its reason."""
+    return dataclasses.replace(post, evidence={**post.evidence, "likelihood": name, "likelihood_reason": why})
+
+
 def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
     """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings)."""
     from siftom.speech.vad import detect_speech, trim

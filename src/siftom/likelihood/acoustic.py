@@ -208,6 +208,10 @@ class AcousticLikelihood:
         whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
             computes anyway) and use its words as a second carrier; the commands it names join the
             pruned set (``WhisperFactor``).
+        whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
+            default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
+        tie_counts: when no count word was heard, no count of a class is favoured over another
+            (``likelihood.counts``).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -231,6 +235,8 @@ class AcousticLikelihood:
         whisper_pad_s: float = DEFAULT_WHISPER_PAD_S,
         whisper_prior: float = DEFAULT_WHISPER_PRIOR,
         whisper_listen: bool = True,
+        whisper_model: str | Path | None = None,
+        tie_counts: bool = True,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -264,7 +270,13 @@ class AcousticLikelihood:
         if not self.aligns and not self.uses_whisper:
             raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
                               "with neither there is no acoustic term; keep align=True")
-        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen)
+        if whisper_model is not None:
+            from siftom.speech.asr.whisper import check_model_dir
+
+            whisper_model = str(check_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
+        self.whisper_model = whisper_model
+        self.tie_counts = bool(tie_counts)
+        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model)
                          if self.uses_whisper else None)
         self._aligner = aligner
         self._loop: Any = None
@@ -307,9 +319,23 @@ class AcousticLikelihood:
         """Return log P(audio | command) for each command, shape (len(commands),), and the evidence.
 
         ``context``: optional log P(command | actions) up to a constant (used for pruning only).
+        When neither the recogniser's 1-best nor Whisper's transcript holds a count word, every
+        plural count of a class gets the same value (``likelihood.counts``; ``tie_counts=False``
+        turns it off).
         """
         raw = self.raw_scores(instruction, commands, context)
-        return Scores(self.combine(raw, len(commands)), raw.evidence)
+        out = self.combine(raw, len(commands))
+        evidence = dict(raw.evidence)
+        if self.tie_counts and len(commands):
+            from siftom.likelihood.counts import count_heard, tie_unheard_counts
+
+            heard = [instruction.text] if instruction.nbest else []
+            if evidence.get("whisper_heard"):
+                heard.append(str(evidence["whisper_heard"]))
+            evidence["count_heard"] = count_heard(heard)
+            if not evidence["count_heard"]:
+                out = tie_unheard_counts(out, commands)
+        return Scores(out, evidence)
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""

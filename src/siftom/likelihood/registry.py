@@ -35,6 +35,29 @@ ENGINES.register("pocketsphinx-open", "siftom.likelihood.asr:open_engine",
                  requires=("pocketsphinx",), attrs={"scene": True})
 
 
+AUTO = "auto"  # the best likelihood the input and the installed extras allow: resolve_likelihood
+
+
+def resolve_likelihood(name: str | None, has_audio: bool) -> tuple[str, str]:
+    """(likelihood to run, why) for a request; ``None`` or ``"auto"`` picks the best available.
+
+    With audio and the whisper extra that is ``acoustic`` (the N-best and Whisper's
+    teacher-forced score of each command: the more accurate one, docs/likelihoods.md); without
+    the whisper extra, or for a transcript (no sound to score), ``phonetic``. A name given
+    explicitly runs as asked.
+    """
+    if name is not None and name != AUTO:
+        LIKELIHOODS.spec(name)  # unknown names suggest close matches
+        return name, "asked for"
+    if not has_audio:
+        return "phonetic", "no audio: a transcript is scored by its phonemes"
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    if whisper_available():
+        return "acoustic", "audio with the whisper extra: Whisper scores each command against the recording"
+    return "phonetic", "audio without the whisper extra: install siftom[whisper] for the acoustic likelihood"
+
+
 def likelihood_names() -> tuple[str, ...]:
     """Registered names, default first."""
     return LIKELIHOODS.names()

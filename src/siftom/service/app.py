@@ -258,10 +258,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         comps = schema.setdefault("components", {}).setdefault("schemas", {})
         js = InferRequest.model_json_schema(ref_template="#/components/schemas/{model}")
         comps.update(js.pop("$defs", {}))
-        js["properties"]["likelihood"]["enum"] = list(settings.offered)
+        js["properties"]["likelihood"]["enum"] = ["auto", *settings.offered]
         comps["InferRequest"] = js
         form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
-        form["properties"]["likelihood"] = {"type": "string", "enum": list(settings.offered), "default": "phonetic"}
+        form["properties"]["likelihood"] = {"type": "string", "enum": ["auto", *settings.offered], "default": "auto"}
         comps["AudioInferForm"] = form
         comps.update(session_schemas(settings.offered))
         app.openapi_schema = schema

@@ -60,21 +60,25 @@ class HomeListener:
 
     Args:
         home: a Scenario or a loaded scene (:func:`load_home`).
-        mode, likelihood: the model (``phonetic``, ``acoustic`` or ``llm``).
+        mode, likelihood: the model (``phonetic``, ``acoustic`` or ``llm``; ``auto``, the default:
+            acoustic when the whisper extra is installed, else phonetic; words recognised elsewhere,
+            :meth:`answer_text`, are scored by their phonemes).
         top: commands and goals in each answer.
         policy: when to ask (``ClarifyPolicy``).
         options, scorer, early: the segmentation (:class:`StreamListener`).
         engine: the recogniser (pocketsphinx biased to the home's phrasings by default).
     """
 
-    def __init__(self, home: Any, *, mode: str = "full", likelihood: str = "phonetic", top: int = 5,
+    def __init__(self, home: Any, *, mode: str = "full", likelihood: str = "auto", top: int = 5,
                  policy: ClarifyPolicy | None = None, options: SegmentOptions | None = None,
                  scorer: FrameScorer | None = None, early: bool = True, engine: str = "pocketsphinx",
                  nbest: int = DEFAULT_NBEST) -> None:
         from siftom.api import engine_for, get_model
+        from siftom.likelihood.registry import resolve_likelihood
 
         self.home, self.top, self.policy = home, top, policy or ClarifyPolicy()
         self.world, self.verb = home.world, getattr(home, "verb", "deliver")
+        likelihood, self.likelihood_reason = resolve_likelihood(likelihood, has_audio=True)
         self.mode, self.likelihood = mode, likelihood
         self.online = get_model(mode, likelihood).online(home.world, home.start, tuple(home.goals), self.verb)
         self.actions: list[str] = []
@@ -118,15 +122,23 @@ class HomeListener:
             raise ObservationError("the text is empty; give the words that were heard")
         t0 = time.perf_counter()
         rec = Recognised(Instruction(nbest=(Hypothesis(text.strip(), 0.0),)), None, 0.0)
-        body = self._answer(rec, None)
+        body = self._answer(rec, None, text_only=True)
         total = round(time.perf_counter() - t0, 4)
         return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
                 "speech_heard": True, "message": "", **body, "timings": {"answer": total, "wait": total}}
 
-    def _answer(self, rec: Recognised, utterance: Utterance | None) -> dict[str, Any]:
+    def _answer(self, rec: Recognised, utterance: Utterance | None, text_only: bool = False) -> dict[str, Any]:
         with self._lock:
             t0 = time.perf_counter()
-            post = self.online.posterior(rec.instruction, top=self.top)
+            online = self.online
+            if text_only and self.likelihood == "acoustic":  # no sound to score: the words' phonemes
+                import copy
+
+                from siftom.api import get_model
+
+                online = copy.copy(self.online)  # posterior() only reads the action state
+                online.model = get_model(self.mode, "phonetic")
+            post = online.posterior(rec.instruction, top=self.top)
             n = len(self.actions)
         body: dict[str, Any] = post.to_json(top=self.top)
         body["clarification"] = clarify(post.commands, self.policy).to_json()

@@ -184,11 +184,30 @@ class Runtime:
             from siftom.service.audio_pool import AudioPool
 
             self.audio_pool = AudioPool(settings)
+        self._warm = threading.Thread(target=self._load_default_audio_model, daemon=True)
+        self._warm.start()
 
     def close(self) -> None:
         """Stop the audio worker processes, if any."""
         if self.audio_pool is not None:
             self.audio_pool.close()
+
+    def _load_default_audio_model(self) -> None:
+        """Load the acoustic model (Whisper) in the background, so the first recording, which gets it
+        by default, does not wait for the model to load."""
+        from siftom.likelihood.registry import resolve_likelihood
+
+        if "acoustic" not in self.settings.offered or resolve_likelihood(None, True)[0] != "acoustic":
+            return
+        try:
+            lk = get_model("full", "acoustic").likelihood
+            whisper = getattr(lk, "_whisper", None)
+            if whisper is not None:  # load the model and run it once (its first pass is the slowest)
+                import numpy as np
+
+                whisper.scorer.score(np.zeros(16_000, dtype=np.float32), ["bring me the cup"])
+        except SiftomError:  # reported by the first request that needs it
+            pass
 
     # ----- scenarios ---------------------------------------------------------------------
     @staticmethod
@@ -211,7 +230,22 @@ class Runtime:
             out["error"] = self.settings.llm_error
         return out
 
+    def resolve_likelihood(self, name: str, instruction: Instruction | None) -> tuple[str, str]:
+        """(likelihood to run, why): "auto" is acoustic for a recording when this server offers it and
+        the whisper extra is installed, else phonetic (``siftom.likelihood.registry.resolve_likelihood``)."""
+        from siftom.likelihood.registry import AUTO, resolve_likelihood
+
+        if name != AUTO:
+            self.check_likelihood(name)
+            return name, "asked for"
+        has_audio = instruction is not None and instruction.has_audio and "acoustic" in self.settings.offered
+        return resolve_likelihood(None, has_audio)
+
     def check_likelihood(self, name: str) -> None:
+        from siftom.likelihood.registry import AUTO
+
+        if name == AUTO:
+            return
         if name not in self.settings.offered:
             # a request field, not a path: 422 (ObservationError), with the valid names
             raise ObservationError(str(unknown_name("instruction likelihood on this server", name,
@@ -262,7 +296,12 @@ class Runtime:
               n_actions: int | None, actions: list[str] | None, top: int, policy: ClarifyPolicy,
               decide: str = "map") -> dict[str, Any]:
         """The response body of ``POST /v1/infer``."""
+        from siftom.inference.listen import with_likelihood
+
+        likelihood, why = self.resolve_likelihood(likelihood, instruction)
         post = self.posterior(sid, instruction, mode, likelihood, n_actions, actions, top)
+        if instruction is not None:
+            post = with_likelihood(post, likelihood, why)
         body: dict[str, Any] = {"scenario": sid, **post.to_json(top=top)}
         body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
         body["clarification"] = clarify(post.commands, policy).to_json()

@@ -51,8 +51,9 @@ class InferOptions(Strict):
     scenario: str = Field(min_length=1, max_length=MAX_SCENARIO_ID, examples=["kitchen-cereal-v0"],
                           description="a registered scenario id (GET /v1/scenarios)")
     mode: Mode = Field(default="full", description="full SIFToM or an ablation")
-    likelihood: str = Field(default="phonetic", max_length=40,
-                            description="instruction likelihood; GET /healthz lists those this server offers")
+    likelihood: str = Field(default="auto", max_length=40,
+                            description="instruction likelihood; GET /healthz lists those this server offers; "
+                                        "auto: acoustic for a recording when Whisper is installed, else phonetic")
     n_actions: int | None = Field(default=None, ge=0, le=MAX_ACTIONS,
                                   description="use only the first n observed actions (default: all)")
     top: int = Field(default=10, ge=1, le=100, description="how many commands, goals and hypotheses to return")
@@ -179,7 +180,7 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
         "scenario": {"type": "string", "minLength": 1, "maxLength": MAX_SCENARIO_ID},
         "audio": {"type": "string", "format": "binary", "description": "the recording"},
         "mode": {"type": "string", "enum": list(MODES), "default": "full"},
-        "likelihood": {"type": "string", "default": "phonetic"},
+        "likelihood": {"type": "string", "default": "auto"},
         "n_actions": {"type": "integer", "minimum": 0, "maximum": MAX_ACTIONS},
         "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST, "default": DEFAULT_NBEST},
         "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},

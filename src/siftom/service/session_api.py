@@ -178,7 +178,7 @@ def session_schemas(likelihoods: tuple[str, ...]) -> dict[str, Any]:
         js = model.model_json_schema(ref_template="#/components/schemas/{model}")
         comps.update(js.pop("$defs", {}))
         comps[model.__name__] = js
-    offered = [lk for lk in likelihoods if lk in ("phonetic", "llm")]
-    comps["SessionCreate"]["properties"]["likelihood"] = {"type": "string", "enum": offered, "default": "phonetic"}
+    offered = ["auto", *(lk for lk in likelihoods if lk in ("phonetic", "llm"))]
+    comps["SessionCreate"]["properties"]["likelihood"] = {"type": "string", "enum": offered, "default": "auto"}
     comps["AudioInstructionForm"] = AUDIO_INSTRUCTION_SCHEMA
     return comps

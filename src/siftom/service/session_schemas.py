@@ -57,7 +57,9 @@ class SessionCreate(Strict):
     target: str | None = Field(default=None, min_length=1, max_length=200,
                                description="the place goals are about (a VirtualHome class name for a scene graph)")
     mode: Mode = Field(default="full", description="full SIFToM or an ablation")
-    likelihood: Literal["phonetic", "llm"] = Field(default="phonetic", description="instruction likelihood")
+    likelihood: Literal["auto", "phonetic", "llm"] = Field(
+        default="auto", description="instruction likelihood; auto: acoustic for spoken instructions when Whisper "
+                                    "is installed, phonetic for transcripts")
 
     @model_validator(mode="after")
     def _one_library(self) -> SessionCreate:

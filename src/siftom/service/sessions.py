@@ -27,6 +27,7 @@ from typing import Any
 from siftom.api import get_model
 from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.errors import ObservationError, SiftomError
+from siftom.inference.listen import with_likelihood
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
 from siftom.service.idempotency import Idem, check_same
@@ -41,7 +42,9 @@ from siftom.world.io import (
 )
 from siftom.world.model import AGENT_NAMES, HELD, HUMAN, NOTHING, Action, apply, check
 
-SESSION_LIKELIHOODS = ("phonetic", "llm")  # the acoustic likelihood needs the recording: /v1/infer
+# "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
+# transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
+SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
 BELIEF_TOP = 5
 
 
@@ -142,8 +145,30 @@ def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
 
 
 def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
-    model = get_model(options["mode"], options["likelihood"])
-    return model.online(scene.world, scene.start, scene.goals, scene.verb)
+    lk = "phonetic" if options["likelihood"] == "auto" else options["likelihood"]
+    return get_model(options["mode"], lk).online(scene.world, scene.start, scene.goals, scene.verb)
+
+
+def _for_instruction(online: OnlineInference, options: dict[str, Any],
+                     instruction: Instruction | None) -> tuple[OnlineInference, str, str]:
+    """The session's inference for this instruction, the likelihood it runs and why.
+
+    With ``auto``, a recording is scored by the acoustic likelihood when the whisper extra is
+    installed: a shallow copy of the session's inference (the same observed actions and action
+    term) with the acoustic model in place of the phonetic one.
+    """
+    import copy
+
+    from siftom.likelihood.registry import resolve_likelihood
+
+    if options["likelihood"] != "auto":
+        return online, options["likelihood"], "asked for"
+    lk, why = resolve_likelihood(None, instruction is not None and instruction.has_audio)
+    if lk == "phonetic":
+        return online, lk, why
+    view = copy.copy(online)  # posterior() only reads the action state
+    view.model = get_model(options["mode"], lk)
+    return view, lk, why
 
 
 class SessionManager:
@@ -365,8 +390,11 @@ class SessionManager:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            # one likelihood serves every thread (it keeps nothing between calls)
-            post = sess.online.posterior(instruction, top=top)
+            if instruction is not None:  # one likelihood serves every thread (it keeps nothing between calls)
+                online, lk, why = _for_instruction(sess.online, sess.options, instruction)
+                post = with_likelihood(online.posterior(instruction, top=top), lk, why)
+            else:
+                post = sess.online.posterior(None, top=top)
             body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(post.commands, policy).to_json()

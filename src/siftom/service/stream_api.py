@@ -120,7 +120,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
             raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
 
         def work() -> dict[str, Any]:
-            sess = mgr.create(scenario_spec(sc), {"mode": "full", "likelihood": "phonetic"})
+            sess = mgr.create(scenario_spec(sc), {"mode": "full", "likelihood": "auto"})
             mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
             return mgr.view(mgr.get(sess.id))
 

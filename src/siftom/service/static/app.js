@@ -246,7 +246,7 @@ async function inferAudio(blob, name) {
   form.append("scenario", state.scenario.id);
   form.append("n_actions", String(state.step));
   form.append("audio", blob, name);
-  if ($("acoustic").checked) form.append("likelihood", "acoustic");
+  form.append("likelihood", $("acoustic").checked ? "acoustic" : "phonetic");  // the box decides
   setStatus("transcribing and inferring…");
   try {
     const res = await api("/v1/infer", { method: "POST", body: form });

@@ -98,6 +98,9 @@ ENGINES.register("pocketsphinx-dual", "siftom.speech.asr.dual:DualEngine",
 ENGINES.register("whisper", "siftom.speech.asr.whisper:WhisperEngine",
                  summary="faster-whisper tiny.en (int8, CPU)", requires=("faster_whisper",), extra="whisper",
                  attrs={"scene": False})
+ENGINES.register("openai", "siftom.speech.asr.openai_server:OpenAITranscriptionEngine",
+                 summary="an OpenAI-compatible transcription server (SIFTOM_ASR_BASE_URL, SIFTOM_ASR_MODEL); "
+                         "N-best from samples at several temperatures", attrs={"scene": False})
 
 
 def get_engine(name: str = DEFAULT_ENGINE, vocabulary: Sequence[str] | None = None, **options: Any) -> ASREngine:

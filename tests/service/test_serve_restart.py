@@ -8,11 +8,6 @@ data directory and finds the session unchanged; then the session carries on.
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -20,6 +15,8 @@ import pytest
 httpx = pytest.importorskip("httpx")
 
 from siftom.service.loadtest import free_port  # noqa: E402
+from support.server import kill_server as _kill  # noqa: E402
+from support.server import start_server as _start  # noqa: E402
 
 ROOT = Path(__file__).parents[2]
 VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
@@ -30,29 +27,6 @@ LINES = ["<char0> [Walk] <kitchen> (56)", "[Walk] <dishwasher> (159)", "[Open] <
 
 pytestmark = [pytest.mark.slow,  # two server start-ups: ~13 s on the shared 2-core machine
               pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"needs {VIRTUALHOME}")]
-
-
-def _start(port: int, data_dir: Path) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.Popen([sys.executable, "-m", "siftom.cli", "serve", "--port", str(port),
-                             "--data-dir", str(data_dir)], env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, start_new_session=True)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise AssertionError(f"siftom serve exited: {proc.stderr.read().decode()[-2000:]}")
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1).status_code == 200:
-                return proc
-        except httpx.HTTPError:
-            time.sleep(0.2)
-    proc.kill()
-    raise AssertionError("siftom serve did not answer /healthz within 60 s")
-
-
-def _kill(proc: subprocess.Popen) -> None:
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=10)
 
 
 def test_killed_server_restarts_and_continues_the_session(tmp_path):

@@ -119,28 +119,38 @@ class _KeepConnectionMiddleware:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        started = False
-
-        async def tracking_send(msg: Message) -> None:
-            nonlocal started
-            if msg["type"] == "http.response.start":
-                started = True
-            await send(msg)
-
+        out = _TrackedSend(send)
         try:
-            await self.app(scope, receive, tracking_send)
+            await self.app(scope, receive, out)
         except _TooLarge:
             raise
         except Exception:
-            if started:
+            if out.started:
                 raise
             log.exception("unhandled error on %s %s", scope.get("method"), scope.get("path"))
-            body = json.dumps(problem(500, "internal", "an internal error occurred; the server log has the "
-                                      "details")).encode()
-            await send({"type": "http.response.start", "status": 500,
-                        "headers": [(b"content-type", PROBLEM_JSON.encode()),
-                                    (b"content-length", str(len(body)).encode())]})
-            await send({"type": "http.response.body", "body": body})
+            await send_problem(send, 500, "internal", "an internal error occurred; the server log has the details")
+
+
+class _TrackedSend:
+    """``send`` that remembers whether the response has started (after that, no problem can be sent)."""
+
+    def __init__(self, send: Send) -> None:
+        self.send, self.started = send, False
+
+    async def __call__(self, msg: Message) -> None:
+        if msg["type"] == "http.response.start":
+            self.started = True
+        await self.send(msg)
+
+
+async def send_problem(send: Send, status: int, slug: str, detail: str, close: bool = False) -> None:
+    """Send a whole problem-details response on a raw ASGI ``send``."""
+    body = json.dumps(problem(status, slug, detail)).encode()
+    headers = [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode())]
+    if close:
+        headers.append((b"connection", b"close"))
+    await send({"type": "http.response.start", "status": status, "headers": headers})
+    await send({"type": "http.response.body", "body": body})
 
 
 class _TooLarge(Exception):
@@ -153,12 +163,9 @@ class BodyLimitMiddleware:
     def __init__(self, app: ASGIApp, max_bytes: int) -> None:
         self.app, self.max_bytes = app, max_bytes
 
-    async def _refuse(self, send: Send, status: int, slug: str, detail: str) -> None:
-        body = json.dumps(problem(status, slug, detail)).encode()
-        await send({"type": "http.response.start", "status": status,
-                    "headers": [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode()),
-                                (b"connection", b"close")]})
-        await send({"type": "http.response.body", "body": body})
+    @staticmethod
+    async def _refuse(send: Send, status: int, slug: str, detail: str) -> None:
+        await send_problem(send, status, slug, detail, close=True)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -177,7 +184,6 @@ class BodyLimitMiddleware:
                     await self._refuse(send, 413, "too-large", too_big)
                     return
         seen = 0
-        started = False
 
         async def limited_receive() -> Message:
             nonlocal seen
@@ -188,16 +194,11 @@ class BodyLimitMiddleware:
                     raise _TooLarge
             return msg
 
-        async def tracking_send(msg: Message) -> None:
-            nonlocal started
-            if msg["type"] == "http.response.start":
-                started = True
-            await send(msg)
-
+        out = _TrackedSend(send)
         try:
-            await self.app(scope, limited_receive, tracking_send)
+            await self.app(scope, limited_receive, out)
         except _TooLarge:
-            if not started:
+            if not out.started:
                 await self._refuse(send, 413, "too-large", too_big)
 
 

@@ -42,7 +42,8 @@ def test_a_transcript_gives_a_typed_command():
     assert (p.command.verb, p.command.obj_class, p.command.count) == ("fetch", "tomato", 1)
     assert str(p.command) == "fetch(tomato)" and p.command == "fetch(tomato)"
     assert p.commands[0][0] == p.command and p.prob("fetch(tomato)") == p.commands[0][1]
-    assert [g for g, _ in p.goals] and p.decision is None
+    assert [g for g, _ in p.goals] and p.decision.rule == "expected-benefit"  # the default rule
+    assert p.action == "act" and p.top_command == p.command
     assert json.loads(json.dumps(p.to_json()))["command"] == "fetch(tomato)"
 
 

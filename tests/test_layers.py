@@ -17,11 +17,13 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("agents",),
     ("scenarios",),
-    ("backends", "speech"),
+    ("backends", "speech", "options"),  # options: the option classes of every stage and door
     ("likelihood",),
     ("inference",),
     ("assist", "perception"),
-    ("api", "inputs", "settings", "bench", "service", "__init__"),  # the package root is the public facade
+    ("inputs", "settings", "answer"),  # the resolved settings and the one answer shape
+    ("observer",),  # the one path behind every door
+    ("api", "bench", "service", "__init__"),  # the package root is the public facade
     ("cli",),
 )
 LAYER_OF = {name: k for k, names in enumerate(LAYERS) for name in names}

@@ -52,7 +52,7 @@ def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instruct
     assert [d["heard"] for d in decisions] == ["can you get me the tomato", "pass me the cheese"]
     assert [d["command"] for d in decisions] == ["fetch(tomato)", "fetch(cheese)"]
     for d in decisions:
-        assert d["decision"] in ("act", "ask", "wait") and d["n_actions"] == 2 and 0 < d["prob"] <= 1
+        assert d["action"] == "act" and d["n_actions"] == 2 and 0 < d["prob"] <= 1
         assert set(d["timings"]) >= {"asr", "answer", "wait"} and "after_speech_s" not in d["timings"]
         assert len(d["nbest"]) <= 3 and d["start_s"] < d["end_s"]
 

@@ -7,7 +7,6 @@ the human's actions in ``Predicate(agent, object, location)`` form, and what was
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
@@ -15,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from siftom.answer import Answer
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
-from siftom.inference.listen import ENGINES, ONLINE, Heard, hear
-from siftom.inference.model import ModelConfig, Observation, OnlineInference, Posterior, SIFToM
+from siftom.inference.model import ModelConfig, Posterior, SIFToM
 from siftom.inputs import SceneInput
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
 from siftom.settings import Settings
@@ -119,13 +118,16 @@ def infer_scenario(
     ``likelihood`` is a name or a likelihood object; ``llm`` configures the "llm" likelihood
     (default: the ``SIFTOM_LLM_*`` environment).
     """
+    from siftom.inputs import resolve_scene
+    from siftom.observer import observer_for
     from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
     if n_actions is not None and not 0 <= n_actions <= len(sc.actions):
         raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {scenario_id}")
-    obs = Observation.from_scenario(sc, instruction, n_actions)
-    return get_model(mode, likelihood, llm).infer(obs)
+    scene = resolve_scene(scenario_id, list(sc.actions[:n_actions]) if n_actions is not None else None)
+    obs = observer_for(_with_llm(None, llm))
+    return obs.answer(obs.online(scene, mode), instruction, likelihood=likelihood, decide="map").posterior
 
 
 def infer_actions(
@@ -138,13 +140,21 @@ def infer_actions(
 ) -> Posterior:
     """Inference on a registered scenario's start state with the caller's own action strings
     (siftom's ``walk(human, fridge)`` or VirtualHome's ``[Walk] <fridge> (1)``, see world/vhscript.py)."""
-    from siftom.scenarios.base import get_scenario
-    from siftom.world.vhscript import parse_actions
+    from siftom.inputs import resolve_scene
+    from siftom.observer import observer_for
 
-    sc = get_scenario(scenario_id)
-    acts, _ = parse_actions(sc.world, sc.start, actions)  # siftom's or VirtualHome's script format
-    obs = Observation(sc.world, sc.start, tuple(acts), sc.goals, sc.verb, instruction)
-    return get_model(mode, likelihood, llm).infer(obs)
+    scene = resolve_scene(scenario_id, list(actions))  # siftom's or VirtualHome's script format
+    obs = observer_for(_with_llm(None, llm))
+    return obs.answer(obs.online(scene, mode), instruction, likelihood=likelihood, decide="map").posterior
+
+
+def _with_llm(settings: Settings | None, llm: LLMConfig | None) -> Settings:
+    """``settings`` (default: :meth:`Settings.load`) with ``llm`` as the language model."""
+    st = settings if settings is not None else Settings.load()
+    if llm is None:
+        return st
+    flags = {f"llm.{k}": v for k, v in dataclasses.asdict(llm).items() if v is not None}
+    return Settings.load(flags=flags) if settings is None else st
 
 
 def vocabulary_for(world: Any, verb: str, max_count: int = MAX_COUNT) -> list[str]:
@@ -165,16 +175,13 @@ def transcribe_for(audio: str | Path, world: Any = None, verb: str = "fetch", en
     return get_engine(engine, **options).transcribe(audio, nbest=nbest)
 
 
-# ----- audio in, posterior out (siftom.inference.listen has the parts) ---------------------------
+# ----- the one-shot doors: an observer per settings (siftom.observer) -----------------------
 
 def engine_for(world: Any, verb: str, engine: str = "pocketsphinx") -> Any:
-    """A cached recogniser; pocketsphinx is biased to the world's command phrasings."""
-    from siftom.speech.asr.base import get_engine
+    """The shared observer's recogniser for a scene (pocketsphinx biased to its command phrasings)."""
+    from siftom.observer import observer_for
 
-    if engine != "pocketsphinx":
-        return ENGINES.get((engine,), lambda: get_engine(engine))
-    vocab = tuple(sorted(vocabulary_for(world, verb)))
-    return ENGINES.get((engine, hash(vocab)), lambda: get_engine("pocketsphinx", vocabulary=list(vocab)))
+    return observer_for().recogniser(world, verb, engine)
 
 
 def _scene_of(scenario: Any, world: Any, actions: Sequence[Any] | None, start: Any, goals: Any,
@@ -193,80 +200,6 @@ def _scene_of(scenario: Any, world: Any, actions: Sequence[Any] | None, start: A
     return make_scene(src, start, goals, actions or (), verb or "deliver")
 
 
-def _likelihood_key(likelihood: LikelihoodArg) -> Any:
-    return likelihood if isinstance(likelihood, str) else ("object", id(likelihood), likelihood)
-
-
-def _run(sc: SceneInput, heard: Instruction | np.ndarray | None, likelihood: LikelihoodArg | None, st: Settings,
-         mode: str | None = None, engine: str | None = None, nbest: int | None = None,
-         top: int | None = None) -> Heard:
-    """The one path from a resolved scene and what was heard to the posterior (audio: VAD + ASR first).
-
-    ``likelihood`` None or ``"auto"``: the best one the input allows (``resolve_likelihood``);
-    ``evidence['likelihood']`` and ``evidence['likelihood_reason']`` say which ran and why.
-    """
-    from siftom.inference.listen import with_likelihood
-    from siftom.likelihood.registry import resolve_likelihood
-
-    t0 = time.perf_counter()
-    opts = st.infer
-    has_audio = isinstance(heard, np.ndarray) or (isinstance(heard, Instruction) and heard.has_audio)
-    if likelihood is None or isinstance(likelihood, str):
-        likelihood, why = resolve_likelihood(likelihood, has_audio=has_audio)
-    else:
-        why = "given as an object"
-    mode = mode or st.model.mode
-    tr = vad = None
-    timings: dict[str, float] = {}
-    instruction: Instruction | None
-    if isinstance(heard, np.ndarray):
-        asr = engine_for(sc.world, sc.verb, engine or opts.engine)
-        instruction, tr, vad, timings = hear(heard, asr, nbest or opts.nbest)
-        speech = instruction is not None
-    else:
-        instruction, speech = heard, heard is not None
-    t1 = time.perf_counter()
-    use_mode, use_lik = (("action-only", "phonetic") if instruction is None and mode != "speech-only"
-                         else (mode, likelihood))
-    post = _online(sc, use_mode, use_lik, st).posterior(instruction, top=top or opts.top)
-    if instruction is not None:
-        post = with_likelihood(post, use_lik if isinstance(use_lik, str) else type(use_lik).__name__, why)
-    said = True
-    if vad is not None and instruction is not None and post.evidence.get("no_instruction"):
-        # words, but none near a command of the scene: the actions alone, and no command issued
-        said = False
-        alone = _online(sc, "action-only", "phonetic", st).posterior(None, top=top or opts.top)
-        post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
-    timings = {**timings, "infer": time.perf_counter() - t1}
-    return Heard(post, speech, tr, vad, time.perf_counter() - t0, timings, instruction=said)
-
-
-def _online(sc: SceneInput, mode: str, likelihood: LikelihoodArg, st: Settings) -> OnlineInference:
-    """The cached online inference of ``sc`` (its actions observed) for a mode and likelihood."""
-    llm = st.llm if likelihood == "llm" else None
-    lk_opts = st.likelihood_options(likelihood) if isinstance(likelihood, str) else None
-    model = get_model(mode, likelihood, llm, st.model, lk_opts)
-
-    def make() -> OnlineInference:
-        on = model.online(sc.world, sc.start, sc.goals, sc.verb)
-        for a in sc.actions:
-            on.observe(a)
-        return on
-
-    key = (sc.key, model.config, _likelihood_key(likelihood), llm, tuple(sorted((lk_opts or {}).items())))
-    online: OnlineInference = ONLINE.get(key, make)
-    return online
-
-
-def _decided(post: Posterior, sc: SceneInput, decide: Any, st: Settings) -> Posterior:
-    from siftom.assist.decide import Situation, get_rule
-
-    if post.joint is None or post.joint.state is None:
-        return post
-    rule = get_rule(decide, **st.rule_options(decide)) if isinstance(decide, str) else decide
-    return dataclasses.replace(post, decision=rule(post, Situation(sc.world, post.joint.state, sc.target)))
-
-
 def infer(
     scene: Any,
     actions: Any = None,
@@ -275,8 +208,11 @@ def infer(
     likelihood: LikelihoodArg | None = None,
     decide: Any = None,
     settings: Settings | None = None,
-) -> Posterior:
-    """The robot command a person meant, from what they did and said.
+) -> Answer:
+    """What the robot does about what a person did and said: the decision beside the posterior.
+
+    A one-shot use of :class:`siftom.Observer` (``Observer(settings).infer(...)``); calls with the
+    same settings share one observer, so its models and per-scene caches are built once.
 
     Args:
         scene: a registered scenario id (``kitchen-cereal-v0``), a path to a siftom world JSON
@@ -285,41 +221,31 @@ def infer(
             VirtualHome script lines (``[Grab] <milk> (195)``), or a path to a file of them.
             None: the scenario's own actions (none for a world file).
         heard: a transcript, an N-best list (texts best first, or (text, log score) pairs), a
-            path to an audio file, or 16 kHz mono samples. None: the actions alone.
+            path to an audio file, or 16 kHz mono samples. None: nothing was said.
         likelihood: a registered likelihood name or an object with ``log_prob`` (default:
-            ``settings.infer.likelihood``).
-        decide: a decision rule name (``map``, ``expected-benefit``, ``ask-or-act``) or rule;
-            the posterior's ``decision`` holds what it decided.
+            the setting ``infer.likelihood``, ``auto``: acoustic for audio with the whisper
+            extra, else phonetic).
+        decide: a decision rule name (``expected-benefit``, ``ask-or-act``, ``map``) or rule
+            (default: the setting ``infer.decide``, ``expected-benefit``).
         settings: every other option (default: :meth:`Settings.load`: ``SIFTOM_*`` and
             ``SIFTOM_CONFIG``).
 
     Returns:
-        Posterior: ``command`` (a RobotCommand), ``commands``, ``goals``, ``evidence`` and,
-        with ``decide``, ``decision``. From audio without speech it is the actions-alone
-        posterior and ``evidence["speech_heard"]`` is False.
+        Answer: ``action`` (act, ask or none), ``command`` (what the robot carries out, or None),
+        ``top_command`` (the most probable command), ``decision`` (the rule, its reason, the
+        question), ``commands``, ``goals`` and ``evidence``. Without speech, or with words near
+        no command of the scene, the action is ``none``.
 
     Example::
 
-        >>> p = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
+        >>> a = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
         ...                  "can you get me the potato")
-        >>> str(p.command)
+        >>> str(a.top_command)
         'fetch(tomato)'
     """
-    from siftom.inputs import as_heard, resolve_scene
+    from siftom.observer import observer_for
 
-    st = settings if settings is not None else Settings.load()
-    sc = resolve_scene(scene, actions)
-    got = as_heard(heard)
-    if got is None and st.model.mode == "speech-only":
-        raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
-    h = _run(sc, got, likelihood if likelihood is not None else st.infer.likelihood, st)
-    post = h.posterior
-    if h.vad is not None:  # from audio: say whether speech, and an instruction, was heard
-        post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": h.speech,
-                                                    "instruction_heard": h.speech and h.instruction,
-                                                    **({"message": h.message} if h.message else {})})
-    rule = decide if decide is not None else (st.infer.decide or None)
-    return _decided(post, sc, rule, st) if rule is not None else post
+    return observer_for(settings).infer(scene, actions, heard, likelihood=likelihood, decide=decide)
 
 
 def listen(
@@ -331,17 +257,18 @@ def listen(
     start: Any = None,
     goals: Sequence[Any] | None = None,
     verb: str | None = None,
-    mode: str = "full",
+    mode: str | None = None,
     likelihood: LikelihoodArg | None = None,
-    engine: str = "pocketsphinx",
-    nbest: int = DEFAULT_NBEST,
-    top: int = 10,
+    engine: str | None = None,
+    nbest: int | None = None,
+    top: int | None = None,
     decide: Any = None,
     settings: Settings | None = None,
-) -> Heard:
-    """Infer the robot command from a recording of the instruction and the human's actions.
+) -> Answer:
+    """What the robot does about a recording of the instruction and the person's actions.
 
-    The same path as :func:`infer` with audio, returning the recogniser's output and timings too.
+    The same path as :func:`infer` with audio (``Observer.listen``), with the recogniser's output
+    (``asr``), the detector's (``vad``) and the seconds per stage (``timings``) kept.
 
     Args:
         audio: a file path (WAV, FLAC, ...) or 16 kHz mono samples.
@@ -349,26 +276,16 @@ def listen(
             used unless ``actions`` is given).
         world: instead of ``scenario``: a loaded scene (``siftom.world.io.load_scene``) or a
             World with ``start`` and ``goals``.
-        actions: the human's actions (strings like ``grab(human, milk, fridge)`` or Actions).
-        mode: ``full``, ``speech-only`` or ``action-only``.
-        likelihood: ``phonetic`` (N-best), ``acoustic`` (the audio itself) or ``llm``; None
-            (default): ``acoustic`` when the whisper extra is installed, else ``phonetic``
-            (``evidence['likelihood']`` and ``evidence['likelihood_reason']`` say which ran and why).
-        engine: the ASR engine.
-        decide: a decision rule name or rule (as in :func:`infer`).
+        actions: the person's actions (strings like ``grab(human, milk, fridge)`` or Actions).
+        mode, likelihood, engine, nbest, top, decide: left out, the settings (``model.mode``,
+            ``infer.likelihood``, ``infer.engine``, ``infer.nbest``, ``infer.top``, ``infer.decide``).
 
     Returns:
-        Heard: the posterior, whether speech was heard, the transcript and timings. Without
-        speech the posterior is the actions-alone one and ``message`` is "no speech heard".
+        Answer: as :func:`infer`. Without speech the posterior is the actions-alone one, the
+        action is ``none`` and ``message`` is "no speech heard".
     """
-    from siftom.speech.audio import as_audio
+    from siftom.observer import observer_for
 
-    t0 = time.perf_counter()
-    st = settings if settings is not None else Settings.load()
     sc = _scene_of(scenario, world, actions, start, goals, verb)
-    x = as_audio(audio)
-    t_load = time.perf_counter() - t0
-    h = _run(sc, x, likelihood, st, mode=mode, engine=engine, nbest=nbest, top=top)
-    if decide is not None:
-        h = dataclasses.replace(h, posterior=_decided(h.posterior, sc, decide, st))
-    return dataclasses.replace(h, seconds=time.perf_counter() - t0, timings={"load": t_load, **h.timings})
+    return observer_for(settings).listen(audio, sc, likelihood=likelihood, decide=decide, mode=mode, top=top,
+                                         engine=engine, nbest=nbest)

@@ -7,11 +7,11 @@ Precedence, highest first: **flags > environment > file > defaults**. A setting 
 =========  ==============================================  =====================================
 section    option class                                    environment variable
 =========  ==============================================  =====================================
-infer      :class:`InferOptions` (likelihood, engine ...)   ``SIFTOM_INFER_LIKELIHOOD`` ...
+infer      ``siftom.options.InferOptions`` (likelihood ...)  ``SIFTOM_INFER_LIKELIHOOD`` ...
 model      ``siftom.inference.model.ModelConfig``          ``SIFTOM_MODEL_BETAS`` (comma list)
-service    ``siftom.service.runtime.ServiceSettings``      ``SIFTOM_SERVICE_WORKERS`` ...
-sessions   ``siftom.service.sessions.SessionLimits``       ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
-stream     ``siftom.service.stream_settings.StreamLimits`` ``SIFTOM_STREAM_MAX_STREAMS`` ...
+service    ``siftom.options.ServiceSettings``              ``SIFTOM_SERVICE_WORKERS`` ...
+sessions   ``siftom.options.SessionLimits``                ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
+stream     ``siftom.options.StreamLimits``                 ``SIFTOM_STREAM_MAX_STREAMS`` ...
 llm        ``siftom.backends.config.LLMConfig``            its own ``SIFTOM_LLM_*`` (docs/llm.md)
 rules      the decision rules' options, ``[rules.ask-or-act]``  (file and flags only)
 likelihoods  a likelihood's constructor options, ``[likelihoods.acoustic]``  (file and flags)
@@ -44,49 +44,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from siftom.errors import SettingsError, SiftomError, unknown_name
+from siftom.options import InferOptions
 
 if TYPE_CHECKING:
     from siftom.backends.config import LLMConfig
     from siftom.inference.model import ModelConfig
-    from siftom.service.runtime import ServiceSettings
-    from siftom.service.sessions import SessionLimits
-    from siftom.service.stream_settings import StreamLimits
+    from siftom.options import ServiceSettings, SessionLimits, StreamLimits
 
 ENV_CONFIG = "SIFTOM_CONFIG"
 ENV_PREFIX = "SIFTOM_"
 
 
-@dataclass(frozen=True)
-class InferOptions:
-    """How :func:`siftom.infer` hears and scores an instruction.
-
-    Attributes:
-        likelihood: the instruction likelihood (``siftom plugins``: phonetic, acoustic, llm, ...);
-            ``auto``: acoustic for audio when the whisper extra is installed, else phonetic.
-        engine: the ASR engine for audio.
-        nbest: hypotheses the recogniser keeps.
-        top: hypotheses kept in the posterior's ``hypotheses``.
-        decide: the decision rule applied when ``infer(..., decide=None)`` (empty: none).
-    """
-
-    likelihood: str = "auto"
-    engine: str = "pocketsphinx"
-    nbest: int = 10
-    top: int = 10
-    decide: str = ""
-
-    def __post_init__(self) -> None:
-        if self.nbest < 1 or self.top < 1:
-            raise SettingsError(f"infer.nbest and infer.top must be >= 1, got {self.nbest} and {self.top}")
-
-
 # section -> "module:class"; imported only when the section is used
 SECTIONS: dict[str, str] = {
-    "infer": "siftom.settings:InferOptions",
+    "infer": "siftom.options:InferOptions",
     "model": "siftom.inference.model:ModelConfig",
-    "service": "siftom.service.runtime:ServiceSettings",
-    "sessions": "siftom.service.sessions:SessionLimits",
-    "stream": "siftom.service.stream_settings:StreamLimits",
+    "service": "siftom.options:ServiceSettings",
+    "sessions": "siftom.options:SessionLimits",
+    "stream": "siftom.options:StreamLimits",
     "llm": "siftom.backends.config:LLMConfig",
 }
 # fields that hold other sections or derived state, not settings

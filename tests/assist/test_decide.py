@@ -60,7 +60,7 @@ def test_risk_neutral_expected_benefit_acts_on_a_clear_request():
     assert post.command == str(sc.command) == "deliver(spoon,3)"
     # risk-neutral: with the default loss aversion (a lost step weighs 5 saved) a 77 % posterior
     # whose alternatives need remedy steps may rightly keep still (docs/decisions.md, the curve)
-    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0)
+    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0, scope="any")
     # two spoons balance the work better than three (robot 24 steps, human 19, vs 32 and 10):
     # the rule finds the faster team, which the simulation confirms
     assert d.action.startswith("deliver(spoon,") and d.expected_benefit > 0
@@ -70,7 +70,7 @@ def test_risk_neutral_expected_benefit_acts_on_a_clear_request():
 def test_expected_benefit_does_nothing_when_every_command_risks_a_remedy():
     # a request for an object no goal needs and only harmful guesses: keeping still is best
     sc, post = _posterior("household-table-v0/3", None)
-    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0)  # risk-neutral
+    d = decide(post, Situation.from_scenario(sc), "expected-benefit", loss_aversion=0.0, scope="any")  # risk-neutral
     best_command = max(b for a, b in d.benefits if a != NONE)
     assert (d.action == NONE) == (best_command <= 0)
 
@@ -135,7 +135,7 @@ def test_loss_aversion_trades_expected_steps_for_fewer_losses():
     gain = tv.expected()
     chosen = []
     for lam in (0.0, 1.0, 4.0, 1e6):
-        d = decide(post, where, "expected-benefit", loss_aversion=lam)
+        d = decide(post, where, "expected-benefit", loss_aversion=lam, scope="any")
         i = tv.actions.index(d.action)
         # the chosen action maximises E[b] - lam E[max(0, -b)], computed here by hand
         assert gain[i] - lam * loss[i] >= max(gain - lam * loss) - 1e-9

@@ -56,7 +56,7 @@ def test_with_the_truth_known_expected_benefit_picks_the_fastest_team():
     best = max(simulate_scenario(sc, c).speedup for c in team_values(pm, sc.world, sc.target).actions[:-1])
     for unit in ("steps", "speedup"):
         for lam in (0.0, 3.0):
-            d = decide(certain, where, "expected-benefit", loss_aversion=lam, utility=unit)
+            d = decide(certain, where, "expected-benefit", loss_aversion=lam, utility=unit, scope="any")
             got = 0.0 if d.action == NONE else simulate_scenario(sc, d.action).speedup
             assert got == pytest.approx(max(best, 0.0))
 
@@ -73,9 +73,9 @@ def test_steps_already_spent_count_in_every_outcome():
         u = b - 3.0 * np.maximum(0.0, -b)
         eu = tv.prob @ u
         want = tv.actions[-1] if eu[-1] >= eu.max() - 1e-9 else tv.actions[int(np.argmax(eu))]
-        assert decide(post, where, "expected-benefit", loss_aversion=3.0, spent=spent).action == want
+        assert decide(post, where, "expected-benefit", loss_aversion=3.0, spent=spent, scope="any").action == want
     # here the robot that has spent nothing stands still, one already 2 steps behind acts
-    acts = [decide(post, where, "expected-benefit", loss_aversion=3.0, spent=x).action for x in (0.0, 2.0)]
+    acts = [decide(post, where, "expected-benefit", loss_aversion=3.0, spent=x, scope="any").action for x in (0.0, 2.0)]
     assert acts[0] == NONE and acts[1] != NONE
 
 

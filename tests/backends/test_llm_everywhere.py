@@ -102,7 +102,7 @@ def test_infer_scenario_takes_a_name_or_an_object(endpoint):
         def log_prob(self, instruction, commands):
             return np.array([0.0 if c.obj_class == "sugar" else -50.0 for c in commands])
 
-    post = infer_scenario("kitchen-cereal-v0", make_instruction("anything"), likelihood=Sugar())
+    post = infer_scenario("kitchen-cereal-v0", make_instruction("can you bring me anything"), likelihood=Sugar())
     assert post.likelihood == "mine" and post.command == "fetch(sugar)"
     with pytest.raises(Exception, match="log_prob"):
         infer_scenario("kitchen-cereal-v0", make_instruction("x"), likelihood=42)

@@ -45,7 +45,8 @@ def test_no_speech_gives_the_action_only_posterior(which, request):
 
     heard = listen(request.getfixturevalue(which), scenario=SCENARIO, likelihood="acoustic")
     assert not heard.speech and heard.message == "no speech heard"
-    assert heard.transcript is None and heard.posterior.transcript == ""
+    assert heard.asr is None and heard.posterior.transcript == ""
+    assert heard.action == "none" and heard.command is None
     ref = infer_scenario(SCENARIO, None, mode="action-only")
     assert [c for c, _ in heard.posterior.commands] == [c for c, _ in ref.commands]
     np.testing.assert_allclose([p for _, p in heard.posterior.commands], [p for _, p in ref.commands], rtol=1e-9)
@@ -61,7 +62,7 @@ def test_listen_hears_the_command(cereal_wav, likelihood):
     evidence = heard.to_json()["evidence"]
     assert evidence["likelihood"] == likelihood and evidence["likelihood_reason"] == "asked for"
     if likelihood == "phonetic":
-        assert set(evidence) == {"likelihood", "likelihood_reason"}
+        assert set(evidence) == {"likelihood", "likelihood_reason", "speech_heard", "instruction_heard"}
     else:  # what the acoustic likelihood used is reported: its mode and, with Whisper, Whisper's own words
         from siftom.likelihood.whisper_factor import whisper_available
 

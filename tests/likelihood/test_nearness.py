@@ -78,13 +78,15 @@ def test_listen_issues_no_command_for_words_that_hold_none(tmp_path, capsys):
     x = synthesize("what time is it", "flite-slt")
     heard = listen(x, scenario="kitchen-cereal-v0")
     assert heard.speech and not heard.instruction
-    assert heard.command == "none" and heard.message == "no instruction heard"
+    assert heard.command is None and heard.action == "none" and heard.message == "no instruction heard"
     assert heard.posterior.mode == "action-only"  # the actions-alone belief is still shown
     js = heard.to_json()
-    assert js["command"] == "none" and js["instruction_heard"] is False and js["evidence"]["no_instruction"]
+    assert js["command"] is None and js["action"] == "none" and js["instruction_heard"] is False
+    assert js["evidence"]["no_instruction"] and js["decision"]["reason"].startswith("no instruction heard")
     import soundfile as sf
 
     wav = tmp_path / "x.wav"
     sf.write(wav, x, 16000)
     assert main(["infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav)]) == 0
-    assert "no instruction heard" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "no instruction heard" in out and "the robot does nothing" in out

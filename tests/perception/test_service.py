@@ -90,7 +90,7 @@ def test_a_session_takes_frames_instead_of_actions(client, vlm_env, frames):
     assert len(r.json()["added"]) == 10 and r.json()["n_actions"] == 10
     r = client.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "can you pass me the silver"})
     assert r.status_code == 200, r.text
-    assert r.json()["command"] == "fetch(cereal)"
+    assert r.json()["top_command"] == "fetch(cereal)"
     # the same frames again: the milk is no longer where the first frame shows it -> 422, nothing added
     r = client.post(f"/v1/sessions/{sid}/frames", json={"frames": data_urls(frames)})
     assert r.status_code in (422, 502), r.text

@@ -10,6 +10,7 @@ from siftom.bench.calibrate import collect
 from siftom.bench.evaluate import EvalOptions
 from siftom.cli import root
 from siftom.inference.listen import hear
+from siftom.options import InferOptions
 from siftom.service.schemas import AudioFields
 from siftom.service.session_schemas import AudioInstructionFields
 from siftom.speech.asr import DEFAULT_NBEST
@@ -21,15 +22,18 @@ def _default(fn, name: str = "nbest"):
 
 def test_library_evaluator_and_service_share_one_default():
     assert DEFAULT_NBEST == 10  # the library's size since session 1; docs/speech.md "N-best size"
-    assert _default(listen) == _default(transcribe_for) == _default(hear) == DEFAULT_NBEST
+    # the doors leave it out (None): the setting infer.nbest, whose default is the library's
+    assert _default(listen) is None and AudioFields(scenario="kitchen-cereal-v0").asr_nbest is None
+    assert AudioInstructionFields().asr_nbest is None and InferOptions().nbest == DEFAULT_NBEST
+    assert _default(transcribe_for) == _default(hear) == DEFAULT_NBEST
     assert EvalOptions().nbest == _default(collect) == DEFAULT_NBEST
-    assert AudioFields(scenario="kitchen-cereal-v0").asr_nbest == AudioInstructionFields().asr_nbest == DEFAULT_NBEST
 
 
 def test_documented_defaults_match(client):
     spec = client.get("/openapi.json").json()
     schemas = spec["components"]["schemas"]
-    assert schemas["AudioInferForm"]["properties"]["asr_nbest"]["default"] == DEFAULT_NBEST
-    assert schemas["AudioInstructionForm"]["properties"]["asr_nbest"]["default"] == DEFAULT_NBEST
+    for form in ("AudioInferForm", "AudioInstructionForm"):  # left out: the server's setting infer.nbest
+        assert "default" not in schemas[form]["properties"]["asr_nbest"]
+    assert client.get("/healthz").json()["settings"]["infer.nbest"] == DEFAULT_NBEST
     nbest = next(p for p in root.commands["eval"].params if p.name == "nbest")
     assert nbest.default == DEFAULT_NBEST and nbest.show_default  # `siftom eval --help` says 10

@@ -78,7 +78,7 @@ def test_actions_and_an_utterance_round_trip_into_a_decision(tmp_path):
     assert len(got) == 1, (got, log)
     (decision,) = got
     assert decision["event"] == "decision" and decision["heard"] == SPOKEN
-    assert decision["command"] == "fetch(tomato)" and decision["decision"] in ("act", "ask")
+    assert decision["command"] == "fetch(tomato)" and decision["action"] == "act"
     steps = [e for e in log if e.get("event") == "actions"]  # one per message; a line may be 0-2 actions
     assert [e["added"] for e in steps] == [[], ["walk(human, fridge)", "open(human, fridge)"],
                                            ["grab(human, lettuce_1, fridge)"], ["walk(human, counter)", "put(human, lettuce_1, counter)"]]
@@ -101,7 +101,9 @@ def test_a_text_topic_is_answered_as_a_transcript():
         finally:
             bridge.stop()
             thread.join(10)
-    assert got and got[0]["command"] == "fetch(tomato)" and got[0]["n_actions"] == 0
+    # no action seen yet: the words alone are uncertain, so the robot may wait, but it read them
+    assert got and got[0]["top_command"] == "fetch(tomato)" and got[0]["n_actions"] == 0
+    assert got[0]["action"] in ("act", "none")
 
 
 def test_audio_data_in_either_json_form():

@@ -2,7 +2,8 @@
 
 * ``map``: execute the command with the highest posterior marginal (the Bayes choice for
   the accuracy metric, which scores the command).
-* ``expected-benefit``: execute the action, any command of the domain or doing nothing, with
+* ``expected-benefit``: execute the action, the command that was asked for (the most probable
+  one; ``scope="any"``: any command of the domain) or doing nothing, with
   the highest expected loss-averse utility of the steps it saves the team,
   ``argmax_a E[u(b)]`` with ``b = L_single(g) - L_team(g, a)`` and
   ``u(b) = b - loss_aversion * max(0, -b)``, the team terms counted as the team simulation
@@ -51,6 +52,8 @@ DEFAULT_LOSS_AVERSION = 3.0
 # what the deciding rules measure a gain in: "steps" saved (L_single - L_team) or "speedup"
 # (L_single / L_team - 1, the benchmark's metric); docs/decisions.md
 UTILITIES = ("steps", "speedup")
+# which commands expected-benefit weighs against doing nothing: the one asked for, or any
+SCOPES = ("asked", "any")
 DEFAULT_UTILITY = "steps"
 # pair questions are drawn from the most probable commands
 QUESTION_POOL = 4
@@ -160,12 +163,18 @@ def _top(actions: Sequence[str], eb: np.ndarray, k: int = 5) -> tuple[tuple[str,
 
 
 def _best(tv: TeamValues, loss_aversion: float = 0.0, unit: str = "steps",
-          spent: float = 0.0) -> tuple[int, np.ndarray]:
+          spent: float = 0.0, only: Sequence[str] | None = None) -> tuple[int, np.ndarray]:
     """The action of highest expected utility (ties go to doing nothing) and every action's E[b].
 
     ``spent``: steps the team has already lost (a question asked), counted in every outcome.
+    ``only``: the commands that may be chosen (doing nothing always may); None: every one.
     """
     eu = tv.prob @ tv.utility(loss_aversion, spent, unit)
+    if only is not None:
+        keep = np.zeros(len(eu), dtype=bool)
+        keep[-1] = True
+        keep[[tv.actions.index(c) for c in only if c in tv.actions]] = True
+        eu = np.where(keep, eu, -np.inf)
     # ties (e.g. several commands worth exactly nothing) go to doing nothing, then to the list order
     best = int(np.argmax(eu))
     if eu[-1] >= eu[best] - 1e-9:
@@ -210,6 +219,10 @@ class ExpectedBenefitRule:
 
     The utility of saving ``b`` steps is ``b - loss_aversion * max(0, -b)``: a step lost
     weighs ``1 + loss_aversion`` steps saved (0: risk-neutral, the expected steps saved).
+
+    ``scope``: ``asked`` (default) weighs only the command the person most probably asked for
+    against doing nothing, so the robot never carries out a command nobody asked for; ``any``
+    weighs every command of the domain (it may bring what helps most instead of what was asked).
     """
 
     loss_aversion: float = DEFAULT_LOSS_AVERSION
@@ -219,15 +232,19 @@ class ExpectedBenefitRule:
     # count in every outcome, doing nothing included, so a loss-averse robot weighs them as the
     # question's value assumed it would (ask-or-act's EVI)
     spent: float = 0.0
+    scope: str = "asked"
     name: str = "expected-benefit"
 
     def __post_init__(self) -> None:
         _check_steps(self, "loss_aversion", "spent")
         _check_utility(self.utility)
+        if self.scope not in SCOPES:
+            raise ObservationError(f"scope must be one of {', '.join(SCOPES)}, got {self.scope!r}")
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent)
+        only = (post.command,) if self.scope == "asked" and post.command in tv.actions else None
+        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent, only)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
         why = (f"no command is worth its risk (best {tv.actions[int(np.argmax(eb[:-1]))]}: "
@@ -374,8 +391,8 @@ class AskOrActRule:
 RULES = Registry("decision rule", default="map")
 RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
 RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
-               summary="execute the command (or nothing) that saves the team the most steps in expectation",
-               attrs={"options": ("loss_aversion", "utility", "spent")})
+               summary="carry out the command asked for when it saves the team steps in expectation, else nothing",
+               attrs={"options": ("loss_aversion", "utility", "spent", "scope")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",

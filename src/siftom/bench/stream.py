@@ -198,7 +198,7 @@ def _score(answers: Sequence[tuple[Any, dict[str, Any], float]], truths: list[di
         if len(hits) == 1:
             utt, out, at = answers[hits[0]]
             row.update({"event": out["event"], "heard": out.get("heard", ""), "command": out.get("command"),
-                        "decision": out.get("decision"), "timings": out.get("timings")})
+                        "action": out.get("action"), "timings": out.get("timings")})
             if row["outcome"] == "ok" and out["event"] == "decision":
                 d = at - (t0 + tr["end_s"])
                 row["delay_s"] = round(d, 4)

@@ -60,13 +60,15 @@ def _read_nbest(path: Path) -> list[dict]:
 @click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default=None,
               help="full (default), speech-only or action-only (setting model.mode).")
 @click.option("--likelihood", default=None,
-              help=f"Instruction likelihood (setting infer.likelihood): {LIKELIHOODS.help_line()}.")
+              help="Instruction likelihood (setting infer.likelihood, default auto: acoustic for --audio when "
+                   f"the whisper extra is installed, else phonetic): {LIKELIHOODS.help_line()}.")
 @click.option("--engine", default=None, help=f"ASR engine for --audio (setting infer.engine): {ENGINES.help_line()}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="A TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults.")
-@click.option("--decide", "rule", default="map", show_default=True,
-              help=f"Decision rule: {RULES.help_line()} (docs/decisions.md).")
+@click.option("--decide", "rule", default=None,
+              help=f"Decision rule (setting infer.decide, default expected-benefit): {RULES.help_line()} "
+                   "(docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
 def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcript, nbest_file, audio, mode,
@@ -80,8 +82,10 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     from siftom.inputs import resolve_scene
     from siftom.settings import Settings
 
-    get_rule(rule)  # an unknown name fails before any work
-    flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine}
+    if rule is not None:
+        get_rule(rule)  # an unknown name fails before any work
+    flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine,
+                                "infer.decide": rule}
     resolved = Settings.load(config_file, flags=flags)
     mode, likelihood, engine = resolved.model.mode, resolved.infer.likelihood, resolved.infer.engine
     if likelihood == "llm":
@@ -112,13 +116,10 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     if audio is not None and not nbest and transcript is None:
         # a recording: the same path, with the recogniser's output and timings kept for display
         sc = resolve_scene(scene, actions_file)
-        h = listen(audio, scenario=scene, actions=list(sc.actions), mode=mode, likelihood=likelihood,
-                   engine=engine, decide=rule, settings=settings)
-        post, body = h.posterior, h.to_json()
+        ans = listen(audio, scenario=scene, actions=list(sc.actions), settings=settings)
     else:
-        h = None
-        post = infer(scene, actions_file, heard, decide=rule, settings=settings)
-        body = post.to_json()
+        ans = infer(scene, actions_file, heard, settings=settings)
+    post, body = ans.posterior, ans.to_json()
     if png is not None and scenario_id is not None:
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
@@ -130,22 +131,25 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         click.echo(json.dumps(body, indent=2))
         return
     con = Console()
-    if h is not None and not h.speech:
+    if ans.speech is False:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
-    elif h is not None and not h.instruction:
+    elif not ans.instruction:
         con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{post.transcript}" holds no '
-                  f"command of this scene ({post.evidence.get('no_instruction_reason', '')}); no command "
-                  "issued. The posterior below comes from the actions alone")
+                  f"command of this scene ({post.evidence.get('no_instruction_reason', '')}). The posterior "
+                  "below comes from the actions alone")
+    if ans.asr is not None:
+        engine_name = settings.infer.engine
+        con.print(f'{engine_name} heard: "{ans.asr.text}"')
     print_posterior(post, con)
-    if h is not None:
-        con.print(f"{h.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
+    if ans.asr is not None or ans.vad is not None:
+        con.print(f"{ans.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
                   "loading the recogniser and the scene; `siftom bench latency` times warm calls)")
-    decision = post.decision
-    if decision is not None and rule != "map":
-        con.print(f"[bold]decision ({rule}):[/bold] "
-                  + (f'ask "{decision.question}"' if decision.ask else decision.action)
-                  + f" — {decision.reason}")
+    d = ans.decision
+    what = (f"[bold green]the robot carries out {ans.command}[/bold green]" if ans.action == "act" else
+            f'[bold cyan]the robot asks: "{d.question}"[/bold cyan]' if ans.action == "ask" else
+            "[bold yellow]the robot does nothing[/bold yellow]")
+    con.print(f"{what} (rule {d.rule}: {d.reason})")
 
 
 def print_posterior(post, console: Console | None = None) -> None:
@@ -180,7 +184,7 @@ def print_posterior(post, console: Console | None = None) -> None:
     con.print(t)
     con.print(g)
     con.print(h)
-    con.print(f"[bold green]chosen command: {post.command}[/bold green]")
+    con.print(f"most probable command: {post.command} (P = {post.commands[0][1]:.3f})" if post.commands else "")
 
 
 def register(root: click.Group) -> None:

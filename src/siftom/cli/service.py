@@ -84,23 +84,29 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     import uvicorn
 
     lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
+    from siftom.observer import Observer
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.settings import Settings
 
-    loaded = Settings.load(config_file, flags={
+    flags: dict[str, object] = {
         "sessions.max_sessions": max_sessions, "sessions.idle_s": session_idle,
         "sessions.max_world_bytes": max_world_bytes, "sessions.max_world_items": max_world_items,
         "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers,
-        "stream.max_streams": max_streams, "stream.max_utterance_s": max_utterance, "stream.max_idle_s": stream_idle})
-    llm = llm_config(llm_backend, llm_base_url, llm_model) if flags_given(llm_backend, llm_base_url, llm_model) else None
-    settings = loaded.service if llm is None else dataclasses.replace(loaded.service, llm=llm)
+        "stream.max_streams": max_streams, "stream.max_utterance_s": max_utterance, "stream.max_idle_s": stream_idle}
+    if flags_given(llm_backend, llm_base_url, llm_model):
+        cfg = llm_config(llm_backend, llm_base_url, llm_model)
+        flags.update({"llm.backend": cfg.backend, "llm.base_url": cfg.base_url, "llm.model": cfg.model})
+    loaded = Settings.load(config_file, flags=flags)
+    settings = loaded.service
     # a world of max_world_bytes must fit in a request body
     need = settings.sessions.max_world_bytes + 4096
     if settings.max_body_bytes < need:
         settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
     click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
-    app = create_app(data_dir, settings)
+    # every request goes through one observer built from these settings (as siftom.infer does)
+    observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
+    app = create_app(data_dir, settings, observer)
     try:
         uvicorn.run(app, host=host, port=port, log_level="info")
     finally:

@@ -21,12 +21,17 @@ def _home_options(f: Any) -> Any:
         click.option("--scenario", "scenario", default=None, help="a registered scenario id (its world and goals)"),
         click.option("--scene", type=click.Path(exists=True, dir_okay=False), default=None,
                      help="a world JSON or VirtualHome scene graph file (docs/world.md)"),
-        click.option("--likelihood", type=click.Choice(LIKELIHOOD_CHOICES), default="auto", show_default=True,
-                     help="the instruction likelihood (acoustic scores the utterance's audio itself; auto: acoustic "
-                          "with the whisper extra, else phonetic)"),
-        click.option("--mode", type=click.Choice(["full", "speech-only"]), default="full", show_default=True),
-        click.option("--top", type=click.IntRange(1, 20), default=3, show_default=True,
-                     help="commands and goals in each answer"),
+        click.option("--likelihood", type=click.Choice(LIKELIHOOD_CHOICES), default=None,
+                     help="the instruction likelihood (setting infer.likelihood, default auto: acoustic with the "
+                          "whisper extra, scoring the utterance's audio itself, else phonetic)"),
+        click.option("--mode", type=click.Choice(["full", "speech-only"]), default=None,
+                     help="the model (setting model.mode, default full)"),
+        click.option("--decide", default=None,
+                     help="the decision rule (setting infer.decide, default expected-benefit; docs/decisions.md)"),
+        click.option("--top", type=click.IntRange(1, 20), default=None,
+                     help="commands and goals in each answer (setting infer.top, default 10)"),
+        click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                     help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults"),
         click.option("--threshold", type=click.FloatRange(0, 1), default=0.6, show_default=True,
                      help="ask when the best command's probability is below this (and asking pays)"),
         click.option("--cost", type=click.FloatRange(0, 1), default=0.1, show_default=True,
@@ -40,18 +45,26 @@ def _home_options(f: Any) -> Any:
     return f
 
 
-def _home_listener(scenario: str | None, scene: str | None, likelihood: str, mode: str, top: int, threshold: float,
-                   cost: float, min_silence: float | None, max_utterance: float) -> Any:
+def _home_listener(scenario: str | None, scene: str | None, likelihood: str | None, mode: str | None,
+                   decide: str | None, top: int | None, config_file: Path | None, threshold: float,
+                   cost: float, min_silence: float | None, max_utterance: float, recorded: bool = True) -> Any:
     from siftom.assist.clarify import ClarifyPolicy
+    from siftom.assist.decide import get_rule
+    from siftom.observer import observer_for
     from siftom.service.listener import HomeListener, load_home
+    from siftom.settings import Settings
     from siftom.speech.segment import SegmentOptions
 
+    if decide is not None:
+        get_rule(decide)  # an unknown name fails before any work
+    observer = observer_for(Settings.load(config_file))
     opts: dict[str, Any] = {"max_utterance_s": max_utterance}
     if min_silence is not None:
         opts["min_silence_s"] = min_silence
         opts["post_roll_s"] = min(SegmentOptions().post_roll_s, min_silence)
-    return HomeListener(load_home(scenario, scene), mode=mode, likelihood=likelihood, top=top,
-                        policy=ClarifyPolicy(threshold, cost), options=SegmentOptions(**opts))
+    return HomeListener(load_home(scenario, scene), observer=observer, mode=mode, likelihood=likelihood, top=top,
+                        decide=decide, policy=ClarifyPolicy(threshold, cost), options=SegmentOptions(**opts),
+                        recorded=recorded)
 
 
 def _read_action_file(path: str) -> list[str]:
@@ -123,7 +136,8 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
     if mic:
         chunks = iter(chunks)
         first = next(chunks)  # open the device now: a missing PortAudio or device fails before loading
-    home = _home_listener(**home_opts)
+    # a scenario's recorded actions are observed first, unless --actions gives the person's own
+    home = _home_listener(**home_opts, recorded=actions is None)
     if actions is not None and actions != "-":
         home.observe(_read_action_file(actions))
     elif actions == "-":
@@ -173,7 +187,7 @@ def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_t
     topics = RosTopics(audio=audio_topic, audio_type=audio_type, text=text_topic, text_type=text_type,
                        actions=actions_topic, actions_type=actions_type, decision=decision_topic,
                        decision_type=decision_type)
-    home = _home_listener(**home_opts)
+    home = _home_listener(**home_opts, recorded=actions is None)
     if actions is not None:
         home.observe(_read_action_file(actions))
     say = _printer()

@@ -189,12 +189,14 @@ class Posterior:
         }
 
 
-def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand]) -> dict[str, Any]:
+def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
+                    also_heard: Sequence[str] = ()) -> dict[str, Any]:
     """``{no_instruction: True, no_instruction_reason}`` when no heard word is near a command of
-    the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given."""
+    the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given.
+    ``also_heard``: what another recogniser heard in the same audio (Whisper's own words)."""
     from siftom.likelihood.nearness import heard_texts, nearness
 
-    texts = heard_texts(instruction.nbest)
+    texts = heard_texts(instruction.nbest) + [t for t in also_heard if t]
     if not texts:
         return {}
     near = nearness(texts, commands)
@@ -326,7 +328,9 @@ class OnlineInference:
                 scored = as_scores(lk.log_prob(instruction, cmds, context=ctx))  # type: ignore[call-arg]
             else:
                 scored = as_scores(lk.log_prob(instruction, cmds))
-            evidence = {**scored.evidence, **_no_instruction(instruction, cmds)}
+            whisper = scored.evidence.get("whisper_heard")
+            evidence = {**scored.evidence,
+                        **_no_instruction(instruction, cmds, (whisper,) if isinstance(whisper, str) else ())}
             instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")

@@ -13,6 +13,12 @@ chance level: the 1st percentile of r that random English words reach against th
 of the built-in scenes, per word length in phonemes (``python -m siftom.bench.nearness``
 measures it; docs/speech.md). So a heard word counts as near when it matches a command better
 than 99 % of random words would.
+
+A request is an instruction even when its object word was misheard: a hypothesis that holds a
+request frame ("pass me ...", "could you bring ...", "can I have ...", "I need ...") followed by
+a content word is near (``request_frame``); the actions then say which command it was, as in
+the paper's "pass me the silver". Room talk and off-topic speech ("need an", "the weather is
+nice today") hold no frame and no command word.
 """
 
 from __future__ import annotations
@@ -122,8 +128,40 @@ def heard_texts(nbest: Sequence[Any], temperature: float = ASR_TEMPERATURE,
     return [h.text for h, wk in zip(hyps, w, strict=True) if wk >= min_weight]
 
 
+# the verbs of a request for an object, and the modal openings of a polite one
+REQUEST_VERBS = frozenset(["bring", "get", "grab", "pass", "hand", "give", "fetch", "find", "take"])
+_MODALS = frozenset(["can", "could", "would", "will"])
+_WANTS = frozenset(["need", "want", "like"])
+
+
+def request_frame(text: str) -> str:
+    """The request frame in ``text`` followed by a content word, or '' (module doc).
+
+    Frames: a request verb before "me"/"us" ("pass me"); a modal, "you"/"I" and a request verb
+    or "have" ("could you bring", "can I have"); "I"/"we" and need/want/like ("I need",
+    "I'd like"). The frame must be followed by a word that is neither a filler nor a number
+    (the object, however misheard)."""
+    ws = normalize_text(text)
+    for i, w in enumerate(ws):
+        end = -1
+        if w in REQUEST_VERBS and i + 1 < len(ws) and ws[i + 1] in ("me", "us"):
+            end = i + 2
+        elif w in _MODALS and i + 2 < len(ws) and ws[i + 1] in ("you", "i", "we"):
+            j = i + 2 + (ws[i + 2] == "please" and i + 3 < len(ws))
+            if ws[j] in REQUEST_VERBS or ws[j] == "have":
+                end = j + 1
+        elif w in ("i", "we", "i'd", "we'd") and i + 1 < len(ws):
+            j = i + 1 + (ws[i + 1] in ("would", "really", "still", "do") and i + 2 < len(ws))
+            if ws[j] in _WANTS or (w in ("i'd", "we'd") and ws[i + 1] == "like"):
+                end = j + 1
+        if end > 0 and any(x not in FILLER_WORDS and x not in NUMBER_WORDS for x in ws[end:]):
+            return " ".join(ws[i:end])
+    return ""
+
+
 def nearness(texts: Sequence[str], commands: Sequence[Any], lexicon: Lexicon | None = None) -> Nearness:
-    """Whether any heard word (in any hypothesis) is near a command of ``commands`` (module doc)."""
+    """Whether any heard word (in any hypothesis) is near a command of ``commands``, or a
+    hypothesis holds a request frame (module doc)."""
     words = scene_words(commands, lexicon)
     best = Nearness(False, "", float("inf"), 0.0)
     margin = float("inf")
@@ -132,4 +170,9 @@ def nearness(texts: Sequence[str], commands: Sequence[Any], lexicon: Lexicon | N
             t = chance_threshold(n)
             if r - t < margin:
                 margin, best = r - t, Nearness(r <= t, w, r, t)
+    if not best.near:
+        for text in texts:
+            frame = request_frame(text)
+            if frame:
+                return Nearness(True, frame, best.cost, best.threshold)
     return best

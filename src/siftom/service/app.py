@@ -37,6 +37,7 @@ from fastapi.staticfiles import StaticFiles
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
+from siftom.observer import Observer
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,
@@ -55,6 +56,7 @@ from siftom.service.schemas import (
     Problem,
     SayRequest,
 )
+from siftom.settings import Settings
 
 STATIC = Path(__file__).parent / "static"
 R = TypeVar("R")
@@ -70,17 +72,35 @@ def _problems(*codes: int) -> dict[int | str, dict[str, Any]]:
     return {c: {"model": Problem, "content": {PROBLEM_JSON: {}}} for c in codes}
 
 
-def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | None = None) -> FastAPI:
+def _jsonable(value: Any) -> Any:
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return str(value)
+
+
+def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | Settings | None = None,
+               observer: Observer | None = None) -> FastAPI:
     """Build the app.
 
     Args:
         data_dir: the service's own folder (map PNG cache); a fresh temporary folder if None.
             No request reads or writes anywhere else.
-        settings: limits and options (defaults: ServiceSettings()).
+        settings: every option (a ``Settings``: its ``service`` section gives the limits), or the
+            service's limits alone (``ServiceSettings``; the rest from :meth:`Settings.load`).
+        observer: the observer every inference goes through (default: one built from the settings).
     """
-    settings = settings or ServiceSettings()
+    if isinstance(settings, Settings):
+        full: Settings = settings
+        settings = full.service
+    else:
+        full = observer.settings if observer is not None else Settings.load()
+        settings = settings or full.service
+    if observer is None:
+        observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
     folder = Path(data_dir) if data_dir is not None else default_data_dir()
-    rt = Runtime(settings, folder)
+    rt = Runtime(settings, folder, observer)
     app = FastAPI(title="siftom", version=_version(), docs_url=None, redoc_url=None,
                   description="Follow noisy spoken instructions by inferring what the person is doing (SIFToM).")
     app.state.runtime = rt
@@ -120,6 +140,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
         return FileResponse(STATIC / "favicon.svg", media_type="image/svg+xml")
 
     # ----- health ----------------------------------------------------------------------------
+    # the resolved values the server runs with (siftom config show), secrets masked
+    settings_view = {key: _jsonable(value) for key, value, _ in observer.settings.show()}
+
     @app.get("/healthz", tags=["meta"])
     async def healthz() -> dict[str, Any]:
         """Liveness, version and what this server offers."""
@@ -137,6 +160,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | N
                        "request_timeout_s": settings.request_timeout_s,
                        "sessions": dataclasses.asdict(settings.sessions),
                        "stream": dataclasses.asdict(settings.stream)},
+            "settings": settings_view,
         }
 
     # ----- scenarios -------------------------------------------------------------------------

@@ -24,15 +24,19 @@ from siftom.errors import SiftomError
 
 if TYPE_CHECKING:
     from siftom.service.runtime import Runtime, ServiceSettings
+    from siftom.settings import Settings
 
 _WORKER: Runtime | None = None  # the worker process's own runtime
 
 
-def _start(settings: ServiceSettings) -> None:
+def _start(settings: ServiceSettings, full: Settings) -> None:
     global _WORKER
+    from siftom.observer import Observer
     from siftom.service.runtime import Runtime, default_data_dir
 
-    _WORKER = Runtime(settings, default_data_dir())
+    # the same settings as the service's own observer: the same answers
+    observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
+    _WORKER = Runtime(settings, default_data_dir(), observer)
 
 
 def _infer_audio(args: tuple[Any, ...]) -> dict[str, Any]:
@@ -48,8 +52,9 @@ def _ready() -> bool:
 class AudioPool:
     """N worker processes for audio requests (started on first use)."""
 
-    def __init__(self, settings: ServiceSettings) -> None:
+    def __init__(self, settings: ServiceSettings, full: Settings) -> None:
         self.size = settings.audio_workers
+        self._full = full
         # the workers score in-process: they must not start pools of their own
         self._settings = dataclasses.replace(settings, audio_workers=0)
         self._pool: ProcessPoolExecutor | None = None
@@ -59,7 +64,7 @@ class AudioPool:
         with self._lock:
             if self._pool is None:
                 self._pool = ProcessPoolExecutor(self.size, mp_context=multiprocessing.get_context("spawn"),
-                                                 initializer=_start, initargs=(self._settings,))
+                                                 initializer=_start, initargs=(self._settings, self._full))
             return self._pool
 
     def warm(self) -> None:

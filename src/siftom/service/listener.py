@@ -5,12 +5,13 @@ Used by ``siftom listen`` (microphone or WAV file), the ROS bridge and ``siftom 
 the WebSocket endpoint uses the same listener over a session (:mod:`siftom.service.stream_api`).
 Nothing here needs the ``serve`` extra.
 
-Each answered utterance is a ``decision`` event: the posterior (``command``, ``commands``,
-``goals``), the clarifying question when asking pays, and ``decision``, one of
+Each answered utterance is a ``decision`` event in the one answer shape (``siftom.answer``):
+the posterior (``commands``, ``goals``, ``top_command``), the decision rule's ``decision`` and
+``action``, one of
 
 * ``act``: carry out ``command``;
-* ``ask``: ask ``question`` first (the posterior is too flat, docs/service.md);
-* ``wait``: do nothing yet (a decision rule found no command worth its cost).
+* ``ask``: ask ``question`` first (the rule found a question worth its time);
+* ``none``: do nothing (no instruction heard, or no command worth its risk; ``command`` is null).
 """
 
 from __future__ import annotations
@@ -25,25 +26,15 @@ from typing import Any
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.errors import ObservationError
 from siftom.inference.stream import Recognised, StreamListener, recogniser
-from siftom.speech.asr import DEFAULT_NBEST
+from siftom.observer import Observer
 from siftom.speech.segment import FrameScorer, SegmentOptions, SpeechEnded, Utterance
 
-DECISIONS = ("act", "ask", "wait")
-
-
-def decision_kind(body: dict[str, Any]) -> str:
-    """``act``, ``ask`` or ``wait`` from an answer's ``clarification`` and optional ``decision``."""
-    rule = body.get("decision")
-    if isinstance(rule, dict) and rule.get("action") in ("none", "ask"):
-        return "wait" if rule["action"] == "none" else "ask"
-    if (body.get("clarification") or {}).get("ask"):
-        return "ask"
-    return "act"
+ACTIONS = ("act", "ask", "none")
 
 
 def load_home(scenario: str | None = None, scene: str | Path | None = None) -> Any:
-    """A registered scenario (its recorded actions are *not* taken: a live robot observes its
-    own) or a world JSON / VirtualHome scene graph file, as a scene for :class:`HomeListener`."""
+    """A registered scenario (the listener observes its recorded actions first, as ``siftom
+    infer`` does) or a world JSON / VirtualHome scene graph file, as a scene for :class:`HomeListener`."""
     if (scenario is None) == (scene is None):
         raise ObservationError("give exactly one of a scenario id (--scenario) or a world file (--scene)")
     if scenario is not None:
@@ -58,33 +49,45 @@ def load_home(scenario: str | None = None, scene: str | Path | None = None) -> A
 class HomeListener:
     """One home's listener: stream audio in, observe action lines, get decision events.
 
+    Every answer is the observer's (:meth:`siftom.Observer.answer`): the same posterior and
+    decision as ``siftom.infer`` on the same words and actions.
+
     Args:
-        home: a Scenario or a loaded scene (:func:`load_home`).
-        mode, likelihood: the model (``phonetic``, ``acoustic`` or ``llm``; ``auto``, the default:
-            acoustic when the whisper extra is installed, else phonetic; words recognised elsewhere,
-            :meth:`answer_text`, are scored by their phonemes).
-        top: commands and goals in each answer.
-        policy: when to ask (``ClarifyPolicy``).
+        home: a Scenario (its recorded actions are observed first, unless ``recorded`` is False)
+            or a loaded scene (:func:`load_home`).
+        observer: the observer to answer with (default: the shared one for the settings in force).
+        mode, likelihood, decide, top, nbest, engine: left out, the settings (``model.mode``,
+            ``infer.likelihood``, ``infer.decide``, ``infer.top``, ``infer.nbest``, ``infer.engine``).
+            Words recognised elsewhere (:meth:`answer_text`) are scored by their phonemes.
+        policy: the clarifying policy of the ``clarification`` field (``ClarifyPolicy``).
         options, scorer, early: the segmentation (:class:`StreamListener`).
-        engine: the recogniser (pocketsphinx biased to the home's phrasings by default).
     """
 
-    def __init__(self, home: Any, *, mode: str = "full", likelihood: str = "auto", top: int = 5,
-                 policy: ClarifyPolicy | None = None, options: SegmentOptions | None = None,
-                 scorer: FrameScorer | None = None, early: bool = True, engine: str = "pocketsphinx",
-                 nbest: int = DEFAULT_NBEST) -> None:
-        from siftom.api import engine_for, get_model
-        from siftom.likelihood.registry import resolve_likelihood
+    def __init__(self, home: Any, *, observer: Observer | None = None, mode: str | None = None,
+                 likelihood: str | None = None, top: int | None = None, policy: ClarifyPolicy | None = None,
+                 options: SegmentOptions | None = None, scorer: FrameScorer | None = None, early: bool = True,
+                 engine: str | None = None, nbest: int | None = None, decide: str | None = None,
+                 recorded: bool = True) -> None:
+        from siftom.observer import observer_for
 
-        self.home, self.top, self.policy = home, top, policy or ClarifyPolicy()
+        self.observer = observer if observer is not None else observer_for()
+        st = self.observer.settings
+        self.home, self.policy = home, policy or ClarifyPolicy()
+        self.top = top or st.infer.top
         self.world, self.verb = home.world, getattr(home, "verb", "deliver")
-        likelihood, self.likelihood_reason = resolve_likelihood(likelihood, has_audio=True)
-        self.mode, self.likelihood = mode, likelihood
-        self.online = get_model(mode, likelihood).online(home.world, home.start, tuple(home.goals), self.verb)
+        self.mode = mode or st.model.mode
+        self.likelihood_arg, self.decide = likelihood, decide
+        resolved, self.likelihood_reason = self.observer.resolve(likelihood, has_audio=True)
+        self.likelihood = resolved if isinstance(resolved, str) else type(resolved).__name__
+        self.online = self.observer.fresh(home.world, home.start, tuple(home.goals), self.verb, self.mode)
         self.actions: list[str] = []
-        self._lock = threading.Lock()  # the online inference and the likelihood's caches
-        asr = engine_for(self.world, self.verb, engine)
-        self.listener = StreamListener(recogniser(asr, nbest), self._answer, options, scorer, early,
+        self._lock = threading.Lock()  # the online inference
+        for a in getattr(home, "actions", ()) if recorded else ():  # a scenario's recorded actions so far
+            self.online.observe(a)
+            self.actions.append(self.world.format_action(a))
+        rec = self.observer.recogniser(self.world, self.verb, engine)
+        self.listener = StreamListener(recogniser(rec.engine, nbest or st.infer.nbest, rec.lock), self._answer,
+                                       options, scorer, early,
                                        version=lambda: len(self.actions))  # answers are pure: answer early
 
     # ----- actions ---------------------------------------------------------------------------
@@ -125,33 +128,31 @@ class HomeListener:
         body = self._answer(rec, None, text_only=True)
         total = round(time.perf_counter() - t0, 4)
         return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
-                "speech_heard": True, "message": "", **body, "timings": {"answer": total, "wait": total}}
+                **body, "timings": {"answer": total, "wait": total}}
 
     def _answer(self, rec: Recognised, utterance: Utterance | None, text_only: bool = False) -> dict[str, Any]:
+        from siftom.observer import Heard
+
+        likelihood = self.likelihood_arg
+        if text_only and likelihood == "acoustic":  # no sound to score: the words' phonemes
+            likelihood = "phonetic"
+        heard = None if text_only else Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
         with self._lock:
             t0 = time.perf_counter()
-            online = self.online
-            if text_only and self.likelihood == "acoustic":  # no sound to score: the words' phonemes
-                import copy
-
-                from siftom.api import get_model
-
-                online = copy.copy(self.online)  # posterior() only reads the action state
-                online.model = get_model(self.mode, "phonetic")
-            post = online.posterior(rec.instruction, top=self.top)
+            ans = self.observer.answer(self.online, rec.instruction, likelihood=likelihood, decide=self.decide,
+                                       top=self.top, heard=heard, mode=self.mode)
             n = len(self.actions)
-        body: dict[str, Any] = post.to_json(top=self.top)
-        body["clarification"] = clarify(post.commands, self.policy).to_json()
-        body["decision"] = decision_kind(body)
-        body["question"] = body["clarification"]["question"] if body["decision"] == "ask" else ""
-        body["prob"] = post.prob(post.command)
+        body: dict[str, Any] = ans.to_json(top=self.top)
+        body["clarification"] = clarify(ans.commands, self.policy).to_json()
+        body["question"] = ans.decision.question if ans.action == "ask" else ""
+        body["prob"] = ans.prob(ans.command) if ans.command is not None else 0.0
         body["n_actions"] = n
         body["infer_s"] = round(time.perf_counter() - t0, 4)
         return body
 
 
 COMPACT = ("event", "utterance", "start_s", "end_s", "ended_s", "reason", "heard", "nbest", "command", "prob",
-           "decision", "question", "commands", "goals", "n_actions", "message", "timings")
+           "action", "top_command", "question", "commands", "goals", "n_actions", "message", "timings")
 
 
 def compact(answer: dict[str, Any], nbest: int = 3) -> dict[str, Any]:

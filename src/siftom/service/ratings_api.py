@@ -66,7 +66,8 @@ def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
             last = sess.last or {}
             rec = {"id": secrets.token_hex(8), "session": session_id,
                    "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
-                   "command": last.get("command"), "n_actions": len(sess.actions), "scores": list(req.scores),
+                   "command": last.get("command"), "action": last.get("action"),
+                   "top_command": last.get("top_command"), "n_actions": len(sess.actions), "scores": list(req.scores),
                    "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
             with lock, open(rt.data_dir / RATINGS, "a", encoding="utf-8") as f:
                 f.write(json.dumps(rec) + "\n")

@@ -12,7 +12,7 @@ asyncio transport), so nothing of ROS has to be installed next to siftom:
 * **actions** (``std_msgs/String``: one or more siftom or VirtualHome script lines) update the
   posterior as they come;
 * each answer is published as ``std_msgs/String`` whose ``data`` is the decision's JSON
-  (``heard``, ``command``, ``prob``, ``decision`` act/ask/wait, ``question``, ``commands``,
+  (``heard``, ``command``, ``prob``, ``action`` act/ask/none, ``decision``, ``question``, ``commands``,
   ``timings``) on ``/siftom/decision``.
 """
 

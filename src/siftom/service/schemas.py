@@ -8,7 +8,6 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from siftom.assist.clarify import DEFAULT_COST, DEFAULT_THRESHOLD
 from siftom.inference.model import MODES
-from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.tts import DEFAULT_VOICE, VOICES
 
 # Bounds on what one request may ask for; each keeps a request's work small and predictable.
@@ -50,16 +49,20 @@ class InferOptions(Strict):
 
     scenario: str = Field(min_length=1, max_length=MAX_SCENARIO_ID, examples=["kitchen-cereal-v0"],
                           description="a registered scenario id (GET /v1/scenarios)")
-    mode: Mode = Field(default="full", description="full SIFToM or an ablation")
-    likelihood: str = Field(default="auto", max_length=40,
-                            description="instruction likelihood; GET /healthz lists those this server offers; "
-                                        "auto: acoustic for a recording when Whisper is installed, else phonetic")
+    mode: Mode | None = Field(default=None, description="full SIFToM or an ablation (default: the server's "
+                                                        "setting model.mode, full)")
+    likelihood: str | None = Field(default=None, max_length=40,
+                                   description="instruction likelihood; GET /healthz lists those this server "
+                                               "offers (default: the setting infer.likelihood, auto: acoustic "
+                                               "for a recording when Whisper is installed, else phonetic)")
     n_actions: int | None = Field(default=None, ge=0, le=MAX_ACTIONS,
                                   description="use only the first n observed actions (default: all)")
-    top: int = Field(default=10, ge=1, le=100, description="how many commands, goals and hypotheses to return")
+    top: int | None = Field(default=None, ge=1, le=100,
+                            description="how many commands, goals and hypotheses to return (default: infer.top)")
     clarify: ClarifyOptions = Field(default_factory=ClarifyOptions)
-    decide: DecisionRuleName = Field(default="map", description="decision rule for the 'decision' field "
-                                     "(docs/decisions.md): map, expected-benefit or ask-or-act")
+    decide: DecisionRuleName | None = Field(default=None, description="decision rule (docs/decisions.md): "
+                                            "expected-benefit, ask-or-act or map (default: the setting "
+                                            "infer.decide, expected-benefit)")
 
 
 class InferRequest(InferOptions):
@@ -142,7 +145,14 @@ class RobotPlanOut(BaseModel):
 class PosteriorOut(BaseModel):
     """``Posterior.to_json`` plus what was heard: shared by /v1/infer and session instructions."""
 
-    command: str
+    command: str | None = Field(description="the command the robot carries out; null when it asks or does nothing")
+    action: Literal["act", "ask", "none"] = Field(description="what the robot does")
+    top_command: str = Field(description="the most probable command (for analysis)")
+    top_prob: float
+    decision: dict[str, Any] = Field(description="the decision rule, its action and its reason")
+    speech_heard: bool = True
+    instruction_heard: bool = True
+    message: str = ""
     commands: list[CommandProb]
     goals: list[GoalProb]
     hypotheses: list[dict[str, Any]]
@@ -161,12 +171,8 @@ class InferResponse(PosteriorOut):
     """The posterior (``Posterior.to_json``) plus what was heard, the question and the robot's plan."""
 
     scenario: str
-    # audio requests only: whether speech was detected ("no speech heard": the actions alone decide)
-    speech_heard: bool | None = None
-    message: str | None = None
     vad: dict[str, Any] | None = None
     clarification: ClarificationOut
-    decision: dict[str, Any] | None = None
     plan: RobotPlanOut | None = None
 
 
@@ -179,12 +185,12 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
     "properties": {
         "scenario": {"type": "string", "minLength": 1, "maxLength": MAX_SCENARIO_ID},
         "audio": {"type": "string", "format": "binary", "description": "the recording"},
-        "mode": {"type": "string", "enum": list(MODES), "default": "full"},
-        "likelihood": {"type": "string", "default": "auto"},
+        "mode": {"type": "string", "enum": list(MODES)},
+        "likelihood": {"type": "string"},
         "n_actions": {"type": "integer", "minimum": 0, "maximum": MAX_ACTIONS},
-        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST, "default": DEFAULT_NBEST},
-        "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
-        "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act"], "default": "map"},
+        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST},
+        "top": {"type": "integer", "minimum": 1, "maximum": 100},
+        "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act"]},
     },
     "additionalProperties": False,
 }
@@ -193,5 +199,5 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
 class AudioFields(InferOptions):
     """The non-file fields of the multipart form."""
 
-    asr_nbest: int = Field(default=DEFAULT_NBEST, ge=1, le=MAX_ASR_NBEST)
+    asr_nbest: int | None = Field(default=None, ge=1, le=MAX_ASR_NBEST)
 

@@ -65,7 +65,7 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
     """Add the session endpoints; the store lives in ``rt.data_dir / 'sessions.sqlite3'``."""
     settings = rt.settings
     limits = settings.sessions
-    mgr = SessionManager(SessionStore(rt.data_dir / "sessions.sqlite3"), limits)
+    mgr = SessionManager(SessionStore(rt.data_dir / "sessions.sqlite3"), limits, rt.observer)
     app.state.sessions = mgr
     sid_param = PathParam(pattern=SESSION_ID, description="the id POST /v1/sessions returned")
 
@@ -87,7 +87,7 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
                 "goal_space": req.goal_space, "target": req.target}
 
         def work() -> dict[str, Any]:
-            return mgr.view(mgr.create(spec, {"mode": req.mode, "likelihood": req.likelihood}))
+            return mgr.view(mgr.create(spec, {"mode": req.mode, "likelihood": req.likelihood, "decide": req.decide}))
 
         view = await run_cpu(work)
         return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
@@ -139,7 +139,7 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
             policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
             nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
             ins = make_instruction(transcript=req.transcript, nbest=nbest)
-            return JSONResponse(await run_cpu(mgr.instruct, session_id, ins, req.top, policy, None, None, idem))
+            return JSONResponse(await run_cpu(mgr.instruct, session_id, ins, req.top, policy, None, idem))
         if media == "multipart/form-data":
             return await _audio(request, session_id)
         raise ProblemError(415, "media-type", "send application/json (a transcript or N-best list) or "
@@ -154,17 +154,13 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
             return _replay(first)
 
         def work() -> dict[str, Any]:
-            from siftom.inference.listen import NO_SPEECH, hear
-
             sess = mgr.get(session_id)  # an unknown id fails before decoding
             x = rt.decode_audio(data)
-            eng = rt._engine_for(sess.scene)  # a decoder biased to this world's command phrasings
-            with eng.lock:  # voice-activity detection first: silence or noise is not words
-                instruction, tr, vad, _ = hear(x, eng.engine, opts.asr_nbest)
-            extra = {"speech_heard": instruction is not None, "message": "" if instruction is not None else NO_SPEECH,
-                     "vad": vad.to_json()}
-            return mgr.instruct(session_id, instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
-                                asr=tr.to_json() if tr is not None else None, extra=extra, idem=idem)
+            # voice-activity detection first (silence or noise is not words), then the observer's
+            # recogniser for this world (biased to its command phrasings)
+            heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
+            return mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
+                                heard=heard, idem=idem)
 
         return JSONResponse(await run_cpu(work))
 

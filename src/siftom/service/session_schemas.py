@@ -14,6 +14,7 @@ from siftom.service.schemas import (
     ClarificationOut,
     ClarifyOptions,
     CommandProb,
+    DecisionRuleName,
     GoalProb,
     Mode,
     NBestItem,
@@ -21,7 +22,6 @@ from siftom.service.schemas import (
     RobotPlanOut,
     Strict,
 )
-from siftom.speech.asr import DEFAULT_NBEST
 
 MAX_GOALS = 5000  # the kitchen library has 151 recipes, the household space 252 goals
 MAX_ACTIONS_PER_REQUEST = 200
@@ -56,10 +56,14 @@ class SessionCreate(Strict):
         default=None, description="a built-in goal library instead of 'goals'")
     target: str | None = Field(default=None, min_length=1, max_length=200,
                                description="the place goals are about (a VirtualHome class name for a scene graph)")
-    mode: Mode = Field(default="full", description="full SIFToM or an ablation")
-    likelihood: Literal["auto", "phonetic", "llm"] = Field(
-        default="auto", description="instruction likelihood; auto: acoustic for spoken instructions when Whisper "
-                                    "is installed, phonetic for transcripts")
+    mode: Mode | None = Field(default=None, description="full SIFToM or an ablation (default: the setting "
+                                                        "model.mode)")
+    likelihood: Literal["auto", "phonetic", "llm"] | None = Field(
+        default=None, description="instruction likelihood (default: the setting infer.likelihood, auto: acoustic "
+                                  "for spoken instructions when Whisper is installed, phonetic for transcripts)")
+    decide: DecisionRuleName | None = Field(
+        default=None, description="the decision rule of this session's answers (default: the setting "
+                                  "infer.decide, expected-benefit; docs/decisions.md)")
 
     @model_validator(mode="after")
     def _one_library(self) -> SessionCreate:
@@ -87,7 +91,8 @@ class InstructionRequest(Strict):
     transcript: str | None = Field(default=None, min_length=1, max_length=MAX_TEXT_CHARS,
                                    examples=["can you bring me the forks"])
     nbest: list[NBestItem] | None = Field(default=None, min_length=1, max_length=MAX_NBEST)
-    top: int = Field(default=10, ge=1, le=100, description="how many commands, goals and hypotheses to return")
+    top: int | None = Field(default=None, ge=1, le=100,
+                            description="how many commands, goals and hypotheses to return (default: infer.top)")
     clarify: ClarifyOptions = Field(default_factory=ClarifyOptions)
 
     @model_validator(mode="after")
@@ -102,8 +107,8 @@ class InstructionRequest(Strict):
 class AudioInstructionFields(Strict):
     """The non-file fields of a multipart instruction."""
 
-    asr_nbest: int = Field(default=DEFAULT_NBEST, ge=1, le=MAX_ASR_NBEST)
-    top: int = Field(default=10, ge=1, le=100)
+    asr_nbest: int | None = Field(default=None, ge=1, le=MAX_ASR_NBEST)
+    top: int | None = Field(default=None, ge=1, le=100)
     threshold: float = Field(default=DEFAULT_THRESHOLD, ge=0.0, le=1.0, description="clarify.threshold")
     cost: float = Field(default=DEFAULT_COST, ge=0.0, le=1.0, description="clarify.cost")
 
@@ -115,8 +120,8 @@ AUDIO_INSTRUCTION_SCHEMA: dict[str, Any] = {
     "required": ["audio"],
     "properties": {
         "audio": {"type": "string", "format": "binary", "description": "the recording"},
-        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST, "default": DEFAULT_NBEST},
-        "top": {"type": "integer", "minimum": 1, "maximum": 100, "default": 10},
+        "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST},
+        "top": {"type": "integer", "minimum": 1, "maximum": 100},
         "threshold": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_THRESHOLD},
         "cost": {"type": "number", "minimum": 0, "maximum": 1, "default": DEFAULT_COST},
     },
@@ -134,9 +139,6 @@ class InstructionResponse(PosteriorOut):
     """The posterior given every action so far and what was heard, the question and the plan."""
 
     session: str
-    # audio instructions only: whether speech was detected ("no speech heard": the actions alone decide)
-    speech_heard: bool | None = None
-    message: str | None = None
     vad: dict[str, Any] | None = None
     clarification: ClarificationOut
     plan: RobotPlanOut | None = None

@@ -24,12 +24,12 @@ from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from siftom.api import get_model
 from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.errors import ObservationError, SiftomError
-from siftom.inference.listen import with_likelihood
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
+from siftom.observer import Heard, Observer
+from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
 from siftom.service.store import SessionStore
@@ -46,34 +46,6 @@ from siftom.world.model import AGENT_NAMES, HELD, HUMAN, NOTHING, Action, apply,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
 SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
 BELIEF_TOP = 5
-
-
-@dataclass(frozen=True)
-class SessionLimits:
-    """Limits of the session API (docs/service.md; ``siftom serve --max-sessions ...``).
-
-    Attributes:
-        max_sessions: sessions stored at once (429 above; DELETE ends one, idle ones expire).
-        idle_s: a session not used for this long is deleted.
-        max_world_bytes: largest world in a create request (413 above). The apartment graphs of
-            data/virtualhome are 160-180 kB.
-        max_world_items: most objects a world may hold (422 above): inference cost grows with it.
-        max_actions: most actions one session may observe (422 above).
-        cache: live sessions kept in memory; the others are rebuilt from the store on use.
-    """
-
-    max_sessions: int = 1000
-    idle_s: float = 24 * 3600.0
-    max_world_bytes: int = 1024 * 1024
-    max_world_items: int = 200
-    max_actions: int = 2000
-    cache: int = 256
-
-    def __post_init__(self) -> None:
-        if min(self.max_sessions, self.max_world_bytes, self.max_world_items, self.max_actions, self.cache) < 1:
-            raise ObservationError("session limits must all be >= 1")
-        if not self.idle_s > 0:
-            raise ObservationError(f"the session idle time must be > 0 s, got {self.idle_s}")
 
 
 @dataclass(eq=False)
@@ -144,42 +116,20 @@ def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
     return None
 
 
-def _online(scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
-    lk = "phonetic" if options["likelihood"] == "auto" else options["likelihood"]
-    return get_model(options["mode"], lk).online(scene.world, scene.start, scene.goals, scene.verb)
-
-
-def _for_instruction(online: OnlineInference, options: dict[str, Any],
-                     instruction: Instruction | None) -> tuple[OnlineInference, str, str]:
-    """The session's inference for this instruction, the likelihood it runs and why.
-
-    With ``auto``, a recording is scored by the acoustic likelihood when the whisper extra is
-    installed: a shallow copy of the session's inference (the same observed actions and action
-    term) with the acoustic model in place of the phonetic one.
-    """
-    import copy
-
-    from siftom.likelihood.registry import resolve_likelihood
-
-    if options["likelihood"] != "auto":
-        return online, options["likelihood"], "asked for"
-    lk, why = resolve_likelihood(None, instruction is not None and instruction.has_audio)
-    if lk == "phonetic":
-        return online, lk, why
-    view = copy.copy(online)  # posterior() only reads the action state
-    view.model = get_model(options["mode"], lk)
-    return view, lk, why
-
-
 class SessionManager:
     """Create, advance, query and end sessions; thread-safe (see module doc)."""
 
-    def __init__(self, store: SessionStore, limits: SessionLimits) -> None:
+    def __init__(self, store: SessionStore, limits: SessionLimits, observer: Observer | None = None) -> None:
         self.store, self.limits = store, limits
+        self.observer = observer if observer is not None else Observer()
         self._live: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
         self._loading: dict[str, threading.Lock] = {}
         self._last_sweep = 0.0
+
+    def _online(self, scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
+        """A new online inference of the session's world (the observer's model for its mode)."""
+        return self.observer.fresh(scene.world, scene.start, scene.goals, scene.verb, options.get("mode"))
 
     # ----- lifecycle ---------------------------------------------------------------------------
     def sweep(self, force: bool = False) -> None:
@@ -201,11 +151,15 @@ class SessionManager:
                                f"{n} sessions are open, the most this server allows (--max-sessions); DELETE "
                                f"finished sessions, or wait for idle ones to expire after {self.limits.idle_s:g} s",
                                headers={"Retry-After": "60"})
+        st = self.observer.settings
+        options = {**options, "mode": options.get("mode") or st.model.mode,
+                   "likelihood": options.get("likelihood") or st.infer.likelihood}
         if options["likelihood"] not in SESSION_LIKELIHOODS:
             raise ObservationError(f"sessions infer with the {' or '.join(SESSION_LIKELIHOODS)} likelihood, not "
                                    f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
+        self.observer.check_likelihood(options["likelihood"])
         scene, warnings = build_scene(spec, self.limits.max_world_items)
-        online = _online(scene, options)
+        online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
         options = {**options, "warnings": warnings}
         created = self.store.create(sid, spec, options)
@@ -248,7 +202,7 @@ class SessionManager:
                                f"no session {sid!r} (it was deleted, or expired after {self.limits.idle_s:g} s "
                                "idle); create one with POST /v1/sessions")
         scene, _warnings = build_scene(row.spec, self.limits.max_world_items)
-        online = _online(scene, row.options)
+        online = self._online(scene, row.options)
         for text in row.actions:
             online.observe(scene.world.parse_action(text, online.state))
         return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
@@ -372,7 +326,7 @@ class SessionManager:
         """The answer to an actions request: what it added and the state after its ``n``-th action."""
         online = sess.online
         if n != len(sess.actions):  # an older request: replay the actions up to it
-            online = _online(sess.scene, sess.options)
+            online = self._online(sess.scene, sess.options)
             for text in sess.actions[:n]:
                 online.observe(sess.scene.world.parse_action(text, online.state))
         return {"id": sess.id, "added": list(added), "n_actions": n,
@@ -380,33 +334,26 @@ class SessionManager:
                 "belief": self._belief(sess, online, n), "replayed": replayed}
 
     # ----- instruction -------------------------------------------------------------------------
-    def instruct(self, sid: str, instruction: Instruction | None, top: int, policy: ClarifyPolicy,
-                 asr: dict[str, Any] | None = None, extra: dict[str, Any] | None = None,
-                 idem: Idem | None = None) -> dict[str, Any]:
-        """Posterior over goals and commands given everything so far and what was heard
-        (``extra``: more fields of the answer; ``idem``: see :meth:`append_reply`)."""
+    def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
+                 heard: Heard | None = None, idem: Idem | None = None, decide: str | None = None) -> dict[str, Any]:
+        """What the robot does about what was heard, given everything so far (the observer's answer);
+        ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`."""
         sess = self.get(sid)
+        top = top or self.observer.settings.infer.top
         with sess.lock:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            if instruction is not None:  # one likelihood serves every thread (it keeps nothing between calls)
-                online, lk, why = _for_instruction(sess.online, sess.options, instruction)
-                post = with_likelihood(online.posterior(instruction, top=top), lk, why)
-            else:
-                post = sess.online.posterior(None, top=top)
-            body: dict[str, Any] = {"session": sid, **post.to_json(top=top)}
+            ans = self.observer.answer(sess.online, instruction, likelihood=sess.options["likelihood"],
+                                       decide=decide or sess.options.get("decide"), top=top, heard=heard,
+                                       mode=sess.options["mode"])
+            body: dict[str, Any] = {"session": sid, **ans.to_json(top=top)}
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
-            body["clarification"] = clarify(post.commands, policy).to_json()
-            if post.evidence.get("no_instruction"):  # nothing to act on, nothing to ask about
+            body["clarification"] = clarify(ans.commands, policy).to_json()
+            if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
                 body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
-                                                      "no instruction heard").to_json()
-            body["plan"] = self._plan(sess, post.command)
-            if asr is not None:
-                body["asr"] = asr
-            body.update(extra or {})
-            if post.evidence.get("no_instruction"):  # words near no command (likelihood/nearness.py)
-                body["message"] = "no instruction heard"
+                                                      ans.message).to_json()
+            body["plan"] = self._plan(sess, str(ans.command)) if ans.command is not None else None
             body = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
             self.store.set_last(sid, body, None if idem is None else (idem.key, idem.request))
             sess.last = body

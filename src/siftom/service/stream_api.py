@@ -26,7 +26,6 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import SiftomError, UnknownNameError
-from siftom.service.listener import decision_kind
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import MAX_SCENARIO_ID
 from siftom.service.session_api import _problems
@@ -44,7 +43,6 @@ from siftom.service.stream_settings import (
     CLOSE_UNSUPPORTED,
     StreamLimits,
 )
-from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.audio import SAMPLE_RATE
 
 RunCpu = Callable[..., Awaitable[Any]]
@@ -59,8 +57,9 @@ class StreamClosed(Exception):
         self.code, self.reason = code, reason.encode()[:123].decode(errors="ignore")
 
 
-def _params(query: Any) -> tuple[int, ClarifyPolicy, int, bool]:
-    """top, clarifying policy, N-best size and partial results from the query string (4422 when invalid)."""
+def _params(query: Any, top_default: int, nbest_default: int) -> tuple[int, ClarifyPolicy, int, bool]:
+    """top, clarifying policy, N-best size and partial results from the query string (4422 when
+    invalid); left out, top and the N-best size are the settings (infer.top, infer.nbest)."""
     def number(name: str, default: float, lo: float, hi: float, kind: type = float) -> Any:
         raw = query.get(name)
         if raw is None:
@@ -73,10 +72,10 @@ def _params(query: Any) -> tuple[int, ClarifyPolicy, int, bool]:
             raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name} must be in [{lo:g}, {hi:g}], got {raw}")
         return value
 
-    top = number("top", 5, 1, 20, int)
+    top = number("top", min(top_default, 20), 1, 20, int)
     policy = ClarifyPolicy(number("threshold", ClarifyPolicy().threshold, 0, 1),
                            number("cost", ClarifyPolicy().cost, 0, 1))
-    return top, policy, number("nbest", DEFAULT_NBEST, 1, 10, int), number("partial", 0, 0, 1, int) == 1
+    return top, policy, number("nbest", min(nbest_default, 10), 1, 10, int), number("partial", 0, 0, 1, int) == 1
 
 
 class ScenarioSession(BaseModel):
@@ -120,7 +119,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
             raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
 
         def work() -> dict[str, Any]:
-            sess = mgr.create(scenario_spec(sc), {"mode": "full", "likelihood": "auto"})
+            sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None})
             mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
             return mgr.view(mgr.get(sess.id))
 
@@ -144,7 +143,8 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                                    "other stream first")
             open_streams.add(session_id)  # before any await: a second stream on it is refused
             try:
-                top, policy, nbest, partial = _params(ws.query_params)
+                st = rt.observer.settings
+                top, policy, nbest, partial = _params(ws.query_params, st.infer.top, st.infer.nbest)
                 try:
                     sess = await run_cpu(mgr.get, session_id)
                 except ProblemError as exc:
@@ -169,24 +169,23 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
                   policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False) -> None:
     from siftom.inference.stream import Recognised, StreamListener, recogniser
+    from siftom.observer import Heard
     from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
 
     sid = sess.id
-    eng = await run_cpu(rt._engine_for, sess.scene)  # pocketsphinx biased to this world's phrasings
+    # the observer's recogniser for this world (pocketsphinx biased to its command phrasings)
+    rec_eng = await run_cpu(rt.observer.recogniser, sess.scene.world, sess.scene.verb)
 
     def answer(rec: Recognised, utt: Utterance) -> dict[str, Any]:
-        asr = rec.transcript.to_json() if rec.transcript is not None else None
-        body = mgr.instruct(sid, rec.instruction, top, policy, asr=asr)
+        # the stream's detector found the speech: the clip is the utterance it cut
+        heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
+        body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard)
         body.pop("session", None)
-        rule = body.pop("decision", None)
-        if rule is not None:
-            body["rule"] = rule
-        body["decision"] = decision_kind({**body, "decision": rule})
-        body["question"] = body["clarification"]["question"] if body["decision"] == "ask" else ""
+        body["question"] = body["decision"].get("question", "") if body["action"] == "ask" else ""
         return body
 
     options = SegmentOptions(max_utterance_s=limits.max_utterance_s)
-    recognise = recogniser(eng.engine, nbest, eng.lock)
+    recognise = recogniser(rec_eng.engine, nbest, rec_eng.lock)
     listener = StreamListener(recognise, answer, options)
     partials: dict[str, Any] = {"next": PARTIAL_EVERY_S, "task": None}
     send_lock = asyncio.Lock()

@@ -1,0 +1,368 @@
+"""The observer: one object, built from :class:`~siftom.settings.Settings`, behind every door.
+
+An :class:`Observer` owns the SIFToM models (one per mode and likelihood), the recognisers (one
+per scene vocabulary), the online inferences of the scenes it has seen (the action term, built
+once per scene and actions) and the decision rule. Its calls are what a robot needs:
+
+* :meth:`Observer.infer`: a scene, the person's actions and what was heard (a transcript, an
+  N-best list, a recording or samples) to an :class:`~siftom.answer.Answer`;
+* :meth:`Observer.listen`: the same from a recording, with the recogniser's output and timings;
+* :meth:`Observer.answer`: what was heard, on an online inference a caller keeps (a session, a
+  stream) and advances with the person's actions;
+* :meth:`Observer.hear`: voice-activity detection and recognition of a clip.
+
+``siftom.infer`` and ``siftom.listen`` are one-shot uses of an observer (as ``httpx.get`` is of
+a ``Client``); the CLI, the HTTP service, its sessions and streams, the ROS bridge and the
+evaluator's model rows each hold one. A per-call argument left out means "the setting".
+
+The robot does nothing it was not asked to do: when a recording holds no speech, or the words
+are near no command of the scene, the answer's action is ``none`` whatever the rule, and the
+posterior is the one from the actions alone (its most probable command stays readable as
+``top_command``).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siftom.answer import NOTHING_ASKED, Answer
+from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
+from siftom.assist.teamvalue import NONE
+from siftom.errors import ObservationError, unknown_name
+from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
+from siftom.inference.model import OnlineInference, Posterior, SIFToM
+from siftom.inputs import SceneInput
+from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.settings import Settings
+from siftom.world.model import State, World
+
+LikelihoodArg = str | InstructionLikelihood
+MODES = ("full", "speech-only", "action-only")
+
+
+@dataclass
+class Recogniser:
+    """A speech recogniser and the lock that keeps it to one utterance at a time."""
+
+    engine: Any
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def transcribe(self, samples: np.ndarray, nbest: int) -> Any:
+        """The N-best transcript of ``samples`` (16 kHz mono)."""
+        with self.lock:
+            return self.engine.transcribe(samples, nbest=nbest)
+
+
+@dataclass(frozen=True)
+class Heard:
+    """What :meth:`Observer.hear` made of a clip: the instruction (None without speech or
+    words), the recogniser's output, the detector's result and the seconds each stage took."""
+
+    instruction: Instruction | None
+    asr: Any
+    vad: Any
+    timings: dict[str, float]
+
+    @property
+    def speech(self) -> bool:
+        return self.vad is None or bool(self.vad.speech)
+
+
+def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg) -> SIFToM:
+    """A SIFToM model from ``settings`` for ``mode`` and ``likelihood`` (a name or an object)."""
+    from siftom.likelihood.registry import get_likelihood
+
+    cfg = dataclasses.replace(settings.model, mode=mode)
+    if not cfg.uses_speech:
+        return SIFToM(cfg, None)
+    if not isinstance(likelihood, str):
+        if not isinstance(likelihood, InstructionLikelihood):
+            raise ObservationError(
+                f"likelihood must be a name ('phonetic', 'acoustic', 'llm') or an object with "
+                f"log_prob(instruction, commands), got {type(likelihood).__name__}")
+        return SIFToM(cfg, likelihood)
+    options = settings.likelihood_options(likelihood)
+    if likelihood == "llm":
+        options = {"backend": settings.llm, **options}
+    return SIFToM(cfg, get_likelihood(likelihood, **options))
+
+
+class Observer:
+    """The model, recognisers, likelihoods and per-scene caches of one robot, from one settings object.
+
+    Args:
+        settings: every option (default: :meth:`Settings.load`: ``SIFTOM_CONFIG`` and ``SIFTOM_*``).
+        offered: the instruction likelihoods this observer may run (default: any registered one);
+            a service offers a subset.
+        max_audio_seconds: the longest clip a recogniser accepts.
+
+    Thread-safe: models and likelihoods keep nothing between calls; a recogniser holds one
+    utterance at a time behind its lock; the caches create outside their locks.
+    """
+
+    def __init__(self, settings: Settings | None = None, *, offered: Sequence[str] | None = None,
+                 max_audio_seconds: float | None = None) -> None:
+        self.settings = settings if settings is not None else Settings.load()
+        self.offered = tuple(offered) if offered is not None else None
+        self.max_audio_seconds = max_audio_seconds
+        self._models: dict[Any, SIFToM] = {}
+        self._models_lock = threading.Lock()
+        self._recognisers = Cache(8)
+        self._online = Cache(256)
+
+    # ----- parts ------------------------------------------------------------------------------
+    def model(self, mode: str | None = None, likelihood: LikelihoodArg = "phonetic") -> SIFToM:
+        """The model for ``mode`` (default: the setting) and ``likelihood``, built once."""
+        mode = mode or self.settings.model.mode
+        if mode not in MODES:
+            raise unknown_name("model mode", mode, MODES)
+        key = (mode, likelihood if isinstance(likelihood, str) else ("object", id(likelihood)))
+        with self._models_lock:
+            got = self._models.get(key)
+        if got is not None:
+            return got
+        model = build_model(self.settings, mode, likelihood)
+        with self._models_lock:
+            return self._models.setdefault(key, model)
+
+    def resolve(self, likelihood: LikelihoodArg | None, has_audio: bool) -> tuple[LikelihoodArg, str]:
+        """(likelihood to run, why): None is the setting ``infer.likelihood``; ``auto`` the best
+        one the input allows (acoustic for audio with the whisper extra, else phonetic)."""
+        from siftom.likelihood.registry import AUTO, resolve_likelihood
+
+        if likelihood is not None and not isinstance(likelihood, str):
+            return likelihood, "given as an object"
+        name = likelihood if likelihood is not None else self.settings.infer.likelihood
+        if name != AUTO:
+            self.check_likelihood(name)
+            return resolve_likelihood(name, has_audio)
+        if has_audio and self.offered is not None and "acoustic" not in self.offered:
+            has_audio = False
+        return resolve_likelihood(None, has_audio)
+
+    def check_likelihood(self, name: str) -> None:
+        """Refuse a likelihood this observer does not offer (an unknown name suggests close ones)."""
+        from siftom.likelihood.registry import AUTO, LIKELIHOODS
+
+        if name == AUTO:
+            return
+        if self.offered is not None and name not in self.offered:
+            raise ObservationError(str(unknown_name("instruction likelihood on this server", name, self.offered)))
+        LIKELIHOODS.spec(name)
+
+    def recogniser(self, world: World, verb: str, engine: str | None = None) -> Recogniser:
+        """The recogniser for a scene (a scene engine such as pocketsphinx is biased to its
+        command phrasings), built once per vocabulary."""
+        from siftom.likelihood.phrasing import command_vocabulary
+        from siftom.speech.asr.base import get_engine, is_scene_engine
+
+        name = engine or self.settings.infer.engine
+        opts: dict[str, Any] = {}
+        if name == "pocketsphinx" and self.max_audio_seconds is not None:
+            opts["max_seconds"] = self.max_audio_seconds
+        if name != "pocketsphinx" and not is_scene_engine(name):  # pocketsphinx takes an optional vocabulary
+            return self._recognisers.get((name,), lambda: Recogniser(get_engine(name, **opts)))
+        vocab = tuple(sorted(command_vocabulary(world.classes, verb)))
+        return self._recognisers.get((name, vocab), lambda: Recogniser(get_engine(name, vocabulary=list(vocab), **opts)))
+
+    def online(self, scene: SceneInput, mode: str | None = None) -> OnlineInference:
+        """The online inference of ``scene`` with its actions observed, built once per scene and
+        actions (the action term does not depend on the instruction likelihood: :meth:`answer`
+        scores what was heard with the likelihood it resolves)."""
+        model = self.model(mode, "phonetic")
+
+        def make() -> OnlineInference:
+            on = model.online(scene.world, scene.start, scene.goals, scene.verb)
+            for a in scene.actions:
+                on.observe(a)
+            return on
+
+        got: OnlineInference = self._online.get((scene.key, model.config.mode), make)
+        return got
+
+    def fresh(self, world: World, start: State, goals: Sequence[Any], verb: str, mode: str | None = None) -> OnlineInference:
+        """A new online inference for a caller to advance (a session, a stream)."""
+        return self.model(mode, "phonetic").online(world, start, tuple(goals), verb)
+
+    # ----- hearing ----------------------------------------------------------------------------
+    def hear(self, samples: np.ndarray, world: World, verb: str, *, engine: str | None = None,
+             nbest: int | None = None) -> Heard:
+        """Detect speech in ``samples``, cut to it and recognise it."""
+        from siftom.inference.listen import hear
+
+        rec = self.recogniser(world, verb, engine)
+        instruction, tr, vad, timings = hear(samples, _Locked(rec), nbest or self.settings.infer.nbest)
+        return Heard(instruction, tr, vad, timings)
+
+    # ----- answers ----------------------------------------------------------------------------
+    def answer(self, online: OnlineInference, instruction: Instruction | None, *,
+               likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
+               top: int | None = None, heard: Heard | None = None, mode: str | None = None) -> Answer:
+        """What the robot does about ``instruction`` on ``online`` (its actions observed so far).
+
+        ``heard``: the clip the instruction was recognised from (no speech: ``instruction`` None).
+        ``likelihood``, ``decide``, ``top`` and ``mode`` left out are the settings.
+        """
+        t0 = time.perf_counter()
+        top = top or self.settings.infer.top
+        mode = mode or online.model.config.mode
+        has_audio = instruction is not None and instruction.has_audio
+        lk, why = self.resolve(likelihood, has_audio)
+        speech = None if heard is None else heard.speech
+        said = not (heard is not None and heard.speech and instruction is None)  # speech, but no words
+        if instruction is None:
+            post = self._view(online, "action-only" if mode != "speech-only" else mode, "phonetic").posterior(None, top=top)
+        else:
+            post = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top),
+                                   lk if isinstance(lk, str) else type(lk).__name__, why)
+            if post.evidence.get("no_instruction") and mode != "speech-only":
+                # words, but none near a command of the scene: the actions alone, and no command issued
+                said = False
+                alone = self._view(online, "action-only", "phonetic").posterior(None, top=top)
+                post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
+        if heard is not None:
+            post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": heard.speech,
+                                                       "instruction_heard": heard.speech and said})
+        world, target = online.world, online.goals[0].target
+        nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
+                   else NOTHING_ASKED if instruction is None else "")
+        decision = self.decide(post, world, target, decide, nothing=nothing)
+        post = dataclasses.replace(post, decision=decision)
+        timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
+        return Answer(post, decision, speech, heard.asr if heard is not None else None,
+                      heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said)
+
+    def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
+               nothing: str = "") -> Decision:
+        """The decision rule's answer (default: the setting ``infer.decide``); ``nothing``: why
+        the robot was not asked anything (it then does nothing, whatever the rule)."""
+        rule = rule if rule is not None else (self.settings.infer.decide or "map")
+        name = rule if isinstance(rule, str) else getattr(rule, "name", type(rule).__name__)
+        if nothing:
+            reason = nothing + (f" ({post.evidence['no_instruction_reason']})"
+                                if nothing == NO_INSTRUCTION and post.evidence.get("no_instruction_reason") else "")
+            return Decision(name, NONE, NONE, 0.0, 0.0, reason=reason)
+        made = get_rule(rule, **self.settings.rule_options(rule)) if isinstance(rule, str) else rule
+        if post.joint is None or post.joint.state is None:  # speech-only: no state to value actions in
+            return MapRule()(post, None)
+        return made(post, Situation(world, post.joint.state, target))
+
+    def _view(self, online: OnlineInference, mode: str, likelihood: LikelihoodArg) -> OnlineInference:
+        """``online`` scored by another model: a shallow copy (posterior() only reads the action state)."""
+        model = self.model(mode, likelihood)
+        if online.model is model:
+            return online
+        view = copy.copy(online)
+        view.model = model
+        return view
+
+    # ----- one call ---------------------------------------------------------------------------
+    def infer(self, scene: Any, actions: Any = None, heard: Any = None, *, likelihood: LikelihoodArg | None = None,
+              decide: str | DecisionRule | None = None, mode: str | None = None, top: int | None = None,
+              engine: str | None = None, nbest: int | None = None) -> Answer:
+        """What the robot does, from a scene, the person's actions and what was heard.
+
+        Args:
+            scene: a scenario id, a world or VirtualHome file, a loaded scene or a ``SceneInput``.
+            actions: siftom or VirtualHome action lines, a file of them, or None (the scenario's own).
+            heard: a transcript, an N-best list, an audio path or 16 kHz samples; None: nothing was said.
+            likelihood, decide, mode, top, engine, nbest: left out, the settings.
+        """
+        from siftom.inputs import as_heard, resolve_scene
+
+        t0 = time.perf_counter()
+        sc = scene if isinstance(scene, SceneInput) else resolve_scene(scene, actions)
+        return self._infer(sc, as_heard(heard), t0, likelihood=likelihood, decide=decide, mode=mode, top=top,
+                           engine=engine, nbest=nbest)
+
+    def listen(self, audio: str | Path | np.ndarray, scene: Any, actions: Any = None, *,
+               likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
+               mode: str | None = None, top: int | None = None, engine: str | None = None,
+               nbest: int | None = None) -> Answer:
+        """:meth:`infer` from a recording (a path or samples)."""
+        from siftom.inputs import resolve_scene
+        from siftom.speech.audio import as_audio
+
+        t0 = time.perf_counter()
+        sc = scene if isinstance(scene, SceneInput) else resolve_scene(scene, actions)
+        x = as_audio(audio)
+        load = time.perf_counter() - t0
+        got = self._infer(sc, x, t0, likelihood=likelihood, decide=decide, mode=mode, top=top, engine=engine,
+                          nbest=nbest)
+        return dataclasses.replace(got, timings={"load": load, **got.timings})
+
+    def _infer(self, sc: SceneInput, got: Instruction | np.ndarray | None, t0: float, *,
+               likelihood: LikelihoodArg | None, decide: str | DecisionRule | None, mode: str | None,
+               top: int | None, engine: str | None, nbest: int | None) -> Answer:
+        mode = mode or self.settings.model.mode
+        if got is None and mode == "speech-only":
+            raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
+        heard = None
+        if isinstance(got, np.ndarray):
+            heard = self.hear(got, sc.world, sc.verb, engine=engine, nbest=nbest)
+            instruction = heard.instruction
+        else:
+            instruction = got
+        online = self.online(sc, mode)
+        ans = self.answer(online, instruction, likelihood=likelihood, decide=decide, top=top, heard=heard, mode=mode)
+        return dataclasses.replace(ans, seconds=time.perf_counter() - t0)
+
+    def describe(self) -> dict[str, Any]:
+        """The resolved values this observer runs with (``/healthz``, ``siftom config show``)."""
+        return {key: value for key, value, _ in self.settings.show()}
+
+
+class _Locked:
+    """A recogniser seen as an engine (``transcribe(samples, nbest=)``), one utterance at a time."""
+
+    def __init__(self, rec: Recogniser) -> None:
+        self.rec = rec
+
+    def transcribe(self, samples: np.ndarray, nbest: int = 10) -> Any:
+        return self.rec.transcribe(samples, nbest)
+
+
+_DEFAULT: dict[Any, Observer] = {}
+_DEFAULT_LOCK = threading.Lock()
+
+
+def observer_for(settings: Settings | None = None) -> Observer:
+    """The shared observer for ``settings`` (default: :meth:`Settings.load`), so one-shot calls
+    (``siftom.infer``, ``siftom.listen``) with the same settings reuse its models and caches."""
+    st = settings if settings is not None else Settings.load()
+    key = _settings_key(st)
+    with _DEFAULT_LOCK:
+        got = _DEFAULT.get(key)
+        if got is None:
+            if len(_DEFAULT) >= 8:
+                _DEFAULT.pop(next(iter(_DEFAULT)))
+            got = _DEFAULT[key] = Observer(st)
+        return got
+
+
+def _settings_key(st: Settings) -> Any:
+    def freeze(v: Any) -> Any:
+        if isinstance(v, dict):
+            return tuple(sorted((k, freeze(x)) for k, x in v.items()))
+        if isinstance(v, (list, tuple)):
+            return tuple(freeze(x) for x in v)
+        try:
+            hash(v)
+        except TypeError:
+            return repr(v)
+        return v
+
+    try:
+        llm = st.llm
+    except Exception:  # an invalid LLM environment: it fails when the llm likelihood is used
+        llm = None
+    return (freeze(dict(st.values)), freeze(dict(st.rules)), freeze(dict(st.likelihoods)), repr(llm))

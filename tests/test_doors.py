@@ -1,0 +1,189 @@
+"""Door conformance: one table of observations through every door, under a non-default settings
+file, gives the same posterior and the same decision (as Gymnasium's check_env runs one check on
+every environment).
+
+Doors: ``siftom.infer`` / ``siftom.listen`` (Python), ``siftom infer`` (CLI), ``POST /v1/infer``,
+a session's instruction (JSON and audio), the WebSocket stream and the listener behind ``siftom
+listen`` and the ROS bridge. Nothing here may be answered with a command nobody asked for.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
+ws_client = pytest.importorskip("websockets.sync.client", reason="needs websockets: pip install 'siftom[stream]'")
+
+import httpx  # noqa: E402
+from click.testing import CliRunner  # noqa: E402
+
+import siftom  # noqa: E402
+from siftom.cli import root  # noqa: E402
+from siftom.observer import Observer  # noqa: E402
+from siftom.service.app import create_app  # noqa: E402
+from siftom.service.listener import HomeListener, load_home  # noqa: E402
+from siftom.service.loadtest import serve_in_thread  # noqa: E402
+from siftom.settings import Settings  # noqa: E402
+from support.streaming import Collector, pcm16, say, silence, stream  # noqa: E402
+
+SCENARIO = "kitchen-cereal-v0"
+SETTINGS_FILE = "[model]\nunknown_prior = 0.3\nbetas = [8.0]\n"
+TOL = 1e-9
+
+# (name, what was heard, whether the robot may act)
+TEXTS = [
+    ("transcript", "pass me the silver", None),
+    ("clear request", "can you pass me the cereal", True),
+    ("off-topic", "the weather is really nice today", False),
+    ("room talk", "need an", False),
+]
+NBEST = [{"text": "pass me the silver", "score": -1.0}, {"text": "pass me the cereal", "score": -3.0}]
+
+
+@pytest.fixture(scope="module")
+def config(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("doors") / "siftom.toml"
+    path.write_text(SETTINGS_FILE, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def settings(config: Path) -> Settings:
+    return Settings.load(config, env={})
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("clips")
+    out = {"request": d / "request.wav", "off-topic": d / "offtopic.wav", "silence": d / "silence.wav"}
+    say("can you pass me the cereal", out["request"])
+    say("the weather is really nice today", out["off-topic"])
+    import soundfile as sf
+
+    sf.write(out["silence"], np.zeros(32_000, dtype=np.float32), 16_000)
+    return out
+
+
+@pytest.fixture(scope="module")
+def server(settings: Settings, tmp_path_factory: pytest.TempPathFactory):
+    app = create_app(tmp_path_factory.mktemp("serve"), settings)
+    with serve_in_thread(app) as url:
+        yield url
+
+
+def _cli(config: Path, *args: str) -> dict:
+    res = CliRunner().invoke(root, ["infer", "--scenario", SCENARIO, "--config", str(config), "--json", *args])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.output[res.output.index("{"):])
+
+
+def _session(url: str) -> str:
+    got = httpx.post(url + "/v1/sessions/from-scenario", json={"scenario": SCENARIO}, timeout=60)
+    got.raise_for_status()
+    return str(got.json()["id"])
+
+
+def _same(answers: dict[str, dict], may_act: bool | None) -> None:
+    """Every door's answer: the same top command, P(top) to 1e-9, the same action and command."""
+    ref_name, ref = next(iter(answers.items()))
+    for name, a in answers.items():
+        assert a["top_command"] == ref["top_command"], (name, ref_name, a["top_command"], ref["top_command"])
+        assert abs(a["top_prob"] - ref["top_prob"]) <= TOL, (name, a["top_prob"], ref["top_prob"])
+        assert a["action"] == ref["action"] and a["command"] == ref["command"], (name, a["action"], ref["action"])
+        assert a["decision"]["rule"] == ref["decision"]["rule"]
+    if may_act is False:
+        assert ref["action"] == "none" and ref["command"] is None, ref["decision"]
+    if may_act is True:
+        assert ref["action"] == "act" and ref["command"] == "fetch(cereal)", ref["decision"]
+
+
+@pytest.mark.parametrize(("name", "text", "may_act"), TEXTS, ids=[t[0] for t in TEXTS])
+def test_words_get_one_answer_through_every_door(name, text, may_act, config, settings, server):
+    answers = {
+        "python": siftom.infer(SCENARIO, None, text, settings=settings).to_json(),
+        "observer": Observer(settings).infer(SCENARIO, None, text).to_json(),
+        "cli": _cli(config, "--transcript", text),
+        "http": httpx.post(server + "/v1/infer", json={"scenario": SCENARIO, "transcript": text},
+                           timeout=60).raise_for_status().json(),
+        "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction", json={"transcript": text},
+                              timeout=60).raise_for_status().json(),
+        "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text),
+    }
+    _same(answers, may_act)
+
+
+def test_an_nbest_list_gets_one_answer_through_every_door(config, settings, server, tmp_path):
+    pairs = [(h["text"], h["score"]) for h in NBEST]
+    nb = tmp_path / "nbest.json"
+    nb.write_text(json.dumps(NBEST), encoding="utf-8")
+    answers = {
+        "python": siftom.infer(SCENARIO, None, pairs, settings=settings).to_json(),
+        "cli": _cli(config, "--nbest", str(nb)),
+        "http": httpx.post(server + "/v1/infer", json={"scenario": SCENARIO, "nbest": NBEST},
+                           timeout=60).raise_for_status().json(),
+        "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction", json={"nbest": NBEST},
+                              timeout=60).raise_for_status().json(),
+    }
+    _same(answers, None)
+
+
+def _streamed(url: str, samples: np.ndarray) -> dict | None:
+    """The WebSocket's decision event for ``samples`` (None when it found no utterance to answer)."""
+    sid = _session(url)
+    with ws_client.connect(url.replace("http://", "ws://") + f"/v1/sessions/{sid}/listen") as ws:
+        got = Collector(ws)
+        got.ready()
+        stream(ws, pcm16(np.concatenate([silence(0.3), samples, silence(1.0)])), chunk_ms=20)
+        ws.send(json.dumps({"type": "end"}))
+        got.wait(timeout=120)
+    events = [e for e in got.events if e["event"] in ("decision", "no_speech")]
+    return events[-1] if events else None
+
+
+OFF_TOPIC_RECORDING = pytest.param(
+    "off-topic", False, marks=pytest.mark.xfail(
+        strict=True, reason="known limitation: the scene-biased recogniser hears command words ('carrot') in a "
+                            "clean off-topic sentence that Whisper hears right; the words gate trusts any recogniser"))
+
+
+@pytest.mark.parametrize(("clip", "may_act"), [("request", True), OFF_TOPIC_RECORDING, ("silence", False)])
+def test_a_recording_gets_one_answer_through_every_door(clip, may_act, clips, config, settings, server):
+    import soundfile as sf
+
+    path = clips[clip]
+    data = path.read_bytes()
+    answers = {
+        "python": siftom.infer(SCENARIO, None, str(path), settings=settings).to_json(),
+        "listen": siftom.listen(str(path), SCENARIO, settings=settings).to_json(),
+        "cli": _cli(config, "--audio", str(path)),
+        "http": httpx.post(server + "/v1/infer", data={"scenario": SCENARIO},
+                           files={"audio": ("a.wav", data, "audio/wav")}, timeout=120).raise_for_status().json(),
+        "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction",
+                              files={"audio": ("a.wav", data, "audio/wav")}, timeout=120).raise_for_status().json(),
+    }
+    _same(answers, may_act)
+    # the stream cuts the utterance with its own detector: the same decision, whatever the cut
+    x, _ = sf.read(path, dtype="float32")
+    event = _streamed(server, x)
+    if may_act:
+        assert event is not None and event["event"] == "decision"
+        assert event["action"] == answers["python"]["action"] and event["command"] == answers["python"]["command"]
+    else:
+        assert event is None or event["event"] == "no_speech" or (event["action"] == "none"
+                                                                    and event["command"] is None), event
+
+
+def test_the_settings_file_changes_the_answer(settings):
+    with_file = siftom.infer(SCENARIO, None, "pass me the silver", settings=settings)
+    without = siftom.infer(SCENARIO, None, "pass me the silver", settings=Settings.load(env={}))
+    assert abs(with_file.top_prob - without.top_prob) > 1e-4
+
+
+def test_the_server_reports_the_settings_it_runs_with(server):
+    got = httpx.get(server + "/healthz", timeout=30).json()["settings"]
+    assert got["model.unknown_prior"] == 0.3 and got["model.betas"] == [8.0]
+    assert got["infer.decide"] == "expected-benefit"

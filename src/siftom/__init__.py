@@ -7,12 +7,14 @@ What a person did and said, to the robot command they meant, in one call::
 
     import siftom
 
-    p = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
+    a = siftom.infer("docs/examples/salad/world.json", "docs/examples/salad/actions.txt",
                      "can you get me the potato")
-    p.command            # RobotCommand: fetch(tomato)
+    a.action, a.command  # "act", RobotCommand fetch(tomato): what the robot does
+    a.top_command        # the most probable command, whatever the robot does
 
 ``heard`` may also be an N-best list, a path to a recording or samples; ``siftom.listen``
-returns the recogniser's output and timings as well. The names below are loaded on first use,
+returns the recogniser's output and timings as well. Both are one-shot uses of
+``siftom.Observer``, the object every door (CLI, HTTP, sessions, streams, ROS) goes through. The names below are loaded on first use,
 so ``import siftom`` stays light.
 """
 
@@ -32,7 +34,9 @@ _PUBLIC: dict[str, str] = {
     "infer_actions": "siftom.api",
     "make_instruction": "siftom.api",
     "transcribe_for": "siftom.api",
-    "Heard": "siftom.inference.listen",
+    "Heard": "siftom.answer",
+    "Answer": "siftom.answer",
+    "Observer": "siftom.observer",
     "Posterior": "siftom.inference.model",
     "JointHypothesis": "siftom.inference.model",
     "ModelConfig": "siftom.inference.model",
@@ -41,7 +45,7 @@ _PUBLIC: dict[str, str] = {
     "Hypothesis": "siftom.observation",
     "InstructionLikelihood": "siftom.likelihood.base",
     "Settings": "siftom.settings",
-    "InferOptions": "siftom.settings",
+    "InferOptions": "siftom.options",
     "Registry": "siftom.registry",
     "SiftomError": "siftom.errors",
     "ObservationError": "siftom.errors",
@@ -54,6 +58,7 @@ _PUBLIC: dict[str, str] = {
 }
 __all__ = [
     "__version__",
+    "Answer",
     "AudioError",
     "BackendUnavailableError",
     "CommandParseError",
@@ -65,6 +70,7 @@ __all__ = [
     "JointHypothesis",
     "ModelConfig",
     "ObservationError",
+    "Observer",
     "OptionsError",
     "Posterior",
     "Registry",
@@ -83,6 +89,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load on first use
+    from siftom.answer import Answer, Heard
     from siftom.api import (
         get_model,
         infer,
@@ -102,12 +109,13 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load on first
         SiftomError,
         UnknownNameError,
     )
-    from siftom.inference.listen import Heard
     from siftom.inference.model import JointHypothesis, ModelConfig, Posterior
     from siftom.likelihood.base import InstructionLikelihood
     from siftom.observation import Hypothesis, Instruction
+    from siftom.observer import Observer
+    from siftom.options import InferOptions
     from siftom.registry import Registry
-    from siftom.settings import InferOptions, Settings
+    from siftom.settings import Settings
     from siftom.world.commands import RobotCommand
 
 

@@ -206,11 +206,14 @@ class Observer:
     # ----- answers ----------------------------------------------------------------------------
     def answer(self, online: OnlineInference, instruction: Instruction | None, *,
                likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
-               top: int | None = None, heard: Heard | None = None, mode: str | None = None) -> Answer:
+               top: int | None = None, heard: Heard | None = None, mode: str | None = None,
+               gate: bool = True) -> Answer:
         """What the robot does about ``instruction`` on ``online`` (its actions observed so far).
 
         ``heard``: the clip the instruction was recognised from (no speech: ``instruction`` None).
-        ``likelihood``, ``decide``, ``top`` and ``mode`` left out are the settings.
+        ``likelihood``, ``decide``, ``top`` and ``mode`` left out are the settings. ``gate``
+        False keeps the words' posterior when they hold no instruction (the paper's model, for
+        the evaluator's accuracy of the inferred command); the action is still ``none``.
         """
         t0 = time.perf_counter()
         top = top or self.settings.infer.top
@@ -227,6 +230,7 @@ class Observer:
             if post.evidence.get("no_instruction") and mode != "speech-only":
                 # words, but none near a command of the scene: the actions alone, and no command issued
                 said = False
+            if not said and gate and mode != "speech-only":
                 alone = self._view(online, "action-only", "phonetic").posterior(None, top=top)
                 post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
         if heard is not None:
@@ -268,7 +272,7 @@ class Observer:
     # ----- one call ---------------------------------------------------------------------------
     def infer(self, scene: Any, actions: Any = None, heard: Any = None, *, likelihood: LikelihoodArg | None = None,
               decide: str | DecisionRule | None = None, mode: str | None = None, top: int | None = None,
-              engine: str | None = None, nbest: int | None = None) -> Answer:
+              engine: str | None = None, nbest: int | None = None, gate: bool = True) -> Answer:
         """What the robot does, from a scene, the person's actions and what was heard.
 
         Args:
@@ -276,13 +280,14 @@ class Observer:
             actions: siftom or VirtualHome action lines, a file of them, or None (the scenario's own).
             heard: a transcript, an N-best list, an audio path or 16 kHz samples; None: nothing was said.
             likelihood, decide, mode, top, engine, nbest: left out, the settings.
+            gate: see :meth:`answer`.
         """
         from siftom.inputs import as_heard, resolve_scene
 
         t0 = time.perf_counter()
         sc = scene if isinstance(scene, SceneInput) else resolve_scene(scene, actions)
         return self._infer(sc, as_heard(heard), t0, likelihood=likelihood, decide=decide, mode=mode, top=top,
-                           engine=engine, nbest=nbest)
+                           engine=engine, nbest=nbest, gate=gate)
 
     def listen(self, audio: str | Path | np.ndarray, scene: Any, actions: Any = None, *,
                likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
@@ -302,7 +307,7 @@ class Observer:
 
     def _infer(self, sc: SceneInput, got: Instruction | np.ndarray | None, t0: float, *,
                likelihood: LikelihoodArg | None, decide: str | DecisionRule | None, mode: str | None,
-               top: int | None, engine: str | None, nbest: int | None) -> Answer:
+               top: int | None, engine: str | None, nbest: int | None, gate: bool = True) -> Answer:
         mode = mode or self.settings.model.mode
         if got is None and mode == "speech-only":
             raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
@@ -313,7 +318,8 @@ class Observer:
         else:
             instruction = got
         online = self.online(sc, mode)
-        ans = self.answer(online, instruction, likelihood=likelihood, decide=decide, top=top, heard=heard, mode=mode)
+        ans = self.answer(online, instruction, likelihood=likelihood, decide=decide, top=top, heard=heard, mode=mode,
+                          gate=gate)
         return dataclasses.replace(ans, seconds=time.perf_counter() - t0)
 
     def describe(self) -> dict[str, Any]:

@@ -35,7 +35,7 @@ def test_perceive_then_infer_chain(vlm_env, frames, tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0
     post = json.loads(out)
-    assert post["command"] == "fetch(cereal)" and post["n_actions"] == 10
+    assert post["top_command"] == "fetch(cereal)" and post["n_actions"] == 10
 
 
 def test_requests_carry_the_images_the_schema_and_the_model(vlm_env, frames):

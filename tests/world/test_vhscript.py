@@ -104,7 +104,7 @@ def test_the_salad_example_runs_and_actions_beat_the_misheard_word():
                                    "--transcript", "can you get me the potato", "--json"], catch_exceptions=False)
         assert res.exit_code == 0, res.output
         out = json.loads(res.stdout)
-        assert out["command"] == "fetch(tomato)" and out["goals"][0]["goal"] == "salad"
+        assert out["command"] == "fetch(tomato)" and out["action"] == "act" and out["goals"][0]["goal"] == "salad"
     res = runner.invoke(root, ["infer", "--scene", str(SALAD / "world.json"), "--actions", str(SALAD / "actions.txt"),
                                "--transcript", "can you get me the potato", "--model", "speech-only", "--json"])
-    assert json.loads(res.stdout)["command"] == "fetch(potato)"  # words alone take the wrong item
+    assert json.loads(res.stdout)["top_command"] == "fetch(potato)"  # words alone take the wrong item

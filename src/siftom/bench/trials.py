@@ -179,7 +179,8 @@ def eval_settings(mode: str) -> Settings:
 
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
-    from siftom.api import get_model, infer
+    from siftom.api import get_model
+    from siftom.observer import observer_for
     from siftom.bench.literal import literal_command
     from siftom.observation import Instruction
 
@@ -274,8 +275,10 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not
                     # change a benchmark); the LLM likelihood comes configured by the run's options
                     lik = get_model("full", lk, opts.llm).likelihood if lk == "llm" else lk
-                    post = infer(sc, None, heard, likelihood=lik, settings=eval_settings(mode))
-                    command, prob = post.command, float(post.commands[0][1])
+                    # the paper's metric scores the inferred command (the MAP rule, the words' posterior)
+                    post = observer_for(eval_settings(mode)).infer(sc, None, heard, likelihood=lik, decide="map",
+                                                                   gate=False)
+                    command, prob = str(post.top_command), post.top_prob
                 memo[mk] = (command, prob, 0.0)
             team = _simulate(skey, sc, command)
             models[m] = {

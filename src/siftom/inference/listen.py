@@ -1,4 +1,4 @@
-"""The parts of ``siftom.api.listen`` (a recording to the posterior in one call) below the API layer.
+"""The parts of hearing a recording (``siftom.Observer.hear``) below the observer.
 
     audio --> voice-activity detection --(no speech)--> posterior from the actions alone
                      | speech
@@ -19,7 +19,6 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
@@ -31,56 +30,6 @@ from siftom.speech.asr import DEFAULT_NBEST
 NO_SPEECH = "no speech heard"
 NO_INSTRUCTION = "no instruction heard"
 T = TypeVar("T")
-
-
-@dataclass(frozen=True)
-class Heard:
-    """The result of :func:`listen`.
-
-    Attributes:
-        posterior: the posterior (from the actions alone when no speech was heard).
-        speech: whether speech was detected.
-        transcript: the recogniser's output (None without speech).
-        vad: the voice-activity detector's result.
-        seconds: wall time from the audio (file read included) to the posterior.
-        timings: seconds per stage (load, vad, asr, infer).
-        instruction: False when words were heard but none near a command of the scene
-            (``posterior.evidence['no_instruction_reason']`` says why): no command is issued,
-            and the posterior is the one from the actions alone.
-    """
-
-    posterior: Posterior
-    speech: bool
-    transcript: Any
-    vad: Any
-    seconds: float
-    timings: dict[str, float] = field(default_factory=dict)
-    instruction: bool = True
-
-    @property
-    def command(self) -> str:
-        """The chosen robot command (a RobotCommand; "none" when the words held no instruction)."""
-        return self.posterior.command if self.instruction or not self.speech else "none"
-
-    @property
-    def message(self) -> str:
-        """"no speech heard", "no instruction heard" or ''."""
-        return NO_SPEECH if not self.speech else "" if self.instruction else NO_INSTRUCTION
-
-    def to_json(self, top: int = 10) -> dict[str, Any]:
-        """The posterior's JSON plus ``speech_heard``, ``message``, ``asr``, ``vad`` and timings."""
-        out = self.posterior.to_json(top=top)
-        out.update({
-            "command": self.command,
-            "speech_heard": self.speech,
-            "instruction_heard": self.speech and self.instruction,
-            "message": self.message,
-            "asr": self.transcript.to_json() if self.transcript is not None else None,
-            "vad": self.vad.to_json(),
-            "seconds": round(self.seconds, 4),
-            "timings": {k: round(v, 4) for k, v in self.timings.items()},
-        })
-        return out
 
 
 class Cache:

@@ -90,6 +90,14 @@ def test_site_works_opened_from_disk(site: Path) -> None:
     assert (site / "js" / "iframe-worker-shim.js").is_file()
 
 
+def test_cli_reference_shows_no_sentinel_default(site: Path) -> None:
+    """Options declared without a default (--help, --version, plain flags) get an empty Default cell."""
+    cli = (site / "reference" / "cli.html").read_text(encoding="utf-8")
+    assert "--version" in cli and "--help" in cli
+    assert "Sentinel" not in cli and "UNSET" not in cli
+    assert "_required" not in cli
+
+
 def test_version_is_one_number(capsys: pytest.CaptureFixture[str]) -> None:
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     assert project["version"] == siftom.__version__

@@ -7,6 +7,8 @@ subclasses and printed on one line by ``siftom.cli.main``.
 from __future__ import annotations
 
 import json
+import shutil
+import textwrap
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -132,12 +134,23 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
         click.echo(json.dumps({"domains": [{"id": d.name, "description": d.summary} for d in domains()],
                                "scenarios": rows}, indent=2))
         return
-    table = Table(title="siftom scenarios")
-    for col in ("id", "goals", "actions", "gold command", "story"):
-        table.add_column(col)
+    _print_scenario_rows(rows)
+
+
+def _print_scenario_rows(rows: list[dict[str, Any]]) -> None:
+    """One line per scenario (id, sizes, gold command), its story wrapped under it.
+
+    Ids and commands are typed back into other commands, so they are never cut or wrapped; the
+    columns fit 80 and only the story wraps, to the terminal's width (``COLUMNS`` where set).
+    """
+    width = shutil.get_terminal_size((100, 24)).columns
+    id_w = max([len("id"), *(len(r["id"]) for r in rows)])
+    click.echo(click.style(f"{'id':<{id_w}}  goals  actions  gold command", bold=True))
     for r in rows:
-        table.add_row(r["id"], str(r["num_goals"]), str(r["num_actions"]), r["command"], r["description"])
-    Console().print(table)
+        click.echo(f"{r['id']:<{id_w}}  {r['num_goals']:>5}  {r['num_actions']:>7}  {r['command']}")
+        click.echo(textwrap.fill(r["description"], width=max(40, width - 1),
+                                 initial_indent="    ", subsequent_indent="    "))
+    click.echo(f"{len(rows)} scenarios; one in full: siftom scenarios show ID")
 
 
 @scenarios.command("show")

@@ -42,6 +42,20 @@ def test_scenarios_list_filters_by_domain(cli):
     assert out["scenarios"] and all(r["domain"] == "kitchen-v0" for r in out["scenarios"])
 
 
+def test_scenarios_list_fits_80_columns_without_cutting_ids(cli, monkeypatch):
+    rows = json.loads(cli("scenarios", "list", "--json"))["scenarios"]
+    monkeypatch.setenv("COLUMNS", "80")
+    lines = cli("scenarios", "list").splitlines()
+    assert all(len(line) <= 80 for line in lines), max(lines, key=len)
+    assert "\u2026" not in "\n".join(lines)  # nothing shortened with an ellipsis
+    starts = {line.split()[0] for line in lines if line and not line.startswith(" ")}
+    for r in rows:  # every id and gold command in full, on the scenario's own line
+        assert r["id"] in starts
+        line = next(ln for ln in lines if ln.startswith(r["id"] + " "))
+        assert line.split()[1:] == [str(r["num_goals"]), str(r["num_actions"]), r["command"]]
+    assert "for the waterglasses" in "\n".join(lines) and "waterglasss" not in "\n".join(lines)
+
+
 def test_scenarios_show_writes_a_png(cli, tmp_path):
     png = tmp_path / "maps" / "cereal.png"
     out = cli("scenarios", "show", "kitchen-cereal-v0", "--png", str(png))

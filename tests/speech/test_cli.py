@@ -73,6 +73,19 @@ def test_errors_are_one_line(tmp_path, capsys, monkeypatch, args, message):
     assert message in err and err.count("\n") == 1
 
 
+@pytest.mark.parametrize("engine", ["pocketsphinx-vocab", "pocketsphinx-dual"])
+def test_scene_engine_without_vocab_names_the_flag(tmp_path, capsys, engine):
+    import numpy as np
+
+    from siftom.speech.audio import write_wav
+
+    wav = write_wav(tmp_path / "a.wav", np.zeros(16000, np.float32))
+    assert main(["transcribe", str(wav), "--engine", engine]) == 2
+    err = capsys.readouterr().err
+    assert "--vocab" in err and f"--engine {engine}" in err and err.count("\n") == 1
+    assert "vocabulary=" not in err  # the command line's flag, not the Python argument
+
+
 def test_long_file_is_refused_by_transcribe(tmp_path, capsys):
     import numpy as np
     import soundfile as sf

@@ -7,6 +7,7 @@ import copy
 import json
 import os
 import re
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -460,14 +461,24 @@ def test_random_bytes_only_raise_scene_graph_errors(blob: bytes) -> None:
 # ---------------------------------------------------------------- CLI
 
 
-def test_cli_inspect_text(tmp_path: Path) -> None:
+@pytest.mark.parametrize("columns", ["80", "50"])
+def test_cli_inspect_text(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, columns: str) -> None:
+    """What the text says does not depend on the terminal's width or on how long the path is."""
     from click.testing import CliRunner
 
-    result = CliRunner().invoke(root, ["scene", "inspect", str(HOUSE)])
+    monkeypatch.setenv("COLUMNS", columns)
+    far = tmp_path / ("a-long-folder-name-" * 4) / "[draft] scenes"  # long, with markup-like brackets
+    far.mkdir(parents=True)
+    scene = far / HOUSE.name
+    shutil.copy(HOUSE, scene)
+    result = CliRunner().invoke(root, ["scene", "inspect", str(scene)])
     assert result.exit_code == 0, result.output
-    for word in ("kitchen", "bedroom", "fridge", "closed", "kitchentable", "remotecontrol",
-                 "22 nodes", "36 edges"):
+    first = result.output.splitlines()[0]
+    assert first.startswith(f"{scene}: 22 nodes, 36 edges, 3 rooms")  # the path in full, one line
+    for word in ("kitchen", "bedroom", "fridge", "closed", "kitchentable", "kitchencabinet",
+                 "remotecontrol", "livingroom"):
         assert word in result.output
+    assert "\u2026" not in result.output  # no name shortened with an ellipsis
 
 
 def test_cli_inspect_json() -> None:

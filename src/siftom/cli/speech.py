@@ -70,9 +70,12 @@ def transcribe_cmd(file: str, engine: str, nbest: int, vocab: str | None, model_
     "no speech heard" (JSON: ``"no_speech": true``, empty ``text`` and ``nbest``) instead of
     the words a recogniser hallucinates from noise; speech is cut to its regions first.
     """
-    from siftom.speech.asr.base import get_engine
+    from siftom.speech.asr.base import get_engine, is_scene_engine
     from siftom.speech.audio import load_audio
 
+    if vocab is None and is_scene_engine(engine):
+        raise SiftomError(f"--engine {engine} is built from the command phrasings it listens for: give them "
+                          "with --vocab FILE (one phrasing per line) or --vocab 'pass me the cereal,milk'")
     x = load_audio(file)  # validate before loading a model
     opts: dict[str, Any] = {}
     if vocab is not None:

@@ -7,6 +7,8 @@ subclasses and printed on one line by ``siftom.cli.main``.
 from __future__ import annotations
 
 import json
+import shutil
+import textwrap
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -14,6 +16,7 @@ from typing import Any
 import click
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
 from siftom.world.scenegraph import SceneGraph, SymbolicScene, class_counts
 
@@ -49,22 +52,28 @@ def inspect_summary(graph: SceneGraph, scene_view: SymbolicScene) -> dict[str, A
 
 def _print_summary(path: Path, info: dict[str, Any]) -> None:
     console = Console(highlight=False)
-    console.print(
-        f"[bold]{path}[/bold]: {info['num_nodes']} nodes, {info['num_edges']} edges, "
+    # The path is text, not markup (a folder may be called "[draft]"), and the line is left to the
+    # terminal to wrap: what it says does not depend on the width or on how long the path is.
+    console.print(Text.assemble(
+        (str(path), "bold"),
+        f": {info['num_nodes']} nodes, {info['num_edges']} edges, "
         f"{len(info['rooms'])} rooms, {len(info['containers'])} containers, "
         f"{len(info['surfaces'])} surfaces, "
-        f"{sum(info['objects_by_class'].values())} grabbable objects")
+        f"{sum(info['objects_by_class'].values())} grabbable objects"), soft_wrap=True)
 
+    # Names (no_wrap) are never shortened ("kitchenca…"); a narrow terminal folds other cells.
     rooms = Table(title="Rooms")
     for col in ("id", "room", "nodes", "grabbable"):
-        rooms.add_column(col, justify="right" if col != "room" else "left")
+        rooms.add_column(col, justify="right" if col != "room" else "left", no_wrap=col == "room",
+                         overflow="fold")
     for r in info["rooms"]:
         rooms.add_row(str(r["id"]), r["name"], str(r["num_nodes"]), str(r["num_grabbable"]))
     console.print(rooms)
 
     containers = Table(title="Containers")
     for col in ("id", "class", "room", "state", "inside"):
-        containers.add_column(col, justify="right" if col in ("id", "inside") else "left")
+        containers.add_column(col, justify="right" if col in ("id", "inside") else "left",
+                              no_wrap=col in ("class", "room"), overflow="fold")
     for c in info["containers"]:
         state = ("open" if c["open"] else "closed") if c["openable"] else "open (no door)"
         containers.add_row(str(c["id"]), c["class_name"], c["room_name"] or "-", state,
@@ -77,7 +86,8 @@ def _print_summary(path: Path, info: dict[str, Any]) -> None:
         by_class.setdefault(s["class_name"], []).append(s)
     surfaces = Table(title="Surfaces")
     for col in ("class", "count", "rooms", "objects on"):
-        surfaces.add_column(col, justify="right" if col in ("count", "objects on") else "left")
+        surfaces.add_column(col, justify="right" if col in ("count", "objects on") else "left",
+                            no_wrap=col == "class", overflow="fold")
     for name, items in sorted(by_class.items(), key=lambda kv: (-len(kv[1]), kv[0])):
         where = sorted({s["room_name"] or "-" for s in items})
         surfaces.add_row(name, str(len(items)), ", ".join(where),
@@ -85,8 +95,8 @@ def _print_summary(path: Path, info: dict[str, Any]) -> None:
     console.print(surfaces)
 
     objects = Table(title="Grabbable objects by class")
-    objects.add_column("class")
-    objects.add_column("count", justify="right")
+    objects.add_column("class", no_wrap=True, overflow="fold")
+    objects.add_column("count", justify="right", overflow="fold")
     for name, count in info["objects_by_class"].items():
         objects.add_row(name, str(count))
     console.print(objects)
@@ -132,12 +142,23 @@ def scenarios_list(as_json: bool, domain: str | None) -> None:
         click.echo(json.dumps({"domains": [{"id": d.name, "description": d.summary} for d in domains()],
                                "scenarios": rows}, indent=2))
         return
-    table = Table(title="siftom scenarios")
-    for col in ("id", "goals", "actions", "gold command", "story"):
-        table.add_column(col)
+    _print_scenario_rows(rows)
+
+
+def _print_scenario_rows(rows: list[dict[str, Any]]) -> None:
+    """One line per scenario (id, sizes, gold command), its story wrapped under it.
+
+    Ids and commands are typed back into other commands, so they are never cut or wrapped; the
+    columns fit 80 and only the story wraps, to the terminal's width (``COLUMNS`` where set).
+    """
+    width = shutil.get_terminal_size((100, 24)).columns
+    id_w = max([len("id"), *(len(r["id"]) for r in rows)])
+    click.echo(click.style(f"{'id':<{id_w}}  goals  actions  gold command", bold=True))
     for r in rows:
-        table.add_row(r["id"], str(r["num_goals"]), str(r["num_actions"]), r["command"], r["description"])
-    Console().print(table)
+        click.echo(f"{r['id']:<{id_w}}  {r['num_goals']:>5}  {r['num_actions']:>7}  {r['command']}")
+        click.echo(textwrap.fill(r["description"], width=max(40, width - 1),
+                                 initial_indent="    ", subsequent_indent="    "))
+    click.echo(f"{len(rows)} scenarios; one in full: siftom scenarios show ID")
 
 
 @scenarios.command("show")

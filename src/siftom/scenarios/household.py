@@ -55,7 +55,7 @@ class Household:
             id=sid or f"{DOMAIN_ID}/seed{seed}", domain=DOMAIN_ID, world=world, start=start,
             goals=goals, true_goal=true, command=RobotCommand("deliver", cls, n), actions=traj.actions,
             verb="deliver",
-            description=f"set the table with {goal.describe()}; the human asks the robot for the {cls}s",
+            description=f"set the table with {goal.describe()}; the human asks the robot for the {_plural(cls)}",
             meta={"seed": seed},
         )
 
@@ -65,3 +65,10 @@ class Household:
     def scenarios(self) -> dict[str, Callable[[], Scenario]]:
         """The registered scenarios: the fixed ones, by id."""
         return {sid: functools.partial(self.generate, i, sid=sid) for i, sid in enumerate(self.fixed())}
+
+
+def _plural(noun: str) -> str:
+    """English plural of an object class: bowls, waterglasses, knives."""
+    if noun.endswith("fe"):
+        return noun[:-2] + "ves"
+    return noun + ("es" if noun.endswith(("s", "sh", "ch", "x")) else "s")

@@ -180,9 +180,9 @@ def eval_settings(mode: str) -> Settings:
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
     from siftom.api import get_model
-    from siftom.observer import observer_for
     from siftom.bench.literal import literal_command
     from siftom.observation import Instruction
+    from siftom.observer import observer_for
 
     opts = task.options
     root = Path(task.root)

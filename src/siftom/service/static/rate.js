@@ -9,7 +9,11 @@ async function init() {
     throw new Error("This page needs the session to rate: open /rate?session=ID with the id of the robot's session.");
   }
   const s = await api(`/v1/sessions/${session}`);
-  $("trial").textContent = s.last_instruction && s.last_instruction.command ? `The robot did: ${s.last_instruction.command}` : `Session ${session}`;
+  const last = s.last_instruction;
+  $("trial").textContent = !last ? `Session ${session}`
+    : last.command ? `The robot did: ${last.command}`
+    : last.action === "ask" ? `The robot asked: ${last.decision.question}`
+    : `The robot did nothing (heard as ${last.top_command}: ${last.decision.reason})`;
   const info = await api("/v1/ratings/statements");
   statements = info.statements;
   const box = $("statements");

@@ -60,6 +60,7 @@ def test_typed_instruction_shows_the_command_and_plan(page, tmp_path):
     page.click("#infer")
     inferred(page)
     assert page.locator("#command").inner_text() == "fetch(sugar)"
+    assert page.locator("#action").inner_text() == "carries out fetch(sugar)"
     assert page.locator("#commands-chart .bar-row").count() >= 3
     assert page.locator("#robot-path").count() == 1
     assert page.locator("#nbest li").first.inner_text() == "can you pass me the sugar"
@@ -74,10 +75,14 @@ def test_vague_instruction_asks_a_question(page):
     page.click("#infer")
     inferred(page)
     q = page.locator("#question")
-    if q.is_visible():
-        assert q.inner_text().startswith("Robot asks: “Did you mean")
-    else:  # the actions alone made the robot confident: then it says why
-        assert "confident" in page.locator("#reason").inner_text()
+    action = page.locator("#action").get_attribute("data-action")
+    assert action in ("ask", "none"), action  # no object was named: the robot does not fetch one
+    if action == "ask":
+        assert q.is_visible() and q.inner_text().startswith("Robot asks: “")
+    else:  # it does nothing and says why
+        assert not q.is_visible()
+        assert page.locator("#action").inner_text() == "does nothing"
+        assert page.locator("#reason").inner_text() != ""
 
 
 def test_scrubbing_actions_and_synthesised_speech(page):

@@ -196,11 +196,18 @@ function bars(el, rows, key) {
 function showResult(res) {
   state.result = res;
   $("result").hidden = false;
-  $("command").textContent = res.command;
+  // what the robot does is the decision the server took (the same rule at every door)
+  const d = res.decision || {};
+  const act = $("action");
+  act.dataset.action = res.action || "";
+  act.textContent = res.action === "act" ? `carries out ${res.command}`
+    : res.action === "ask" ? "asks a question" : "does nothing";
+  $("command").textContent = res.top_command || "";
+  $("top-prob").textContent = res.top_prob !== undefined ? `(P = ${res.top_prob.toFixed(2)})` : "";
   const q = $("question");
-  q.hidden = !res.clarification.ask;
-  q.textContent = res.clarification.ask ? `Robot asks: “${res.clarification.question}”` : "";
-  $("reason").textContent = res.clarification.reason;
+  q.hidden = res.action !== "ask";
+  q.textContent = res.action === "ask" ? `Robot asks: “${d.question}”` : "";
+  $("reason").textContent = res.message || d.reason || "";
   const nb = $("nbest");
   nb.replaceChildren();
   const heard = res.nbest.length ? res.nbest : [{ text: "(nothing heard: actions only)", score: 0 }];
@@ -388,8 +395,8 @@ function onStreamEvent(ev) {
     const d = $("stream-decision");
     d.hidden = false;
     const t = ev.timings || {};
-    d.textContent = `heard “${ev.heard}” → ${ev.decision}` + (t.wait !== undefined ? ` (answered ${(1000 * t.wait).toFixed(0)} ms after the pause was detected)` : "");
-    $("stream-decision").dataset.decision = ev.decision;
+    d.textContent = `heard “${ev.heard}” → ${ev.action}` + (t.wait !== undefined ? ` (answered ${(1000 * t.wait).toFixed(0)} ms after the pause was detected)` : "");
+    d.dataset.decision = ev.action;
   }
 }
 

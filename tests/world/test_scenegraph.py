@@ -25,6 +25,7 @@ from siftom.world.scenegraph import (
     Node,
     Relation,
     SceneGraph,
+    SymbolicScene,
 )
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
@@ -76,7 +77,7 @@ def test_house_lookups(house: SceneGraph) -> None:
 
 
 def test_house_symbolic_view(house: SceneGraph) -> None:
-    s = house.symbolic()
+    s = SymbolicScene.of(house)
     assert [(r.id, r.name) for r in s.rooms] == [(1, "kitchen"), (2, "livingroom"), (3, "bedroom")]
     assert s.room_named("bedroom").id == 3
     with pytest.raises(UnknownNameError, match="kitchen"):
@@ -116,7 +117,7 @@ def test_round_trip_file(house: SceneGraph, tmp_path: Path) -> None:
     house.save(out)
     again = SceneGraph.load(out)
     assert again == house
-    assert again.symbolic() == house.symbolic()
+    assert SymbolicScene.of(again) == SymbolicScene.of(house)
     assert [p.name for p in tmp_path.iterdir()] == ["house.json"]  # no temp file left behind
     node = again.node(44)
     assert node.prefab_name == "PRE_PRO_Pillow_01" and node.obj_transform is not None
@@ -152,7 +153,7 @@ def test_nodes_and_edges_validate_on_construction() -> None:
 @needs_virtualhome
 def test_real_apartment_rooms_and_containers(apartment: SceneGraph) -> None:
     assert (len(apartment.nodes), len(apartment.edges)) == (356, 630)
-    s = apartment.symbolic()
+    s = SymbolicScene.of(apartment)
     assert {r.name for r in s.rooms} == {"kitchen", "bathroom", "bedroom", "livingroom"}
     fridge = s.container(165)
     assert fridge is not None and fridge.class_name == "fridge"
@@ -169,7 +170,7 @@ def test_real_apartment_rooms_and_containers(apartment: SceneGraph) -> None:
 
 @needs_virtualhome
 def test_real_apartment_object_locations(apartment: SceneGraph) -> None:
-    s = apartment.symbolic()
+    s = SymbolicScene.of(apartment)
     kitchen = s.room_named("kitchen").id
 
     def where(i: int) -> tuple[str, str | None, str | None]:
@@ -193,7 +194,7 @@ def test_real_apartment_object_locations(apartment: SceneGraph) -> None:
 
 @needs_virtualhome
 def test_second_apartment_quirks(apartment2: SceneGraph) -> None:
-    s = apartment2.symbolic()
+    s = SymbolicScene.of(apartment2)
     assert {r.name for r in s.rooms} == {"kitchen", "bathroom", "bedroom", "livingroom"}
     assert any(c.class_name == "kitchencabinets" for c in s.containers)
     # kitchencounter 93 is INSIDE the (smaller) dishwasher 105 in the data; that edge is
@@ -211,7 +212,7 @@ def test_real_round_trip(name: str, tmp_path: Path) -> None:
     graph = SceneGraph.load(VIRTUALHOME / name)
     graph.save(tmp_path / name)
     again = SceneGraph.load(tmp_path / name)
-    assert again == graph and again.symbolic() == graph.symbolic()
+    assert again == graph and SymbolicScene.of(again) == SymbolicScene.of(graph)
     if name == "apartment_graph.json":  # every key present in the source: nothing lost
         assert again.to_json() == json.loads((VIRTUALHOME / name).read_text())
 
@@ -292,7 +293,7 @@ def test_on_cycles_are_tolerated() -> None:
     # VirtualHome derives ON from boxes and can make it mutual; the view must still come out.
     obj = mutated(lambda o: o["edges"].extend([{"from_id": 22, "relation_type": "ON", "to_id": 23},
                                                {"from_id": 23, "relation_type": "ON", "to_id": 22}]))
-    s = SceneGraph.from_json(obj).symbolic()
+    s = SymbolicScene.of(SceneGraph.from_json(obj))
     assert s.room_of(22) == 1 and s.placement(22).parent in (12, 23)
 
 
@@ -385,7 +386,7 @@ def valid_graphs(draw: st.DrawFn) -> dict[str, Any]:
 
 
 def check_view(graph: SceneGraph) -> None:
-    s = graph.symbolic()
+    s = SymbolicScene.of(graph)
     room_ids = {r.id for r in s.rooms}
     assert {p.id for p in s.placements} | room_ids == {n.id for n in graph.nodes}
     for p in s.placements:

@@ -108,7 +108,7 @@ def _print_summary(path: Path, info: dict[str, Any]) -> None:
 def inspect_cmd(file: Path, as_json: bool) -> None:
     """Show the rooms, containers, surfaces and objects of a scene-graph FILE."""
     graph = SceneGraph.load(file)
-    info = inspect_summary(graph, graph.symbolic())
+    info = inspect_summary(graph, SymbolicScene.of(graph))
     if as_json:
         click.echo(json.dumps(info, indent=2))
     else:

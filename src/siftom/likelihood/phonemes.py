@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from siftom.likelihood.phrasing import number_word
+from siftom.likelihood.numbers import number_word
 
 VOWELS = ("AA", "AE", "AH", "AO", "AW", "AY", "EH", "ER", "EY", "IH", "IY", "OW", "OY", "UH", "UW")
 CONSONANTS = (

@@ -33,9 +33,11 @@ import numpy as np
 
 from siftom.errors import CommandParseError, unknown_name
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
+from siftom.likelihood.numbers import (
+    NUMBER_WORDS as NUMBER_WORDS,  # re-exported: the words of counts
+)
+from siftom.likelihood.numbers import number_word as number_word
 from siftom.world.commands import MAX_COUNT, RobotCommand
-
-NUMBER_WORDS = ["zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten", "eleven", "twelve", "thirteen", "fourteen", "fifteen", "sixteen", "seventeen", "eighteen", "nineteen", "twenty"]
 
 # Carriers per style: (template, weight within style). "{np}" is the noun phrase; templates
 # whose noun phrase must be a bare plural without number use "{pl}".
@@ -88,17 +90,6 @@ class Phrasing:
     style: str
     content: str
     category: bool = False
-
-
-def number_word(n: int) -> str:
-    """Spoken form of a small count ("three"); larger counts are written as digits' words."""
-    if 0 <= n < len(NUMBER_WORDS):
-        return NUMBER_WORDS[n]
-    tens = ["twenty", "thirty", "forty", "fifty", "sixty", "seventy", "eighty", "ninety"]
-    if n < 100:
-        t, u = divmod(n, 10)
-        return tens[t - 2] + ("" if u == 0 else " " + NUMBER_WORDS[u])
-    return " ".join(NUMBER_WORDS[int(d)] for d in str(n))
 
 
 def indefinite_article(phrase: str) -> str:

@@ -43,7 +43,7 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     command; when none does, each transcript gives the sentence-mode guesses (an open-vocabulary
     transcript's carrier words are often right where the grammar-biased 1-best's are not).
     """
-    from siftom.likelihood.acoustic import closest_phrasing, key_phrases, key_word_forms
+    from siftom.likelihood.keyphrases import closest_phrasing, key_phrases, key_word_forms
 
     kept = range(len(commands)) if keep is None else [int(i) for i in keep]
     heard = instruction.text if instruction.nbest else ""
@@ -163,7 +163,7 @@ class WhisperFactor:
         if heard and mode == "sentence":
             use = "guesses"
         elif heard:
-            from siftom.likelihood.acoustic import key_phrases, key_word_forms
+            from siftom.likelihood.keyphrases import key_phrases, key_word_forms
 
             forms = key_word_forms(k for c in commands for k, _ in key_phrases(c))
             use = "carrier" if any(w in forms for w in heard) else "none"

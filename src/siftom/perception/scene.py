@@ -21,7 +21,7 @@ from typing import Any
 
 from siftom.errors import PerceptionError, SceneGraphError
 from siftom.world.io import VH_ALIASES
-from siftom.world.scenegraph import Relation, SceneGraph
+from siftom.world.scenegraph import Relation, SceneGraph, SymbolicScene
 
 HUMAN_CLASSES = ("character", "human", "person")
 ROBOT_CLASSES = ("robot",)
@@ -65,7 +65,7 @@ def scene_to_world(graph: SceneGraph, strict: bool = True) -> PerceivedScene:
     model. Otherwise (a given VirtualHome graph, where chairs and towel racks stand in rooms)
     such objects are left out, as ``siftom infer --scene`` does.
     """
-    view = graph.symbolic()
+    view = SymbolicScene.of(graph)
     if not view.rooms:
         raise PerceptionError("the scene graph has no room; add a node with category \"Rooms\" (e.g. "
                               "class_name \"kitchen\") and an INSIDE edge from each piece of furniture to it")

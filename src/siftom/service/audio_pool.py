@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import multiprocessing
 import threading
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING, Any
@@ -23,26 +24,26 @@ from typing import TYPE_CHECKING, Any
 from siftom.errors import SiftomError
 
 if TYPE_CHECKING:
-    from siftom.service.runtime import Runtime, ServiceSettings
+    from siftom.options import ServiceSettings
     from siftom.settings import Settings
 
-_WORKER: Runtime | None = None  # the worker process's own runtime
+# builds a worker's runtime from the service's settings (a module-level function: it is pickled
+# by name into the spawned worker); the runtime answers ``infer_audio_here(*args)``
+WorkerFactory = Callable[["ServiceSettings", "Settings"], Any]
+
+_WORKER: Any = None  # the worker process's own runtime
 
 
-def _start(settings: ServiceSettings, full: Settings) -> None:
+def _start(factory: WorkerFactory, settings: ServiceSettings, full: Settings) -> None:
     global _WORKER
-    from siftom.observer import Observer
-    from siftom.service.runtime import Runtime, default_data_dir
-
-    # the same settings as the service's own observer: the same answers
-    observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
-    _WORKER = Runtime(settings, default_data_dir(), observer)
+    _WORKER = factory(settings, full)
 
 
 def _infer_audio(args: tuple[Any, ...]) -> dict[str, Any]:
     if _WORKER is None:
         raise SiftomError("the audio worker did not start")
-    return _WORKER.infer_audio_here(*args)
+    body: dict[str, Any] = _WORKER.infer_audio_here(*args)
+    return body
 
 
 def _ready() -> bool:
@@ -52,8 +53,9 @@ def _ready() -> bool:
 class AudioPool:
     """N worker processes for audio requests (started on first use)."""
 
-    def __init__(self, settings: ServiceSettings, full: Settings) -> None:
+    def __init__(self, settings: ServiceSettings, full: Settings, factory: WorkerFactory) -> None:
         self.size = settings.audio_workers
+        self._factory = factory
         self._full = full
         # the workers score in-process: they must not start pools of their own
         self._settings = dataclasses.replace(settings, audio_workers=0)
@@ -64,7 +66,7 @@ class AudioPool:
         with self._lock:
             if self._pool is None:
                 self._pool = ProcessPoolExecutor(self.size, mp_context=multiprocessing.get_context("spawn"),
-                                                 initializer=_start, initargs=(self._settings, self._full))
+                                                 initializer=_start, initargs=(self._factory, self._settings, self._full))
             return self._pool
 
     def warm(self) -> None:

@@ -37,6 +37,7 @@ from siftom.options import (
     service_llm_config,
 )
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
+from siftom.settings import Settings
 
 __all__ = ["SERVICE_LIKELIHOODS", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
            "scenario_vocabulary", "service_llm_config", "timeline"]
@@ -91,7 +92,7 @@ class Runtime:
         if settings.audio_workers > 0:
             from siftom.service.audio_pool import AudioPool
 
-            self.audio_pool = AudioPool(settings, self.observer.settings)
+            self.audio_pool = AudioPool(settings, self.observer.settings, worker_runtime)
         self._warm = threading.Thread(target=self._load_default_audio_model, daemon=True)
         self._warm.start()
 
@@ -284,3 +285,11 @@ def default_data_dir() -> Path:
     """A fresh private folder for the service's files (maps)."""
     return Path(tempfile.mkdtemp(prefix="siftom-serve-"))
 
+
+def worker_runtime(settings: ServiceSettings, full: Settings) -> Runtime:
+    """An audio worker process's runtime: the same settings as the service's own observer, so
+    the same answers (service/audio_pool.py)."""
+    from siftom.observer import Observer
+
+    observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
+    return Runtime(settings, default_data_dir(), observer)

@@ -268,7 +268,9 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
     Positions are bounding-box centres projected on the floor (x, z); with no doors in the
     graph, walking cost is the straight-line distance (docs/world.md).
     """
-    view = graph.symbolic()
+    from siftom.world.scenegraph import SymbolicScene
+
+    view = SymbolicScene.of(graph)
     tnode = None
     want = target or ("kitchentable" if goal_space == "household-table-v0" else "kitchencounter")
     for nid in view.surfaces:

@@ -9,7 +9,7 @@ and optionally a ``bounding_box`` (``center``, ``size``), an ``obj_transform`` a
 
 :class:`SceneGraph` holds the raw graph and validates it at construction (every error is a
 :class:`~siftom.errors.SceneGraphError` naming the node or edge and saying how to fix it).
-:meth:`SceneGraph.symbolic` derives what planning needs: rooms, containers (open or closed),
+:meth:`SymbolicScene.of` derives what planning needs: rooms, containers (open or closed),
 surfaces, grabbable objects, and for every object its room and its immediate support or
 container. The rules are in ``docs/scene-graphs.md``.
 """

@@ -9,7 +9,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from siftom.errors import SceneGraphError, UnknownNameError
 from siftom.world.scenegraph.elements import (
@@ -20,9 +20,6 @@ from siftom.world.scenegraph.elements import (
     Relation,
     _type_name,
 )
-
-if TYPE_CHECKING:
-    from siftom.world.scenegraph.symbolic import SymbolicScene
 
 # --------------------------------------------------------------------------------------------
 # The graph
@@ -250,11 +247,6 @@ class SceneGraph:
         """The room nodes (category ``Rooms``), in file order."""
         return tuple(n for n in self.nodes if n.is_room)
 
-    def symbolic(self) -> SymbolicScene:
-        """Derive the symbolic view; see :class:`SymbolicScene` and docs/scene-graphs.md."""
-        from siftom.world.scenegraph.symbolic import derive
-
-        return derive(self)
 
 
 

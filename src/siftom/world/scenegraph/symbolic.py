@@ -64,6 +64,12 @@ class SymbolicScene:
     Every tuple is sorted by node id. ``placements`` has one entry per non-room node.
     """
 
+    @classmethod
+    def of(cls, graph: SceneGraph) -> SymbolicScene:
+        """Derive the symbolic view of ``graph`` (the rules in docs/scene-graphs.md)."""
+        return derive(graph)
+
+
     rooms: tuple[Room, ...]
     containers: tuple[Container, ...]
     surfaces: tuple[int, ...]

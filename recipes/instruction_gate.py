@@ -11,11 +11,10 @@ Builds two sets with the same voices, noise and scenes, nothing of which siftom 
   each said by one of the same voices, in one of the same scenes, clean and in the same noise.
 
 Every clip goes through ``siftom.listen`` (the default path, as every door runs it). The report
-gives, per condition, how often the robot acts on off-topic speech (it should not) and how often
-it refuses a request as "no instruction heard" or acts on the wrong command. It also re-reads
-each answer's evidence to show what the no-instruction check would have said had it read every
-recogniser's words alike (``--compare``): the scene-biased recogniser's words, then Whisper's.
-Results go to ``OUT/gate.jsonl`` (one line per clip) and ``OUT/summary.json``.
+gives, per condition, how often the robot acts on off-topic speech (it should not) and, for the
+requests, how often it refuses them as "no instruction heard", acts on the right command or on
+a wrong one. Each line of ``OUT/gate.jsonl`` keeps what each recogniser heard and which one the
+no-instruction check read (``instruction_check``); ``OUT/summary.json`` holds the rates.
 """
 
 from __future__ import annotations
@@ -82,7 +81,8 @@ def answer_row(row: dict[str, Any], domain: str) -> dict[str, Any]:
             "top_command": str(ans.top_command), "top_prob": round(ans.top_prob, 4),
             "instruction_heard": ans.instruction_heard, "speech_heard": ans.speech_heard,
             "nbest": nbest, "whisper_heard": ev.get("whisper_heard"),
-            "no_instruction_reason": ev.get("no_instruction_reason", "")}
+            "no_instruction_reason": ev.get("no_instruction_reason", ""),
+            "instruction_check": ev.get("instruction_check", "")}
 
 
 def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
@@ -136,8 +136,20 @@ def main(argv: list[str] | None = None) -> int:
             f.write(json.dumps(r) + "\n")
     summary = {"domain": args.domain, "seed": args.seed, "clips": len(done), "rates": summarise(done)}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
-    print(json.dumps(summary["rates"], indent=2))
+    print(table(summary["rates"]))
     return 0
+
+
+def table(rates: dict[str, Any]) -> str:
+    """The rates as a plain-text table, one line per kind and condition."""
+    lines = [f"{'speech':<10} {'condition':<14} {'n':>4} {'acts':>6} {'asks':>6} {'refused':>8} {'right':>6} {'wrong':>6}"]
+    for kind, conds in rates.items():
+        for cond, e in conds.items():
+            def pct(k: str, e: dict[str, Any] = e) -> str:
+                return f"{100 * e[k]:5.1f}%" if k in e else "     -"
+            lines.append(f"{kind:<10} {cond:<14} {e['n']:>4} {pct('acts'):>6} {pct('asks'):>6} "
+                         f"{pct('refused_no_instruction'):>8} {pct('acts_right'):>6} {pct('acts_wrong'):>6}")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

@@ -144,13 +144,7 @@ def _streamed(url: str, samples: np.ndarray) -> dict | None:
     return events[-1] if events else None
 
 
-OFF_TOPIC_RECORDING = pytest.param(
-    "off-topic", False, marks=pytest.mark.xfail(
-        strict=True, reason="known limitation: the scene-biased recogniser hears command words ('carrot') in a "
-                            "clean off-topic sentence that Whisper hears right; the words gate trusts any recogniser"))
-
-
-@pytest.mark.parametrize(("clip", "may_act"), [("request", True), OFF_TOPIC_RECORDING, ("silence", False)])
+@pytest.mark.parametrize(("clip", "may_act"), [("request", True), ("off-topic", False), ("silence", False)])
 def test_a_recording_gets_one_answer_through_every_door(clip, may_act, clips, config, settings, server):
     import soundfile as sf
 

@@ -72,3 +72,28 @@ def test_a_broken_plugin_is_reported_not_fatal(tmp_path, site):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "boom" in r.stdout and "demo" in r.stdout
+
+
+def test_a_plugin_likelihood_is_evaluated_by_siftom_eval(site, tmp_path):
+    """Every registered likelihood is an evaluator model (``siftom-<name>``), with no edit to siftom."""
+    data, out = tmp_path / "data", tmp_path / "out"
+    r = _siftom(site, "dataset", "build", "--domain", "kitchen-v0", "--scenarios", "1", "--speakers", "1",
+                "--voices", "flite-slt", "--snr", "none", "--out", str(data), "--workers", "1")
+    assert r.returncode == 0, r.stderr
+    r = _siftom(site, "eval", "--dataset", str(data), "--out", str(out), "--models", "siftom-keyword,siftom-phonetic",
+                "--workers", "1", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert rows and all(set(row["models"]) == {"siftom-keyword", "siftom-phonetic"} for row in rows)
+    for row in rows:
+        m = row["models"]["siftom-keyword"]
+        assert m["command"].startswith("fetch(") and isinstance(m["correct"], bool)
+    run = json.loads((out / "run.json").read_text())
+    assert {"name": "siftom-keyword", "kind": "posterior", "likelihood": "keyword", "mode": "full",
+            "heard": "nbest", "rule": "map"} in run["options"]["plugin_models"]
+    # without the plug-in the model is unknown, with the close names listed
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    r = subprocess.run([sys.executable, "-m", "siftom.cli", "eval", "--dataset", str(data), "--out",
+                        str(tmp_path / "o2"), "--models", "siftom-keyword"], capture_output=True, text=True, env=env,
+                       timeout=300)
+    assert r.returncode != 0 and "siftom-keyword" in r.stderr

@@ -52,3 +52,16 @@ def test_ray_scaling_recipe_runs_locally(tmp_path: Path) -> None:
                "--models", "siftom", cwd=tmp_path)
     assert res.returncode == 0, res.stderr[-2000:]
     assert "identical results.jsonl: True" in res.stdout
+
+
+@pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+def test_instruction_gate_recipe_runs(tmp_path: Path) -> None:
+    res = _run(str(RECIPES / "instruction_gate.py"), "--out", str(tmp_path / "gate"), "--scenarios", "1",
+               "--speakers", "1", "--snr", "none", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    import json
+
+    summary = json.loads((tmp_path / "gate" / "summary.json").read_text())
+    assert set(summary["rates"]) == {"request", "off-topic"}
+    assert summary["rates"]["off-topic"]["all"]["n"] == summary["rates"]["request"]["all"]["n"] == 1
+    assert "off-topic" in res.stdout and "refused" in res.stdout

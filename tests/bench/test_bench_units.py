@@ -174,7 +174,10 @@ def test_summary_counts_questions_confident_errors_and_missing_speedups() -> Non
 
 def test_decision_models_are_every_rule_on_every_likelihood() -> None:
     from siftom.assist.decide import RULES
-    from siftom.bench.decisions import DECISION_MODELS, LIKELIHOOD_TAGS, RULE_TAGS
+    from siftom.bench.models import decision_models
+
+    DECISION_MODELS = decision_models()
+    LIKELIHOOD_TAGS, RULE_TAGS = ("acoustic", "phonetic"), ("expected-benefit", "ask-or-act")
     from siftom.likelihood.registry import LIKELIHOODS
 
     assert set(DECISION_MODELS.values()) == {(lk, r) for lk in LIKELIHOOD_TAGS for r in RULE_TAGS}

@@ -149,7 +149,7 @@ def ask_and_hear(question: Question, cell: int, stimulus: Any, dataset_root: str
 def probe_questions(scenario: Any, gold: str, stimulus_id: str) -> list[tuple[Question, int]]:
     """The questions :func:`reliability_by_kind` asks about one stimulus, with the true cell."""
     from siftom.bench.llm_baselines import command_space
-    from siftom.bench.trials import is_correct
+    from siftom.bench.scoring import is_correct
 
     cmds = [str(c) for c in command_space(scenario)]
     gold_s = next((c for c in cmds if is_correct(c, gold, scenario.verb)), None)
@@ -179,7 +179,7 @@ def probe_questions(scenario: Any, gold: str, stimulus_id: str) -> list[tuple[Qu
 def reliability_by_kind(dataset: str, engine: str = "pocketsphinx-vocab", limit: int | None = None,
                         seed: int = 0) -> dict[str, dict[float, list[bool]]]:
     """{kind: {snr: [heard as its own cell, ...]}} over a seeded sample of the dataset's stimuli."""
-    from siftom.bench import trials
+    from siftom.bench.engines import engine as get_engine
     from siftom.bench.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(dataset)
@@ -189,7 +189,7 @@ def reliability_by_kind(dataset: str, engine: str = "pocketsphinx-vocab", limit:
         stims = [stims[i] for i in sorted(idx)]
 
     def listen(x: np.ndarray, grammar: tuple[str, ...]) -> Any:
-        return trials._engine(engine, grammar).transcribe(x, nbest=5)
+        return get_engine(engine, grammar).transcribe(x, nbest=5)
 
     out: dict[str, dict[float, list[bool]]] = {k: {} for k in KINDS}
     for s in stims:

@@ -82,7 +82,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
 def _per_temperature(model: Any, attr: str, grid: Any, sc: Any, instruction: Any,
                      gold: str) -> dict[float, tuple[float, float, bool]]:
     """Per temperature T of the likelihood's ``attr``: (P(gold), P(chosen), chosen is right)."""
-    from siftom.bench.trials import is_correct
+    from siftom.bench.scoring import is_correct
     from siftom.inference.model import Observation
 
     out = {}

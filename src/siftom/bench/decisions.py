@@ -1,9 +1,9 @@
 """Decision models in the benchmark: every decision rule on every instruction likelihood.
 
 A decision model is a likelihood (the posterior) composed with a decision rule (what the
-robot does with it): :data:`DECISION_MODELS` is the product of :data:`LIKELIHOOD_TAGS` and
-:data:`RULE_TAGS`, so ``siftom-eb`` is expected benefit on the default (acoustic) likelihood and
-``siftom-phonetic-ask`` ask-or-act on the phonetic one (docs/decisions.md). The MAP rule's rows
+robot does with it), registered in bench/models.py: ``siftom-eb`` is expected benefit on the
+default (acoustic) likelihood and ``siftom-phonetic-ask`` ask-or-act on the phonetic one
+(docs/decisions.md). The MAP rule's rows
 are the evaluator's own ``siftom`` models.
 
 An asking model may ask a clarifying question (assist/questions.py: confirm, choose, count).
@@ -39,16 +39,9 @@ from siftom.assist.decide import (
 )
 from siftom.assist.questions import answer_log_likelihood_cells
 from siftom.bench import answers as _answers
+from siftom.bench.models import decision_models
 
-# the instruction likelihoods a decision rule composes with, and the tag each adds to a model
-# name (the default likelihood, the best one, has none)
-LIKELIHOOD_TAGS = {"acoustic": "", "phonetic": "-phonetic"}
 DEFAULT_DECISION_LIKELIHOOD = "acoustic"
-# the decision rules (assist/decide.py) and their tags; the MAP rule is the plain model name
-RULE_TAGS = {"expected-benefit": "-eb", "ask-or-act": "-ask"}
-# model name -> (likelihood, rule)
-DECISION_MODELS: dict[str, tuple[str, str]] = {
-    f"siftom{lt}{rt}": (lk, rule) for lk, lt in LIKELIHOOD_TAGS.items() for rule, rt in RULE_TAGS.items()}
 # the measured reliability table and the answer path live in bench/answers.py
 ANSWER_RELIABILITY = _answers.ANSWER_RELIABILITY
 answer_reliability = _answers.answer_reliability
@@ -112,7 +105,7 @@ def run_decision_model(
     """Decide for one stimulus; returns command, prob and what was asked and heard.
 
     Args:
-        model: a name of :data:`DECISION_MODELS`.
+        model: a decision model's name (``bench/models.py``).
         stimulus: the dataset stimulus.
         scenario: its scenario.
         posterior: the model's likelihood's posterior (:func:`decision_posterior`).
@@ -122,9 +115,9 @@ def run_decision_model(
         cost_model: the time model of a spoken exchange (default :class:`QuestionCost`).
         ask_cost: a fixed time per question in steps instead of the model (None: the model).
     """
-    from siftom.bench.trials import is_correct
+    from siftom.bench.scoring import is_correct
 
-    _lk, rule = DECISION_MODELS[model]
+    _lk, rule = decision_models()[model]
     cm = cost_model or QuestionCost()
     lam = DEFAULT_LOSS_AVERSION
     reliability = _answers.answer_reliabilities(stimulus.snr_db)
@@ -182,7 +175,7 @@ def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, An
 def reliability_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """How often the asking models' answers were heard as the cell they name, by SNR (clean last)."""
     by: dict[float, list[bool]] = {}
-    asking = [m for m, (_lk, rule) in DECISION_MODELS.items() if rule == "ask-or-act"]
+    asking = [m for m, (_lk, rule) in decision_models().items() if rule == "ask-or-act"]
     for r in rows:
         for a in (r["models"].get(m, {}) for m in asking):
             if not (a.get("asked") and "answer_cell_ok" in a):
@@ -200,7 +193,7 @@ def answer_reliability_cmd(results: tuple[str, ...]) -> None:
     What the evaluation's questions met (the table the robot uses is measured by
     ``siftom bench answer-grammar`` on a development set: ANSWER_RELIABILITY in bench/answers.py).
     """
-    from siftom.bench.evaluate import load_results
+    from siftom.bench.results_io import load_results
 
     rows = [r for res in results for r in load_results(res)]
     table = reliability_table(rows)

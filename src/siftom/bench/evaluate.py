@@ -35,11 +35,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from siftom.bench.decisions import DECISION_MODELS
+from siftom.bench.models import (  # re-exported: what to evaluate
+    EvalOptions,
+)
 from siftom.bench.results_io import (
+    RESULTS,
     TIMINGS,
     AtomicAppender,
     check_unique,
+    load_results,
     provenance,
     provenance_mismatch,
     read_jsonl,
@@ -47,12 +51,8 @@ from siftom.bench.results_io import (
     split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
-from siftom.bench.stimuli import Dataset, Stimulus, check_seed, load_dataset
+from siftom.bench.stimuli import Dataset, Stimulus, load_dataset
 from siftom.bench.trials import (
-    ACOUSTIC_MODELS,
-    DEFAULT_ENGINE,
-    MODELS,
-    OPTIONAL_MODELS,
     _engine,
     _eval_stimuli,
     _run_task,
@@ -60,78 +60,15 @@ from siftom.bench.trials import (
     dataset_vocabulary,
     scenario_key,
 )
-from siftom.errors import DatasetError, unknown_name
-from siftom.speech.asr import DEFAULT_NBEST
+from siftom.errors import DatasetError
 from siftom.speech.asr.base import is_scene_engine
 
 # run only when a language model is configured (siftom.bench.llm_baselines)
-RESULTS = "results.jsonl"
+__all__ = ["RESULTS", "RUN", "TEAM_CACHE", "TRANSCRIPTS", "EvalOptions", "EvalRun", "evaluate", "load_results"]
+
 RUN = "run.json"
 TRANSCRIPTS = "transcripts.jsonl"
 TEAM_CACHE = "team_cache.jsonl"
-
-
-@dataclass(frozen=True)
-class EvalOptions:
-    """How to evaluate. Validated at construction.
-
-    Attributes:
-        models: model names (see module doc), in report order.
-        engine: ``pocketsphinx-vocab`` (a trigram LM built from the domain's command phrasings),
-            ``pocketsphinx`` (generic LM) or ``whisper`` (faster-whisper).
-        nbest: ASR hypotheses kept for the N-best models.
-        likelihood: the ``siftom`` row's instruction likelihood; ``auto`` (default): the product's
-            default for a recording (acoustic with the whisper extra, else phonetic).
-            ``siftom-phonetic`` always runs the phonetic one.
-        seed: seed of the bootstrap.
-        llm: the language model of the LLM models (default: ``SIFTOM_LLM_*``).
-    """
-
-    models: tuple[str, ...] = MODELS
-    engine: str = DEFAULT_ENGINE
-    nbest: int = DEFAULT_NBEST
-    likelihood: str = "auto"
-    seed: int = 0
-    llm: Any = None  # siftom.backends.config.LLMConfig
-
-    def __post_init__(self) -> None:
-        check_seed(self.seed)
-        if not self.models:
-            raise DatasetError(f"give at least one model; available: {', '.join(MODELS)}")
-        known = tuple(dict.fromkeys(MODELS + OPTIONAL_MODELS + ACOUSTIC_MODELS + tuple(DECISION_MODELS)))
-        for m in self.models:
-            if m not in known:
-                raise unknown_name("model", m, known)
-        if len(set(self.models)) != len(self.models):
-            raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
-        from siftom.speech.asr.base import ENGINES
-
-        ENGINES.spec(self.engine)  # unknown names suggest close matches
-        if self.nbest < 1:
-            raise DatasetError(f"--nbest must be >= 1, got {self.nbest}")
-        if self.likelihood != "auto":
-            from siftom.likelihood.registry import LIKELIHOODS
-
-            LIKELIHOODS.spec(self.likelihood)
-
-    def to_json(self) -> dict[str, Any]:
-        """Plain dict (stored in run.json)."""
-        out = {"models": list(self.models), "engine": self.engine, "nbest": self.nbest,
-               "likelihood": self.likelihood}
-        if self.llm is not None and set(self.models) & set(OPTIONAL_MODELS):
-            out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
-        if "siftom" in self.models:
-            from siftom.bench.trials import siftom_likelihood
-
-            out["siftom_likelihood"] = siftom_likelihood(self)
-        if (any(m.endswith("-acoustic") or DECISION_MODELS.get(m, ("",))[0] == "acoustic" for m in self.models)
-                or out.get("siftom_likelihood") == "acoustic"):
-            from siftom.likelihood.acoustic import DEFAULT_WHISPER_TEMPERATURE
-            from siftom.likelihood.whisper_factor import whisper_available
-
-            out["acoustic"] = {"whisper": whisper_available(), "whisper_temperature": DEFAULT_WHISPER_TEMPERATURE,
-                               "whisper_listen": whisper_available()}  # Whisper's own words as a second carrier
-        return out
 
 
 @dataclass
@@ -149,19 +86,6 @@ class EvalRun:
 # -- files ---------------------------------------------------------------------------------
 
 _read_jsonl = read_jsonl  # the name older code imports
-
-
-def load_results(out: str | Path) -> list[dict[str, Any]]:
-    """Rows of ``RESULTS/results.jsonl``; raise DatasetError when missing or malformed."""
-    p = Path(out) / RESULTS
-    if not p.is_file():
-        raise DatasetError(f"{str(out)!r} has no {RESULTS}; run 'siftom eval --dataset DIR --out {out}' first")
-    rows = _read_jsonl(p)
-    for n, r in enumerate(rows, 1):
-        if not isinstance(r, dict) or "id" not in r or not isinstance(r.get("models"), dict):
-            raise DatasetError(f"{p}:{n}: a results row needs 'id' and 'models'; the file is not from siftom eval")
-    check_unique(rows, p)
-    return rows
 
 
 def evaluate(

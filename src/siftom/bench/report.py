@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from siftom.bench.evaluate import ACOUSTIC_MODELS, MODELS, OPTIONAL_MODELS, RUN, load_results
+from siftom.bench.evaluate import RUN
 from siftom.bench.metrics import (
     N_BOOT,
     breakdown,
@@ -25,6 +25,8 @@ from siftom.bench.metrics import (
     regret,
     summarise_model,
 )
+from siftom.bench.models import ACOUSTIC_MODELS, MODELS, OPTIONAL_MODELS
+from siftom.bench.results_io import load_results
 from siftom.errors import DatasetError
 
 SUMMARY = "summary.json"

@@ -25,6 +25,7 @@ from typing import Any
 from siftom.errors import DatasetError
 
 TIMINGS = "timings.jsonl"
+RESULTS = "results.jsonl"
 
 
 @lru_cache(maxsize=1)
@@ -137,3 +138,16 @@ def rewrite(path: Path, rows: Iterable[dict[str, Any]]) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+def load_results(out: str | Path) -> list[dict[str, Any]]:
+    """Rows of ``RESULTS/results.jsonl``; raise DatasetError when missing or malformed."""
+    p = Path(out) / RESULTS
+    if not p.is_file():
+        raise DatasetError(f"{str(out)!r} has no {RESULTS}; run 'siftom eval --dataset DIR --out {out}' first")
+    rows = read_jsonl(p)
+    for n, r in enumerate(rows, 1):
+        if not isinstance(r, dict) or "id" not in r or not isinstance(r.get("models"), dict):
+            raise DatasetError(f"{p}:{n}: a results row needs 'id' and 'models'; the file is not from siftom eval")
+    check_unique(rows, p)
+    return rows

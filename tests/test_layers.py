@@ -89,3 +89,99 @@ def test_the_layer_test_sees_registration_strings(tmp_path):
     bad = tmp_path / "mod.py"
     bad.write_text('REG.register("x", "siftom.likelihood.asr:open_engine")\n')
     assert list(_entry_points(bad)) == [(1, "siftom.likelihood.asr")]
+
+
+# -- module circles -----------------------------------------------------------------------------
+
+def _module_name(path: Path, src: Path = SRC) -> str:
+    rel = path.relative_to(src.parent).with_suffix("")
+    name = ".".join(rel.parts)
+    return name.removesuffix(".__init__")
+
+
+def import_graph(src: Path = SRC) -> dict[str, set[str]]:
+    """module -> the siftom modules it imports (module level, lazy and type-only imports alike;
+    ``from pkg import mod`` counts as importing ``pkg.mod``)."""
+    paths = {_module_name(p, src): p for p in sorted(src.rglob("*.py"))}
+
+    def resolve(m: str) -> str:
+        while m and m not in paths:
+            m = m.rpartition(".")[0]
+        return m
+
+    graph: dict[str, set[str]] = {}
+    for name, path in paths.items():
+        out = graph.setdefault(name, set())
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            targets: list[str] = []
+            if isinstance(node, ast.ImportFrom) and node.module:
+                if node.level:
+                    base = name.split(".")[: len(name.split(".")) - node.level + (path.name == "__init__.py")]
+                    mod = ".".join([*base, node.module])
+                else:
+                    mod = node.module
+                if mod.startswith("siftom"):
+                    targets += [f"{mod}.{a.name}" if f"{mod}.{a.name}" in paths else mod for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets += [a.name for a in node.names if a.name.startswith("siftom")]
+            out.update(r for r in map(resolve, targets) if r and r not in (name, "siftom"))
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[set[str]]:
+    """Strongly connected components of more than one module (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    found: list[set[str]] = []
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on.add(root)
+        while work:
+            node, it = work[-1]
+            nxt = next(it, None)
+            if nxt is not None:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on.add(nxt)
+                    work.append((nxt, iter(sorted(graph.get(nxt, ())))))
+                elif nxt in on:
+                    low[node] = min(low[node], index[nxt])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                comp = set()
+                while True:
+                    m = stack.pop()
+                    on.discard(m)
+                    comp.add(m)
+                    if m == node:
+                        break
+                if len(comp) > 1:
+                    found.append(comp)
+    return found
+
+
+def test_no_import_circles():
+    found = circles(import_graph())
+    assert not found, "import circles (break each by moving what both need below both): " + "; ".join(
+        " <-> ".join(sorted(c)) for c in found)
+
+
+def test_the_circle_finder_finds_a_circle(tmp_path):
+    pkg = tmp_path / "siftom"
+    (pkg / "a").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a" / "__init__.py").write_text("")
+    (pkg / "a" / "x.py").write_text("def f():\n    from siftom.a.y import g\n")  # a lazy import counts
+    (pkg / "a" / "y.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from siftom.a import x\n")
+    (pkg / "a" / "z.py").write_text("from siftom.a.x import f\n")
+    assert circles(import_graph(pkg)) == [{"siftom.a.x", "siftom.a.y"}]

@@ -268,12 +268,22 @@ def test_malformed_observations_get_clear_errors():
         Observation(world, start, (), ())
     with pytest.raises(ObservationError, match="'spoon', which is not in the scene"):
         Observation(world, start, (), (Goal("soup", TABLE, (("spoon", 1),)),))
-    with pytest.raises(ObservationError, match="not the human's"):
-        Observation(world, start, (Action("walk", ROBOT, place=F),), goals)
+    with pytest.raises(ObservationError, match="action 0 put\\(robot, cup_1, .*\\) is impossible here"):
+        Observation(world, start, (Action("put", ROBOT, obj=1, place=F),), goals)  # the robot holds nothing
     with pytest.raises(ObservationError, match="share one target"):
         Observation(world, start, (), (goals[0], Goal("x", F, (("cup", 1),))))
     with pytest.raises(ObservationError, match="not an Action"):
         Observation(world, start, ("walk(human, fork_shelf)",), goals)  # type: ignore[arg-type]
+
+
+def test_the_robots_own_actions_change_the_world_not_the_belief():
+    world, start, goals = tiny()
+    model = SIFToM(ModelConfig(mode="action-only"))
+    alone = model.infer(Observation(world, start, (), goals))
+    walked = Observation(world, start, (Action("walk", ROBOT, place=F),), goals)
+    assert walked.states[-1].agent_at[ROBOT] == F
+    after = model.infer(walked)
+    assert dict(after.goals) == pytest.approx(dict(alone.goals))  # a walk of the robot says nothing of the goal
 
 
 @pytest.mark.parametrize("text", ["", "   "])

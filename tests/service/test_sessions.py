@@ -117,8 +117,8 @@ def test_actions_are_all_or_none_and_errors_name_the_fix(folder):
     assert c.get(f"/v1/sessions/{sid}").json()["n_actions"] == 0  # the legal first action was not kept
     r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["grab(human, tomatoe_1)"]})
     assert r.status_code == 422 and "Did you mean 'tomato_1'" in r.json()["detail"]
-    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["walk(robot, fridge)"]})
-    assert r.status_code == 422 and "only the human's actions" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["put(robot, tomato_1, counter)"]})
+    assert r.status_code == 422 and "impossible here" in r.json()["detail"]  # the robot holds no tomato
     r = c.post(f"/v1/sessions/{sid}/actions", json={"actions": ["[Cut] <tomato_1> (1)"]})
     assert r.status_code == 422 and "[Cut] has no counterpart" in r.json()["detail"]
     assert c.post(f"/v1/sessions/{sid}/actions", json={"actions": []}).status_code == 422
@@ -352,3 +352,32 @@ def test_a_silent_recording_is_no_speech_and_the_actions_decide(folder):
     assert body["nbest"] == [] and body["likelihood"] == "none"
     assert body["command"] is None and body["action"] == "none"  # nobody asked for anything
     assert body["top_command"]  # the belief from the actions alone still names a command
+
+
+def test_what_the_robot_carried_out_changes_the_next_reading(folder):
+    """After the robot brings the cereal, "pass me the silver" no longer reads as the cereal."""
+    c = _client(folder)
+    sid = c.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"}).json()["id"]
+    heard = {"transcript": "pass me the silver"}
+    assert c.post(f"/v1/sessions/{sid}/instruction", json=heard).json()["top_command"] == "fetch(cereal)"
+    before = c.get(f"/v1/sessions/{sid}").json()["n_actions"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": "fetch(cereal)"})
+    assert r.status_code == 200, r.text
+    added = r.json()["added"]
+    assert added and all("(robot," in a for a in added) and added[-1].startswith("put(robot, cereal")
+    assert r.json()["n_actions"] == before + len(added)
+    after = c.post(f"/v1/sessions/{sid}/instruction", json=heard).json()
+    assert after["top_command"] != "fetch(cereal)"
+    assert "fetch(cereal)" not in [x["command"] for x in after["commands"][:3]]
+    # the robot's own actions in the person's form do the same
+    sid2 = c.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"}).json()["id"]
+    r = c.post(f"/v1/sessions/{sid2}/actions", json={"actions": added})
+    assert r.status_code == 200 and r.json()["added"] == added
+    assert c.post(f"/v1/sessions/{sid2}/instruction", json=heard).json()["top_command"] == after["top_command"]
+    # bad shorthand: a clear error naming the fix
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": "fetch(cereal)"})
+    assert r.status_code == 422 and "nothing to do" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": "fetch(unicorn)"})
+    assert r.status_code == 422 and "no object of class 'unicorn'" in r.json()["detail"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": "fetch(sugar)", "actions": added})
+    assert r.status_code == 422 and "either actions" in r.text

@@ -103,8 +103,6 @@ class Observation:
         for t, a in enumerate(self.actions):
             if not isinstance(a, Action):
                 raise ObservationError(f"action {t} is not an Action: {a!r}")
-            if a.agent != HUMAN:
-                raise ObservationError(f"action {t} ({self.world.format_action(a)}) is not the human's")
             why = check(self.world, states[-1], a)
             if why is not None:
                 raise ObservationError(f"action {t} {self.world.format_action(a)} is impossible here: {why}")
@@ -273,11 +271,17 @@ class OnlineInference:
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, action: Action) -> None:
-        """Add one observed human action (checked against the current state)."""
+        """Add one observed action (checked against the current state).
+
+        The human's actions are evidence about the goal (the action term). The robot's own
+        actions (``action.agent == ROBOT``: what it carried out) change the world the next
+        actions and requests are read in, and say nothing about the human's goal: an object the
+        robot brought is no longer left to bring.
+        """
         why = check(self.world, self.state, action)
         if why is not None:
             raise ObservationError(f"{self.world.format_action(action)} is impossible here: {why}")
-        if not self.model.config.uses_actions:
+        if action.agent != HUMAN or not self.model.config.uses_actions:
             self._advance(action)
             if self.model.on_step is not None:
                 self.model.on_step("observe", self, action)

@@ -119,7 +119,11 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
         first = await run_cpu(mgr.replayed, session_id, idem)
         if first is not None:
             return _replay(first)
-        return JSONResponse(await run_cpu(mgr.append_reply, session_id, list(req.actions), req.after, idem))
+        if req.executed is not None:
+            lines = await run_cpu(mgr.executed_actions, session_id, req.executed)
+        else:
+            lines = list(req.actions or [])
+        return JSONResponse(await run_cpu(mgr.append_reply, session_id, lines, req.after, idem))
 
     body_doc = {"required": True, "content": {
         "application/json": {"schema": {"$ref": "#/components/schemas/InstructionRequest"}},

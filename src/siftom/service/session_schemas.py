@@ -73,11 +73,25 @@ class SessionCreate(Strict):
 
 
 class ActionsRequest(Strict):
-    """Observed human actions, oldest first, in siftom's or VirtualHome's script format."""
+    """Observed actions, oldest first, in siftom's or VirtualHome's script format: the human's,
+    and the robot's own (``walk(robot, fridge)``); or ``executed``, a command the robot carried
+    out, which stands for the robot's plan of it."""
 
-    actions: list[ActionLine] = Field(
-        min_length=1, max_length=MAX_ACTIONS_PER_REQUEST,
+    actions: list[ActionLine] | None = Field(
+        default=None, min_length=1, max_length=MAX_ACTIONS_PER_REQUEST,
         examples=[["[Walk] <fridge> (165)", "[Open] <fridge> (165)", "grab(human, milk.195, fridge.165)"]])
+    executed: str | None = Field(
+        default=None, min_length=1, max_length=MAX_TEXT_CHARS, examples=["fetch(cereal)"],
+        description="a command the robot carried out (fetch(cereal), deliver(fork,3)): its plan from the "
+                    "session's state is added as the robot's actions, so the world, the belief and the next "
+                    "request's reading follow it")
+
+    @model_validator(mode="after")
+    def _one_of(self) -> ActionsRequest:
+        if (self.actions is None) == (self.executed is None):
+            raise ValueError("give either actions (a list of action lines) or executed (a command the robot "
+                             "carried out, e.g. fetch(cereal))")
+        return self
     after: int | None = Field(
         default=None, ge=0,
         description="how many actions the session held when this request was first sent; makes a retry safe: "

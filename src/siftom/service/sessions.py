@@ -284,6 +284,27 @@ class SessionManager:
         raise ProblemError(409, "conflict", f"the session holds {n} actions, not the {after} this request was "
                            "sent after; GET the session to see them and send only what is new")
 
+    def executed_actions(self, sid: str, command: str) -> list[str]:
+        """The robot's actions for a command it carried out: its plan from the session's state
+        (assist/route.py), in siftom's form; an empty plan (nothing left to bring) is a 422."""
+        from siftom.assist.route import robot_plan
+        from siftom.world.commands import RobotCommand
+
+        sess = self.get(sid)
+        with sess.lock:
+            try:
+                cmd = RobotCommand.parse(command)
+            except SiftomError as exc:
+                raise ObservationError(f"executed: {exc}") from None
+            if cmd.obj_class not in sess.scene.world.classes:
+                raise ObservationError(f"executed: no object of class {cmd.obj_class!r} in this world; classes: "
+                                       f"{', '.join(sess.scene.world.classes)}")
+            plan = robot_plan(_Planned(sess.scene), sess.online.state, cmd)
+        if not plan.actions:
+            raise ObservationError(f"executed: the robot has nothing to do for {command} here ({plan.status}); "
+                                   "send the robot's actions instead")
+        return list(plan.actions)
+
     def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
         """Add already-built human actions (another producer, e.g. perception), all or none;
         returns them in siftom's form."""
@@ -426,3 +447,15 @@ def _state_json(w: Any, s: Any) -> dict[str, Any]:
         "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
         "items": items,
     }
+
+
+class _Planned:
+    """A session's scene as the robot's planner reads it (world, target, command parsing)."""
+
+    def __init__(self, scene: Any) -> None:
+        self.world, self.target = scene.world, scene.goals[0].target
+
+    def parse_command(self, text: str) -> Any:
+        from siftom.world.commands import RobotCommand
+
+        return RobotCommand.parse(text)

@@ -169,7 +169,8 @@ def vh_line_to_actions(world: World, state: State, line: str) -> list[Action]:
 
 def parse_actions(world: World, start: State, lines: Sequence[str], first: int = 0,
                   label: str = "actions[{k}]") -> tuple[list[Action], State]:
-    """Parse and check the human's actions (either format, mixed freely) from ``start``.
+    """Parse and check actions (either format, mixed freely) from ``start``: the human's, and in
+    siftom's format the robot's own (``walk(robot, fridge)``: what the robot did).
 
     Returns the siftom actions and the state after them. Raises ObservationError naming the
     line (``label`` with k counted from ``first``: ``actions[0]`` for an API list, ``action 1``
@@ -188,10 +189,7 @@ def parse_actions(world: World, start: State, lines: Sequence[str], first: int =
                 a = world.parse_action(text, s)
             except UnknownNameError as exc:  # a name in the line, not a missing resource
                 raise ObservationError(f"{label.format(k=k)} {text!r}: {exc}") from None
-            if a.agent != HUMAN:
-                raise ObservationError(f"{label.format(k=k)} {text!r}: only the human's actions are observed; "
-                                       "write human as the first argument")
-            step = [a]
+            step = [a]  # the human's, or the robot's own (it changes the world, not the belief)
         for a in step:
             why = check(world, s, a)
             if why is not None:

@@ -40,16 +40,18 @@ def heard(audio: Path, engine: Any, nbest: int) -> tuple[Any, Any]:
 
 
 def acoustic_choice(model: str, scenario: Any, audio: Path, engine: Any, nbest: int) -> tuple[str, float]:
-    """The chosen command and its posterior probability under an acoustic model."""
-    from siftom.api import get_model
-    from siftom.inference.model import Observation
+    """The chosen command and its posterior probability under an acoustic model (MAP), from the
+    evaluator's observer."""
+    from siftom.bench.models import eval_settings
+    from siftom.observer import observer_for
 
     instruction, _ = heard(audio, engine, nbest)
     mode = "full" if model == "siftom-acoustic" else "speech-only"
+    obs = observer_for(eval_settings(mode))
     if instruction is None:
         if mode == "speech-only":
             return "none", 1.0
-        post = get_model("action-only", "phonetic").infer(Observation.from_scenario(scenario, None))
+        post = obs.infer(scenario, None, None, mode="action-only", decide="map", gate=False).posterior
     else:
-        post = get_model(mode, "acoustic").infer(Observation.from_scenario(scenario, instruction))
-    return post.command, float(post.commands[0][1])
+        post = obs.infer(scenario, None, instruction, likelihood="acoustic", decide="map", gate=False).posterior
+    return str(post.command), float(post.commands[0][1])

@@ -49,22 +49,23 @@ answer_reliability = _answers.answer_reliability
 
 def decision_posterior(likelihood: str, scenario: Any, instruction: Any, audio: Path, engine: Any,
                        nbest: int) -> Any:
-    """The full model's posterior for a stimulus under ``likelihood``.
+    """The full model's posterior for a stimulus under ``likelihood``, from the evaluator's observer.
 
     ``phonetic`` scores the evaluator's N-best list (``instruction``); ``acoustic`` hears the
     clip as ``siftom-acoustic`` does (bench/acoustic_models.py); a clip with no words heard
     gets the posterior of the actions alone.
     """
-    from siftom.api import get_model
-    from siftom.inference.model import Observation
+    from siftom.bench.models import eval_settings
+    from siftom.observer import observer_for
 
+    obs = observer_for(eval_settings("full"))
     if likelihood == "acoustic":
         from siftom.bench.acoustic_models import heard
 
         instruction, _ = heard(audio, engine, nbest)
         if instruction is None:
-            return get_model("action-only", "phonetic").infer(Observation.from_scenario(scenario, None))
-    return get_model("full", likelihood).infer(Observation.from_scenario(scenario, instruction))
+            return obs.infer(scenario, None, None, mode="action-only", decide="map", gate=False).posterior
+    return obs.infer(scenario, None, instruction, likelihood=likelihood, decide="map", gate=False).posterior
 
 
 def oracle_action(scenario: Any, gold_command: str) -> str:

@@ -24,12 +24,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any
 
 from siftom.bench.stimuli import check_seed
 from siftom.errors import DatasetError, unknown_name
 from siftom.registry import Registry
 from siftom.speech.asr import DEFAULT_NBEST
+
+if TYPE_CHECKING:
+    from siftom.settings import Settings
 
 KINDS = ("posterior", "decision", "acoustic", "literal", "llm-baseline")
 HEARD = ("nbest", "audio", "reference", "none")
@@ -225,6 +229,15 @@ class EvalOptions:
             out["acoustic"] = {"whisper": whisper_available(), "whisper_temperature": DEFAULT_WHISPER_TEMPERATURE,
                                "whisper_listen": whisper_available()}  # Whisper's own words as a second carrier
         return out
+
+
+@lru_cache(maxsize=8)
+def eval_settings(mode: str) -> Settings:
+    """The settings the evaluator runs SIFToM with: the defaults (not the ``SIFTOM_*`` environment:
+    a benchmark does not change with it), in ``mode``; every row goes through their observer."""
+    from siftom.settings import Settings
+
+    return Settings.load(env={}, flags={"model.mode": mode})
 
 
 def siftom_likelihood(opts: EvalOptions) -> str:

@@ -12,7 +12,6 @@ import json
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,14 +25,14 @@ from siftom.bench.decisions import (
     run_decision_model,
 )
 from siftom.bench.engines import engine as _engine
-from siftom.bench.models import EvalModel, EvalOptions, eval_model, siftom_likelihood
+from siftom.bench.models import EvalModel, EvalOptions, eval_model, eval_settings, siftom_likelihood
 from siftom.bench.scoring import is_correct, is_helpful
 from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
 from siftom.world.commands import MAX_COUNT
 
 if TYPE_CHECKING:
-    from siftom.settings import Settings
+    pass
 
 
 
@@ -121,14 +120,6 @@ class _Task:
     vocabulary: tuple[str, ...]
     transcripts: dict[str, dict[str, Any]]
     team: dict[str, dict[str, Any]]
-
-
-@lru_cache(maxsize=8)
-def eval_settings(mode: str) -> Settings:
-    """The settings the evaluator runs SIFToM with: the defaults, in ``mode``."""
-    from siftom.settings import Settings
-
-    return Settings.load(env={}, flags={"model.mode": mode})
 
 
 def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:

@@ -6,7 +6,7 @@ SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
 EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs
 
-.PHONY: demo test test-slow test-browser lint setup sysdeps sysdeps-browser clean docs results
+.PHONY: demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -56,6 +56,15 @@ test-slow: setup $(VENV)/.installed-ray
 test-browser: setup sysdeps-browser
 	$(BIN)/python -m pytest -q -m browser
 
+# the pictures of the web pages in README and docs/img/, taken by the browser tests that show them
+SCREENSHOT_TESTS := tests/service/test_browser.py tests/service/test_browser_people.py
+screenshots: setup sysdeps-browser
+	SIFTOM_UPDATE_DOCS=1 $(BIN)/python -m pytest -q -p no:cacheprovider -m browser $(SCREENSHOT_TESTS)
+
+# the installable package: dist/siftom-VERSION-py3-none-any.whl (tests/test_wheel.py installs one)
+wheel: setup
+	$(BIN)/python -m build --wheel --no-isolation --outdir dist .
+
 # the documentation site (MkDocs Material) into site/; `make test` builds it with --strict too
 docs: setup
 	$(BIN)/mkdocs build --strict
@@ -70,4 +79,4 @@ lint: setup
 	$(BIN)/mypy
 
 clean:
-	rm -rf $(VENV) build site *.egg-info
+	rm -rf $(VENV) build dist site *.egg-info

@@ -1,14 +1,22 @@
-"""The documentation site builds with --strict; the version is one number everywhere."""
+"""The documentation site builds with --strict; the version is one number everywhere.
+
+The HTTP reference (reference/http.md) is generated from the service: every route of the app is
+on the page, each operation has its request and response fields, and the examples shown are the
+answers a fresh server gives (the same status and the same keys when replayed now)."""
 
 from __future__ import annotations
 
+import importlib.util
+import json
 import os
 import re
 import subprocess
 import sys
 import tomllib
+from html import unescape
 from html.parser import HTMLParser
 from pathlib import Path
+from typing import Any
 from urllib.parse import unquote, urlsplit
 
 import pytest
@@ -105,3 +113,99 @@ def test_version_is_one_number(capsys: pytest.CaptureFixture[str]) -> None:
     assert capsys.readouterr().out.strip() == f"siftom {siftom.__version__}"
     changelog = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
     assert re.search(rf"^## \[{re.escape(siftom.__version__)}\]", changelog, re.MULTILINE)
+
+
+# ----- the HTTP reference ------------------------------------------------------------------------
+def load_hook() -> Any:
+    spec = importlib.util.spec_from_file_location("siftom_docs_openapi_hook", ROOT / "docs" / "hooks" / "openapi.py")
+    assert spec and spec.loader
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def hook() -> Any:
+    return load_hook()
+
+
+@pytest.fixture(scope="module")
+def http_page(site: Path) -> str:
+    return unescape((site / "reference" / "http.html").read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
+    pytest.importorskip("httpx", reason="needs httpx (the dev extra)")
+    from siftom.service.app import create_app
+
+    return create_app(tmp_path_factory.mktemp("http-ref"))
+
+
+def test_http_reference_lists_every_route(http_page: str, app: Any) -> None:
+    paths = {getattr(r, "path", "").replace(":path}", "}") for r in app.routes}
+    assert "/v1/sessions/{session_id}/listen" in paths and "/docs" in paths
+    missing = sorted(p for p in paths if f"{p}</code>" not in http_page)
+    assert not missing, missing
+
+
+def test_http_routes_outside_the_schema_say_what_they_are(hook: Any, app: Any) -> None:
+    rows = hook.route_rows(app)
+    assert {path for _, path, _ in rows} >= {"/", "/docs", "/openapi.json", "/v1/sessions/{session_id}/listen"}
+    assert all(text for _, _, text in rows), [path for _, path, text in rows if not text]
+
+
+def test_http_operations_have_their_fields(http_page: str, app: Any) -> None:
+    schema = app.openapi()
+    comps = schema["components"]["schemas"]
+    for path, ops in schema["paths"].items():
+        for method, op in ops.items():
+            heading = f"{method.upper()} {path}"
+            assert heading in http_page, heading
+            section = http_page.split(heading, 1)[1]
+            bodies = [*op.get("requestBody", {}).get("content", {}).values(),
+                      *(c for code, r in op["responses"].items() if code.startswith("2")
+                        for c in r.get("content", {}).values())]
+            for body in bodies:
+                ref = body.get("schema", {}).get("$ref", "")
+                for field in comps.get(ref.rsplit("/", 1)[-1], {}).get("properties", {}):
+                    assert f"{field}</code>" in section, (heading, field)
+
+
+def keys_of(value: Any, prefix: str = "") -> set[str]:
+    """Every key path of the dicts in ``value`` (lists: their first item)."""
+    if isinstance(value, dict):
+        out = set()
+        for k, v in value.items():
+            out |= {f"{prefix}{k}"} | keys_of(v, f"{prefix}{k}.")
+        return out
+    if isinstance(value, list) and value:
+        return keys_of(value[0], prefix)
+    return set()
+
+
+def test_http_examples_are_real_answers(site: Path, http_page: str, hook: Any, app: Any) -> None:
+    shown = json.loads((site / "reference" / "http-examples.json").read_text(encoding="utf-8"))
+    assert [(e["method"], e["operation"]) for e in shown] == [
+        (e["method"], hook.operation_of(app, e["method"], e["path"])) for e in shown]
+    ran = {(e["method"], e["operation"]) for e in shown}
+    # every operation a server answers without a vision model has an example
+    schema = app.openapi()
+    want = {(m.upper(), p) for p, ops in schema["paths"].items() for m in ops
+            if "perceive" not in p and "frames" not in p}
+    assert want <= ran, sorted(want - ran)
+    now = hook.run_examples()
+    assert len(now) == len(shown)
+    for old, new in zip(shown, now, strict=True):
+        what = f"{old['method']} {old['operation']}"
+        assert old["status"] == new["status"] and 200 <= new["status"] < 300, (what, new["status"], new["response"])
+        assert old["content_type"] == new["content_type"], what
+        if new["response"] is None:
+            continue
+        assert set(old["response"]) == set(new["response"]), what
+        # the answer on the page: its keys are the real answer's (lists cut, nothing renamed)
+        cut, _ = hook.shorten(new["response"])
+        assert keys_of(cut) <= keys_of(new["response"]), what
+        for key in new["response"]:
+            assert f'"{key}"' in http_page, (what, key)

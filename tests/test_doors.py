@@ -95,6 +95,10 @@ def _same(answers: dict[str, dict], may_act: bool | None) -> None:
         assert abs(a["top_prob"] - ref["top_prob"]) <= TOL, (name, a["top_prob"], ref["top_prob"])
         assert a["action"] == ref["action"] and a["command"] == ref["command"], (name, a["action"], ref["action"])
         assert a["decision"]["rule"] == ref["decision"]["rule"]
+        # who heard it and what decided: the same recogniser, likelihood and rule named at every door
+        for key in ("recogniser", "likelihood", "rule"):
+            assert key in a and a[key] == ref[key], (name, key, a.get(key), ref.get(key))
+        assert a["rule"] == a["decision"]["rule"]
     if may_act is False:
         assert ref["action"] == "none" and ref["command"] is None, ref["decision"]
     if may_act is True:

@@ -20,3 +20,14 @@ def test_import_siftom_loads_no_model_code():
     code = "import sys, siftom; print('siftom.api' in sys.modules, 'numpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_readme_shows_the_install_line_beside_the_two_make_commands():
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    head = readme.split("## A five-minute tour", 1)[0]  # what a newcomer reads first
+    assert "make demo" in head and "make test" in head
+    line = next((ln for ln in head.splitlines() if ln.startswith("pip install ")), None)
+    assert line is not None, "no pip install line before the tour"
+    assert "siftom demo" in line and "python -m build --wheel" in line

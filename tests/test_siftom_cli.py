@@ -1,6 +1,7 @@
 """The command line: scenarios, simulate, infer and bench, as a user types them."""
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -93,6 +94,46 @@ def test_infer_scenario_json(cli):
     assert {"goal", "prob"} == set(out["goals"][0])
     table = cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER)
     assert "most probable command: fetch(cereal)" in table and "rule expected-benefit" in table
+
+
+def test_infer_words_name_no_recogniser_and_the_rule(cli):
+    out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER, "--json"))
+    assert out["recogniser"] is None  # the words were given: nothing heard them
+    assert out["likelihood"] == "phonetic" and out["rule"] == out["decision"]["rule"] == "expected-benefit"
+    text = " ".join(cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER).split())
+    assert f'words given as a transcript (--transcript), no recogniser ran: "{SILVER}"' in text
+    assert "scored by the likelihood phonetic" in text and "decision rule expected-benefit" in text
+
+
+def test_infer_audio_names_who_heard_it(cli, tmp_path):
+    from support.streaming import say
+
+    wav = tmp_path / "cereal.wav"
+    say("can you pass me the cereal", wav)
+    out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav), "--json"))
+    assert out["recogniser"] == out["asr"]["engine"] == "pocketsphinx-vocab"  # the default engine, with the scene
+    assert out["likelihood"] in ("acoustic", "phonetic") and out["likelihood"] == out["evidence"]["likelihood"]
+    assert out["rule"] == out["decision"]["rule"] == "expected-benefit"
+    text = " ".join(cli("infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav)).split())
+    assert f'heard by the recogniser pocketsphinx-vocab: "{out["transcript"]}"' in text
+    assert f"scored by the likelihood {out['likelihood']} (" in text
+    assert "decision rule expected-benefit" in text
+
+
+def test_infer_help_states_the_real_defaults(cli):
+    from siftom.inference.model import ModelConfig
+    from siftom.options import InferOptions
+
+    # click wraps help at 80 columns, also after a hyphen: undo both
+    text = re.sub(r"(\w-) (\w)", r"\1\2", " ".join(cli("infer", "--help").split()))
+    infer, model = InferOptions(), ModelConfig()
+    assert f"setting infer.decide, default {infer.decide}" in text and f"{infer.decide} (default)" in text
+    assert f"setting infer.likelihood, default {infer.likelihood}:" in text
+    assert f"setting infer.engine, default {infer.engine};" in text and f"{infer.engine} (default)" in text
+    assert f"setting model.mode, default {model.mode}" in text
+    # one "(default)" per registry list, each the setting's default: never the registry's own
+    assert text.count("(default)") == 2, text
+    assert "phonetic (default)" not in text and "map (default)" not in text
 
 
 def test_infer_ablation_flag(cli):

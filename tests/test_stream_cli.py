@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -44,7 +45,7 @@ def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instruct
     acts = tmp_path / "actions.txt"
     acts.write_text("# seen before listening\n[Walk] <fridge> (1)\n[Open] <fridge> (1)\n")
     code, out, err = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", str(acts),
-                            "--events", capsys=capsys)
+                            "--events", "--json", capsys=capsys)
     assert code == 0, err
     lines = [json.loads(ln) for ln in out.splitlines()]
     assert [ln["event"] for ln in lines if ln["event"] != "decision"] == ["speech_started", "speech_ended"] * 2
@@ -55,17 +56,37 @@ def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instruct
         assert d["action"] == "act" and d["n_actions"] == 2 and 0 < d["prob"] <= 1
         assert set(d["timings"]) >= {"asr", "answer", "wait"} and "after_speech_s" not in d["timings"]
         assert len(d["nbest"]) <= 3 and d["start_s"] < d["end_s"]
+        assert d["recogniser"] == "pocketsphinx-vocab" and d["rule"] == "expected-benefit" and d["likelihood"]
 
 
 def test_actions_read_from_stdin_while_listening(two_instructions, capsys, monkeypatch):
     code, out, err = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", "-",
-                            stdin="[Walk] <fridge> (1)\nnot an action\n[Open] <fridge> (1)\n", capsys=capsys,
-                            monkeypatch=monkeypatch)
+                            "--json", stdin="[Walk] <fridge> (1)\nnot an action\n[Open] <fridge> (1)\n",
+                            capsys=capsys, monkeypatch=monkeypatch)
     assert code == 0, err
     notes = [json.loads(ln) for ln in err.splitlines() if ln.startswith("{")]
     assert [n["event"] for n in notes] == ["actions", "error", "actions"]
     assert "cannot parse action 'not an action'" in notes[1]["detail"]
     assert len([ln for ln in out.splitlines() if '"decision"' in ln]) == 2
+
+
+def test_listen_prints_one_readable_line_per_utterance_by_default(two_instructions, capsys, monkeypatch):
+    code, out, err = siftom("listen", "--wav", str(two_instructions), "--scene", str(WORLD), "--actions", "-",
+                            stdin="[Walk] <fridge> (1)\nnot an action\n[Open] <fridge> (1)\n",
+                            capsys=capsys, monkeypatch=monkeypatch)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert len(lines) == 2 and not any(ln.lstrip().startswith("{") for ln in out.splitlines())
+    for line, heard, command in zip(lines, ("can you get me the tomato", "pass me the cheese"),
+                                    ("fetch(tomato)", "fetch(cheese)"), strict=True):
+        # when, what was heard and by whom, what decided, what the robot does
+        assert re.match(r"^ *\d+\.\d\d-\d+\.\d\d s  ", line), line
+        assert f'heard "{heard}" (pocketsphinx-vocab, likelihood ' in line, line
+        assert ", rule expected-benefit)" in line and f"->  the robot carries out {command} (P = " in line, line
+    notes = err.splitlines()
+    assert notes[0] == "observed walk(human, fridge) (1 action so far)", notes
+    assert notes[1].startswith("error: line 'not an action': cannot parse action 'not an action'"), notes
+    assert notes[2].startswith("observed ") and not any(n.startswith("{") for n in notes)
 
 
 def test_missing_microphone_or_file_is_a_clear_error(capsys):

@@ -11,7 +11,10 @@ session's instruction, the streaming endpoint's ``decision`` event and the ROS b
 * ``top_command``: the posterior's most probable command, for analysis (the paper's inferred
   command), whatever the robot does;
 * the posterior (``commands``, ``goals``, ``hypotheses``, ``evidence``) and, from audio, what was
-  heard (``speech_heard``, ``asr``, ``vad``).
+  heard (``speech_heard``, ``asr``, ``vad``);
+* who heard it and what decided: ``recogniser`` (the speech recogniser that turned the audio into
+  words, e.g. ``pocketsphinx-vocab``; None when words were given), ``likelihood`` (the instruction
+  likelihood that scored them, e.g. ``acoustic``) and ``rule`` (the decision rule that ran).
 """
 
 from __future__ import annotations
@@ -117,7 +120,20 @@ class Answer:
 
     @property
     def likelihood(self) -> str:
+        """The instruction likelihood that scored what was heard (``phonetic``, ``acoustic``, ...)."""
         return self.posterior.likelihood
+
+    @property
+    def recogniser(self) -> str | None:
+        """The speech recogniser that heard the audio (the ASR engine's name, e.g.
+        ``pocketsphinx-vocab``); None when words were given rather than heard."""
+        engine = getattr(self.asr, "engine", None)
+        return str(engine) if engine else None
+
+    @property
+    def rule(self) -> str:
+        """The decision rule that ran (``expected-benefit``, ``ask-or-act``, ``map``)."""
+        return self.decision.rule
 
     @property
     def mode(self) -> str:
@@ -138,7 +154,8 @@ class Answer:
 
     def to_json(self, top: int = 10) -> dict[str, Any]:
         """The documented JSON shape (docs/api.md): the posterior's fields, then ``command``
-        (null unless the robot acts), ``action``, ``top_command``, ``decision`` and what was heard."""
+        (null unless the robot acts), ``action``, ``top_command``, ``decision``, what was heard and
+        who heard it (``recogniser``, ``likelihood``, ``rule``)."""
         out = self.posterior.to_json(top=top)
         cmd = self.command
         out.update({
@@ -147,6 +164,8 @@ class Answer:
             "top_command": str(self.top_command),
             "top_prob": self.top_prob,
             "decision": self.decision.to_json(),
+            "rule": self.rule,
+            "recogniser": self.recogniser,
             "speech_heard": self.speech_heard,
             "instruction_heard": self.instruction_heard,
             "message": self.message,

@@ -197,11 +197,17 @@ class Registry:
     def describe(self) -> list[dict[str, Any]]:
         return [self._entries[n].describe() for n in self.names()]
 
-    def help_line(self) -> str:
-        """'a (default), b, c (not installed)' for --help texts."""
+    def help_line(self, default: str | None = None) -> str:
+        """'a (default), b, c (not installed)' for --help texts.
+
+        Args:
+            default: the name to mark as the default, when a command's default is not the
+                registry's (a setting's); "" marks none.
+        """
+        marked = self.default if default is None else default
         out = []
         for n in self.names():
-            tag = " (default)" if n == self.default else ""
+            tag = " (default)" if n == marked else ""
             if self._entries[n].missing():
                 tag += " (unavailable)"
             out.append(n + tag)

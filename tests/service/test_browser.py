@@ -95,3 +95,17 @@ def test_scrubbing_actions_and_synthesised_speech(page):
     inferred(page)
     assert page.locator("#command").inner_text().startswith("fetch(")
     assert page.errors == []
+
+
+def test_say_with_the_default_noise_is_understood(page):
+    """The page's defaults (pink noise at 10 dB) are a fair demo: the clear request is carried out."""
+    page.reload()
+    page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+    assert page.locator("#noise").input_value() == "pink"
+    assert page.locator("#snr").input_value() == "10"
+    page.fill("#instruction", "can you pass me the cereal")
+    page.click("#say")
+    inferred(page)
+    assert page.locator("#action").inner_text() == "carries out fetch(cereal)", page.locator("#reason").inner_text()
+    assert page.errors == []
+

@@ -87,3 +87,28 @@ def test_recorded_speech_gives_the_transcript_and_the_command(tmp_path):
             assert errors == []
         finally:
             browser.close()
+
+
+@pytest.mark.parametrize("button, label", [("#record", "Record"), ("#stream", "Listen")])
+def test_a_denied_microphone_is_explained(tmp_path, button, label):
+    """As on the recording page: what went wrong and how to fix it, in a role=alert region."""
+    sync_api = pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install playwright")
+    expect = sync_api.expect
+    args = [*CHROMIUM_ARGS, "--use-fake-device-for-media-stream"]  # a device, but no permission granted
+    with serve_in_thread(create_app(tmp_path / "data")) as url, sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=args, headless=True)
+        try:
+            page = browser.new_context().new_page()
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(f"{url}/?scenario=kitchen-cereal-v0")
+            page.wait_for_selector("body[data-ready='1']", timeout=20_000)
+            page.click(button)
+            alert = page.locator("#alert")
+            expect(alert).to_be_visible(timeout=10_000)
+            expect(alert).to_have_text(re.compile(rf"microphone is blocked.*Allow the microphone.*press {label} again"))
+            assert alert.get_attribute("role") == "alert"
+            expect(page.locator(button)).not_to_have_text(re.compile("Stop"))  # nothing left running
+            assert errors == []
+        finally:
+            browser.close()

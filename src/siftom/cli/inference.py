@@ -7,15 +7,21 @@ from pathlib import Path
 
 import click
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from siftom.assist.decide import RULES
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import ObservationError
+from siftom.inference.model import ModelConfig
 from siftom.likelihood.registry import LIKELIHOODS
+from siftom.options import InferOptions
 from siftom.safejson import loads, read_text
 from siftom.speech.asr.base import ENGINES
 from siftom.speech.cli_options import whisper_model_option
+
+# the defaults --help states are the settings' own
+_INFER, _MODEL = InferOptions(), ModelConfig()
 
 
 def _unmentioned(path: Path, scene, goal_space: str | None) -> list[str]:  # noqa: ANN001
@@ -58,16 +64,21 @@ def _read_nbest(path: Path) -> list[dict]:
               help="JSON N-best list [{text, score}, ...] (e.g. from `siftom transcribe --json`).")
 @click.option("--audio", type=click.Path(path_type=Path), default=None, help="A WAV file of the instruction.")
 @click.option("--model", "mode", type=click.Choice(["full", "speech-only", "action-only"]), default=None,
-              help="full (default), speech-only or action-only (setting model.mode).")
+              help=f"full, speech-only or action-only (setting model.mode, default {_MODEL.mode}).")
 @click.option("--likelihood", default=None,
-              help="Instruction likelihood (setting infer.likelihood, default auto: acoustic for --audio when "
-                   f"the whisper extra is installed, else phonetic): {LIKELIHOODS.help_line()}.")
-@click.option("--engine", default=None, help=f"ASR engine for --audio (setting infer.engine): {ENGINES.help_line()}.")
+              help=f"Instruction likelihood (setting infer.likelihood, default {_INFER.likelihood}: acoustic for "
+                   "--audio when the whisper extra is installed, else phonetic): "
+                   f"{_INFER.likelihood}, {LIKELIHOODS.help_line(default='')}.")
+@click.option("--engine", default=None,
+              help=f"ASR engine for --audio (setting infer.engine, default {_INFER.engine}; pocketsphinx is given "
+                   "the scene's command phrasings and reports itself as pocketsphinx-vocab): "
+                   f"{ENGINES.help_line(default=_INFER.engine)}.")
 @click.option("--png", type=click.Path(path_type=Path), default=None, help="Write the scene + posterior picture.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="A TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults.")
 @click.option("--decide", "rule", default=None,
-              help=f"Decision rule (setting infer.decide, default expected-benefit): {RULES.help_line()} "
+              help=f"Decision rule (setting infer.decide, default {_INFER.decide}): "
+                   f"{RULES.help_line(default=_INFER.decide)} "
                    "(docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
@@ -138,10 +149,9 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{post.transcript}" holds no '
                   f"command of this scene ({post.evidence.get('no_instruction_reason', '')}). The posterior "
                   "below comes from the actions alone")
-    if ans.asr is not None:
-        engine_name = settings.infer.engine
-        con.print(f'{engine_name} heard: "{ans.asr.text}"')
-    print_posterior(post, con)
+    given = None if ans.asr is not None else "an N-best list (--nbest)" if nbest else "a transcript (--transcript)"
+    print_posterior(post, con, recogniser=ans.recogniser, given=given, rule=ans.rule,
+                    nbest=len(ans.asr.nbest) if ans.asr is not None else 0)
     if ans.asr is not None or ans.vad is not None:
         con.print(f"{ans.seconds * 1000:.0f} ms from the audio file to the command (a first call: it includes "
                   "loading the recogniser and the scene; `siftom bench latency` times warm calls)")
@@ -152,19 +162,34 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
     con.print(f"{what} (rule {d.rule}: {d.reason})")
 
 
-def print_posterior(post, console: Console | None = None) -> None:
-    """The readable table: top commands, goals and hypotheses with each term."""
+def print_posterior(post, console: Console | None = None, *, recogniser: str | None = None,  # noqa: ANN001
+                    given: str | None = None, rule: str | None = None, nbest: int = 0) -> None:
+    """Who heard what and what scored it, then the tables: top commands, goals and hypotheses
+    with each term.
+
+    Args:
+        recogniser: the speech recogniser that heard the audio (None: the words were given).
+        given: how the words were given (``a transcript (--transcript)``) when no recogniser ran.
+        rule: the decision rule that ran.
+        nbest: how many hypotheses the recogniser gave.
+    """
     con = console or Console()
     if post.transcript:
-        con.print(f'heard: "{post.transcript}"   model: {post.mode}, likelihood: {post.likelihood}, '
-                  f"{post.n_actions} observed actions")
+        if recogniser:
+            best = f" (the best of {nbest} hypotheses)" if nbest > 1 else ""
+            con.print(f'heard by the recogniser {escape(recogniser)}: "{escape(post.transcript)}"{best}')
+        else:
+            how = f"given as {given}" if given else "given"
+            con.print(f'words {escape(how)}, no recogniser ran: "{escape(post.transcript)}"')
     if post.evidence.get("whisper_heard") is not None:
         use = {"carrier": "a second carrier: it placed the object words",
                "guesses": "no object word heard by either: guesses around its words"}.get(
             post.evidence.get("whisper_use", ""), "no object word in it: not used")
-        con.print(f'Whisper heard: "{post.evidence["whisper_heard"]}" ({use})')
-    if post.evidence.get("likelihood_reason"):
-        con.print(f"likelihood {post.evidence['likelihood']}: {post.evidence['likelihood_reason']}")
+        con.print(f'Whisper heard: "{escape(post.evidence["whisper_heard"])}" ({use})')
+    reason = post.evidence.get("likelihood_reason")
+    con.print(f"scored by the likelihood {post.likelihood}" + (f" ({escape(reason)})" if reason else ""))
+    rule_text = f", decision rule {rule}" if rule else ""
+    con.print(f"model {post.mode}, {post.n_actions} observed actions{rule_text}")
     t = Table(title="robot commands")
     t.add_column("command")
     t.add_column("P", justify="right")

@@ -91,12 +91,54 @@ def _stdin_actions(home: Any, say: Any) -> threading.Thread:
     return t
 
 
-def _printer() -> Any:
+def _span(ev: dict[str, Any]) -> str:
+    return f"{ev.get('start_s', 0.0):6.2f}-{ev.get('end_s', 0.0):.2f} s"
+
+
+def human_line(ev: dict[str, Any]) -> str:
+    """One readable line for a listener event (what ``siftom listen`` prints without ``--json``)."""
+    kind = ev.get("event")
+    if kind == "decision":
+        scored = ev.get("likelihood") not in (None, "", "none")  # "none": no words reached a likelihood
+        who = ", ".join(x for x in (ev.get("recogniser"), scored and f"likelihood {ev['likelihood']}",
+                                    ev.get("rule") and f"rule {ev['rule']}") if x)
+        heard = f'heard "{ev.get("heard", "")}"' + (f" ({who})" if who else "")
+        got = ev.get("decision")
+        decision: dict[str, Any] = got if isinstance(got, dict) else {}
+        if ev.get("action") == "act":
+            does = f"carries out {ev.get('command')} (P = {float(ev.get('prob') or 0.0):.2f})"
+        elif ev.get("action") == "ask":
+            does = f'asks "{ev.get("question") or decision.get("question", "")}"'
+        else:
+            why = ev.get("message") or decision.get("reason", "")
+            does = "does nothing" + (f" ({why})" if why else "")
+        after = (ev.get("timings") or {}).get("after_speech_s")
+        tail = f"  [{after:.2f} s after speech]" if isinstance(after, (int, float)) else ""
+        return f"{_span(ev)}  {heard}  ->  the robot {does}{tail}"
+    if kind == "no_speech":
+        heard = f' (the recogniser heard "{ev["heard"]}")' if ev.get("heard") else ""
+        return f"{_span(ev)}  {ev.get('message') or 'no speech heard'}{heard}: nothing to answer"
+    if kind == "speech_started":
+        return f"{ev.get('t', 0.0):6.2f} s    speech started"
+    if kind == "speech_ended":
+        return f"{_span(ev)}  speech ended ({ev.get('reason', '')})"
+    if kind == "actions":
+        added = ", ".join(ev.get("added") or []) or "nothing"
+        n = ev.get("n_actions", 0)
+        return f"observed {added} ({n} action{'' if n == 1 else 's'} so far)"
+    if kind == "error":
+        where = f"line {ev['line']!r}" if "line" in ev else f"utterance {ev.get('utterance', '?')}"
+        return f"error: {where}: {ev.get('detail', '')}"
+    return json.dumps(ev)
+
+
+def _printer(as_json: bool = True) -> Any:
+    """Print events: JSON lines (``as_json``) or one readable line each."""
     lock = threading.Lock()
 
     def say(obj: dict[str, Any], err: bool = False) -> None:
         with lock:
-            click.echo(json.dumps(obj), err=err)
+            click.echo(json.dumps(obj) if as_json else human_line(obj), err=err)
             (sys.stderr if err else sys.stdout).flush()
 
     return say
@@ -113,15 +155,19 @@ def _printer() -> Any:
               help="the person's actions: a file (one siftom or VirtualHome line each), or - to read lines "
                    "from stdin while listening")
 @click.option("--events", is_flag=True, help="also print speech_started / speech_ended lines")
+@click.option("--json", "as_json", is_flag=True,
+              help="print one JSON line per event (for programs) instead of one readable line")
 @_home_options
 def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, seconds: float | None,
-               actions: str | None, events: bool, **home_opts: Any) -> None:
-    """Listen like a robot: cut utterances out of a live stream and print one JSON line per
-    utterance (what was heard, the command, its probability, act/ask/wait, timings).
+               actions: str | None, events: bool, as_json: bool, **home_opts: Any) -> None:
+    """Listen like a robot: cut utterances out of a live stream and print one line per utterance:
+    when it was said, what was heard (by which recogniser, scored by which likelihood, decided by
+    which rule) and what the robot does. With --json, one JSON line each (the command, its
+    probability, the posterior, timings).
 
     \b
     siftom listen --wav say.wav --realtime --scenario kitchen-cereal-v0
-    tail -f actions.log | siftom listen --mic --scene world.json --actions -
+    tail -f actions.log | siftom listen --mic --scene world.json --actions - --json
     """
     from siftom.service.listener import compact, run_listener
     from siftom.speech.sources import file_chunks, mic_chunks
@@ -130,7 +176,7 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         raise ObservationError("give exactly one audio source: --mic or --wav FILE")
     if realtime and mic:
         raise ObservationError("--realtime is for --wav (a microphone is always real time)")
-    say = _printer()
+    say = _printer(as_json)
     chunks = mic_chunks(int(device) if device and device.isdigit() else device, seconds=seconds) if mic \
         else file_chunks(wav, realtime=realtime)  # type: ignore[arg-type]
     if mic:
@@ -148,7 +194,7 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         chunks = itertools.chain([first], chunks)
         click.echo("listening… (Ctrl-C to stop)", err=True)
     try:
-        run_listener(home, chunks, lambda ev: say(compact(ev) if ev.get("event") in ("decision", "no_speech")
+        run_listener(home, chunks, lambda ev: say(compact(ev) if as_json and ev.get("event") in ("decision", "no_speech")
                                                   else ev), realtime=realtime or mic, events=events)
     except KeyboardInterrupt:
         pass

@@ -7,7 +7,7 @@ Endpoints (docs/service.md has examples):
 * ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
 * ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
-* ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+* ``GET /healthz``; ``GET /openapi.json``; the API docs at ``/docs``; the web page at ``/``.
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
   (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`);
   ``WS /v1/sessions/{id}/listen``: streamed microphone audio, answered utterance by utterance
@@ -138,6 +138,10 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     @app.get("/favicon.ico", include_in_schema=False)
     async def favicon() -> FileResponse:
         return FileResponse(STATIC / "favicon.svg", media_type="image/svg+xml")
+
+    from siftom.service.apidocs import install_docs
+
+    install_docs(app)  # GET /docs: interactive API docs from local files, no CDN
 
     # ----- health ----------------------------------------------------------------------------
     # the resolved values the server runs with (siftom config show), secrets masked

@@ -152,7 +152,8 @@ class HomeListener:
 
 
 COMPACT = ("event", "utterance", "start_s", "end_s", "ended_s", "reason", "heard", "nbest", "command", "prob",
-           "action", "top_command", "question", "commands", "goals", "n_actions", "message", "timings")
+           "action", "top_command", "question", "commands", "goals", "n_actions", "message", "recogniser",
+           "likelihood", "rule", "timings")
 
 
 def compact(answer: dict[str, Any], nbest: int = 3) -> dict[str, Any]:

@@ -150,6 +150,9 @@ class PosteriorOut(BaseModel):
     top_command: str = Field(description="the most probable command (for analysis)")
     top_prob: float
     decision: dict[str, Any] = Field(description="the decision rule, its action and its reason")
+    rule: str = Field(default="", description="the decision rule that ran (expected-benefit, ask-or-act, map)")
+    recogniser: str | None = Field(default=None, description="the speech recogniser that turned the audio into "
+                                   "words (e.g. pocketsphinx-vocab); null when words were given")
     speech_heard: bool = True
     instruction_heard: bool = True
     message: str = ""
@@ -157,7 +160,8 @@ class PosteriorOut(BaseModel):
     goals: list[GoalProb]
     hypotheses: list[dict[str, Any]]
     mode: str
-    likelihood: str
+    likelihood: str = Field(description="the instruction likelihood that scored what was heard "
+                                        "(phonetic, acoustic, ...; never auto)")
     n_actions: int
     transcript: str
     seconds: float

@@ -3,7 +3,7 @@
 
 const $ = (id) => document.getElementById(id);
 const SVG = "http://www.w3.org/2000/svg";
-const state = { scenario: null, step: 0, result: null, timer: null, recorder: null, live: null };
+const state = { scenario: null, step: 0, result: null, timer: null, recorder: null, live: null, request: 0, stale: 0 };
 
 function svg(tag, attrs, parent, text) {
   const el = document.createElementNS(SVG, tag);
@@ -17,6 +17,45 @@ function setStatus(text, isError) {
   const s = $("status");
   s.textContent = text || "";
   s.classList.toggle("error", Boolean(isError));
+}
+
+// Help for a microphone that cannot be used goes to a role=alert region (as on the recording page).
+function showAlert(text) {
+  const a = $("alert");
+  a.textContent = text || "";
+  a.hidden = !text;
+}
+
+function microphoneProblem(e, button) {
+  const name = e && e.name;
+  if (name === "NotAllowedError" || name === "SecurityError") {
+    return "The microphone is blocked for this page, so nothing was recorded. Allow the microphone " +
+      `(the camera/microphone icon in the address bar, or the browser's site settings), then press ${button} again.`;
+  }
+  if (name === "NotFoundError" || name === "OverconstrainedError") {
+    return `No microphone was found. Connect one (or choose it in the system's sound settings), then press ${button} again.`;
+  }
+  if (name === "NotReadableError" || name === "AbortError") {
+    return `The microphone could not be started: another program may be using it. Close that program, then press ${button} again.`;
+  }
+  return `The microphone could not be used (${(e && e.message) || e}). Press ${button} to try again.`;
+}
+
+const NO_MICROPHONE_HERE = "This browser cannot use the microphone here. Open the page at http://127.0.0.1 or " +
+  "http://localhost (browsers allow the microphone only there or over https), in a current Chrome, Firefox or Safari.";
+
+// Answers are shown in the order they were asked for: each request takes a number, and an answer
+// that comes back after a newer request was made is dropped (counted in body[data-stale]).
+function newRequest() {
+  state.request += 1;
+  return state.request;
+}
+
+function isCurrent(id) {
+  if (id === state.request) return true;
+  state.stale += 1;
+  document.body.dataset.stale = String(state.stale);
+  return false;
 }
 
 async function api(path, options) {
@@ -47,6 +86,7 @@ async function loadScenarios() {
 
 async function selectScenario(id) {
   stopPlay();
+  newRequest();  // an answer still on its way is about the scenario left
   state.scenario = await api(`/v1/scenarios/${id.split("/").map(encodeURIComponent).join("/")}`);
   state.result = null;
   $("result").hidden = true;
@@ -237,18 +277,20 @@ function showResult(res) {
 
 async function inferText(ev) {
   ev.preventDefault();
+  const id = newRequest();
   const text = $("instruction").value.trim();
   const body = { scenario: state.scenario.id, n_actions: state.step };
   if (text) body.transcript = text;
   setStatus("inferring…");
   try {
-    showResult(await api("/v1/infer", {
+    const res = await api("/v1/infer", {
       method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
-    }));
-  } catch (e) { setStatus(e.message, true); }
+    });
+    if (isCurrent(id)) showResult(res);
+  } catch (e) { if (isCurrent(id)) setStatus(e.message, true); }
 }
 
-async function inferAudio(blob, name) {
+async function inferAudio(blob, name, id) {
   const form = new FormData();
   form.append("scenario", state.scenario.id);
   form.append("n_actions", String(state.step));
@@ -257,12 +299,14 @@ async function inferAudio(blob, name) {
   setStatus("transcribing and inferring…");
   try {
     const res = await api("/v1/infer", { method: "POST", body: form });
+    if (!isCurrent(id)) return;
     if (res.asr) $("instruction").value = res.asr.text;
     showResult(res);
-  } catch (e) { setStatus(e.message, true); }
+  } catch (e) { if (isCurrent(id)) setStatus(e.message, true); }
 }
 
 async function sayAndInfer() {
+  const id = newRequest();
   const text = $("instruction").value.trim() || "can you pass me the cereal";
   const noise = $("noise").value;
   const body = { text, snr: Number($("snr").value) };
@@ -272,21 +316,33 @@ async function sayAndInfer() {
     const wav = await api("/v1/say", {
       method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
     });
+    if (!isCurrent(id)) return;
     const player = $("player");
     player.src = URL.createObjectURL(wav);
     player.hidden = false;
     player.play().catch(() => {});  // autoplay may be refused; the controls stay
-    await inferAudio(wav, "say.wav");
-  } catch (e) { setStatus(e.message, true); }
+    await inferAudio(wav, "say.wav", id);
+  } catch (e) { if (isCurrent(id)) setStatus(e.message, true); }
 }
 
 // ----- microphone: MediaRecorder, decoded and re-encoded as 16 kHz WAV in the page ------------
 async function toggleRecord() {
   const btn = $("record");
   if (state.recorder) { state.recorder.stop(); return; }
-  if (!navigator.mediaDevices || !window.MediaRecorder) { setStatus("this browser cannot record audio", true); return; }
+  showAlert("");
+  if (!navigator.mediaDevices || !navigator.mediaDevices.getUserMedia || !window.MediaRecorder) {
+    showAlert(NO_MICROPHONE_HERE);
+    return;
+  }
+  let stream;
   try {
-    const stream = await navigator.mediaDevices.getUserMedia({ audio: true });
+    stream = await navigator.mediaDevices.getUserMedia({ audio: true });
+  } catch (e) {
+    showAlert(microphoneProblem(e, "Record"));
+    setStatus("");
+    return;
+  }
+  try {
     const chunks = [];
     const rec = new MediaRecorder(stream);
     rec.ondataavailable = (e) => chunks.push(e.data);
@@ -295,10 +351,11 @@ async function toggleRecord() {
       state.recorder = null;
       btn.classList.remove("recording");
       btn.textContent = "● Record";
+      const id = newRequest();
       const wav = await toWav16k(new Blob(chunks, { type: rec.mimeType }));
       $("player").src = URL.createObjectURL(wav);
       $("player").hidden = false;
-      await inferAudio(wav, "recording.wav");
+      await inferAudio(wav, "recording.wav", id);
     };
     rec.start();
     state.recorder = rec;
@@ -337,7 +394,11 @@ async function toWav16k(blob) {
 // stops speaking. Press again to stop.
 async function toggleStream() {
   if (state.live) { stopStream("stopped"); return; }
-  if (!navigator.mediaDevices || !window.AudioWorkletNode) { setStatus("this browser cannot stream audio", true); return; }
+  showAlert("");
+  if (!navigator.mediaDevices || !navigator.mediaDevices.getUserMedia || !window.AudioWorkletNode) {
+    showAlert(NO_MICROPHONE_HERE);
+    return;
+  }
   const live = { ws: null, ctx: null, media: null, ready: false, pending: [], decided: -1 };
   state.live = live;
   $("stream").classList.add("recording");
@@ -347,9 +408,15 @@ async function toggleStream() {
       method: "POST", headers: { "Content-Type": "application/json" },
       body: JSON.stringify({ scenario: state.scenario.id, n_actions: state.step }),
     });
-    live.media = await navigator.mediaDevices.getUserMedia({
-      audio: { channelCount: 1, echoCancellation: false, noiseSuppression: false, autoGainControl: false },
-    });
+    try {
+      live.media = await navigator.mediaDevices.getUserMedia({
+        audio: { channelCount: 1, echoCancellation: false, noiseSuppression: false, autoGainControl: false },
+      });
+    } catch (e) {
+      showAlert(microphoneProblem(e, "Listen"));
+      stopStream("");
+      return;
+    }
     try {
       live.ctx = new AudioContext({ sampleRate: 16000 });  // the browser resamples the microphone
       live.source = live.ctx.createMediaStreamSource(live.media);
@@ -389,6 +456,7 @@ function onStreamEvent(ev) {
   else if (ev.event === "no_speech") setStatus("listening… (no words in that)");
   else if (ev.event === "error") setStatus(ev.detail, true);
   else if (ev.event === "decision") {
+    newRequest();  // the newest answer: one still on its way from a typed or recorded request is older
     live.decided = ev.utterance;
     $("instruction").value = ev.heard;
     showResult(ev);

@@ -223,7 +223,8 @@ class Observer:
         speech = None if heard is None else heard.speech
         said = not (heard is not None and heard.speech and instruction is None)  # speech, but no words
         if instruction is None:
-            post = self._view(online, "action-only" if mode != "speech-only" else mode, "phonetic").posterior(None, top=top)
+            post = self._view(online, "action-only" if mode != "speech-only" else mode, "phonetic").posterior(
+                None, top=top, heard_nothing=heard is not None)
         else:
             post = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top),
                                    lk if isinstance(lk, str) else type(lk).__name__, why)

@@ -222,8 +222,8 @@ def test_say_then_infer_from_audio(client):
 
 def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(client, tmp_path):
     # in noise the transcript often loses the object word; the audio itself still carries it
-    # (the demo's clip with the default N-best size: the same answer over HTTP as from `siftom demo`)
-    r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "babble", "snr": 10, "seed": 0})
+    # (the demo's clip: the same answer over HTTP as from `siftom demo`)
+    r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "pink", "snr": 5, "seed": 1})
     res = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "acoustic"},
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()
@@ -241,6 +241,18 @@ def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(clien
         heard = siftom.listen(clip, KITCHEN, likelihood=lik)
         assert [h.text for h in heard.asr.nbest] == [h["text"] for h in answer["nbest"]], lik
         assert str(heard.top_command) == answer["top_command"] and heard.action == answer["action"], lik
+
+
+def test_a_background_talker_in_babble_is_not_taken_for_a_wrong_fetch(client):
+    # babble at 10 dB: the words alone fetch the wrong object; with the audio, Whisper writes the
+    # background talker's words, and the robot does nothing rather than fetch something else
+    r = client.post("/v1/say", json={"text": "can you pass me the cereal", "noise": "babble", "snr": 10, "seed": 0})
+    got = {lik: client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": lik},
+                            files={"audio": ("say.wav", r.content, "audio/wav")}).json()
+           for lik in ("acoustic", "phonetic")}
+    assert got["phonetic"]["action"] == "act" and got["phonetic"]["command"] != "fetch(cereal)"
+    acoustic = got["acoustic"]
+    assert acoustic["command"] in (None, "fetch(cereal)"), acoustic["decision"]
 
 
 @pytest.mark.parametrize("likelihood", ["phonetic", "acoustic"])

@@ -141,7 +141,14 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
             body["warnings"] = warnings
         click.echo(json.dumps(body, indent=2))
         return
-    con = Console()
+    given = None if ans.asr is not None else "an N-best list (--nbest)" if nbest else "a transcript (--transcript)"
+    print_answer(ans, Console(), given=given)
+
+
+def print_answer(ans, con: Console, *, given: str | None = None) -> None:  # noqa: ANN001 - siftom.Answer
+    """One answer as every door gives it: why nothing was heard, who heard what, the tables,
+    and what the robot does (the decision rule's action and reason)."""
+    post = ans.posterior
     if ans.speech is False:
         con.print("[bold yellow]no speech heard[/bold yellow] in the recording: the posterior below comes from "
                   "the actions alone")
@@ -149,7 +156,6 @@ def infer_cmd(scenario_id, scene_file, actions_file, goal_space, target, transcr
         con.print(f'[bold yellow]no instruction heard[/bold yellow]: "{post.transcript}" holds no '
                   f"command of this scene ({post.evidence.get('no_instruction_reason', '')}). The posterior "
                   "below comes from the actions alone")
-    given = None if ans.asr is not None else "an N-best list (--nbest)" if nbest else "a transcript (--transcript)"
     print_posterior(post, con, recogniser=ans.recogniser, given=given, rule=ans.rule,
                     nbest=len(ans.asr.nbest) if ans.asr is not None else 0)
     if ans.asr is not None or ans.vad is not None:

@@ -197,7 +197,10 @@ def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
     can only write the scene's phrasings, so it writes command words into any speech ("my phone
     battery is dead" comes out as "i some can cereal some lettuce"), and its words say nothing
     about whether a request was made (docs/speech.md, "Was it a request?"). The N-best decides
-    when nothing else heard words.
+    when nothing else heard words. Whisper's confidence in its words (``whisper_logprob``) is
+    not used: in babble it writes a background talker's words as confidently as the speaker's,
+    and most noisy off-topic speech falls below its own failed-decoding threshold, so a
+    low-confidence fallback to the N-best would act on it (docs/speech.md).
     """
     from siftom.likelihood.nearness import heard_texts, nearness
 
@@ -325,13 +328,16 @@ class OnlineInference:
         inv = inv.reshape(-1)
         return (self._pair_goal[keep], inv[: len(known)], self._pair_row[keep], inv[len(known):], cmds)
 
-    def posterior(self, instruction: Instruction | None = None, top: int = 10) -> Posterior:
-        """The joint posterior now, given what was heard (None: the action term alone)."""
+    def posterior(self, instruction: Instruction | None = None, top: int = 10, heard_nothing: bool = False) -> Posterior:
+        """The joint posterior now, given what was heard (None: the action term alone).
+
+        ``heard_nothing``: a recording was heard and held no words; speech-only inference then
+        gives its prior (uniform over the domain's commands) instead of an error."""
         t0 = time.perf_counter()
         cfg = self.model.config
         if cfg.mode == "action-only":
             instruction = None
-        if cfg.mode == "speech-only" and instruction is None:
+        if cfg.mode == "speech-only" and instruction is None and not heard_nothing:
             raise ObservationError("speech-only inference needs an instruction (a transcript, N-best or audio)")
         goal_idx, cmd_of, rows, unk_cmds, cmds = self.candidates()
         # instruction term per unique command

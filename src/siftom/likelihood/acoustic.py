@@ -367,6 +367,8 @@ class AcousticLikelihood:
         if self._whisper is not None and self._whisper.listens:
             evidence["whisper_heard"] = " ".join(wh.heard) if wh is not None else ""
             evidence["whisper_use"] = wh.use if wh is not None else "none"  # "carrier", "guesses" or "none"
+            if wh is not None and wh.heard:
+                evidence["whisper_logprob"] = round(wh.logprob, 4)
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None,
                          wh.values if wh is not None else None, evidence)
 

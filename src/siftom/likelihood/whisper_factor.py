@@ -108,12 +108,14 @@ class WhisperScores:
         mode: "key" (key phrases in a carrier) or "sentence" (whole texts).
         heard: Whisper's own words for the clip (empty when it does not listen).
         use: how those words were used: "carrier", "guesses" or "none".
+        logprob: Whisper's mean token log-probability for those words (``hear_encoded``).
     """
 
     values: np.ndarray
     mode: str
     heard: tuple[str, ...] = ()
     use: str = "none"
+    logprob: float = float("-inf")
 
 
 class WhisperFactor:
@@ -152,22 +154,24 @@ class WhisperFactor:
             self._scorer = WhisperScorer(self.model_dir, pad_s=self.pad_s)
         return self._scorer
 
-    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[object, list[str]]:
-        """(encoded clip, Whisper's own words; [] when ``listen`` is off), for :meth:`scores`.
-        With ``prompt`` on, ``commands``' object names are the transcript's prompt."""
+    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[object, list[str], float]:
+        """(encoded clip, Whisper's own words, their mean token log-probability; [] and -inf when
+        ``listen`` is off), for :meth:`scores`. With ``prompt`` on, ``commands``' object names are
+        the transcript's prompt."""
         ws = self.scorer
         enc = ws.encode(samples)
         if not self.listens:
-            return enc, []
-        return enc, ws.transcribe_encoded(enc, prompt=scene_prompt(commands) if self.prompts else None)
+            return enc, [], float("-inf")
+        words, logprob = ws.hear_encoded(enc, prompt=scene_prompt(commands) if self.prompts else None)
+        return enc, words, logprob
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
-               samples: np.ndarray, prepared: tuple[object, list[str]] | None = None) -> WhisperScores:
+               samples: np.ndarray, prepared: tuple[object, list[str], float] | None = None) -> WhisperScores:
         """w of ``commands[keep]`` (in that order), in nats, with how Whisper's words were used."""
         from siftom.logspace import logsumexp
 
         ws = self.scorer
-        enc, heard = self.listen(samples, commands) if prepared is None else prepared
+        enc, heard, logprob = self.listen(samples, commands) if prepared is None else prepared
         also = [heard] if heard else []
         texts, mode = candidate_texts(instruction, commands, keep, also)
         # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),
@@ -186,4 +190,4 @@ class WhisperFactor:
             val = val - self.prior_weight * ws.score_encoded(ws.encode(np.zeros_like(samples)), uniq)
         of = dict(zip(uniq, val.tolist(), strict=True))
         values = np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
-        return WhisperScores(values, mode, tuple(heard), use)
+        return WhisperScores(values, mode, tuple(heard), use, logprob)

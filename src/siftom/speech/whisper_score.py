@@ -36,6 +36,9 @@ DEFAULT_PAD_S = 30.0
 DIGIT_WORDS = {str(i): w for i, w in enumerate(("zero", "one", "two", "three", "four", "five", "six", "seven",
                                                 "eight", "nine", "ten", "eleven", "twelve"))}
 MAX_TOKENS = 200  # Whisper's decoder holds 448 positions; a 30 s request is far shorter
+# Below this mean token log-probability Whisper's own transcribe loop treats a decoding as failed
+# (openai-whisper's and faster-whisper's default ``logprob_threshold``): Whisper's, not fitted here.
+LOGPROB_THRESHOLD = -1.0
 
 
 def whisper_text(text: str) -> str:
@@ -126,7 +129,14 @@ class WhisperScorer:
         return out
 
     def transcribe_encoded(self, encoded: tuple[Any, int], prompt: str | None = None) -> list[str]:
-        """Whisper's own greedy transcript of an encoded clip, as lowercase words without punctuation.
+        """Whisper's own greedy transcript of an encoded clip (:meth:`hear_encoded`'s words)."""
+        return self.hear_encoded(encoded, prompt)[0]
+
+    def hear_encoded(self, encoded: tuple[Any, int], prompt: str | None = None) -> tuple[list[str], float]:
+        """Whisper's own greedy transcript of an encoded clip, as lowercase words without punctuation,
+        and its mean log-probability per token (nats; as faster-whisper's ``avg_logprob``: the end
+        token counted). Whisper's own transcribe loop calls a decoding failed below
+        :data:`LOGPROB_THRESHOLD`.
 
         Repeated trigrams are blocked and the length is capped by the clip's duration (Whisper
         tiny.en loops on short noisy clips otherwise); used as a carrier for the candidates, never
@@ -144,10 +154,13 @@ class WhisperScorer:
                      *self.start]
         res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [start], beam_size=1,
                                   max_length=int(min(MAX_TOKENS, 20 + n / 10)) + len(start) - len(self.start),
-                                  no_repeat_ngram_size=3)
-        text = self.tokenizer.decode(res[0].sequences_ids[0])
+                                  no_repeat_ngram_size=3, return_scores=True)
+        ids = res[0].sequences_ids[0]
+        # CTranslate2's score is the summed log-probability over length ** length_penalty (1)
+        logprob = float(res[0].scores[0]) * len(ids) / (len(ids) + 1) if res[0].scores else float("-inf")
+        text = self.tokenizer.decode(ids)
         words = re.sub(r"[^a-z0-9' ]", " ", re.sub(r"(\d)([a-z])", r"\1 \2", text.lower().replace("-", " "))).split()
-        return [DIGIT_WORDS.get(w, w) for w in words]  # "4 spoons" -> "four spoons": counts stay counts
+        return [DIGIT_WORDS.get(w, w) for w in words], logprob  # "4 spoons" -> "four spoons": counts stay counts
 
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
         """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""

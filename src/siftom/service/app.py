@@ -8,6 +8,8 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
+* With a token (``settings.token``), every request but ``/healthz`` and the static files must
+  carry it (:mod:`siftom.service.access`, docs/security.md).
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
   (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`);
   ``WS /v1/sessions/{id}/listen``: streamed microphone audio, answered utterance by utterance
@@ -38,6 +40,7 @@ from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
 from siftom.observer import Observer
+from siftom.service.access import Access, AccessGuard, authenticated
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,
@@ -106,6 +109,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     app.state.runtime = rt
     install_handlers(app)
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    app.add_middleware(AccessGuard, access=Access(token=settings.token))  # docs/security.md
     app.add_middleware(SecurityHeadersMiddleware)
     limiter: list[anyio.CapacityLimiter] = []
 
@@ -144,8 +148,11 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     settings_view = {key: _jsonable(value) for key, value, _ in observer.settings.show()}
 
     @app.get("/healthz", tags=["meta"])
-    async def healthz() -> dict[str, Any]:
-        """Liveness, version and what this server offers."""
+    async def healthz(request: Request) -> dict[str, Any]:
+        """Liveness; with the token (or on a server without one) also the version and what this
+        server offers."""
+        if not authenticated(request):  # open to monitors, but nothing about the server
+            return {"status": "ok", "token_required": True}
         from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices

@@ -164,6 +164,10 @@ class ServiceSettings:
         token: the token every request must carry (``Authorization: Bearer``, ``?token=`` or the
             cookie it sets; docs/security.md); None: none asked for (``siftom serve`` makes one
             when it listens beyond loopback). Never shown (``siftom config show`` masks it).
+        allowed_hosts: ``Host`` names answered beyond loopback names and IP addresses (400 for
+            others: DNS rebinding); ``*``: any (a proxy in front checks them).
+        allowed_origins: ``Origin`` values (``scheme://host[:port]``) whose pages may post and
+            stream, beyond the server's own (403 for others); ``*``: any.
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -179,6 +183,8 @@ class ServiceSettings:
     sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
     stream: StreamLimits = field(default_factory=lambda: StreamLimits())
     token: str | None = field(default=None, repr=False)
+    allowed_hosts: tuple[str, ...] = ()
+    allowed_origins: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.token is not None:

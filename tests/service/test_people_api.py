@@ -6,13 +6,13 @@ import json
 from pathlib import Path
 
 import numpy as np
-from fastapi.testclient import TestClient
 
 from siftom.bench.collect import CollectOptions
 from siftom.bench.human import AnnotateOptions
 from siftom.service.annotate_app import create_annotate_app
 from siftom.service.collect_app import create_collect_app
 from siftom.speech.audio import wav_bytes
+from support.client import local_client
 
 SALAD = json.loads((Path(__file__).parents[2] / "docs" / "examples" / "salad" / "world.json").read_text())
 
@@ -29,7 +29,7 @@ def _problem(r, status: int, text: str) -> None:
 
 
 def test_collect_api(tmp_path):
-    c = TestClient(create_collect_app(tmp_path / "ds", CollectOptions(domain="kitchen-v0", scenarios=1)))
+    c = local_client(create_collect_app(tmp_path / "ds", CollectOptions(domain="kitchen-v0", scenarios=1)))
     assert "default-src 'self'" in c.get("/").headers["content-security-policy"]  # nothing loads from elsewhere
     assert c.get("/api/collection").json()["scenarios"] == 1
     form = {"participant": "p1", "index": "0", "reference": "the milk please"}
@@ -47,11 +47,11 @@ def test_collect_api(tmp_path):
 
 
 def test_annotate_api(tmp_path):
-    c = TestClient(create_collect_app(tmp_path / "ds", CollectOptions(domain="kitchen-v0", scenarios=1)))
+    c = local_client(create_collect_app(tmp_path / "ds", CollectOptions(domain="kitchen-v0", scenarios=1)))
     c.post("/api/participants", json={"participant": "p1", "agree": True})
     c.post("/api/recordings", data={"participant": "p1", "index": "0", "reference": "milk"},
            files={"audio": ("r.wav", _voice())})
-    a = TestClient(create_annotate_app(tmp_path / "ds", tmp_path / "ann", AnnotateOptions(per_stimulus=1)))
+    a = local_client(create_annotate_app(tmp_path / "ds", tmp_path / "ann", AnnotateOptions(per_stimulus=1)))
     _problem(a.post("/api/annotators", json={"agree": False}), 422, "agreement")
     _problem(a.get("/api/annotators/nobody/next"), 422, "has not started")
     v = a.post("/api/annotators", json={"agree": True}).json()
@@ -79,11 +79,11 @@ def test_rating_endpoint(client):
 
 
 def test_annotating_a_table_setting_asks_how_many(tmp_path):
-    c = TestClient(create_collect_app(tmp_path / "ds", CollectOptions(domain="household-table-v0", scenarios=1)))
+    c = local_client(create_collect_app(tmp_path / "ds", CollectOptions(domain="household-table-v0", scenarios=1)))
     c.post("/api/participants", json={"participant": "p1", "agree": True})
     c.post("/api/recordings", data={"participant": "p1", "index": "0", "reference": "four bowls please"},
            files={"audio": ("r.wav", _voice())})
-    a = TestClient(create_annotate_app(tmp_path / "ds", tmp_path / "ann", AnnotateOptions(per_stimulus=1)))
+    a = local_client(create_annotate_app(tmp_path / "ds", tmp_path / "ann", AnnotateOptions(per_stimulus=1)))
     v = a.post("/api/annotators", json={"annotator": "ann-7", "agree": True}).json()
     assert v["annotator"] == "ann-7" and v["form"]["verb"] == "deliver" and v["form"]["max_count"] == 4
     assert v["actions"][0] == "The person walked to the living cabinet."

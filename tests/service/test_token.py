@@ -19,6 +19,7 @@ from siftom.service.app import create_app
 from siftom.service.runtime import ServiceSettings
 from siftom.service.stream_settings import CLOSE_UNKNOWN_SESSION
 from siftom.settings import Settings
+from support.client import local_client
 
 TOKEN = "k2Jq9-test-token-that-is-long-enough"
 NO_SESSION = "0123456789abcdef0123456789abcdef"
@@ -27,7 +28,7 @@ NO_SESSION = "0123456789abcdef0123456789abcdef"
 @pytest.fixture(scope="module")
 def guarded(tmp_path_factory):
     app = create_app(tmp_path_factory.mktemp("tok"), ServiceSettings(token=TOKEN, likelihoods=("phonetic",)))
-    with TestClient(app, base_url="http://127.0.0.1:8000", raise_server_exceptions=False) as c:
+    with local_client(app, base_url="http://127.0.0.1:8000", raise_server_exceptions=False) as c:
         yield c
 
 

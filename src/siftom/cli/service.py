@@ -76,19 +76,46 @@ def ready_urls(host: str, port: int, token: str | None) -> list[str]:
     return [f"http://{f'[{h}]' if ':' in h else h}:{port}/{tail}" for h in hosts]
 
 
-token_options = [
+def bound_names(host: str) -> list[str]:
+    """Host names the server is reached by because of where it listens: the bound host, or for a
+    wildcard this machine's name (the printed URL uses it)."""
+    import socket
+
+    from siftom.service.access import is_ip
+
+    if host in ("0.0.0.0", "::", ""):
+        name = socket.gethostname().lower()
+        return [name] if "." in name else [name, f"{name}.local"]
+    return [] if is_ip(host.strip("[]")) else [host.lower()]
+
+
+def access_for(host: str, token: str | None, hosts: tuple[str, ...], origins: tuple[str, ...]) -> Any:
+    """The :class:`~siftom.service.access.Access` of a server on ``host`` (bound names allowed);
+    an OptionsError names a malformed --allow-host or --allow-origin."""
+    from siftom.service.access import Access
+
+    return Access(token=token, hosts=(*hosts, *bound_names(host)), origins=origins)
+
+
+access_options = [
     click.option("--token", default=None,
                  help="the token every request must carry (Authorization: Bearer TOKEN, or ?token= in a page URL); "
                       "default: SIFTOM_TOKEN, then the setting service.token, then a fresh one printed at start "
                       "when --host is not loopback"),
     click.option("--token-file", type=click.Path(dir_okay=False, path_type=Path), default=None,
                  help="read the token from this file (keeps it out of the process list)"),
+    click.option("--allow-host", "allow_host", multiple=True, metavar="NAME",
+                 help="a Host name to answer to beyond localhost, IP addresses and --host (repeatable; "
+                      "'*': any; others get 400, a guard against DNS rebinding)"),
+    click.option("--allow-origin", "allow_origin", multiple=True, metavar="ORIGIN",
+                 help="scheme://host[:port] of a page allowed to post and stream here beyond the server's own "
+                      "(repeatable; others get 403)"),
 ]
 
 
-def with_token_options(fn: F) -> F:
-    """Add ``--token`` and ``--token-file`` to a command."""
-    for opt in reversed(token_options):
+def with_access_options(fn: F) -> F:
+    """Add ``--token``, ``--token-file``, ``--allow-host`` and ``--allow-origin`` to a command."""
+    for opt in reversed(access_options):
         fn = opt(fn)
     return fn
 
@@ -156,12 +183,13 @@ def claim_data_dir(data_dir: str) -> RunLock:
               help="worker processes scoring audio requests in parallel (0: in the request thread)")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
-@with_token_options
+@with_access_options
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
               max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
               max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
               audio_workers: int | None, config_file: Path | None, token: str | None, token_file: Path | None,
+              allow_host: tuple[str, ...], allow_origin: tuple[str, ...],
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
@@ -193,7 +221,8 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     if settings.max_body_bytes < need:
         settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
     token, generated = resolve_token(host, token, token_file, settings.token)
-    settings = dataclasses.replace(settings, token=token)
+    access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
+    settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
     lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     announce("web page", host, port, token, generated, " , API schema at /openapi.json")
     # every request goes through one observer built from these settings (as siftom.infer does)

@@ -1,4 +1,14 @@
-"""Who may use a siftom server: a token, as Jupyter does (docs/security.md).
+"""Who may use a siftom server: the Host it is asked by, the page a request comes from, a token
+(docs/security.md).
+
+* **Host allow-list** (against DNS rebinding: a web page whose name the attacker points at this
+  machine): the ``Host`` header must be a loopback name (``localhost``, ``127.0.0.1``, ``::1``),
+  an IP address (an address cannot be rebound), or a configured name (``--allow-host``, the
+  bound host); any other is a 400. ``*`` turns the check off (a proxy that checks the names).
+* **Origin check**: a state-changing request (POST, PUT, PATCH, DELETE) or a WebSocket whose
+  ``Origin`` header is present and is neither this server's own origin (the same host and
+  port as the ``Host`` header) nor a configured origin (``--allow-origin``) is a 403: a page
+  on another site cannot post to the server or stream into it.
 
 * **Token**: when the server has one (``siftom serve`` makes one whenever it listens beyond
   loopback), every request but ``/healthz``, ``/static/*`` and ``/favicon.ico`` must carry it:
@@ -27,6 +37,7 @@ from urllib.parse import parse_qsl, urlencode
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from siftom.errors import OptionsError
 from siftom.options import check_token
 from siftom.service.problems import problem
 
@@ -34,6 +45,7 @@ LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
 OPEN_PATHS = ("/healthz", "/favicon.ico")
 OPEN_PREFIXES = ("/static/",)
 CLOSE_UNAUTHORIZED = 4401  # a WebSocket without the token
+UNSAFE_METHODS = ("POST", "PUT", "PATCH", "DELETE")
 AUTH_KEY = "siftom.authenticated"  # set on every scope by AccessGuard
 
 
@@ -74,15 +86,110 @@ def _headers(scope: Scope) -> dict[str, str]:
     return out
 
 
+def split_host(value: str) -> tuple[str, str]:
+    """``Host``-header value -> (host name lowercased without brackets or a final dot, port or '')."""
+    value = value.strip().lower()
+    if value.startswith("["):
+        host, _, rest = value[1:].partition("]")
+        return host, rest[1:] if rest.startswith(":") else ""
+    host, sep, port = value.rpartition(":")
+    if sep and port.isdigit() and ":" not in host:
+        return host.rstrip("."), port
+    return value.rstrip("."), ""
+
+
+def is_ip(host: str) -> bool:
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+DEFAULT_PORTS = {"http": "80", "https": "443", "ws": "80", "wss": "443"}
+
+
+def normal_origin(origin: str) -> str | None:
+    """``scheme://host[:port]`` lowercased, the scheme's default port left out; None if malformed."""
+    scheme, sep, rest = origin.strip().lower().partition("://")
+    if not sep or scheme not in DEFAULT_PORTS or not rest or "/" in rest:
+        return None
+    host, port = split_host(rest)
+    if not host:
+        return None
+    shown = f"[{host}]" if ":" in host else host
+    return f"{scheme}://{shown}" + (f":{port}" if port and port != DEFAULT_PORTS[scheme] else "")
+
+
+def check_host_name(name: str) -> str:
+    """A name for ``--allow-host`` (``*`` for any), lowercased; an OptionsError when malformed."""
+    host = name.strip().lower().rstrip(".")
+    if host == "*":
+        return host
+    host = host.strip("[]")
+    if not host or any(ch in host for ch in "/ @?#") or (":" in host and not is_ip(host)):
+        raise OptionsError(f"--allow-host {name!r}: give a host name or address without scheme or port, "
+                           "e.g. --allow-host robot-hub.local")
+    return host
+
+
+def check_origin(origin: str) -> str:
+    """An origin for ``--allow-origin`` (``*`` for any), normalised; an OptionsError when malformed."""
+    if origin.strip() == "*":
+        return "*"
+    got = normal_origin(origin)
+    if got is None:
+        raise OptionsError(f"--allow-origin {origin!r}: give scheme://host[:port] with no path, "
+                           "e.g. --allow-origin https://robot-hub.example")
+    return got
+
+
 @dataclass(frozen=True)
 class Access:
-    """What a server checks (see module doc). ``token`` None: no token asked for."""
+    """What a server checks (see module doc).
+
+    Attributes:
+        token: the token every request must carry; None: none asked for.
+        hosts: ``Host`` names accepted beyond the loopback names and IP addresses (``*``: any).
+        origins: ``Origin`` values accepted beyond the server's own (``*``: any).
+    """
 
     token: str | None = None
+    hosts: tuple[str, ...] = ()
+    origins: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.token is not None:
             object.__setattr__(self, "token", check_token(self.token))
+        object.__setattr__(self, "hosts", tuple(check_host_name(h) for h in self.hosts))
+        object.__setattr__(self, "origins", tuple(check_origin(o) for o in self.origins))
+
+    def host_allowed(self, host_header: str | None) -> bool:
+        if "*" in self.hosts:
+            return True
+        if not host_header:
+            return False
+        host, _ = split_host(host_header)
+        return host in LOOPBACK_NAMES or is_ip(host) or host in self.hosts
+
+    def origin_allowed(self, origin: str, host_header: str | None, scheme: str) -> bool:
+        """An Origin header is this server's own (same host and port as the Host header) or allowed."""
+        if "*" in self.origins:
+            return True
+        got = normal_origin(origin)
+        if got is None:  # "null" (a sandboxed page, a file) or garbage
+            return False
+        if got in self.origins:
+            return True
+        if not host_header:
+            return False
+        o_scheme, _, o_rest = got.partition("://")
+        o_host, o_port = split_host(o_rest)
+        h_host, h_port = split_host(host_header)
+        # the scheme may differ behind a proxy that ends TLS: compare host and port
+        o_port = o_port or DEFAULT_PORTS[o_scheme]
+        h_port = h_port or DEFAULT_PORTS.get(o_scheme, DEFAULT_PORTS.get(scheme, "80"))
+        return (o_host, o_port) == (h_host, h_port)
 
 
 class AccessGuard:
@@ -103,6 +210,23 @@ class AccessGuard:
             await self.app(scope, receive, send)
             return
         headers = _headers(scope)
+        host = headers.get("host")
+        if not self.access.host_allowed(host):
+            shown = (host or "")[:100]
+            name = split_host(shown)[0] or "NAME"
+            await self._deny(scope, receive, send, 400, "bad-host",
+                             f"this server does not answer to the Host {shown!r} (a guard against DNS rebinding); "
+                             f"open it as http://localhost:PORT/ or by IP address, or start it with --allow-host {name}")
+            return
+        origin = headers.get("origin")
+        unsafe = scope["type"] == "websocket" or scope.get("method") in UNSAFE_METHODS
+        if unsafe and origin is not None and not self.access.origin_allowed(origin, host, scope.get("scheme", "http")):
+            shown = origin[:100]
+            await self._deny(scope, receive, send, 403, "bad-origin",
+                             f"a request from the page {shown!r} is refused: pages of other sites cannot change this "
+                             "server's data or stream into it; open the page from this server, or start it with "
+                             f"--allow-origin {shown}")
+            return
         # take ?token= out of the query: the app never sees it, nor does the access log
         pairs = parse_qsl(scope.get("query_string", b"").decode("latin-1"), keep_blank_values=True)
         from_query = [v for k, v in pairs if k == "token"]
@@ -157,6 +281,24 @@ class AccessGuard:
             await send(msg)
 
         await self.app(scope, receive, with_cookie)
+
+    @staticmethod
+    async def _deny(scope: Scope, receive: Receive, send: Send, status: int, slug: str, detail: str) -> None:
+        """A problem response; a WebSocket is refused before its handshake completes."""
+        body = json.dumps(problem(status, slug, detail)).encode()
+        headers = [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode())]
+        if scope["type"] == "websocket":
+            msg = await receive()
+            if msg["type"] != "websocket.connect":
+                return
+            if "websocket.http.response" in scope.get("extensions", {}):
+                await send({"type": "websocket.http.response.start", "status": status, "headers": headers})
+                await send({"type": "websocket.http.response.body", "body": body})
+            else:
+                await send({"type": "websocket.close", "code": 4000 + status, "reason": detail[:123]})
+            return
+        await send({"type": "http.response.start", "status": status, "headers": headers})
+        await send({"type": "http.response.body", "body": body})
 
     @staticmethod
     async def _refuse(scope: Scope, receive: Receive, send: Send, wrong: bool) -> None:

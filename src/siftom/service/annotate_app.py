@@ -20,6 +20,7 @@ from pydantic import BaseModel, Field
 from siftom.bench.collect import action_words
 from siftom.bench.human import ANNOTATOR_ID, AnnotateOptions, Annotation, answer_form
 from siftom.bench.stimuli import scenario_for
+from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 
 AID = PathParam(pattern=ANNOTATOR_ID.pattern, description="the annotator id POST /api/annotators gave")
@@ -38,11 +39,13 @@ class Answer(BaseModel):
     seconds: float | None = Field(default=None, ge=0, le=86400)
 
 
-def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateOptions) -> FastAPI:
-    """The annotation page and its API over ``dataset``, writing into ``out``."""
+def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateOptions,
+                        access: Access | None = None) -> FastAPI:
+    """The annotation page and its API over ``dataset``, writing into ``out`` (``access``: the
+    Host, Origin and token checks, :mod:`siftom.service.access`)."""
     ann = Annotation(dataset, out, options)
     frames = Frames(Path(out) / ".frames")
-    app, run_cpu = page_app("siftom annotate", "annotate.html")
+    app, run_cpu = page_app("siftom annotate", "annotate.html", access=access)
     app.state.annotation = ann
 
     def view(aid: str) -> dict[str, Any]:

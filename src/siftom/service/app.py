@@ -8,8 +8,10 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the web page at ``/``.
-* With a token (``settings.token``), every request but ``/healthz`` and the static files must
-  carry it (:mod:`siftom.service.access`, docs/security.md).
+* Every request is checked (:mod:`siftom.service.access`, docs/security.md): its ``Host``
+  (loopback names, IP addresses, ``settings.allowed_hosts``), the ``Origin`` of a POST, PUT,
+  PATCH, DELETE or WebSocket, and with a token (``settings.token``) the token on every request
+  but ``/healthz`` and the static files.
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
   (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`);
   ``WS /v1/sessions/{id}/listen``: streamed microphone audio, answered utterance by utterance
@@ -109,7 +111,8 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     app.state.runtime = rt
     install_handlers(app)
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
-    app.add_middleware(AccessGuard, access=Access(token=settings.token))  # docs/security.md
+    access = Access(token=settings.token, hosts=settings.allowed_hosts, origins=settings.allowed_origins)
+    app.add_middleware(AccessGuard, access=access)  # Host, Origin, token: docs/security.md
     app.add_middleware(SecurityHeadersMiddleware)
     limiter: list[anyio.CapacityLimiter] = []
 

@@ -17,6 +17,7 @@ from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
 from siftom.bench.collect import Collection, CollectOptions
+from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 from siftom.service.problems import ProblemError, read_audio_form
 
@@ -26,11 +27,12 @@ class Agreement(BaseModel):
     agree: bool
 
 
-def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
-    """The recording page and its API, writing into the dataset folder ``out``."""
+def create_collect_app(out: str | Path, options: CollectOptions, access: Access | None = None) -> FastAPI:
+    """The recording page and its API, writing into the dataset folder ``out`` (``access``: the
+    Host, Origin and token checks, :mod:`siftom.service.access`)."""
     coll = Collection(out, options)
     frames = Frames(Path(out) / ".frames")
-    app, run_cpu = page_app("siftom collect", "collect.html")
+    app, run_cpu = page_app("siftom collect", "collect.html", access=access)
     app.state.collection = coll
 
     def index_of(k: int) -> int:

@@ -34,3 +34,13 @@ def app(tmp_path_factory: pytest.TempPathFactory):
 def client(app) -> Iterator[TestClient]:
     with local_client(app, raise_server_exceptions=False) as c:
         yield c
+
+
+@pytest.fixture(autouse=True)
+def _keep_umask():
+    """A command run in-process (CliRunner) may set the umask of the process (the servers make
+    their files private); give the next test the umask it had."""
+    old = os.umask(0o022)
+    os.umask(old)
+    yield
+    os.umask(old)

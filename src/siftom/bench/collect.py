@@ -41,6 +41,7 @@ from siftom.bench.stimuli import (
     select_scenarios,
 )
 from siftom.errors import AudioError, DatasetError, NotYoursError
+from siftom.private import append_private, make_private, private_dir, write_private_text
 
 PARTICIPANTS = "participants.jsonl"
 PARTICIPANT_ID = re.compile(r"[A-Za-z0-9_-]{1,32}")
@@ -180,8 +181,7 @@ class Collection:
     def __init__(self, root: str | Path, options: CollectOptions) -> None:
         self.root = Path(root)
         self.options = options
-        self.root.mkdir(parents=True, exist_ok=True)
-        (self.root / AUDIO_DIR).mkdir(exist_ok=True)
+        private_dir(self.root / AUDIO_DIR)  # voices: 0700 folders, 0600 files
         self._lock = threading.Lock()
         spec_path = self.root / SPEC
         if spec_path.is_file():
@@ -239,7 +239,7 @@ class Collection:
             rec = {"participant": participant, "agreed": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                    "consent_sha1": self.consent_sha1, "consent": self.options.consent, "domain": self.options.domain,
                    "key_sha256": key_digest(given)}
-            with open(self.root / PARTICIPANTS, "a", encoding="utf-8") as f:
+            with append_private(self.root / PARTICIPANTS) as f:
                 f.write(json.dumps(rec) + "\n")
         return {**rec, "key": given}
 
@@ -323,6 +323,7 @@ class Collection:
         with self._lock:
             tmp = self.root / f"{rel}.{os.getpid()}.{threading.get_ident()}.tmp.wav"
             write_wav(tmp, x)
+            make_private(tmp)
             os.replace(tmp, self.root / rel)
             lines = [s for s in self._lines() if s["id"] != sid]
             lines.append(stim.to_json())
@@ -366,9 +367,7 @@ def decode_recording(data: bytes, max_seconds: float) -> np.ndarray:
 
 
 def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_private_text(path, text)
 
 
 __all__ = ["CONSENT_TEXT", "Collection", "CollectOptions", "Prompt", "check_participant", "decode_recording",

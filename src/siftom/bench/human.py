@@ -29,7 +29,6 @@ answer is a trial: the confidence intervals resample answers, not stimuli.
 from __future__ import annotations
 
 import json
-import os
 import re
 import secrets
 import threading
@@ -43,6 +42,7 @@ import numpy as np
 from siftom.bench.results_io import read_jsonl, rewrite
 from siftom.bench.stimuli import Dataset, load_dataset, scenario_for
 from siftom.errors import DatasetError, NotYoursError
+from siftom.private import append_private, private_dir, write_private_text
 
 ANSWERS = "answers.jsonl"
 ANNOTATORS = "annotators.jsonl"
@@ -143,7 +143,7 @@ class Annotation:
         self.ds = dataset if isinstance(dataset, Dataset) else load_dataset(dataset)
         self.options = options or AnnotateOptions()
         self.root = Path(out)
-        self.root.mkdir(parents=True, exist_ok=True)
+        private_dir(self.root)
         self._lock = threading.Lock()
         self.index = {s.id: k for k, s in enumerate(self.ds.stimuli)}
         plan_path = self.root / PLAN
@@ -158,9 +158,7 @@ class Annotation:
             items = [(s.id, source_of(s)) for s in self.ds.stimuli]
             plan = {**want, "assignments": plan_assignments(items, self.options.per_stimulus,
                                                             self.options.per_annotator, self.options.seed)}
-            tmp = plan_path.with_name(f".{PLAN}.{os.getpid()}.tmp")
-            tmp.write_text(json.dumps(plan, indent=1) + "\n", encoding="utf-8")
-            os.replace(tmp, plan_path)
+            write_private_text(plan_path, json.dumps(plan, indent=1) + "\n")
         self.assignments: list[list[str]] = plan["assignments"]
 
     # -- annotators -----------------------------------------------------------------------------
@@ -209,7 +207,7 @@ class Annotation:
                 rec = {"annotator": annotator, "assignment": assignment, "agreed": True,
                        "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "consent": self.options.consent,
                        "key_sha256": key_digest(given)}
-                with open(self.root / ANNOTATORS, "a", encoding="utf-8") as f:
+                with append_private(self.root / ANNOTATORS) as f:
                     f.write(json.dumps(rec) + "\n")
                 known[annotator] = assignment
         return {"annotator": annotator, "key": given, "assignment": known[annotator],
@@ -257,7 +255,7 @@ class Annotation:
         with self._lock:
             if position in self.answered(annotator):
                 raise DatasetError(f"position {position} is already answered; go on to the next stimulus")
-            with open(self.root / ANSWERS, "a", encoding="utf-8") as f:
+            with append_private(self.root / ANSWERS) as f:
                 f.write(json.dumps(rec) + "\n")
         return rec
 

@@ -11,6 +11,7 @@ import click
 
 from siftom.cli.service import with_access_options
 from siftom.errors import DatasetError
+from siftom.private import private_dir, private_umask
 
 if TYPE_CHECKING:
     from siftom.service.access import Access
@@ -32,6 +33,7 @@ def _access(host: str, token: str | None, token_file: Path | None, allow_host: t
     from siftom.cli.service import _need_serve_extra, access_for, resolve_token
 
     _need_serve_extra()
+    private_umask()  # recordings, consent and answers: 0600 files in 0700 folders
     tok, generated = resolve_token(host, token, token_file)
     access: Access = access_for(host, tok, allow_host, allow_origin)
     return access, generated
@@ -84,7 +86,7 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
     opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
                           consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
     access, generated = _access(host, token, token_file, allow_host, allow_origin)
-    Path(out).mkdir(parents=True, exist_ok=True)
+    private_dir(out)
     with RunLock(out):  # one server per folder: several participants may share it, two servers may not
         app = create_collect_app(out, opts, access)
         _serve(app, host, port, f"recording page for {out}", access, generated)
@@ -120,7 +122,7 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
     from siftom.bench.runlock import RunLock
 
     access, generated = _access(host, token, token_file, allow_host, allow_origin)
-    Path(out).mkdir(parents=True, exist_ok=True)
+    private_dir(out)
     with RunLock(out):
         app = create_annotate_app(dataset, out, opts, access)
         _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)", access,

@@ -202,6 +202,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     import uvicorn
 
     from siftom.observer import Observer
+    from siftom.private import private_umask
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.settings import Settings
@@ -223,6 +224,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     token, generated = resolve_token(host, token, token_file, settings.token)
     access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
     settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
+    private_umask()  # sessions, ratings, maps: 0600 files in 0700 folders
     lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     announce("web page", host, port, token, generated, " , API schema at /openapi.json")
     # every request goes through one observer built from these settings (as siftom.infer does)

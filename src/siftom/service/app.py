@@ -90,8 +90,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     """Build the app.
 
     Args:
-        data_dir: the service's own folder (map PNG cache); a fresh temporary folder if None.
-            No request reads or writes anywhere else.
+        data_dir: the service's own folder (map PNG cache, sessions); a fresh temporary folder
+            if None, removed by ``app.state.runtime.close()``. No request reads or writes
+            anywhere else. Files are created 0600 in 0700 folders.
         settings: every option (a ``Settings``: its ``service`` section gives the limits), or the
             service's limits alone (``ServiceSettings``; the rest from :meth:`Settings.load`).
         observer: the observer every inference goes through (default: one built from the settings).
@@ -105,7 +106,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     if observer is None:
         observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
     folder = Path(data_dir) if data_dir is not None else default_data_dir()
-    rt = Runtime(settings, folder, observer)
+    rt = Runtime(settings, folder, observer, owns_dir=data_dir is None)  # a temporary folder goes on close
     app = FastAPI(title="siftom", version=_version(), docs_url=None, redoc_url=None,
                   description="Follow noisy spoken instructions by inferring what the person is doing (SIFToM).")
     app.state.runtime = rt

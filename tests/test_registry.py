@@ -97,11 +97,10 @@ def test_plugins_command_lists_every_registry(capsys):
 
 def test_healthz_lists_the_plugins(tmp_path):
     pytest.importorskip("fastapi")
-    from fastapi.testclient import TestClient
-
     from siftom.service.app import create_app
+    from support.client import local_client
 
-    with TestClient(create_app(tmp_path)) as c:
+    with local_client(create_app(tmp_path)) as c:
         body = c.get("/healthz").json()
     assert {e["name"] for e in body["plugins"]["decision rule"]} == {"map", "expected-benefit", "ask-or-act"}
 

@@ -53,6 +53,10 @@ class DatasetError(SiftomError, ValueError):
     """A benchmark dataset or results folder is malformed."""
 
 
+class NotYoursError(DatasetError):
+    """A person's key is missing or does not match: their recordings and answers are not yours (403)."""
+
+
 def unknown_name(kind: str, name: str, known: Iterable[str]) -> UnknownNameError:
     """Build an UnknownNameError that lists close matches and all valid names."""
     known = sorted(known)

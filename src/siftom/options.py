@@ -14,6 +14,19 @@ from dataclasses import dataclass, field
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError, OptionsError, SettingsError, SiftomError
 
+MAX_TOKEN = 256
+
+
+def check_token(token: str, source: str = "the token") -> str:
+    """``token`` without surrounding whitespace; an OptionsError naming ``source`` when it cannot be used."""
+    token = token.strip()
+    how = "e.g. python -c 'import secrets; print(secrets.token_urlsafe(32))'"
+    if not token:
+        raise OptionsError(f"{source} is empty; give a long random string, {how}")
+    if len(token) > MAX_TOKEN or not all(33 <= ord(ch) <= 126 for ch in token):
+        raise OptionsError(f"{source} must be 1-{MAX_TOKEN} visible ASCII characters without spaces; {how}")
+    return token
+
 
 @dataclass(frozen=True)
 class InferOptions:
@@ -148,6 +161,13 @@ class ServiceSettings:
         plan_max_time: seconds of A* for the robot's plan before the greedy fallback.
         sessions: limits of the session API (sessions, world size, idle time; SessionLimits).
         stream: limits of the streaming endpoint (streams, utterance length, idle time; StreamLimits).
+        token: the token every request must carry (``Authorization: Bearer``, ``?token=`` or the
+            cookie it sets; docs/security.md); None: none asked for (``siftom serve`` makes one
+            when it listens beyond loopback). Never shown (``siftom config show`` masks it).
+        allowed_hosts: ``Host`` names answered beyond loopback names and IP addresses (400 for
+            others: DNS rebinding); ``*``: any (a proxy in front checks them).
+        allowed_origins: ``Origin`` values (``scheme://host[:port]``) whose pages may post and
+            stream, beyond the server's own (403 for others); ``*``: any.
     """
 
     max_body_bytes: int = 2 * 1024 * 1024
@@ -162,8 +182,13 @@ class ServiceSettings:
     llm_error: str = ""
     sessions: SessionLimits = field(default_factory=lambda: SessionLimits())
     stream: StreamLimits = field(default_factory=lambda: StreamLimits())
+    token: str | None = field(default=None, repr=False)
+    allowed_hosts: tuple[str, ...] = ()
+    allowed_origins: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        if self.token is not None:
+            object.__setattr__(self, "token", check_token(self.token, "service.token"))
         if self.llm is None and not self.llm_error:
             cfg, why = service_llm_config()
             object.__setattr__(self, "llm", cfg)

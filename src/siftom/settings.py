@@ -64,6 +64,8 @@ SECTIONS: dict[str, str] = {
     "stream": "siftom.options:StreamLimits",
     "llm": "siftom.backends.config:LLMConfig",
 }
+# settings never shown (``siftom config show``, ``/healthz``)
+SECRETS = {"service.token"}
 # fields that hold other sections or derived state, not settings
 _NOT_SETTINGS = {"service": {"llm", "llm_error", "sessions", "stream"}, "llm": set[str]()}
 _LLM_ENV = {"backend": "SIFTOM_LLM_BACKEND", "base_url": "SIFTOM_LLM_BASE_URL", "model": "SIFTOM_LLM_MODEL",
@@ -360,8 +362,10 @@ class Settings:
             given = self.values.get(section, {})
             defaults = _defaults(section)
             for k in section_fields(section):
-                out.append((f"{section}.{k}", given.get(k, defaults.get(k)),
-                            self.sources.get(f"{section}.{k}", "default")))
+                value = given.get(k, defaults.get(k))
+                if f"{section}.{k}" in SECRETS and value:
+                    value = "***"
+                out.append((f"{section}.{k}", value, self.sources.get(f"{section}.{k}", "default")))
         for rule, opts in sorted(self.rules.items()):
             for k, v in opts.items():
                 out.append((f"rules.{rule}.{k}", v, self.sources.get(f"rules.{rule}.{k}", "file")))

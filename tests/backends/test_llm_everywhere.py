@@ -110,17 +110,16 @@ def test_infer_scenario_takes_a_name_or_an_object(endpoint):
 
 def test_the_service_offers_llm_for_a_configured_endpoint(endpoint, tmp_path):
     pytest.importorskip("fastapi")
-    from fastapi.testclient import TestClient
-
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
+    from support.client import local_client
 
     os.environ["SIFTOM_LLM_API_KEY"] = "sk-do-not-show"
     try:
         app = create_app(tmp_path / "serve", ServiceSettings())
     finally:
         del os.environ["SIFTOM_LLM_API_KEY"]
-    with TestClient(app) as client:
+    with local_client(app) as client:
         health = client.get("/healthz").json()
         assert "llm" in health["likelihoods"]
         assert health["llm"]["base_url"] == endpoint.url and health["llm"]["model"] == "fake-model"

@@ -16,18 +16,17 @@ from hypothesis import strategies as st
 from fuzz.test_parsers_property import SALAD, json_values, mutated, script_lines
 
 pytest.importorskip("fastapi", reason="needs the serve extra")
-from fastapi.testclient import TestClient  # noqa: E402
-
 from siftom.cli import main  # noqa: E402
 from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
+from support.client import local_client  # noqa: E402
 
 FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 @pytest.fixture(scope="module")
 def client():
-    with tempfile.TemporaryDirectory() as d, TestClient(
+    with tempfile.TemporaryDirectory() as d, local_client(
             create_app(Path(d), ServiceSettings(max_body_bytes=64 * 1024)), raise_server_exceptions=False) as c:
         yield c
 

@@ -51,18 +51,17 @@ def test_over_http_a_hostile_answer_is_a_problem_and_the_connection_survives(vlm
 
 
 def test_serve_flags_reach_the_vision_path(fake_openai, frames, tmp_path, monkeypatch):
-    from fastapi.testclient import TestClient
-
     from siftom.backends.config import LLMConfig
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
+    from support.client import local_client
 
     for k in ("SIFTOM_LLM_BASE_URL", "SIFTOM_LLM_MODEL", "SIFTOM_VLM_MODEL", "SIFTOM_LLM_BACKEND"):
         monkeypatch.delenv(k, raising=False)
     monkeypatch.setenv("SIFTOM_CACHE_DIR", str(tmp_path / "cache"))
     fake_openai.on("chat/completions", handler(frames))
     llm = LLMConfig(backend="openai", base_url=fake_openai.url, model="fake-vlm", max_retries=0)
-    c = TestClient(create_app(tmp_path / "serve", ServiceSettings(llm=llm)), raise_server_exceptions=False)
+    c = local_client(create_app(tmp_path / "serve", ServiceSettings(llm=llm)), raise_server_exceptions=False)
     r = c.post("/v1/perceive", json={"frames": _urls(frames[:1]), "goal_space": "kitchen-v0"})
     assert r.status_code == 200, r.text
     assert fake_openai.requests and fake_openai.requests[0].body["model"] == "fake-vlm"
@@ -80,12 +79,11 @@ def test_hints_name_options_that_exist(capsys):
 
 
 def test_session_frames_take_an_idempotency_key(vlm_env, frames, tmp_path):
-    from fastapi.testclient import TestClient
-
     from siftom.service.app import create_app
+    from support.client import local_client
 
     vlm_env.on("chat/completions", handler(frames))
-    c = TestClient(create_app(tmp_path / "serve"), raise_server_exceptions=False)
+    c = local_client(create_app(tmp_path / "serve"), raise_server_exceptions=False)
     r = c.post("/v1/perceive", json={"frames": _urls(frames[:1]), "goal_space": "kitchen-v0",
                                      "target": "kitchen_counter", "propose_goals": False})
     sid = c.post("/v1/sessions", json={"world": r.json()["world"]}).json()["id"]

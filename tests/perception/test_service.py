@@ -9,16 +9,15 @@ import pytest
 pytest.importorskip("fastapi", reason="needs the serve extra")
 pytest.importorskip("httpx", reason="needs httpx (the dev extra)")
 
-from fastapi.testclient import TestClient  # noqa: E402
-
 from perception.ideal import handler  # noqa: E402
 from siftom.service.app import create_app  # noqa: E402
+from support.client import local_client  # noqa: E402
 from support.fake_openai import Reply  # noqa: E402
 
 
 @pytest.fixture()
 def client(tmp_path):
-    with TestClient(create_app(tmp_path / "serve"), raise_server_exceptions=False) as c:
+    with local_client(create_app(tmp_path / "serve"), raise_server_exceptions=False) as c:
         yield c
 
 

@@ -14,10 +14,11 @@ if os.environ.get("CI", "").strip().lower() in ("true", "1", "yes"):
 pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
 pytest.importorskip("httpx", reason="needs httpx (the dev extra)")
 
-from fastapi.testclient import TestClient  # noqa: E402
+from fastapi.testclient import TestClient
 
 from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
+from support.client import local_client  # noqa: E402
 
 SMALL_BODY = 256 * 1024  # above a short recording, small enough to exceed cheaply
 
@@ -31,5 +32,15 @@ def app(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def client(app) -> Iterator[TestClient]:
-    with TestClient(app, raise_server_exceptions=False) as c:
+    with local_client(app, raise_server_exceptions=False) as c:
         yield c
+
+
+@pytest.fixture(autouse=True)
+def _keep_umask():
+    """A command run in-process (CliRunner) may set the umask of the process (the servers make
+    their files private); give the next test the umask it had."""
+    old = os.umask(0o022)
+    os.umask(old)
+    yield
+    os.umask(old)

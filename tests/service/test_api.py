@@ -8,7 +8,6 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 import soundfile as sf
-from fastapi.testclient import TestClient
 
 import siftom
 from siftom.inference.model import MODES
@@ -16,6 +15,7 @@ from siftom.service.app import create_app
 from siftom.service.loadtest import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 from siftom.service.schemas import Mode
+from support.client import local_client
 
 KITCHEN = "kitchen-cereal-v0"
 
@@ -312,7 +312,7 @@ def test_upload_filename_is_never_used_as_a_path(client, app, tmp_path):
 # ----- limits and concurrency --------------------------------------------------------------
 def test_request_time_limit_is_503(tmp_path):
     slow = create_app(tmp_path, ServiceSettings(request_timeout_s=1e-6))
-    with TestClient(slow) as c:
+    with local_client(slow) as c:
         r = c.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "the sugar"})
     assert problem(r, 503)["type"].endswith("timeout") and r.headers["retry-after"]
 

@@ -4,10 +4,9 @@ import pytest
 
 pytest.importorskip("fastapi")
 
-from fastapi.testclient import TestClient  # noqa: E402
-
 from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
+from support.client import local_client  # noqa: E402
 
 
 @pytest.mark.slow
@@ -20,7 +19,7 @@ def test_an_audio_worker_answers_like_the_request_thread(tmp_path):
     for workers in (0, 1):
         app = create_app(tmp_path / str(workers), ServiceSettings(audio_workers=workers))
         try:
-            client = TestClient(app)
+            client = local_client(app)
             r = client.post("/v1/infer", data={"scenario": "kitchen-cereal-v0"},
                             files={"audio": ("say.wav", wav, "audio/wav")})
             assert r.status_code == 200, r.text

@@ -243,7 +243,8 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
                 expect(page.locator("#task-title")).to_have_text(f"Recording {k + 1} of 2", timeout=10_000)
                 assert page.locator("#player").get_attribute("src").endswith("/audio.wav")
                 assert page.locator("#goal").count() == 0  # the annotator infers the goal
-                assert f"annotator id is a{who + 1}" in page.locator("#who").inner_text()
+                assert re.search(r"annotator id is a-[A-Za-z0-9_-]{8}\. To continue later, keep this link .*#key=",
+                                 page.locator("#who").inner_text())
                 tab_to(page, "play")
                 page.keyboard.press("Enter")
                 tab_to(page, "typed")
@@ -258,12 +259,14 @@ def _annotate(recorded: Path, tmp: Path, browser, expect) -> Path:
                 tab_to(page, "submit")
                 page.keyboard.press("Enter")
             expect(page.locator("#done-title")).to_be_visible(timeout=10_000)
-            assert f"annotator a{who + 1}" in page.locator("#done-text").inner_text()
+            assert re.search(r"annotator a-[A-Za-z0-9_-]{8}\)", page.locator("#done-text").inner_text())
             assert errors == []
             context.close()
     answers = [json.loads(x) for x in (ann / "answers.jsonl").read_text().splitlines()]
     assert len(answers) == 8 and len({a["id"] for a in answers}) == 8  # every stimulus once
-    for a in ("a1", "a2", "a3", "a4"):  # nobody heard the same recording twice (clean and noisy)
+    names = {x["annotator"] for x in answers}
+    assert len(names) == 4 and all(a.startswith("a-") for a in names)  # unguessable ids, not a1, a2 ...
+    for a in names:  # nobody heard the same recording twice (clean and noisy)
         assert sorted(x["id"][:3] for x in answers if x["annotator"] == a) == ["000", "001"]
     return ann
 

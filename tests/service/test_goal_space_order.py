@@ -5,9 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from fastapi.testclient import TestClient
-
 from siftom.service.app import create_app
+from support.client import local_client
 
 ROOT = Path(__file__).parents[2]
 SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
@@ -17,7 +16,7 @@ GRAPH = json.loads((ROOT / "data" / "virtualhome" / "apartment_graph.json").read
 
 
 def test_a_request_goal_space_does_not_replace_the_worlds_own_goals(tmp_path):
-    c = TestClient(create_app(tmp_path), raise_server_exceptions=False)
+    c = local_client(create_app(tmp_path), raise_server_exceptions=False)
     r = c.post("/v1/sessions", json={"world": SALAD, "goal_space": "kitchen-v0"})
     assert r.status_code == 201, r.text
     view = r.json()
@@ -34,7 +33,7 @@ def test_a_request_goal_space_does_not_replace_the_worlds_own_goals(tmp_path):
 
 
 def test_graph_worlds_follow_the_same_order(tmp_path):
-    c = TestClient(create_app(tmp_path), raise_server_exceptions=False)
+    c = local_client(create_app(tmp_path), raise_server_exceptions=False)
     goals = [{"name": "a fork", "counts": {"fork": 1}}]
     r = c.post("/v1/sessions", json={"world": {**GRAPH, "goals": goals}, "goal_space": "kitchen-v0"})
     assert r.status_code == 201, r.text

@@ -9,6 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from siftom.service.app import create_app
+from support.client import local_client
 
 ROOT = Path(__file__).parents[2]
 SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
@@ -22,7 +23,7 @@ def folder(tmp_path: Path) -> Path:
 
 
 def _client(folder: Path) -> TestClient:
-    return TestClient(create_app(folder), raise_server_exceptions=False)
+    return local_client(create_app(folder), raise_server_exceptions=False)
 
 
 def test_a_retried_append_with_the_same_key_returns_the_first_answer_and_adds_nothing(folder):

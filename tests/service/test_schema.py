@@ -11,10 +11,11 @@ from hypothesis import HealthCheck, settings  # noqa: E402
 
 from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
+from support.client import as_localhost  # noqa: E402
 
 APP = create_app(tempfile.mkdtemp(prefix="siftom-schema-"), ServiceSettings(max_audio_seconds=5.0))
 # the session endpoints: tests/service/test_sessions_schema.py (against a live session)
-schema = schemathesis.openapi.from_asgi("/openapi.json", APP).exclude(path_regex=r"^/v1/sessions")
+schema = schemathesis.openapi.from_asgi("/openapi.json", as_localhost(APP)).exclude(path_regex=r"^/v1/sessions")
 
 
 @schema.parametrize()

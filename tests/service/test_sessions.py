@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 from siftom.service.app import create_app
 from siftom.service.runtime import ServiceSettings
 from siftom.service.sessions import SessionLimits
+from support.client import local_client
 
 ROOT = Path(__file__).parents[2]
 SALAD = json.loads((ROOT / "docs" / "examples" / "salad" / "world.json").read_text())
@@ -23,7 +24,7 @@ VIRTUALHOME = ROOT / "data" / "virtualhome" / "apartment_graph.json"
 def _client(folder: Path, **limits) -> TestClient:
     # a cold first recording (recogniser, Whisper, caches) takes longer than 20 s on a loaded machine
     settings = ServiceSettings(sessions=SessionLimits(**limits) if limits else SessionLimits(), request_timeout_s=120.0)
-    return TestClient(create_app(folder, settings), raise_server_exceptions=False)
+    return local_client(create_app(folder, settings), raise_server_exceptions=False)
 
 
 @pytest.fixture

@@ -14,16 +14,16 @@ from pathlib import Path
 import pytest
 
 schemathesis = pytest.importorskip("schemathesis", reason="needs schemathesis (the dev extra)")
-from fastapi.testclient import TestClient  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
 
 from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
+from support.client import as_localhost, local_client  # noqa: E402
 
 SALAD = json.loads((Path(__file__).parents[2] / "docs" / "examples" / "salad" / "world.json").read_text())
 APP = create_app(tempfile.mkdtemp(prefix="siftom-sessions-schema-"), ServiceSettings(max_audio_seconds=5.0))
-SID = TestClient(APP).post("/v1/sessions", json={"world": SALAD}).json()["id"]
-schema = schemathesis.openapi.from_asgi("/openapi.json", APP).include(path_regex=r"^/v1/sessions")
+SID = local_client(APP).post("/v1/sessions", json={"world": SALAD}).json()["id"]
+schema = schemathesis.openapi.from_asgi("/openapi.json", as_localhost(APP)).include(path_regex=r"^/v1/sessions")
 
 
 @schema.parametrize()

@@ -8,7 +8,10 @@ the gold goal and command and what they said (``reference``, typed by the partic
 
 Consent comes first: the text shown and the participant id are stored in
 ``participants.jsonl`` (with a hash of the text), and a recording of a participant who has not
-agreed is refused. Everything stays in the folder; nothing is sent anywhere.
+agreed is refused. Agreeing gives the participant a secret key (``secrets.token_urlsafe``; only
+its SHA-256 is stored): the page sends it with each recording, so nobody else can record as
+them, and coming back under a taken id needs it. Everything stays in the folder; nothing is
+sent anywhere.
 :mod:`siftom.service.collect_app` serves the page; ``siftom collect`` starts it.
 """
 
@@ -19,6 +22,7 @@ import io
 import json
 import os
 import re
+import secrets
 import threading
 import time
 from dataclasses import dataclass
@@ -36,7 +40,8 @@ from siftom.bench.stimuli import (
     resolve_scenario,
     select_scenarios,
 )
-from siftom.errors import AudioError, DatasetError
+from siftom.errors import AudioError, DatasetError, NotYoursError
+from siftom.private import append_private, make_private, private_dir, write_private_text
 
 PARTICIPANTS = "participants.jsonl"
 PARTICIPANT_ID = re.compile(r"[A-Za-z0-9_-]{1,32}")
@@ -59,6 +64,16 @@ def check_participant(pid: str) -> str:
         raise DatasetError(f"participant id {pid!r} is not valid: use 1-32 letters, digits, '_' or '-' "
                            "(e.g. p01), not a name")
     return pid
+
+
+def key_digest(key: str) -> str:
+    """What is stored of a person's key: its SHA-256."""
+    return hashlib.sha256(key.encode("utf-8", "replace")).hexdigest()
+
+
+def key_matches(key: str | None, digest: str | None) -> bool:
+    """``key`` is the one ``digest`` was made from (constant-time)."""
+    return bool(key) and bool(digest) and secrets.compare_digest(key_digest(key or ""), digest or "")
 
 
 def _plural(obj_class: str, n: int) -> str:
@@ -166,8 +181,7 @@ class Collection:
     def __init__(self, root: str | Path, options: CollectOptions) -> None:
         self.root = Path(root)
         self.options = options
-        self.root.mkdir(parents=True, exist_ok=True)
-        (self.root / AUDIO_DIR).mkdir(exist_ok=True)
+        private_dir(self.root / AUDIO_DIR)  # voices: 0700 folders, 0600 files
         self._lock = threading.Lock()
         spec_path = self.root / SPEC
         if spec_path.is_file():
@@ -206,27 +220,63 @@ class Collection:
 
     # -- participants ---------------------------------------------------------------------------
 
-    def agree(self, participant: str) -> dict[str, Any]:
-        """Store that ``participant`` agreed to the consent text shown; return the record."""
-        check_participant(participant)
-        rec = {"participant": participant, "agreed": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-               "consent_sha1": self.consent_sha1, "consent": self.options.consent, "domain": self.options.domain}
-        with self._lock, open(self.root / PARTICIPANTS, "a", encoding="utf-8") as f:
-            f.write(json.dumps(rec) + "\n")
-        return rec
+    def agree(self, participant: str, key: str | None = None, renew: bool = False) -> dict[str, Any]:
+        """Store that ``participant`` agreed to the consent text shown; return the record with
+        ``key``, the participant's secret (the only place it is ever given in clear).
 
-    def has_agreed(self, participant: str) -> bool:
+        A new participant gets a fresh key. One who agreed before keeps theirs when ``key`` is it;
+        ``renew`` (a server started for this one participant) gives a new key instead; any other
+        caller is refused with NotYoursError.
+        """
+        check_participant(participant)
+        with self._lock:
+            digest = self._key_digest(participant)
+            if digest and not renew and not key_matches(key, digest):
+                raise NotYoursError(f"participant {participant!r} has already started on another page; continue "
+                                    "on that page (it keeps the key), or ask the experimenter to start "
+                                    f"'siftom collect --participant {participant}' for you")
+            given = key if digest and not renew and key else secrets.token_urlsafe(24)
+            rec = {"participant": participant, "agreed": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                   "consent_sha1": self.consent_sha1, "consent": self.options.consent, "domain": self.options.domain,
+                   "key_sha256": key_digest(given)}
+            with append_private(self.root / PARTICIPANTS) as f:
+                f.write(json.dumps(rec) + "\n")
+        return {**rec, "key": given}
+
+    def _records(self) -> list[dict[str, Any]]:
         p = self.root / PARTICIPANTS
         if not p.is_file():
-            return False
+            return []
+        out = []
         for line in p.read_text(encoding="utf-8").splitlines():
             try:
                 r = json.loads(line)
             except json.JSONDecodeError:
                 continue
+            if isinstance(r, dict):
+                out.append(r)
+        return out
+
+    def _key_digest(self, participant: str) -> str | None:
+        """The digest of the participant's current key; None if they have not agreed. One who
+        agreed before keys existed has the digest '' (any first key is theirs)."""
+        found: str | None = None
+        for r in self._records():
             if r.get("participant") == participant and r.get("agreed"):
-                return True
-        return False
+                found = str(r.get("key_sha256") or "")
+        return found
+
+    def has_agreed(self, participant: str) -> bool:
+        return any(r.get("participant") == participant and r.get("agreed") for r in self._records())
+
+    def check_key(self, participant: str, key: str | None) -> None:
+        """NotYoursError unless ``key`` is the participant's (who must have agreed)."""
+        if not self.has_agreed(participant):
+            raise DatasetError(f"participant {participant!r} has not agreed to the consent text; "
+                               "agree on the first page before recording")
+        if not key_matches(key, self._key_digest(participant)):
+            raise NotYoursError(f"this page cannot record for participant {participant!r}: the participant's key "
+                                "is missing or wrong; start again on the first page")
 
     def done(self, participant: str) -> list[int]:
         """Indexes of the prompts this participant has recorded."""
@@ -239,12 +289,18 @@ class Collection:
     def stimulus_id(index: int, participant: str) -> str:
         return f"{index:03d}-{participant}-clean"
 
-    def save(self, participant: str, index: int, audio: bytes, reference: str) -> Stimulus:
-        """Write one recording (replacing an earlier one of the same scenario) and its manifest line."""
+    def save(self, participant: str, index: int, audio: bytes, reference: str, key: str | None = None) -> Stimulus:
+        """Write one recording (replacing an earlier one of the same scenario) and its manifest line.
+
+        ``key``: the participant's key, checked when given (the page always sends it; None is a
+        caller in this process).
+        """
         check_participant(participant)
         if not self.has_agreed(participant):
             raise DatasetError(f"participant {participant!r} has not agreed to the consent text; "
                                "agree on the first page before recording")
+        if key is not None:
+            self.check_key(participant, key)
         reference = " ".join(str(reference).split())
         if not reference:
             raise DatasetError("type what you said (the words of the recording) before saving")
@@ -267,6 +323,7 @@ class Collection:
         with self._lock:
             tmp = self.root / f"{rel}.{os.getpid()}.{threading.get_ident()}.tmp.wav"
             write_wav(tmp, x)
+            make_private(tmp)
             os.replace(tmp, self.root / rel)
             lines = [s for s in self._lines() if s["id"] != sid]
             lines.append(stim.to_json())
@@ -310,9 +367,7 @@ def decode_recording(data: bytes, max_seconds: float) -> np.ndarray:
 
 
 def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_private_text(path, text)
 
 
 __all__ = ["CONSENT_TEXT", "Collection", "CollectOptions", "Prompt", "check_participant", "decode_recording",

@@ -14,6 +14,11 @@ the noisy one away), and once every assignment is done every stimulus has been h
 ``per_stimulus`` times. The plan is written to ``OUT/plan.json``; answers go to
 ``OUT/answers.jsonl`` as they come (one JSON line each).
 
+Annotators: a new one gets an unguessable id (``a-`` and 8 random characters, never a1, a2, ...)
+and a secret key (``secrets.token_urlsafe``; ``annotators.jsonl`` keeps only its SHA-256). The
+page reaches the annotator's recordings and answers through the key, so nobody can hear or
+answer another annotator's assignment, and an id that is taken needs its key to continue.
+
 Scoring (:func:`score_answers`) turns every answer into a trial of a model named ``human``:
 its command is scored against the gold one and simulated by the same team simulation as the
 models (agents/team.py), and the typed text is compared with the reference (word error rate).
@@ -24,8 +29,8 @@ answer is a trial: the confidence intervals resample answers, not stimuli.
 from __future__ import annotations
 
 import json
-import os
 import re
+import secrets
 import threading
 import time
 from dataclasses import dataclass
@@ -36,7 +41,8 @@ import numpy as np
 
 from siftom.bench.results_io import read_jsonl, rewrite
 from siftom.bench.stimuli import Dataset, load_dataset, scenario_for
-from siftom.errors import DatasetError
+from siftom.errors import DatasetError, NotYoursError
+from siftom.private import append_private, private_dir, write_private_text
 
 ANSWERS = "answers.jsonl"
 ANNOTATORS = "annotators.jsonl"
@@ -137,7 +143,7 @@ class Annotation:
         self.ds = dataset if isinstance(dataset, Dataset) else load_dataset(dataset)
         self.options = options or AnnotateOptions()
         self.root = Path(out)
-        self.root.mkdir(parents=True, exist_ok=True)
+        private_dir(self.root)
         self._lock = threading.Lock()
         self.index = {s.id: k for k, s in enumerate(self.ds.stimuli)}
         plan_path = self.root / PLAN
@@ -152,9 +158,7 @@ class Annotation:
             items = [(s.id, source_of(s)) for s in self.ds.stimuli]
             plan = {**want, "assignments": plan_assignments(items, self.options.per_stimulus,
                                                             self.options.per_annotator, self.options.seed)}
-            tmp = plan_path.with_name(f".{PLAN}.{os.getpid()}.tmp")
-            tmp.write_text(json.dumps(plan, indent=1) + "\n", encoding="utf-8")
-            os.replace(tmp, plan_path)
+            write_private_text(plan_path, json.dumps(plan, indent=1) + "\n")
         self.assignments: list[list[str]] = plan["assignments"]
 
     # -- annotators -----------------------------------------------------------------------------
@@ -162,31 +166,62 @@ class Annotation:
     def _annotators(self) -> dict[str, int]:
         return {r["annotator"]: int(r["assignment"]) for r in read_jsonl(self.root / ANNOTATORS)}
 
-    def join(self, annotator: str | None) -> dict[str, Any]:
-        """Give ``annotator`` (a new id when None) its assignment: the one it had, or the first free one."""
+    def _digests(self) -> dict[str, str]:
+        """annotator -> the SHA-256 of its key ('' for one who joined before keys existed)."""
+        return {r["annotator"]: str(r.get("key_sha256") or "") for r in read_jsonl(self.root / ANNOTATORS)}
+
+    def join(self, annotator: str | None, key: str | None = None) -> dict[str, Any]:
+        """Give ``annotator`` (a new unguessable id when None) its assignment: the one it had, or the
+        first free one; the answer holds ``key``, the annotator's secret (the page's links use it).
+
+        Coming back under an id that has a key needs that key (NotYoursError otherwise).
+        """
+        from siftom.bench.collect import key_digest, key_matches
+
         if annotator is not None and not ANNOTATOR_ID.fullmatch(annotator):
             raise DatasetError(f"annotator id {annotator!r} is not valid: use 1-32 letters, digits, '_' or '-'")
         with self._lock:
             known = self._annotators()
+            digests = self._digests()
             if annotator is None:
-                n = len(known) + 1
-                while f"a{n}" in known:
-                    n += 1
-                annotator = f"a{n}"
-            if annotator not in known:
-                taken = set(known.values())
-                free = [k for k in range(len(self.assignments)) if k not in taken]
-                if not free:
-                    raise DatasetError(f"every assignment is taken: each stimulus already has "
-                                       f"{self.options.per_stimulus} annotator(s); score the answers with "
-                                       "siftom report RESULTS --human OUT")
-                rec = {"annotator": annotator, "assignment": free[0], "agreed": True,
-                       "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "consent": self.options.consent}
-                with open(self.root / ANNOTATORS, "a", encoding="utf-8") as f:
+                annotator = "a-" + secrets.token_urlsafe(6)
+                while annotator in known:
+                    annotator = "a-" + secrets.token_urlsafe(6)
+            if annotator in known and digests.get(annotator):
+                if not key_matches(key, digests[annotator]):
+                    raise NotYoursError(f"annotator id {annotator!r} is taken; continue with the link you were "
+                                        "given, or leave the id empty to get a new one")
+                given = str(key)
+            else:
+                given = secrets.token_urlsafe(24)
+                if annotator in known:  # joined before keys existed: this key is its first
+                    assignment = known[annotator]
+                else:
+                    taken = set(known.values())
+                    free = [k for k in range(len(self.assignments)) if k not in taken]
+                    if not free:
+                        raise DatasetError(f"every assignment is taken: each stimulus already has "
+                                           f"{self.options.per_stimulus} annotator(s); score the answers with "
+                                           "siftom report RESULTS --human OUT")
+                    assignment = free[0]
+                rec = {"annotator": annotator, "assignment": assignment, "agreed": True,
+                       "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "consent": self.options.consent,
+                       "key_sha256": key_digest(given)}
+                with append_private(self.root / ANNOTATORS) as f:
                     f.write(json.dumps(rec) + "\n")
-                known[annotator] = free[0]
-        return {"annotator": annotator, "assignment": known[annotator],
+                known[annotator] = assignment
+        return {"annotator": annotator, "key": given, "assignment": known[annotator],
                 "total": len(self.assignments[known[annotator]])}
+
+    def annotator_for(self, key: str) -> str:
+        """The annotator whose key this is; NotYoursError for any other string."""
+        from siftom.bench.collect import key_matches
+
+        for annotator, digest in self._digests().items():
+            if key_matches(key, digest):
+                return annotator
+        raise NotYoursError("this link belongs to no annotator here; open the link you were given, or start "
+                            "again on the first page")
 
     def assignment(self, annotator: str) -> list[str]:
         known = self._annotators()
@@ -220,7 +255,7 @@ class Annotation:
         with self._lock:
             if position in self.answered(annotator):
                 raise DatasetError(f"position {position} is already answered; go on to the next stimulus")
-            with open(self.root / ANSWERS, "a", encoding="utf-8") as f:
+            with append_private(self.root / ANSWERS) as f:
                 f.write(json.dumps(rec) + "\n")
         return rec
 

@@ -119,7 +119,7 @@ class RunLock:
 
     def _take(self) -> int:
         for _ in range(20):  # retried only when a releasing owner unlinks the file under us
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
             try:
                 if not self._flock(fd):
                     raise RunLockedError(

@@ -5,10 +5,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
+from siftom.cli.service import with_access_options
 from siftom.errors import DatasetError
+from siftom.private import private_dir, private_umask
+
+if TYPE_CHECKING:
+    from siftom.service.access import Access
 
 
 def _consent(path: str | None, default: str) -> str:
@@ -20,16 +26,27 @@ def _consent(path: str | None, default: str) -> str:
         raise DatasetError(f"cannot read the consent text {path!r} ({exc.__class__.__name__}); give a UTF-8 text file") from None
 
 
-def _serve(app: object, host: str, port: int, what: str) -> None:
-    from siftom.cli.service import _need_serve_extra
+def _access(host: str, token: str | None, token_file: Path | None, allow_host: tuple[str, ...],
+            allow_origin: tuple[str, ...]) -> tuple[Access, bool]:
+    """The page's Host, Origin and token checks (a token whenever it listens beyond loopback) and
+    whether the token was made here."""
+    from siftom.cli.service import _need_serve_extra, access_for, resolve_token
 
     _need_serve_extra()
+    private_umask()  # recordings, consent and answers: 0600 files in 0700 folders
+    tok, generated = resolve_token(host, token, token_file)
+    access: Access = access_for(host, tok, allow_host, allow_origin)
+    return access, generated
+
+
+def _serve(app: object, host: str, port: int, what: str, access: Access, generated: bool) -> None:
     import uvicorn
 
+    from siftom.cli.service import announce
+
     if host not in ("127.0.0.1", "localhost", "::1"):
-        click.echo(f"note: listening on {host}: other machines can reach the page; browsers allow the microphone "
-                   "only on localhost or over https", err=True)
-    click.echo(f"siftom: {what} at http://{host}:{port}/ (Ctrl-C to stop)", err=True)
+        click.echo("note: browsers allow the microphone only on localhost or over https", err=True)
+    announce(what, host, port, access.token, generated, " (Ctrl-C to stop)")
     uvicorn.run(app, host=host, port=port, log_level="warning")
 
 
@@ -50,13 +67,17 @@ _host = click.option("--host", default="127.0.0.1", show_default=True,
               help="longest recording accepted")
 @_host
 @click.option("--port", type=click.IntRange(1, 65535), default=8010, show_default=True, help="TCP port")
+@with_access_options
 def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, consent: str | None,
-                max_seconds: float, host: str, port: int) -> None:
+                max_seconds: float, host: str, port: int, token: str | None, token_file: Path | None,
+                allow_host: tuple[str, ...], allow_origin: tuple[str, ...]) -> None:
     """Serve a page that records participants asking the robot for help, into a dataset folder.
 
     Each participant agrees to the consent text, then sees each scenario (the scene after each of
     the person's actions and the goal in words), records what they would ask the robot and types
-    what they said. Then: siftom dataset mix OUT, siftom dataset check OUT, siftom eval.
+    what they said. Then: siftom dataset mix OUT, siftom dataset check OUT, siftom eval. With
+    --participant the page records that participant only. Beyond loopback the page needs a
+    token, as siftom serve does.
     """
     from siftom.bench.collect import CONSENT_TEXT, CollectOptions
     from siftom.bench.runlock import RunLock
@@ -64,9 +85,11 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
 
     opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
                           consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
-    Path(out).mkdir(parents=True, exist_ok=True)
+    access, generated = _access(host, token, token_file, allow_host, allow_origin)
+    private_dir(out)
     with RunLock(out):  # one server per folder: several participants may share it, two servers may not
-        _serve(create_collect_app(out, opts), host, port, f"recording page for {out}")
+        app = create_collect_app(out, opts, access)
+        _serve(app, host, port, f"recording page for {out}", access, generated)
 
 
 @click.command("annotate")
@@ -82,8 +105,10 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
               help="a text file with the consent text to show (default: a generic one)")
 @_host
 @click.option("--port", type=click.IntRange(1, 65535), default=8011, show_default=True, help="TCP port")
+@with_access_options
 def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int | None, seed: int,
-                 consent: str | None, host: str, port: int) -> None:
+                 consent: str | None, host: str, port: int, token: str | None, token_file: Path | None,
+                 allow_host: tuple[str, ...], allow_origin: tuple[str, ...]) -> None:
     """Serve the human-baseline page: people hear each stimulus, type it and choose what to bring.
 
     Score the answers next to the models with: siftom report RESULTS --human OUT (RESULTS: siftom
@@ -96,10 +121,12 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
                            consent=_consent(consent, ANNOTATOR_CONSENT))
     from siftom.bench.runlock import RunLock
 
-    Path(out).mkdir(parents=True, exist_ok=True)
+    access, generated = _access(host, token, token_file, allow_host, allow_origin)
+    private_dir(out)
     with RunLock(out):
-        app = create_annotate_app(dataset, out, opts)
-        _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)")
+        app = create_annotate_app(dataset, out, opts, access)
+        _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)", access,
+               generated)
 
 
 @click.command("mix")

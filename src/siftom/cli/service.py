@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -16,6 +17,8 @@ from siftom.speech.cli_options import whisper_model_option
 if TYPE_CHECKING:
     from siftom.bench.runlock import RunLock
 
+F = TypeVar("F", bound=Callable[..., Any])
+
 
 def _need_serve_extra() -> None:
     for module, package in (("fastapi", "fastapi"), ("uvicorn", "uvicorn"), ("multipart", "python-multipart")):
@@ -23,6 +26,117 @@ def _need_serve_extra() -> None:
             __import__(module)
         except ModuleNotFoundError:
             raise missing_extra("serve", package) from None
+
+
+def resolve_token(host: str, token: str | None, token_file: Path | None, configured: str | None = None
+                  ) -> tuple[str | None, bool]:
+    """The server's token and whether it was made here: ``--token``, ``--token-file``,
+    ``SIFTOM_TOKEN``, the setting ``service.token``, in that order; none of them and ``host``
+    beyond loopback: a fresh one (``secrets.token_urlsafe``). Loopback without one: None.
+
+    Raises:
+        OptionsError: both flags, an unreadable or empty token file, an unusable token.
+    """
+    import os
+
+    from siftom.errors import OptionsError
+    from siftom.options import check_token
+    from siftom.service.access import is_loopback, new_token
+
+    if token is not None and token_file is not None:
+        raise OptionsError("give the token once: --token or --token-file, not both")
+    if token is not None:
+        return check_token(token, "--token"), False
+    if token_file is not None:
+        try:
+            text = token_file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise OptionsError(f"cannot read the token file {str(token_file)!r} ({type(exc).__name__}); give a "
+                               "UTF-8 text file holding the token on one line") from None
+        return check_token(text, f"the token file {str(token_file)!r}"), False
+    env = os.environ.get("SIFTOM_TOKEN")
+    if env is not None:
+        return check_token(env, "SIFTOM_TOKEN"), False
+    if configured is not None:
+        return configured, False
+    if is_loopback(host):
+        return None, False
+    return new_token(), True
+
+
+def ready_urls(host: str, port: int, token: str | None) -> list[str]:
+    """The URLs to open: ``http://HOST:PORT/`` (with ``?token=`` when ``token``); for a wildcard
+    host, this machine's name and loopback."""
+    import socket
+
+    hosts = [host]
+    if host in ("0.0.0.0", "::", ""):
+        hosts = [socket.gethostname(), "127.0.0.1"]
+    tail = f"?token={token}" if token else ""
+    return [f"http://{f'[{h}]' if ':' in h else h}:{port}/{tail}" for h in hosts]
+
+
+def bound_names(host: str) -> list[str]:
+    """Host names the server is reached by because of where it listens: the bound host, or for a
+    wildcard this machine's name (the printed URL uses it)."""
+    import socket
+
+    from siftom.service.access import is_ip
+
+    if host in ("0.0.0.0", "::", ""):
+        name = socket.gethostname().lower()
+        return [name] if "." in name else [name, f"{name}.local"]
+    return [] if is_ip(host.strip("[]")) else [host.lower()]
+
+
+def access_for(host: str, token: str | None, hosts: tuple[str, ...], origins: tuple[str, ...]) -> Any:
+    """The :class:`~siftom.service.access.Access` of a server on ``host`` (bound names allowed);
+    an OptionsError names a malformed --allow-host or --allow-origin."""
+    from siftom.service.access import Access
+
+    return Access(token=token, hosts=(*hosts, *bound_names(host)), origins=origins)
+
+
+access_options = [
+    click.option("--token", default=None,
+                 help="the token every request must carry (Authorization: Bearer TOKEN, or ?token= in a page URL); "
+                      "default: SIFTOM_TOKEN, then the setting service.token, then a fresh one printed at start "
+                      "when --host is not loopback"),
+    click.option("--token-file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                 help="read the token from this file (keeps it out of the process list)"),
+    click.option("--allow-host", "allow_host", multiple=True, metavar="NAME",
+                 help="a Host name to answer to beyond localhost, IP addresses and --host (repeatable; "
+                      "'*': any; others get 400, a guard against DNS rebinding)"),
+    click.option("--allow-origin", "allow_origin", multiple=True, metavar="ORIGIN",
+                 help="scheme://host[:port] of a page allowed to post and stream here beyond the server's own "
+                      "(repeatable; others get 403)"),
+]
+
+
+def with_access_options(fn: F) -> F:
+    """Add ``--token``, ``--token-file``, ``--allow-host`` and ``--allow-origin`` to a command."""
+    for opt in reversed(access_options):
+        fn = opt(fn)
+    return fn
+
+
+def announce(what: str, host: str, port: int, token: str | None, generated: bool, extra: str = "") -> None:
+    """Print where the server listens, with the token's URL when this process made the token."""
+    from siftom.service.access import is_loopback
+
+    if not is_loopback(host):
+        click.echo(f"note: listening on {host}: other machines can reach it; every request needs the token",
+                   err=True)
+    if token is not None and generated:
+        urls = ready_urls(host, port, token)
+        click.echo(f"siftom: {what} at {urls[0]}{extra}", err=True)
+        for url in urls[1:]:
+            click.echo(f"        or {url}", err=True)
+        click.echo("        robots send the header: Authorization: Bearer " + token, err=True)
+        return
+    urls = ready_urls(host, port, None)
+    given = " (with the token you gave: ?token=TOKEN or Authorization: Bearer TOKEN)" if token else ""
+    click.echo(f"siftom: {what} at {urls[0]}{extra}{given}", err=True)
 
 
 def claim_data_dir(data_dir: str) -> RunLock:
@@ -69,22 +183,26 @@ def claim_data_dir(data_dir: str) -> RunLock:
               help="worker processes scoring audio requests in parallel (0: in the request thread)")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
+@with_access_options
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
               max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
               max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
-              audio_workers: int | None, config_file: Path | None,
+              audio_workers: int | None, config_file: Path | None, token: str | None, token_file: Path | None,
+              allow_host: tuple[str, ...], allow_origin: tuple[str, ...],
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
-    Unset limits come from the settings (``siftom config show``: sessions.*, service.*). The
-    "llm" likelihood uses the --llm-* flags or SIFTOM_LLM_* (GET /healthz shows which).
+    Beyond loopback every request needs a token (printed at start with a ready URL, or given with
+    --token, --token-file or SIFTOM_TOKEN; docs/security.md). Unset limits come from the settings
+    (``siftom config show``: sessions.*, service.*). The "llm" likelihood uses the --llm-* flags
+    or SIFTOM_LLM_* (GET /healthz shows which).
     """
     _need_serve_extra()
     import uvicorn
 
-    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
     from siftom.observer import Observer
+    from siftom.private import private_umask
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
     from siftom.settings import Settings
@@ -103,7 +221,12 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     need = settings.sessions.max_world_bytes + 4096
     if settings.max_body_bytes < need:
         settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
-    click.echo(f"siftom: web page at http://{host}:{port}/ , API schema at /openapi.json", err=True)
+    token, generated = resolve_token(host, token, token_file, settings.token)
+    access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
+    settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
+    private_umask()  # sessions, ratings, maps: 0600 files in 0700 folders
+    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
+    announce("web page", host, port, token, generated, " , API schema at /openapi.json")
     # every request goes through one observer built from these settings (as siftom.infer does)
     observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
     app = create_app(data_dir, settings, observer)

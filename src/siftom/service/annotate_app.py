@@ -2,9 +2,11 @@
 
 An annotator agrees to the consent text, then gets one stimulus per page: the scene after each
 observed action (not the goal), the recording, a box for what they heard and a form with the
-scene's items (and counts). Endpoints: ``GET /api/annotation``, ``POST /api/annotators``,
-``GET /api/annotators/{a}/next``, ``GET /api/annotators/{a}/{pos}/audio.wav``,
-``GET /api/annotators/{a}/{pos}/frames/{step}.png``, ``POST /api/annotators/{a}/answers``.
+scene's items (and counts). Endpoints: ``GET /api/annotation``, ``POST /api/annotators`` (the
+answer holds the annotator's secret ``key``), ``GET /api/annotators/{key}/next``,
+``GET /api/annotators/{key}/{pos}/audio.wav``, ``GET /api/annotators/{key}/{pos}/frames/{step}.png``,
+``POST /api/annotators/{key}/answers``. The key is the annotator's own: with any other string
+the recordings and answers are a 403.
 """
 
 from __future__ import annotations
@@ -18,16 +20,18 @@ from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
 from siftom.bench.collect import action_words
-from siftom.bench.human import ANNOTATOR_ID, AnnotateOptions, Annotation, answer_form
+from siftom.bench.human import AnnotateOptions, Annotation, answer_form
 from siftom.bench.stimuli import scenario_for
+from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 
-AID = PathParam(pattern=ANNOTATOR_ID.pattern, description="the annotator id POST /api/annotators gave")
+KEY = PathParam(pattern=r"^[A-Za-z0-9_-]{16,100}$", description="the key POST /api/annotators gave")
 
 
 class Join(BaseModel):
     annotator: str | None = Field(default=None, max_length=32)
     agree: bool
+    key: str | None = Field(default=None, max_length=100, description="to continue: the key this id got before")
 
 
 class Answer(BaseModel):
@@ -38,11 +42,13 @@ class Answer(BaseModel):
     seconds: float | None = Field(default=None, ge=0, le=86400)
 
 
-def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateOptions) -> FastAPI:
-    """The annotation page and its API over ``dataset``, writing into ``out``."""
+def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateOptions,
+                        access: Access | None = None) -> FastAPI:
+    """The annotation page and its API over ``dataset``, writing into ``out`` (``access``: the
+    Host, Origin and token checks, :mod:`siftom.service.access`)."""
     ann = Annotation(dataset, out, options)
     frames = Frames(Path(out) / ".frames")
-    app, run_cpu = page_app("siftom annotate", "annotate.html")
+    app, run_cpu = page_app("siftom annotate", "annotate.html", access=access)
     app.state.annotation = ann
 
     def view(aid: str) -> dict[str, Any]:
@@ -68,25 +74,30 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
         if not req.agree:
             raise ProblemError(422, "no-consent", "annotating needs your agreement to the text above; tick the box "
                                "to agree, or close the page to stop")
-        who = await run_cpu(ann.join, req.annotator or None)
-        return await run_cpu(view, who["annotator"])
+        who = await run_cpu(ann.join, req.annotator or None, req.key)
+        return {**await run_cpu(view, who["annotator"]), "key": who["key"]}
 
-    @app.get("/api/annotators/{aid}/next")
-    async def next_(aid: str = AID) -> dict[str, Any]:
-        return await run_cpu(view, aid)
+    async def whose(key: str) -> str:
+        aid: str = await run_cpu(ann.annotator_for, key)
+        return aid
 
-    @app.get("/api/annotators/{aid}/{pos}/audio.wav", response_class=FileResponse)
-    async def audio(pos: int, aid: str = AID) -> FileResponse:
-        s = ann.stimulus_at(aid, pos)
+    @app.get("/api/annotators/{key}/next")
+    async def next_(key: str = KEY) -> dict[str, Any]:
+        return await run_cpu(view, await whose(key))
+
+    @app.get("/api/annotators/{key}/{pos}/audio.wav", response_class=FileResponse)
+    async def audio(pos: int, key: str = KEY) -> FileResponse:
+        s = ann.stimulus_at(await whose(key), pos)
         return FileResponse(ann.ds.audio_path(s), media_type="audio/wav")
 
-    @app.get("/api/annotators/{aid}/{pos}/frames/{step}.png", response_class=FileResponse)
-    async def frame(pos: int, step: int, aid: str = AID) -> FileResponse:
-        sc = scenario_for(ann.stimulus_at(aid, pos))
+    @app.get("/api/annotators/{key}/{pos}/frames/{step}.png", response_class=FileResponse)
+    async def frame(pos: int, step: int, key: str = KEY) -> FileResponse:
+        sc = scenario_for(ann.stimulus_at(await whose(key), pos))
         return png_response(await run_cpu(frames.png, sc, step))
 
-    @app.post("/api/annotators/{aid}/answers", status_code=201)
-    async def answer(req: Answer, aid: str = AID) -> dict[str, Any]:
+    @app.post("/api/annotators/{key}/answers", status_code=201)
+    async def answer(req: Answer, key: str = KEY) -> dict[str, Any]:
+        aid = await whose(key)
         await run_cpu(ann.answer, aid, req.position, req.typed, req.item, req.count, req.seconds)
         return await run_cpu(view, aid)
 

@@ -8,6 +8,10 @@ Endpoints (docs/service.md has examples):
 * ``POST /v1/perceive``: camera frames -> world, actions and goals through a vision model.
 * ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
 * ``GET /healthz``; ``GET /openapi.json``; the API docs at ``/docs``; the web page at ``/``.
+* Every request is checked (:mod:`siftom.service.access`, docs/security.md): its ``Host``
+  (loopback names, IP addresses, ``settings.allowed_hosts``), the ``Origin`` of a POST, PUT,
+  PATCH, DELETE or WebSocket, and with a token (``settings.token``) the token on every request
+  but ``/healthz`` and the static files.
 * ``/v1/sessions``: a robot's own world, streamed actions, instructions
   (:mod:`siftom.service.session_api`); ratings of a trial (:mod:`siftom.service.ratings_api`);
   ``WS /v1/sessions/{id}/listen``: streamed microphone audio, answered utterance by utterance
@@ -38,6 +42,7 @@ from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import UnknownNameError
 from siftom.observer import Observer
+from siftom.service.access import Access, AccessGuard, authenticated
 from siftom.service.problems import (
     PROBLEM_JSON,
     BodyLimitMiddleware,
@@ -85,8 +90,9 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     """Build the app.
 
     Args:
-        data_dir: the service's own folder (map PNG cache); a fresh temporary folder if None.
-            No request reads or writes anywhere else.
+        data_dir: the service's own folder (map PNG cache, sessions); a fresh temporary folder
+            if None, removed by ``app.state.runtime.close()``. No request reads or writes
+            anywhere else. Files are created 0600 in 0700 folders.
         settings: every option (a ``Settings``: its ``service`` section gives the limits), or the
             service's limits alone (``ServiceSettings``; the rest from :meth:`Settings.load`).
         observer: the observer every inference goes through (default: one built from the settings).
@@ -100,12 +106,14 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     if observer is None:
         observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
     folder = Path(data_dir) if data_dir is not None else default_data_dir()
-    rt = Runtime(settings, folder, observer)
+    rt = Runtime(settings, folder, observer, owns_dir=data_dir is None)  # a temporary folder goes on close
     app = FastAPI(title="siftom", version=_version(), docs_url=None, redoc_url=None,
                   description="Follow noisy spoken instructions by inferring what the person is doing (SIFToM).")
     app.state.runtime = rt
     install_handlers(app)
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    access = Access(token=settings.token, hosts=settings.allowed_hosts, origins=settings.allowed_origins)
+    app.add_middleware(AccessGuard, access=access)  # Host, Origin, token: docs/security.md
     app.add_middleware(SecurityHeadersMiddleware)
     limiter: list[anyio.CapacityLimiter] = []
 
@@ -148,8 +156,11 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     settings_view = {key: _jsonable(value) for key, value, _ in observer.settings.show()}
 
     @app.get("/healthz", tags=["meta"])
-    async def healthz() -> dict[str, Any]:
-        """Liveness, version and what this server offers."""
+    async def healthz(request: Request) -> dict[str, Any]:
+        """Liveness; with the token (or on a server without one) also the version and what this
+        server offers."""
+        if not authenticated(request):  # open to monitors, but nothing about the server
+            return {"status": "ok", "token_required": True}
         from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices

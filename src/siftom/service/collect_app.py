@@ -2,9 +2,12 @@
 would ask the robot; recordings land in a dataset folder (:mod:`siftom.bench.collect`).
 
 Endpoints: ``GET /api/collection`` (domain, consent text, how many scenarios),
-``POST /api/participants`` (agree to the consent text), ``GET /api/prompts/{k}`` (scenario
-``k``: actions, goal in words, what to ask for), ``GET /api/prompts/{k}/frames/{step}.png``,
-``POST /api/recordings`` (multipart: ``participant``, ``index``, ``reference``, ``audio``).
+``POST /api/participants`` (agree to the consent text; the answer holds the participant's
+secret ``key``), ``GET /api/prompts/{k}`` (scenario ``k``: actions, goal in words, what to ask
+for), ``GET /api/prompts/{k}/frames/{step}.png``, ``POST /api/recordings`` (multipart:
+``participant``, ``key``, ``index``, ``reference``, ``audio``). A recording needs the
+participant's key (403 otherwise); a page started for one participant (``--participant``)
+accepts no other.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
 from siftom.bench.collect import Collection, CollectOptions
+from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 from siftom.service.problems import ProblemError, read_audio_form
 
@@ -24,13 +28,15 @@ from siftom.service.problems import ProblemError, read_audio_form
 class Agreement(BaseModel):
     participant: str = Field(min_length=1, max_length=32)
     agree: bool
+    key: str | None = Field(default=None, max_length=100, description="the key this participant got before")
 
 
-def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
-    """The recording page and its API, writing into the dataset folder ``out``."""
+def create_collect_app(out: str | Path, options: CollectOptions, access: Access | None = None) -> FastAPI:
+    """The recording page and its API, writing into the dataset folder ``out`` (``access``: the
+    Host, Origin and token checks, :mod:`siftom.service.access`)."""
     coll = Collection(out, options)
     frames = Frames(Path(out) / ".frames")
-    app, run_cpu = page_app("siftom collect", "collect.html")
+    app, run_cpu = page_app("siftom collect", "collect.html", access=access)
     app.state.collection = coll
 
     def index_of(k: int) -> int:
@@ -38,6 +44,11 @@ def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
             raise ProblemError(404, "no-scenario", f"there is no scenario {k}; this collection has "
                                f"{len(coll.prompts)} (0 to {len(coll.prompts) - 1})")
         return k
+
+    def only(pid: str) -> None:
+        if options.participant is not None and pid != options.participant:
+            raise ProblemError(403, "participant", f"this page records participant {options.participant!r} only; "
+                               "start siftom collect without --participant (or with this id) for another one")
 
     @app.get("/api/collection")
     async def info() -> dict[str, Any]:
@@ -49,10 +60,11 @@ def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
         if not req.agree:
             raise ProblemError(422, "no-consent", "recording needs your agreement to the text above; "
                                "tick the box to agree, or close the page to stop")
-        if options.participant is not None and req.participant != options.participant:
-            raise ProblemError(422, "participant", f"this page records participant {options.participant!r}")
-        await run_cpu(coll.agree, req.participant)
-        return {"participant": req.participant, "done": coll.done(req.participant), "scenarios": len(coll.prompts)}
+        only(req.participant)
+        # a page started for one participant gives them a new key each time they agree
+        rec = await run_cpu(coll.agree, req.participant, req.key, options.participant is not None)
+        return {"participant": req.participant, "key": rec["key"], "done": coll.done(req.participant),
+                "scenarios": len(coll.prompts)}
 
     @app.get("/api/prompts/{k}")
     async def prompt(k: int) -> dict[str, Any]:
@@ -65,13 +77,14 @@ def create_collect_app(out: str | Path, options: CollectOptions) -> FastAPI:
 
     @app.post("/api/recordings", status_code=201)
     async def record(request: Request) -> dict[str, Any]:
-        fields, data = await read_audio_form(request, max_fields=4, max_part_size=8 * 2**20)
+        fields, data = await read_audio_form(request, max_fields=5, max_part_size=8 * 2**20)
         try:
             k = int(fields.get("index", ""))
         except ValueError:
             raise ProblemError(422, "validation", "index: give the scenario index as a whole number") from None
         pid = fields.get("participant", "")
-        stim = await run_cpu(coll.save, pid, index_of(k), data, fields.get("reference", ""))
+        only(pid)
+        stim = await run_cpu(coll.save, pid, index_of(k), data, fields.get("reference", ""), fields.get("key", ""))
         return {"id": stim.id, "audio": stim.audio, "duration_s": stim.duration_s, "done": coll.done(pid)}
 
     return app

@@ -22,6 +22,7 @@ from fastapi import FastAPI
 from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 
+from siftom.service.access import Access, AccessGuard
 from siftom.service.problems import (
     BodyLimitMiddleware,
     ProblemError,
@@ -35,11 +36,16 @@ R = TypeVar("R")
 RunCpu = Callable[..., Awaitable[Any]]
 
 
-def page_app(title: str, page: str, max_body: int = MAX_BODY) -> tuple[FastAPI, RunCpu]:
-    """An app serving ``static/PAGE`` at ``/`` and the static files; returns it and a ``run_cpu``."""
+def page_app(title: str, page: str, max_body: int = MAX_BODY, access: Access | None = None
+             ) -> tuple[FastAPI, RunCpu]:
+    """An app serving ``static/PAGE`` at ``/`` and the static files; returns it and a ``run_cpu``.
+
+    ``access``: the Host, Origin and token checks (:mod:`siftom.service.access`; default: Host
+    and Origin only)."""
     app = FastAPI(title=title, docs_url=None, redoc_url=None, openapi_url=None)
     install_handlers(app)
     app.add_middleware(BodyLimitMiddleware, max_bytes=max_body)
+    app.add_middleware(AccessGuard, access=access or Access())
     app.add_middleware(SecurityHeadersMiddleware)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
     limiter = anyio.CapacityLimiter(2)

@@ -18,7 +18,7 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from siftom.errors import BackendUnavailableError, SiftomError, UnknownNameError
+from siftom.errors import BackendUnavailableError, NotYoursError, SiftomError, UnknownNameError
 
 log = logging.getLogger("siftom.service")
 PROBLEM_JSON = "application/problem+json"
@@ -91,6 +91,10 @@ def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(UnknownNameError)
     async def _unknown(_: Request, exc: UnknownNameError) -> JSONResponse:
         return problem_response(404, "unknown-name", str(exc))
+
+    @app.exception_handler(NotYoursError)
+    async def _not_yours(_: Request, exc: NotYoursError) -> JSONResponse:
+        return problem_response(403, "not-yours", str(exc))
 
     @app.exception_handler(BackendUnavailableError)
     async def _backend(_: Request, exc: BackendUnavailableError) -> JSONResponse:

@@ -20,6 +20,7 @@ from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
 from siftom.bench.ratings import RATINGS, SCALE, STATEMENTS, session_model
+from siftom.private import append_private
 from siftom.service.people import STATIC
 from siftom.service.problems import PROBLEM_JSON, ProblemError
 from siftom.service.session_schemas import SESSION_ID
@@ -69,7 +70,7 @@ def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
                    "command": last.get("command"), "action": last.get("action"),
                    "top_command": last.get("top_command"), "n_actions": len(sess.actions), "scores": list(req.scores),
                    "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            with lock, open(rt.data_dir / RATINGS, "a", encoding="utf-8") as f:
+            with lock, append_private(rt.data_dir / RATINGS) as f:
                 f.write(json.dumps(rec) + "\n")
             return rec
 

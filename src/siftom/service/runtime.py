@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import tempfile
@@ -36,6 +37,7 @@ from siftom.options import (
     available_likelihoods,
     service_llm_config,
 )
+from siftom.private import private_dir
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.settings import Settings
 
@@ -76,11 +78,14 @@ class Runtime:
     """Caches and locks shared by the request handlers (see module doc); inference goes through
     the app's one :class:`~siftom.observer.Observer`."""
 
-    def __init__(self, settings: ServiceSettings, data_dir: Path, observer: Observer | None = None) -> None:
+    def __init__(self, settings: ServiceSettings, data_dir: Path, observer: Observer | None = None,
+                 owns_dir: bool = False) -> None:
         self.settings = settings
         self.data_dir = data_dir
+        self.owns_dir = owns_dir  # a temporary folder made for this runtime: close() removes it
+        self.closers: list[Any] = []  # called by close() before the folder goes (the session store)
         self.map_dir = data_dir / "maps"
-        self.map_dir.mkdir(parents=True, exist_ok=True)
+        private_dir(self.map_dir)
         self.started = time.time()
         self.observer = observer if observer is not None else Observer(
             offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
@@ -97,9 +102,18 @@ class Runtime:
         self._warm.start()
 
     def close(self) -> None:
-        """Stop the audio worker processes, if any."""
+        """Stop the audio worker processes, if any, close the stores and remove the data folder
+        when it is a temporary one made for this runtime. Safe to call twice."""
         if self.audio_pool is not None:
             self.audio_pool.close()
+        while self.closers:
+            with contextlib.suppress(Exception):  # closing what is already closed
+                self.closers.pop()()
+        if self.owns_dir:
+            import shutil
+
+            shutil.rmtree(self.data_dir, ignore_errors=True)
+            self.owns_dir = False
 
     def _load_default_audio_model(self) -> None:
         """Load the acoustic model (Whisper) in the background, so the first recording, which gets it
@@ -282,7 +296,7 @@ class Runtime:
 
 
 def default_data_dir() -> Path:
-    """A fresh private folder for the service's files (maps)."""
+    """A fresh private folder (0700) for the service's files; :meth:`Runtime.close` removes it."""
     return Path(tempfile.mkdtemp(prefix="siftom-serve-"))
 
 

@@ -65,7 +65,9 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
     """Add the session endpoints; the store lives in ``rt.data_dir / 'sessions.sqlite3'``."""
     settings = rt.settings
     limits = settings.sessions
-    mgr = SessionManager(SessionStore(rt.data_dir / "sessions.sqlite3"), limits, rt.observer)
+    store = SessionStore(rt.data_dir / "sessions.sqlite3")
+    mgr = SessionManager(store, limits, rt.observer)
+    rt.closers.append(store.close)
     app.state.sessions = mgr
     sid_param = PathParam(pattern=SESSION_ID, description="the id POST /v1/sessions returned")
 

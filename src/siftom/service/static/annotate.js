@@ -1,12 +1,30 @@
 // The annotation page: consent, then one stimulus per page: look, listen, type, choose, submit.
 "use strict";
 
-const st = { annotator: null, view: null, shown: 0 };
+const st = { annotator: null, key: null, view: null, shown: 0 };
+
+// The annotator's own link: the key travels in the fragment, which is never sent to the server.
+function keyFromLink() {
+  const m = /(?:^|[#&])key=([A-Za-z0-9_-]{16,100})/.exec(location.hash);
+  return m ? m[1] : null;
+}
+
+function ownLink() {
+  return `${location.origin}${location.pathname}#key=${st.key}`;
+}
 
 async function init() {
   const info = await api("/api/annotation");
   $("consent-text").textContent = info.consent;
   st.viewer = new FrameViewer("scene");
+  const key = keyFromLink();
+  if (key) {  // coming back with one's own link: go on where one stopped
+    st.key = key;
+    const v = await api(`/api/annotators/${key}/next`);
+    st.annotator = v.annotator;
+    $("consent-panel").hidden = true;
+    show(v);
+  }
 }
 
 async function start(ev) {
@@ -29,6 +47,7 @@ async function start(ev) {
       body: JSON.stringify({ annotator: id || null, agree: true }),
     });
     st.annotator = v.annotator;
+    st.key = v.key;
     $("consent-panel").hidden = true;
     show(v);
   } catch (e) { showError(e.message); }
@@ -51,9 +70,9 @@ function show(v) {
     focusHeading("done-title");
     return;
   }
-  const base = `/api/annotators/${encodeURIComponent(st.annotator)}/${v.position}`;
+  const base = `/api/annotators/${encodeURIComponent(st.key)}/${v.position}`;
   $("task-title").textContent = `Recording ${v.answered + 1} of ${v.total}`;
-  $("who").textContent = `Your annotator id is ${v.annotator}: type it on the first page to continue later.`;
+  $("who").textContent = `Your annotator id is ${v.annotator}. To continue later, keep this link (it is yours alone): ${ownLink()}`;
   st.viewer.load((step) => `${base}/frames/${step}.png`, v.actions);
   $("player").src = `${base}/audio.wav`;
   $("typed").value = "";
@@ -90,7 +109,7 @@ async function submit(ev) {
   if (counted) body.count = Number($("count").value);
   setStatus("saving…");
   try {
-    show(await api(`/api/annotators/${encodeURIComponent(st.annotator)}/answers`, {
+    show(await api(`/api/annotators/${encodeURIComponent(st.key)}/answers`, {
       method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
     }));
   } catch (e) { showError(`Not saved: ${e.message}`); setStatus(""); }

@@ -1,7 +1,7 @@
 // The recording page: consent, then one scenario at a time: look, record, listen, type, save.
 "use strict";
 
-const st = { info: null, participant: null, done: new Set(), index: 0, wav: null, recorder: null };
+const st = { info: null, participant: null, key: null, done: new Set(), index: 0, wav: null, recorder: null };
 
 async function init() {
   st.info = await api("/api/collection");
@@ -31,9 +31,12 @@ async function start(ev) {
   try {
     const r = await api("/api/participants", {
       method: "POST", headers: { "Content-Type": "application/json" },
-      body: JSON.stringify({ participant: pid, agree: true }),
+      // the key of this participant, if this tab has recorded for them before (a reload)
+      body: JSON.stringify({ participant: pid, agree: true, key: sessionStorage.getItem(`siftom-key:${pid}`) }),
     });
     st.participant = pid;
+    st.key = r.key;
+    sessionStorage.setItem(`siftom-key:${pid}`, r.key);
     st.done = new Set(r.done);
     $("consent-panel").hidden = true;
     await next();
@@ -99,6 +102,7 @@ async function save(ev) {
   if (!said) { showError("Type what you said, word for word, before saving."); $("said").focus(); return; }
   const form = new FormData();
   form.append("participant", st.participant);
+  form.append("key", st.key);
   form.append("index", String(st.index));
   form.append("reference", said);
   form.append("audio", st.wav, "recording.wav");

@@ -1,0 +1,322 @@
+"""Who may use a siftom server: the Host it is asked by, the page a request comes from, a token
+(docs/security.md).
+
+* **Host allow-list** (against DNS rebinding: a web page whose name the attacker points at this
+  machine): the ``Host`` header must be a loopback name (``localhost``, ``127.0.0.1``, ``::1``),
+  an IP address (an address cannot be rebound), or a configured name (``--allow-host``, the
+  bound host); any other is a 400. ``*`` turns the check off (a proxy that checks the names).
+* **Origin check**: a state-changing request (POST, PUT, PATCH, DELETE) or a WebSocket whose
+  ``Origin`` header is present and is neither this server's own origin (the same host and
+  port as the ``Host`` header) nor a configured origin (``--allow-origin``) is a 403: a page
+  on another site cannot post to the server or stream into it.
+
+* **Token**: when the server has one (``siftom serve`` makes one whenever it listens beyond
+  loopback), every request but ``/healthz``, ``/static/*`` and ``/favicon.ico`` must carry it:
+  ``Authorization: Bearer TOKEN`` (robots), a ``?token=TOKEN`` query parameter, or the cookie
+  that a page URL with ``?token=`` sets (HttpOnly, SameSite=Strict; the browser is then sent
+  to the same URL without the token). The WebSocket accepts the same three. Tokens are
+  compared in constant time (:func:`secrets.compare_digest`). The ``token`` query parameter is
+  taken out of the request before the app (and the access log) sees it.
+* Without a token, a request gets in (loopback only: ``siftom serve`` refuses to listen
+  elsewhere without one).
+
+:class:`AccessGuard` is the ASGI middleware; :func:`authenticated` tells a handler whether its
+request proved the token (``/healthz`` shows its details only then).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import ipaddress
+import json
+import secrets
+from dataclasses import dataclass
+from http.cookies import SimpleCookie
+from typing import Any
+from urllib.parse import parse_qsl, urlencode
+
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from siftom.errors import OptionsError
+from siftom.options import check_token
+from siftom.service.problems import problem
+
+LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+OPEN_PATHS = ("/healthz", "/favicon.ico")
+OPEN_PREFIXES = ("/static/",)
+CLOSE_UNAUTHORIZED = 4401  # a WebSocket without the token
+UNSAFE_METHODS = ("POST", "PUT", "PATCH", "DELETE")
+AUTH_KEY = "siftom.authenticated"  # set on every scope by AccessGuard
+
+
+def new_token() -> str:
+    """A fresh token: 32 random bytes, URL-safe (43 characters)."""
+    return secrets.token_urlsafe(32)
+
+
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
+    host = host.strip().strip("[]").lower()
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def cookie_name(token: str) -> str:
+    """The cookie holding ``token``: named after a digest of it, so that servers on other ports
+    of the same machine (cookies ignore ports) keep their own."""
+    return "siftom-token-" + hashlib.sha256(token.encode()).hexdigest()[:8]
+
+
+def authenticated(scope_or_request: Any) -> bool:
+    """Whether the request proved the token (always True on a server without one)."""
+    scope = getattr(scope_or_request, "scope", scope_or_request)
+    return bool(scope.get(AUTH_KEY, True))
+
+
+def _headers(scope: Scope) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for k, v in scope.get("headers", ()):
+        name = k.decode("latin-1").lower()
+        value = v.decode("latin-1")
+        out[name] = f"{out[name]}; {value}" if name == "cookie" and name in out else value
+    return out
+
+
+def split_host(value: str) -> tuple[str, str]:
+    """``Host``-header value -> (host name lowercased without brackets or a final dot, port or '')."""
+    value = value.strip().lower()
+    if value.startswith("["):
+        host, _, rest = value[1:].partition("]")
+        return host, rest[1:] if rest.startswith(":") else ""
+    host, sep, port = value.rpartition(":")
+    if sep and port.isdigit() and ":" not in host:
+        return host.rstrip("."), port
+    return value.rstrip("."), ""
+
+
+def is_ip(host: str) -> bool:
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+DEFAULT_PORTS = {"http": "80", "https": "443", "ws": "80", "wss": "443"}
+
+
+def normal_origin(origin: str) -> str | None:
+    """``scheme://host[:port]`` lowercased, the scheme's default port left out; None if malformed."""
+    scheme, sep, rest = origin.strip().lower().partition("://")
+    if not sep or scheme not in DEFAULT_PORTS or not rest or "/" in rest:
+        return None
+    host, port = split_host(rest)
+    if not host:
+        return None
+    shown = f"[{host}]" if ":" in host else host
+    return f"{scheme}://{shown}" + (f":{port}" if port and port != DEFAULT_PORTS[scheme] else "")
+
+
+def check_host_name(name: str) -> str:
+    """A name for ``--allow-host`` (``*`` for any), lowercased; an OptionsError when malformed."""
+    host = name.strip().lower().rstrip(".")
+    if host == "*":
+        return host
+    host = host.strip("[]")
+    if not host or any(ch in host for ch in "/ @?#") or (":" in host and not is_ip(host)):
+        raise OptionsError(f"--allow-host {name!r}: give a host name or address without scheme or port, "
+                           "e.g. --allow-host robot-hub.local")
+    return host
+
+
+def check_origin(origin: str) -> str:
+    """An origin for ``--allow-origin`` (``*`` for any), normalised; an OptionsError when malformed."""
+    if origin.strip() == "*":
+        return "*"
+    got = normal_origin(origin)
+    if got is None:
+        raise OptionsError(f"--allow-origin {origin!r}: give scheme://host[:port] with no path, "
+                           "e.g. --allow-origin https://robot-hub.example")
+    return got
+
+
+@dataclass(frozen=True)
+class Access:
+    """What a server checks (see module doc).
+
+    Attributes:
+        token: the token every request must carry; None: none asked for.
+        hosts: ``Host`` names accepted beyond the loopback names and IP addresses (``*``: any).
+        origins: ``Origin`` values accepted beyond the server's own (``*``: any).
+    """
+
+    token: str | None = None
+    hosts: tuple[str, ...] = ()
+    origins: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.token is not None:
+            object.__setattr__(self, "token", check_token(self.token))
+        object.__setattr__(self, "hosts", tuple(check_host_name(h) for h in self.hosts))
+        object.__setattr__(self, "origins", tuple(check_origin(o) for o in self.origins))
+
+    def host_allowed(self, host_header: str | None) -> bool:
+        if "*" in self.hosts:
+            return True
+        if not host_header:
+            return False
+        host, _ = split_host(host_header)
+        return host in LOOPBACK_NAMES or is_ip(host) or host in self.hosts
+
+    def origin_allowed(self, origin: str, host_header: str | None, scheme: str) -> bool:
+        """An Origin header is this server's own (same host and port as the Host header) or allowed."""
+        if "*" in self.origins:
+            return True
+        got = normal_origin(origin)
+        if got is None:  # "null" (a sandboxed page, a file) or garbage
+            return False
+        if got in self.origins:
+            return True
+        if not host_header:
+            return False
+        o_scheme, _, o_rest = got.partition("://")
+        o_host, o_port = split_host(o_rest)
+        h_host, h_port = split_host(host_header)
+        # the scheme may differ behind a proxy that ends TLS: compare host and port
+        o_port = o_port or DEFAULT_PORTS[o_scheme]
+        h_port = h_port or DEFAULT_PORTS.get(o_scheme, DEFAULT_PORTS.get(scheme, "80"))
+        return (o_host, o_port) == (h_host, h_port)
+
+
+class AccessGuard:
+    """ASGI middleware enforcing :class:`Access` on HTTP requests and WebSockets."""
+
+    def __init__(self, app: ASGIApp, access: Access) -> None:
+        self.app, self.access = app, access
+        tok = access.token
+        self._token = tok.encode() if tok else None
+        self._cookie = cookie_name(tok) if tok else ""
+
+    def _matches(self, given: str | None) -> bool:
+        return (self._token is not None and given is not None
+                and secrets.compare_digest(given.encode("utf-8", "replace"), self._token))
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        headers = _headers(scope)
+        host = headers.get("host")
+        if not self.access.host_allowed(host):
+            shown = (host or "")[:100]
+            name = split_host(shown)[0] or "NAME"
+            await self._deny(scope, receive, send, 400, "bad-host",
+                             f"this server does not answer to the Host {shown!r} (a guard against DNS rebinding); "
+                             f"open it as http://localhost:PORT/ or by IP address, or start it with --allow-host {name}")
+            return
+        origin = headers.get("origin")
+        unsafe = scope["type"] == "websocket" or scope.get("method") in UNSAFE_METHODS
+        if unsafe and origin is not None and not self.access.origin_allowed(origin, host, scope.get("scheme", "http")):
+            shown = origin[:100]
+            await self._deny(scope, receive, send, 403, "bad-origin",
+                             f"a request from the page {shown!r} is refused: pages of other sites cannot change this "
+                             "server's data or stream into it; open the page from this server, or start it with "
+                             f"--allow-origin {shown}")
+            return
+        # take ?token= out of the query: the app never sees it, nor does the access log
+        pairs = parse_qsl(scope.get("query_string", b"").decode("latin-1"), keep_blank_values=True)
+        from_query = [v for k, v in pairs if k == "token"]
+        if from_query:
+            scope["query_string"] = urlencode([(k, v) for k, v in pairs if k != "token"]).encode("latin-1")
+        if self._token is None:
+            scope[AUTH_KEY] = True
+            await self.app(scope, receive, send)
+            return
+        bearer = None
+        auth = headers.get("authorization", "")
+        if auth[:7].lower() == "bearer ":
+            bearer = auth[7:].strip()
+        jar: SimpleCookie = SimpleCookie()
+        try:
+            jar.load(headers.get("cookie", ""))
+        except Exception:  # a malformed Cookie header counts as none
+            jar = SimpleCookie()
+        cookie = jar[self._cookie].value if self._cookie in jar else None
+        query_ok = any(self._matches(v) for v in from_query)
+        ok = self._matches(bearer) or query_ok or self._matches(cookie)
+        scope[AUTH_KEY] = ok
+        path = scope.get("path", "")
+        if not ok and not (path in OPEN_PATHS or path.startswith(OPEN_PREFIXES)):
+            await self._refuse(scope, receive, send, bearer is not None or cookie is not None or bool(from_query))
+            return
+        if scope["type"] == "http" and query_ok:
+            await self._set_cookie(scope, receive, send, headers)
+            return
+        await self.app(scope, receive, send)
+
+    def _cookie_header(self, scope: Scope) -> bytes:
+        secure = "; Secure" if scope.get("scheme") == "https" else ""
+        return (f"{self._cookie}={self.access.token}; Path=/; HttpOnly; SameSite=Strict{secure}").encode()
+
+    async def _set_cookie(self, scope: Scope, receive: Receive, send: Send, headers: dict[str, str]) -> None:
+        """A page opened with ?token=: set the cookie and load the page again without the token
+        in the address bar; any other request is answered as usual, with the cookie set."""
+        cookie = (b"set-cookie", self._cookie_header(scope))
+        if scope.get("method") in ("GET", "HEAD") and "text/html" in headers.get("accept", ""):
+            qs = scope.get("query_string", b"").decode("latin-1")
+            location = scope.get("root_path", "") + scope.get("path", "/") + (f"?{qs}" if qs else "")
+            await send({"type": "http.response.start", "status": 303,
+                        "headers": [(b"location", location.encode("latin-1")), cookie,
+                                    (b"cache-control", b"no-store"), (b"content-length", b"0")]})
+            await send({"type": "http.response.body", "body": b""})
+            return
+
+        async def with_cookie(msg: Message) -> None:
+            if msg["type"] == "http.response.start":
+                msg = {**msg, "headers": [*msg.get("headers", []), cookie]}
+            await send(msg)
+
+        await self.app(scope, receive, with_cookie)
+
+    @staticmethod
+    async def _deny(scope: Scope, receive: Receive, send: Send, status: int, slug: str, detail: str) -> None:
+        """A problem response; a WebSocket is refused before its handshake completes."""
+        body = json.dumps(problem(status, slug, detail)).encode()
+        headers = [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode())]
+        if scope["type"] == "websocket":
+            msg = await receive()
+            if msg["type"] != "websocket.connect":
+                return
+            if "websocket.http.response" in scope.get("extensions", {}):
+                await send({"type": "websocket.http.response.start", "status": status, "headers": headers})
+                await send({"type": "websocket.http.response.body", "body": body})
+            else:
+                await send({"type": "websocket.close", "code": 4000 + status, "reason": detail[:123]})
+            return
+        await send({"type": "http.response.start", "status": status, "headers": headers})
+        await send({"type": "http.response.body", "body": body})
+
+    @staticmethod
+    async def _refuse(scope: Scope, receive: Receive, send: Send, wrong: bool) -> None:
+        what = "the token is wrong" if wrong else "this server needs its token"
+        fix = ("open the URL siftom serve printed (http://HOST:PORT/?token=...), or send the header "
+               "Authorization: Bearer TOKEN; the token is the one given with --token, --token-file or "
+               "SIFTOM_TOKEN")
+        if scope["type"] == "websocket":
+            msg = await receive()
+            if msg["type"] != "websocket.connect":
+                return
+            await send({"type": "websocket.accept"})
+            reason = f"{what}: send Authorization: Bearer TOKEN, or ?token=TOKEN"
+            await send({"type": "websocket.close", "code": CLOSE_UNAUTHORIZED, "reason": reason[:123]})
+            return
+        body = json.dumps(problem(401, "unauthorized", f"{what}: {fix}")).encode()
+        await send({"type": "http.response.start", "status": 401,
+                    "headers": [(b"content-type", b"application/problem+json"),
+                                (b"content-length", str(len(body)).encode()),
+                                (b"www-authenticate", b'Bearer realm="siftom"')]})
+        await send({"type": "http.response.body", "body": body})

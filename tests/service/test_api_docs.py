@@ -46,13 +46,13 @@ def test_docs_page_is_not_in_the_schema(client):
 
 
 def test_without_the_assets_docs_says_what_to_install(tmp_path, monkeypatch):
-    from fastapi.testclient import TestClient
+    from support.client import local_client
 
     from siftom.service import apidocs
     from siftom.service.app import create_app
 
     monkeypatch.setattr(apidocs, "assets_dir", lambda: None)
-    with TestClient(create_app(tmp_path)) as c:
+    with local_client(create_app(tmp_path)) as c:
         r = c.get("/docs")
     assert r.status_code == 501
     assert 'pip install "siftom[serve]"' in r.json()["detail"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from numpy.typing import ArrayLike
 
 
@@ -12,7 +13,7 @@ def logsumexp(x: ArrayLike, axis: int | None = None) -> np.ndarray:
     m = np.max(a, axis=axis, keepdims=True)
     m = np.where(np.isfinite(m), m, 0.0)
     with np.errstate(divide="ignore"):
-        out = np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m
+        out: npt.NDArray[np.float64] = np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m
     return out.squeeze(axis=axis) if axis is not None else out.reshape(())
 
 

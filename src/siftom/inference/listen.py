@@ -51,12 +51,13 @@ class Cache:
         """The value for ``key``, made by ``make()`` on a miss."""
         return self.get(key, make)
 
-    def get(self, key: Any, make: Callable[[], Any]) -> Any:
+    def get(self, key: Any, make: Callable[[], T]) -> T:
         """The value for ``key``, made by ``make()`` on a miss."""
         with self._lock:
             if key in self._d:
                 self._d.move_to_end(key)
-                return self._d[key]
+                hit: T = self._d[key]  # stored by make() for this key
+                return hit
         value = make()
         with self._lock:
             self._d[key] = value

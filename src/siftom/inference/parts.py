@@ -48,7 +48,8 @@ class HelpfulPartPrior:
 
     def log_prob(self, steps_saved: np.ndarray, goal_idx: np.ndarray, n_goals: int) -> np.ndarray:
         z = self.kappa * steps_saved
-        return z - group_logsumexp(z, goal_idx, n_goals)[goal_idx]
+        lp: np.ndarray = z - group_logsumexp(z, goal_idx, n_goals)[goal_idx]
+        return lp
 
 
 @dataclass
@@ -97,7 +98,8 @@ class BoltzmannActions:
 
     def log_lik(self, rows: np.ndarray) -> np.ndarray:
         """sum_t log P(a_t | s_t, row) with beta marginalised, for the given rows."""
-        return (logsumexp(self.cumulative, axis=1) - np.log(len(self._beta)))[rows]
+        ll: np.ndarray = (logsumexp(self.cumulative, axis=1) - np.log(len(self._beta)))[rows]
+        return ll
 
 
 @dataclass

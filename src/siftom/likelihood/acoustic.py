@@ -47,7 +47,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -74,6 +74,9 @@ from siftom.likelihood.keyphrases import (
 from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
+
+if TYPE_CHECKING:
+    from siftom.speech.acoustic import ForcedAligner
 
 FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
@@ -216,18 +219,19 @@ class AcousticLikelihood:
         self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model,
                                        prompt=whisper_prompt)
                          if self.uses_whisper else None)
-        self._aligner = aligner
+        self._aligner: Any = aligner  # a ForcedAligner (or a stand-in with its methods)
         self._loop: Any = None
         self._phonetic: Any = None
 
     @property
-    def aligner(self):  # noqa: ANN201 - ForcedAligner, imported lazily
+    def aligner(self) -> ForcedAligner:
         """The shared ForcedAligner."""
         if self._aligner is None:
             from siftom.speech.acoustic import ForcedAligner
 
             self._aligner = ForcedAligner()
-        return self._aligner
+        aligner: ForcedAligner = self._aligner
+        return aligner
 
     def _phonetic_lp(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> np.ndarray:
         if self._phonetic is None:

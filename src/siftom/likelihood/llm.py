@@ -167,7 +167,8 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
         config = LLMConfig.from_env(backend=backend, **cfg_kw)
     if config.backend == "llama" and kwargs.pop("cache_dir", None) is False:
         kwargs["use_cache"] = False
-    return LLM_BACKENDS.make(config.backend, config=config, **kwargs)
+    scorer: TextScorer = LLM_BACKENDS.make(config.backend, config=config, **kwargs)
+    return scorer
 
 
 class LLMLikelihood:

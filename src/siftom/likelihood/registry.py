@@ -85,4 +85,5 @@ def get_likelihood(name: str = DEFAULT, **kwargs: Any) -> InstructionLikelihood:
     skipped then (the backend is validated when the scorer is built).
     """
     entry = LIKELIHOODS.spec(name)
-    return entry.build(**kwargs) if kwargs.get("backend") is not None else entry.make(**kwargs)
+    lik: InstructionLikelihood = entry.build(**kwargs) if kwargs.get("backend") is not None else entry.make(**kwargs)
+    return lik

@@ -24,12 +24,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from siftom.likelihood.counts import COUNT_WORDS
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
+
+if TYPE_CHECKING:
+    from siftom.speech.whisper_score import WhisperScorer
+
+Encoded = tuple[Any, int]  # WhisperScorer.encode's answer: (encoder output, number of real feature frames)
 
 
 def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
@@ -141,20 +147,21 @@ class WhisperFactor:
         """Store the options; the model loads on first use."""
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
         self.model_dir = model_dir
-        self._scorer = scorer
+        self._scorer: Any = scorer  # a WhisperScorer (or a stand-in with its methods)
         self.listens = bool(listen)
         self.prompts = bool(prompt)
 
     @property
-    def scorer(self):  # noqa: ANN201 - WhisperScorer, imported lazily
+    def scorer(self) -> WhisperScorer:
         """The shared WhisperScorer."""
         if self._scorer is None:
             from siftom.speech.whisper_score import WhisperScorer
 
             self._scorer = WhisperScorer(self.model_dir, pad_s=self.pad_s)
-        return self._scorer
+        scorer: WhisperScorer = self._scorer
+        return scorer
 
-    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[object, list[str], float]:
+    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[Encoded, list[str], float]:
         """(encoded clip, Whisper's own words, their mean token log-probability; [] and -inf when
         ``listen`` is off), for :meth:`scores`. With ``prompt`` on, ``commands``' object names are
         the transcript's prompt."""
@@ -166,7 +173,7 @@ class WhisperFactor:
         return enc, words, logprob
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
-               samples: np.ndarray, prepared: tuple[object, list[str], float] | None = None) -> WhisperScores:
+               samples: np.ndarray, prepared: tuple[Encoded, list[str], float] | None = None) -> WhisperScores:
         """w of ``commands[keep]`` (in that order), in nats, with how Whisper's words were used."""
         from siftom.logspace import logsumexp
 

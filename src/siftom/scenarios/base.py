@@ -141,7 +141,7 @@ def scenario_ids() -> list[str]:
     return sorted(_scenarios(), key=_natural)
 
 
-def _natural(s: str) -> tuple:
+def _natural(s: str) -> tuple[int | str, ...]:
     import re
 
     return tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", s))

@@ -51,7 +51,7 @@ class LoadedScene:
     notes: tuple[str, ...] = ()  # what the loader left out, and why (shown as warnings)
 
 
-def _need(d: dict, key: str, where: str) -> Any:
+def _need(d: object, key: str, where: str) -> Any:
     if not isinstance(d, dict):
         raise ObservationError(f"{where} must be an object with {key!r}")
     if key not in d:
@@ -126,7 +126,7 @@ def _scene_from_json(obj: Any) -> LoadedScene:
     return LoadedScene(world, start, goals, verb)
 
 
-def goal_library(obj: dict, target: int) -> list[Goal]:
+def goal_library(obj: dict[str, Any], target: int) -> list[Goal]:
     """Every goal of the library a world names (its own ``goals`` or a ``goal_space``), unfiltered."""
     if "goals" in obj:
         goals = []
@@ -153,7 +153,7 @@ def goal_library(obj: dict, target: int) -> list[Goal]:
     return [Goal(g.name, target, g.counts) for g in goal_space(target)]
 
 
-def feasible_goals(obj: dict, world: World, target: int) -> tuple[Goal, ...]:
+def feasible_goals(obj: dict[str, Any], world: World, target: int) -> tuple[Goal, ...]:
     """The goals of the library ``obj`` names that the world's objects can satisfy (none: an error)."""
     classes = set(world.classes)
     goals = goal_library(obj, target)
@@ -258,7 +258,7 @@ def load_scene(path: str | Path, goal_space: str | None = None, target: str | No
 
 
 def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str = "household-table-v0",
-                          max_places: int = 40, goals: list | None = None) -> LoadedScene:
+                          max_places: int = 40, goals: list[Any] | None = None) -> LoadedScene:
     """Turn a VirtualHome graph into a world: furniture holding known objects become places.
 
     Objects are kept when their class (or its alias in ``VH_ALIASES``) is used by a goal of
@@ -348,13 +348,13 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
     return LoadedScene(world, start, feasible, "fetch" if goal_space == "kitchen-v0" else "deliver", notes)
 
 
-def _summary(counts: Counter, limit: int = 8) -> str:
+def _summary(counts: Counter[str], limit: int = 8) -> str:
     items = [f"{c} x{n}" if n > 1 else c for c, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))]
     more = f" and {len(items) - limit} more classes" if len(items) > limit else ""
     return ", ".join(items[:limit]) + more
 
 
-def _left_out_notes(goal_space: str, unknown: Counter, loose: Counter, dropped_places: list[int],
+def _left_out_notes(goal_space: str, unknown: Counter[str], loose: Counter[str], dropped_places: list[int],
                     objs: list[tuple[int, str, int]]) -> tuple[str, ...]:
     """Say what a VirtualHome graph had that the world leaves out, so nothing vanishes silently."""
     notes = []

@@ -32,7 +32,7 @@ import re
 from collections.abc import Sequence
 
 from siftom.errors import ObservationError, UnknownNameError
-from siftom.world.model import HELD, HUMAN, Action, State, World, apply, check
+from siftom.world.model import HELD, HUMAN, Action, Item, Place, State, World, apply, check
 
 _ARG = r"<\s*([^<>]+?)\s*>\s*(?:\(\s*(\d+(?:\.\d+)?)\s*\))?"
 VH_LINE = re.compile(rf"^\s*(?:<\s*(char\d+)\s*>\s*)?\[\s*(\w+)\s*\]\s*(?:{_ARG})?\s*(?:{_ARG})?\s*$")
@@ -74,7 +74,11 @@ class _Ref:
                 raise ObservationError(
                     f"{line!r}: no place or object of this world has scene-graph id {nid}; "
                     f"use an id of the graph the session was created from ({_examples(world)})")
-            node_name = (world.places[pl].name if pl is not None else world.items[it].name)  # type: ignore[index]
+            if pl is not None:
+                node_name = world.places[pl].name
+            else:
+                assert it is not None  # both None raised above
+                node_name = world.items[it].name
             if _cls(node_name) != name.lower() and node_name.lower() != name.lower():
                 raise ObservationError(
                     f"{line!r}: node {nid} is {node_name!r}, not a {name!r}; check the id or the class name")
@@ -85,8 +89,8 @@ class _Ref:
             if p.name.lower() == low or (num is not None and p.name.lower() == f"{low}.{num}"):
                 self.place = i
                 return
-        for i, it in enumerate(world.items):
-            if it.name.lower() == low or (num is not None and it.name.lower() in (f"{low}.{num}", f"{low}_{num}")):
+        for i, obj in enumerate(world.items):
+            if obj.name.lower() == low or (num is not None and obj.name.lower() in (f"{low}.{num}", f"{low}_{num}")):
                 self.item = i
                 return
         if low in {p.room.lower() for p in world.places}:
@@ -101,7 +105,7 @@ def _cls(node_name: str) -> str:
     return node_name.rsplit(".", 1)[0].lower()
 
 
-def _by_node(seq: Sequence, nid: int) -> int | None:
+def _by_node(seq: Sequence[Place | Item], nid: int) -> int | None:
     for i, x in enumerate(seq):
         if x.node_id == nid:
             return i
@@ -109,7 +113,7 @@ def _by_node(seq: Sequence, nid: int) -> int | None:
 
 
 def _examples(world: World) -> str:
-    def fmt(x) -> str:  # noqa: ANN001
+    def fmt(x: Place | Item) -> str:
         return f"<{_cls(x.name)}> ({x.node_id})" if x.node_id is not None else f"<{x.name}>"
 
     shown = [fmt(p) for p in world.places[:3]] + [fmt(i) for i in world.items[:3]]

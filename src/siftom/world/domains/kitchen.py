@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 from functools import cache
 from importlib import resources
+from typing import TypedDict
 
 from siftom.world.model import Goal, Item, Place, World
 
@@ -40,11 +41,35 @@ COLD = {"milk", "egg", "butter", "cheese", "ham", "yogurt", "orange_juice", "bac
 _DIST = World.distances_from_positions(PLACES, DOORS)
 
 
+class ItemInfo(TypedDict):
+    """One item class of the recipe library."""
+
+    kind: str  # "food" or "dishware"
+    spoken: str
+
+
+class Recipe(TypedDict):
+    """One recipe: its id, display name and the item classes it needs (one of each)."""
+
+    id: str
+    name: str
+    items: list[str]
+
+
+class RecipeLibrary(TypedDict):
+    """``siftom/data/kitchen_recipes.json``."""
+
+    version: int
+    items: dict[str, ItemInfo]
+    recipes: list[Recipe]
+
+
 @cache
-def library() -> dict:
+def library() -> RecipeLibrary:
     """The recipe library (items and recipes) shipped with the package."""
     text = resources.files("siftom.data").joinpath("kitchen_recipes.json").read_text()
-    return json.loads(text)
+    lib: RecipeLibrary = json.loads(text)
+    return lib
 
 
 def goal_space(target: int = 0) -> tuple[Goal, ...]:

@@ -77,8 +77,13 @@ class Heard:
         return self.vad is None or bool(self.vad.speech)
 
 
-def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg) -> SIFToM:
-    """A SIFToM model from ``settings`` for ``mode`` and ``likelihood`` (a name or an object)."""
+# the built-in likelihoods that take a lexicon (a world's own names of its classes)
+NAMED_BY_LEXICON = ("phonetic", "acoustic", "llm")
+
+
+def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg, lexicon: Any = None) -> SIFToM:
+    """A SIFToM model from ``settings`` for ``mode`` and ``likelihood`` (a name or an object);
+    ``lexicon``: how the world names its classes (None: the built-in lexicon)."""
     from siftom.likelihood.registry import get_likelihood
 
     cfg = dataclasses.replace(settings.model, mode=mode)
@@ -91,9 +96,20 @@ def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg) -> SIF
                 f"log_prob(instruction, commands), got {type(likelihood).__name__}")
         return SIFToM(cfg, likelihood)
     options = settings.likelihood_options(likelihood)
+    if lexicon is not None and likelihood in NAMED_BY_LEXICON:
+        options["lexicon"] = lexicon
     if likelihood == "llm":
         options = {"backend": settings.llm, **options}
     return SIFToM(cfg, get_likelihood(likelihood, **options))
+
+
+def _lexicon_of(world: World) -> Any:
+    """The lexicon of a world that names its classes itself; None for the built-in one."""
+    if not world.names:
+        return None
+    from siftom.likelihood.lexicon import lexicon_for
+
+    return lexicon_for(world)
 
 
 class Observer:
@@ -120,17 +136,19 @@ class Observer:
         self._online = Cache(256)
 
     # ----- parts ------------------------------------------------------------------------------
-    def model(self, mode: str | None = None, likelihood: LikelihoodArg = "phonetic") -> SIFToM:
-        """The model for ``mode`` (default: the setting) and ``likelihood``, built once."""
+    def model(self, mode: str | None = None, likelihood: LikelihoodArg = "phonetic", lexicon: Any = None) -> SIFToM:
+        """The model for ``mode`` (default: the setting), ``likelihood`` and ``lexicon`` (a
+        world's own names; None: the built-in lexicon), built once."""
         mode = mode or self.settings.model.mode
         if mode not in MODES:
             raise unknown_name("model mode", mode, MODES)
-        key = (mode, likelihood if isinstance(likelihood, str) else ("object", id(likelihood)))
+        key = (mode, likelihood if isinstance(likelihood, str) else ("object", id(likelihood)),
+               None if lexicon is None else lexicon.fingerprint)
         with self._models_lock:
             got = self._models.get(key)
         if got is not None:
             return got
-        model = build_model(self.settings, mode, likelihood)
+        model = build_model(self.settings, mode, likelihood, lexicon)
         with self._models_lock:
             return self._models.setdefault(key, model)
 
@@ -171,7 +189,7 @@ class Observer:
             opts["max_seconds"] = self.max_audio_seconds
         if name != "pocketsphinx" and not is_scene_engine(name):  # pocketsphinx takes an optional vocabulary
             return self._recognisers.get((name,), lambda: Recogniser(get_engine(name, **opts)))
-        vocab = tuple(sorted(command_vocabulary(world.classes, verb)))
+        vocab = tuple(sorted(command_vocabulary(world.classes, verb, lexicon=_lexicon_of(world))))
         return self._recognisers.get((name, vocab), lambda: Recogniser(get_engine(name, vocabulary=list(vocab), **opts)))
 
     def online(self, scene: SceneInput, mode: str | None = None) -> OnlineInference:
@@ -263,7 +281,7 @@ class Observer:
 
     def _view(self, online: OnlineInference, mode: str, likelihood: LikelihoodArg) -> OnlineInference:
         """``online`` scored by another model: a shallow copy (posterior() only reads the action state)."""
-        model = self.model(mode, likelihood)
+        model = self.model(mode, likelihood, _lexicon_of(online.world))
         if online.model is model:
             return online
         view = copy.copy(online)

@@ -188,7 +188,7 @@ class Posterior:
 
 
 def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
-                    also_heard: Sequence[str] = ()) -> dict[str, Any]:
+                    also_heard: Sequence[str] = (), lexicon: Any = None) -> dict[str, Any]:
     """``{no_instruction: True, no_instruction_reason}`` when no heard word is near a command of
     the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given.
 
@@ -208,7 +208,7 @@ def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
     texts = open_words or heard_texts(instruction.nbest)
     if not texts:
         return {}
-    near = nearness(texts, commands)
+    near = nearness(texts, commands, lexicon)
     by = "whisper" if open_words else "nbest"
     if near.near:
         return {"instruction_check": by}
@@ -353,7 +353,8 @@ class OnlineInference:
                 scored = as_scores(lk.log_prob(instruction, cmds))
             whisper = scored.evidence.get("whisper_heard")
             evidence = {**scored.evidence,
-                        **_no_instruction(instruction, cmds, (whisper,) if isinstance(whisper, str) else ())}
+                        **_no_instruction(instruction, cmds, (whisper,) if isinstance(whisper, str) else (),
+                                          getattr(lk, "lexicon", None))}
             instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")

@@ -76,6 +76,7 @@ from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 if TYPE_CHECKING:
+    from siftom.likelihood.lexicon import Lexicon
     from siftom.speech.acoustic import ForcedAligner
 
 FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
@@ -151,6 +152,8 @@ class AcousticLikelihood:
             default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
         tie_counts: when no count word was heard, no count of a class is favoured over another
             (``likelihood.counts``).
+        lexicon: how the classes are named (default: the built-in lexicon; a world's own names
+            come through :func:`siftom.likelihood.lexicon.lexicon_for`).
     """
 
     uses_context = True  # SIFToM passes the action term and prior per command as ``context``
@@ -177,6 +180,7 @@ class AcousticLikelihood:
         whisper_model: str | Path | None = None,
         tie_counts: bool = True,
         whisper_prompt: bool = True,
+        lexicon: Lexicon | None = None,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -211,17 +215,21 @@ class AcousticLikelihood:
             raise SiftomError("align=False needs the Whisper factor (whisper=True and the whisper extra): "
                               "with neither there is no acoustic term; keep align=True")
         if whisper_model is not None:
-            from siftom.speech.asr.whisper import check_model_dir
+            from siftom.speech.asr.whisper import whisper_model_dir
 
-            whisper_model = str(check_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
+            whisper_model = str(whisper_model_dir(whisper_model))  # a wrong folder fails now, not at the first clip
         self.whisper_model = whisper_model
         self.tie_counts = bool(tie_counts)
         self._whisper = (WhisperFactor(whisper_pad_s, whisper_prior, listen=whisper_listen, model_dir=whisper_model,
-                                       prompt=whisper_prompt)
+                                       prompt=whisper_prompt, lexicon=lexicon)
                          if self.uses_whisper else None)
+        self.lexicon = lexicon
         self._aligner: Any = aligner  # a ForcedAligner (or a stand-in with its methods)
         self._loop: Any = None
         self._phonetic: Any = None
+
+    def _top_phrasings(self, command: RobotCommand) -> list[tuple[str, float]]:
+        return top_phrasings(command, lexicon=self.lexicon)
 
     @property
     def aligner(self) -> ForcedAligner:
@@ -237,7 +245,7 @@ class AcousticLikelihood:
         if self._phonetic is None:
             from siftom.likelihood.phonetic import PhoneticLikelihood
 
-            self._phonetic = PhoneticLikelihood()
+            self._phonetic = PhoneticLikelihood(self.lexicon)
         return np.array(as_scores(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands)).log_probs)
 
     def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
@@ -334,7 +342,7 @@ class AcousticLikelihood:
         if prepared is not None and prepared[1] and len(keep) < len(commands):
             # a command whose key phrase Whisper heard is scored even when the N-best and the actions
             # alone would have pruned it
-            named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c)))]
+            named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c, lexicon=self.lexicon)))]
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
         kept = [commands[i] for i in keep]
         aligned = 0
@@ -344,28 +352,28 @@ class AcousticLikelihood:
         else:
             frame = None
             if self.mode == "key" and instruction.words:
-                key_words = key_word_forms(k for c in kept for k, _ in key_phrases(c))
+                key_words = key_word_forms(k for c in kept for k, _ in key_phrases(c, lexicon=self.lexicon))
                 frame = heard_frame(instruction.words, key_words)
             if frame is not None:
                 start, end, before, after = frame
                 seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
                 items, aligned = self._align(
-                    seg, kept, lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c)])
+                    seg, kept, lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c, lexicon=self.lexicon)])
                 mode = "key"
             else:
                 seg = x
                 heard = instruction.text if instruction.nbest else None
                 if heard is not None and self.phrasings is None:
-                    items, aligned = self._align(x, kept, lambda c: [closest_phrasing(c, heard)])
+                    items, aligned = self._align(x, kept, lambda c: [closest_phrasing(c, heard, self.lexicon)])
                 else:
-                    items, aligned = self._align(x, kept, self.phrasings or top_phrasings)
+                    items, aligned = self._align(x, kept, self.phrasings or self._top_phrasings)
                 mode = "sentence"
         wh = (self._whisper.scores(instruction, commands, keep, x, prepared)
               if self._whisper is not None and prepared is not None else None)
         if wh is not None and not self.aligns:
             mode = f"whisper-{wh.mode}"  # "whisper-key" or "whisper-sentence"
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
-            (items, aligned), mode = self._align(x, kept, self.phrasings or top_phrasings), "sentence"
+            (items, aligned), mode = self._align(x, kept, self.phrasings or self._top_phrasings), "sentence"
         # what this call used besides the N-best: its mode and, with the Whisper factor, Whisper's words
         evidence: dict[str, Any] = {"acoustic_mode": mode, "commands_scored": len(kept), "phrases_aligned": aligned}
         if self._whisper is not None and self._whisper.listens:
@@ -420,9 +428,9 @@ class AcousticLikelihood:
 
         x = as_audio(audio)
         if heard is not None and self.phrasings is None:
-            items, aligned = self._align(x, commands, lambda c: [closest_phrasing(c, heard)])
+            items, aligned = self._align(x, commands, lambda c: [closest_phrasing(c, heard, self.lexicon)])
         else:
-            items, aligned = self._align(x, commands, self.phrasings or top_phrasings)
+            items, aligned = self._align(x, commands, self.phrasings or self._top_phrasings)
         raw = RawScores(np.arange(len(commands)), tuple(items), "sentence")
         return Scores(self.combine(raw, len(commands)),
                       {"acoustic_mode": "sentence", "commands_scored": len(commands), "phrases_aligned": aligned})

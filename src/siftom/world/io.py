@@ -20,6 +20,7 @@ subset, 2-4 of each) or ``"kitchen-v0"`` (the recipe library).
 from __future__ import annotations
 
 import difflib
+import re
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,7 +113,15 @@ def _scene_from_json(obj: Any) -> LoadedScene:
     for k, it in enumerate(_need(obj, "items", "world")):
         items.append(Item(str(_need(it, "name", f"items[{k}]")), str(_need(it, "class", f"items[{k}]"))))
         item_at.append(place_of(_need(it, "at", f"items[{k}]"), f"items[{k}]"))
-    world = World(tuple(places), tuple(items), dist)
+    names = spoken_names(obj.get("names"), {it.cls for it in items})
+    unspeakable = sorted({it.cls for it in items} - {c for c, _ in names}
+                         - {c for c in (it.cls for it in items) if _NAME_RE.match(c.replace("_", " "))})
+    if unspeakable:
+        c = unspeakable[0]
+        raise ObservationError(f"object class {c!r} cannot be said as it is written (a spoken name is lowercase "
+                               f"words); give it the names people say in \"names\", e.g. \"names\": "
+                               f"{{\"{c}\": [\"blue mug\"]}} (docs/world.md)")
+    world = World(tuple(places), tuple(items), dist, names=names)
     agents = obj.get("agents", {})
     human = place_of(agents.get("human", places[0].name), "agents.human")
     robot = place_of(agents.get("robot", places[0].name), "agents.robot")
@@ -124,6 +133,35 @@ def _scene_from_json(obj: Any) -> LoadedScene:
     goals = feasible_goals(obj, world, target)
     verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
     return LoadedScene(world, start, goals, verb)
+
+
+_NAME_RE = re.compile(r"^[a-z][a-z' ]*[a-z]$|^[a-z]$")
+
+
+def spoken_names(raw: Any, classes: set[str]) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """A world's ``names``: ``{"coffee": ["iced coffee", "ice coffee"], "mug2": "blue mug"}``, each
+    class of the world with the names people say for it, preferred first (checked; sorted by class)."""
+    if raw is None:
+        return ()
+    if not isinstance(raw, dict):
+        raise ObservationError('names must map an object class to its spoken names, e.g. '
+                               '{"coffee": ["iced coffee", "ice coffee"]}')
+    out = []
+    for cls, v in raw.items():
+        if cls not in classes:
+            from siftom.errors import unknown_name
+
+            raise ObservationError(f"names: {unknown_name('object class of this world', str(cls), sorted(classes))}")
+        said = [v] if isinstance(v, str) else v
+        if not isinstance(said, list) or not said or not all(isinstance(x, str) for x in said):
+            raise ObservationError(f"names.{cls} must be a name or a non-empty list of names, e.g. [\"iced coffee\"]")
+        clean = [" ".join(x.lower().split()) for x in said]
+        bad = [x for x in clean if not _NAME_RE.match(x)]
+        if bad:
+            raise ObservationError(f"names.{cls}: {bad[0]!r} must be words of letters (and apostrophes) separated "
+                                   "by spaces, e.g. 'iced coffee'; write numbers as words")
+        out.append((str(cls), tuple(dict.fromkeys(clean))))
+    return tuple(sorted(out))
 
 
 def goal_library(obj: dict[str, Any], target: int) -> list[Goal]:
@@ -236,6 +274,7 @@ def scene_to_json(world: World, start: State, goals: tuple[Goal, ...] | list[Goa
         "target": world.places[target].name,
         "verb": verb,
         "goals": [{"name": g.name, "counts": dict(g.counts)} for g in goals],
+        **({"names": {cls: list(said) for cls, said in world.names}} if world.names else {}),
     }
 
 

@@ -121,6 +121,9 @@ class World:
     items: tuple[Item, ...]
     dist: np.ndarray = field(repr=False)
     left_out: dict[int, str] = field(default_factory=dict, repr=False)  # graph node id -> why it is not here
+    # the world's own spoken names of its object classes, preferred first: (("coffee", ("iced coffee",
+    # "ice coffee")), ...); they add to the built-in lexicon (siftom.likelihood.lexicon.lexicon_for)
+    names: tuple[tuple[str, tuple[str, ...]], ...] = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.places)

@@ -258,7 +258,9 @@ def run_examples(root: Path = ROOT) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     saved: dict[str, bytes] = {}
     sid = ""
-    with tempfile.TemporaryDirectory() as d, TestClient(make_app(d), raise_server_exceptions=True) as client:
+    # reached as localhost: the server answers only to loopback and configured host names
+    with tempfile.TemporaryDirectory() as d, TestClient(make_app(d), base_url="http://localhost",
+                                                        raise_server_exceptions=True) as client:
         for ex in EXAMPLES:
             path = ex["path"].replace("{sid}", sid)
             body = ex.get("json")

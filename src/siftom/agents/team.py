@@ -24,7 +24,7 @@ from typing import Any
 from siftom.errors import SiftomError
 from siftom.planning.astar import plan_for_goal
 from siftom.world.commands import RobotCommand
-from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, Goal, State, World
+from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, Action, Goal, State, World
 
 
 @dataclass(frozen=True)
@@ -53,10 +53,12 @@ def _reserve(state: State, items: set[int]) -> State:
 
 
 MAX_NODES = 500_000
-_PLANS: dict[tuple, tuple[float, tuple, World]] = {}
+# (world id, agent place, held, needed objects' places, containers, target, counts, agent)
+_PlanKey = tuple[int, int, int, tuple[int, ...], int, int, tuple[tuple[str, int], ...], int]
+_PLANS: dict[_PlanKey, tuple[float, tuple[Action, ...], World]] = {}
 
 
-def _solve(world: World, s: State, goal: Goal, agent: int) -> tuple[float, tuple]:
+def _solve(world: World, s: State, goal: Goal, agent: int) -> tuple[float, tuple[Action, ...]]:
     """Plan cost and plan, cached on the part of the state that matters to the goal.
 
     A* uses the fast cost-to-go as heuristic (exact on the built-in scenarios' states; where
@@ -116,8 +118,7 @@ def simulate_scenario(scenario: Any, command: RobotCommand | str | None) -> Team
     """Team simulation for a registered scenario, from the moment the human spoke."""
     from siftom.world.model import cost as action_cost
 
-    if isinstance(command, str):
-        command = scenario.parse_command(command)
+    cmd: RobotCommand | None = scenario.parse_command(command) if isinstance(command, str) else command
     states = scenario.states()
     prefix = sum(action_cost(scenario.world, s, a) for s, a in zip(states, scenario.actions, strict=False))
-    return simulate_team(scenario.world, states[-1], scenario.goal, command, prefix)
+    return simulate_team(scenario.world, states[-1], scenario.goal, cmd, prefix)

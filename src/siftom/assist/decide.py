@@ -27,6 +27,7 @@ from itertools import combinations
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from siftom.assist.askcost import QuestionCost
 from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
@@ -406,7 +407,8 @@ def get_rule(name: str, **options: Any) -> DecisionRule:
     for key in options:
         if key not in takes:
             raise unknown_name(f"option of decision rule {name!r}", key, takes)
-    return entry.make(**options)
+    rule: DecisionRule = entry.make(**options)  # the registry imports its rules by name: untyped
+    return rule
 
 
 def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any) -> Decision:
@@ -434,7 +436,8 @@ def answer_log_likelihood(log_lik: Sequence[float] | np.ndarray, reliability: fl
     if reliability >= 1.0 or len(ll) == 0:
         return ll
     p = np.exp(ll - logsumexp(ll))
-    return np.log(reliability * p + (1.0 - reliability) / len(ll))
+    out: npt.NDArray[np.float64] = np.log(reliability * p + (1.0 - reliability) / len(ll))
+    return out
 
 
 def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcript: str = "") -> Posterior:

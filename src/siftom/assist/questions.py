@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
+import numpy.typing as npt
 
 from siftom.errors import CommandParseError, ObservationError
 from siftom.likelihood.phrasing import number_word
@@ -211,4 +212,5 @@ def answer_log_likelihood_cells(question: Question, commands: Sequence[str], hea
     if heard is None:
         return np.zeros(len(commands))
     conf = channel(question.n_cells, r)
-    return np.log(np.array([conf[heard, question.cell(str(c))] for c in commands]))
+    out: npt.NDArray[np.float64] = np.log(np.array([conf[heard, question.cell(str(c))] for c in commands]))
+    return out

@@ -37,7 +37,7 @@ NONE = "none"
 KEEP_MASS = 0.9999
 MAX_ROWS = 256
 
-_CTG: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CTG: weakref.WeakKeyDictionary[World, dict[tuple[int, int, int], CostToGo]] = weakref.WeakKeyDictionary()
 
 
 def _ctg(world: World, target: int, kmax: int, agent: int) -> CostToGo:
@@ -90,7 +90,8 @@ class TeamValues:
 
     def expected(self) -> np.ndarray:
         """Expected benefit of each action."""
-        return self.prob @ self.benefit
+        out: np.ndarray = self.prob @ self.benefit
+        return out
 
     def gain(self, unit: str = "steps", cost: float = 0.0) -> np.ndarray:
         """Per-row gain of each action: steps saved (``benefit - cost``) or the speedup ratio."""
@@ -108,15 +109,18 @@ class TeamValues:
         b = self.gain(unit, cost)
         if loss_aversion == 0.0:
             return b
-        return b - loss_aversion * np.maximum(0.0, -b)
+        out: np.ndarray = b - loss_aversion * np.maximum(0.0, -b)
+        return out
 
     def expected_utility(self, loss_aversion: float = 0.0, unit: str = "steps") -> np.ndarray:
         """``E[b] - loss_aversion * E[max(0, -b)]`` of each action (the risk-neutral one at 0)."""
-        return self.prob @ self.utility(loss_aversion, unit=unit)
+        out: np.ndarray = self.prob @ self.utility(loss_aversion, unit=unit)
+        return out
 
     def loss_probability(self) -> np.ndarray:
         """``P(b < 0)`` of each action: how likely it makes the team slower."""
-        return self.prob @ (self.benefit < -1e-9)
+        out: np.ndarray = self.prob @ (self.benefit < -1e-9)
+        return out
 
 
 def _keep_rows(joint: JointPosterior) -> tuple[np.ndarray, np.ndarray, float]:
@@ -125,7 +129,7 @@ def _keep_rows(joint: JointPosterior) -> tuple[np.ndarray, np.ndarray, float]:
     p /= p.sum()
     order = np.argsort(-p, kind="stable")
     cum = np.cumsum(p[order])
-    n = int(min(np.searchsorted(cum, KEEP_MASS) + 1, MAX_ROWS, len(order)))
+    n = min(int(np.searchsorted(cum, KEEP_MASS)) + 1, MAX_ROWS, len(order))
     rows = order[:n]
     kept = float(cum[n - 1])
     return rows, p[rows] / p[rows].sum(), kept
@@ -164,8 +168,8 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     G = len(joint.goals)
     gmat = np.zeros((G + 1, C), dtype=np.int64)
     for g, goal in enumerate(joint.goals):
-        for c, n in goal.counts:
-            gmat[g, col[c]] = n
+        for name, count in goal.counts:
+            gmat[g, col[name]] = count
     cmds = joint.commands
     cmd_cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
     cmd_n = np.array([c.count for c in cmds], dtype=np.int64)

@@ -248,7 +248,8 @@ class LlamaCppScorer:
         b.token[n], b.pos[n], b.n_seq_id[n], b.logits[n] = tok, pos, 1, logits
         b.seq_id[n][0] = seq
         b.n_tokens = n + 1
-        return n
+        index: int = n  # llama_cpp's ctypes batch: an int field
+        return index
 
     def _set_prefix(self, ctx: Any, pre: list[int]) -> None:
         import llama_cpp

@@ -289,7 +289,8 @@ class OpenAIClient:
             hit = self.response_cache.get(key)
             if hit is not None:
                 self.cache_hits += 1
-                return json.loads(hit)
+                cached: dict[str, Any] = json.loads(hit)
+                return cached
         url = f"{self.base_url}/{path}"
         headers = {"Content-Type": content_type}
         if self.config.api_key:

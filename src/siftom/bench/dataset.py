@@ -76,12 +76,12 @@ def noise_categories(folder: str | Path) -> list[str]:
 
 def resolve_noises(opts: BuildOptions) -> list[tuple[str, Any]]:
     """(name, NoiseSource) for each noise type of the build."""
-    from siftom.speech.noise import FolderNoise, get_noise
+    from siftom.speech.noise import FolderNoise, NoiseSource, get_noise
 
+    out: list[tuple[str, NoiseSource]] = []
     if opts.noise_dir is not None:
         cats = noise_categories(opts.noise_dir)
         names = list(opts.noises) or cats
-        out = []
         for n in names:
             if n in cats:
                 out.append((n, FolderNoise(noise_folder(opts.noise_dir), categories=(n,))))
@@ -97,7 +97,6 @@ def resolve_noises(opts: BuildOptions) -> list[tuple[str, Any]]:
             raise DatasetError(f"no noise WAVs in {opts.noise_dir}; add CATEGORY_NN.wav files")
         return out
     names = list(opts.noises) or list(SYNTHETIC_NOISES)
-    out = []
     for n in names:
         try:
             out.append((Path(n).stem if n.endswith(".wav") else n, get_noise(n)))
@@ -169,6 +168,7 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
             if noise is None:
                 x = clean
             else:
+                assert snr is not None  # a noisy condition has its SNR (plan_units)
                 mix_rng = np.random.default_rng([opts.seed, unit.k, j, 2, int(round(snr * 100)), _stable(noise)])
                 x = mix_at_snr(clean, sources[noise], snr, mix_rng)
             tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.wav")

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from siftom.bench.engines import engine as _engine
 from siftom.bench.models import (  # re-exported: what to evaluate
     EvalOptions,
 )
@@ -53,7 +54,6 @@ from siftom.bench.results_io import (
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.bench.stimuli import Dataset, Stimulus, load_dataset
 from siftom.bench.trials import (
-    _engine,
     _eval_stimuli,
     _run_task,
     _Task,
@@ -135,7 +135,7 @@ def evaluate(
 
 def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bool,
               progress: Callable[[int, int], None] | None) -> EvalRun:
-    run_info = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
+    run_info: dict[str, Any] = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
                 "options": opts.to_json(), "seed": opts.seed}
     prov = provenance(opts.to_json(), ds.fingerprint)
     run_path = root / RUN

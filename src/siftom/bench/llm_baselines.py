@@ -194,7 +194,8 @@ def _first_token_choice(data: dict[str, Any], n: int) -> np.ndarray | None:
     if not np.isfinite(lp).any():
         return None
     p = np.exp(lp - lp.max())
-    return p / p.sum()
+    probs: np.ndarray = p / p.sum()
+    return probs
 
 
 def command_space(scenario: Any, max_count: int = MAX_COUNT) -> list[RobotCommand]:

@@ -11,19 +11,23 @@ from __future__ import annotations
 
 import json
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from siftom.world.commands import RobotCommand
 
 LENGTHS = (1, 2, 3, 4, 5, 6, 7, 8)
 
 
-def scene_command_sets() -> list[tuple[str, tuple]]:
+def scene_command_sets() -> list[tuple[str, tuple[RobotCommand, ...]]]:
     """(scenario id, its commands) for every built-in scenario."""
     from siftom.api import get_model
     from siftom.scenarios.base import get_scenario, scenario_ids
 
     model = get_model("full", "phonetic")
-    out = []
+    out: list[tuple[str, tuple[RobotCommand, ...]]] = []
     for sid in scenario_ids():
         sc = get_scenario(sid)
         online = model.online(sc.world, sc.start, sc.goals, sc.verb)

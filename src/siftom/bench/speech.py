@@ -123,7 +123,7 @@ def run_asr_bench(
     object_words = lexicon_words(default_lexicon())
     sentences = [*ASR_SENTENCES, *((f, None) for f in FREE_SENTENCES)]
     t0 = time.perf_counter()
-    conditions = [("none", None)] if None in snrs else []
+    conditions: list[tuple[str, float | None]] = [("none", None)] if None in snrs else []
     conditions += [(n, s) for n in noises for s in snrs if s is not None]
     clips: dict[tuple[str, str, float | None], list[np.ndarray]] = {}
     for vi, voice in enumerate(voices):
@@ -148,8 +148,8 @@ def run_asr_bench(
         for (voice, noise, snr), xs in clips.items():
             if progress:
                 progress(f"{engine_name} {voice} {noise} {snr}")
-            err = defaultdict(int)
-            words = defaultdict(int)
+            err: defaultdict[str, int] = defaultdict(int)
+            words: defaultdict[str, int] = defaultdict(int)
             dec_s = audio_s = 0.0
             for (ref, inv), x in zip(sentences, xs, strict=True):
                 tr = engine.transcribe(x)

@@ -6,11 +6,16 @@ one core). Every timed call starts from scratch unless it says "update".
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from siftom.world.model import Goal, World
 
 NBEST_SILVER = [
     ("can you pass me the silver", -2.0), ("can you pass me the cereal", -2.6), ("can you pass me the sugar", -3.1),
@@ -29,12 +34,13 @@ def _p50(fn: Callable[[], object], n: int) -> tuple[float, list[float]]:
     return float(np.median(ts)), ts
 
 
-def _random_goals(world, n: int, seed: int = 0):
+def _random_goals(world: World, n: int, seed: int = 0) -> tuple[Goal, ...]:
     from siftom.world.model import Goal
 
     rng = np.random.default_rng(seed)
     classes = list(world.classes)
-    out, seen = [], set()
+    out: list[Goal] = []
+    seen: set[tuple[str, ...]] = set()
     while len(out) < n:
         k = int(rng.integers(3, 6))
         items = tuple(sorted(rng.choice(classes, size=k, replace=False).tolist()))
@@ -45,7 +51,7 @@ def _random_goals(world, n: int, seed: int = 0):
     return tuple(out)
 
 
-def run_inference_bench(repeats: int = 30) -> dict:
+def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
     """Time full inference, incremental updates and scaling with the number of goals."""
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.phonetic import PhoneticLikelihood
@@ -91,7 +97,7 @@ def run_inference_bench(repeats: int = 30) -> dict:
         o = Observation(sc.world, sc.start, sc.actions, goals, "fetch", instr)
         model.infer(o)
         reps = max(3, min(repeats, 3000 // n))
-        t, _ = _p50(lambda o=o: model.infer(o), reps)
+        t, _ = _p50(functools.partial(model.infer, o), reps)
         scaling.append({"goals": n, "p50_ms": t})
     return {
         "scenario": sc.id,
@@ -109,7 +115,7 @@ def run_inference_bench(repeats: int = 30) -> dict:
     }
 
 
-def run_planner_bench(repeats: int = 20) -> dict:
+def run_planner_bench(repeats: int = 20) -> dict[str, Any]:
     """A* throughput and the time of the Q* table of a kitchen scenario (all goals x steps)."""
     from siftom.planning.astar import plan_for_goal
     from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values

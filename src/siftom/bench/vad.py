@@ -56,7 +56,7 @@ class _Robot:
 
 
 def main(noise_dir: str | None = None, methods: tuple[str, ...] = ("silero", "spectral"),
-         pipeline: bool = False) -> dict:
+         pipeline: bool = False) -> dict[str, Any]:
     """False alarms and misses per detector method (see module doc)."""
     from siftom.speech.audio import load_audio
     from siftom.speech.noise import RECORDED_NOISE_DIR, mix_at_snr
@@ -136,5 +136,5 @@ def _pipeline(clips: list[tuple[str, Any]], vads: dict[str, Any], mixes: list[tu
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--pipeline"]
-    print(json.dumps(main(*args, pipeline="--pipeline" in sys.argv), indent=2))
+    args = [a for a in sys.argv[1:] if a != "--pipeline"]  # [NOISE_DIR] [--pipeline]
+    print(json.dumps(main(args[0] if args else None, pipeline="--pipeline" in sys.argv), indent=2))

@@ -27,8 +27,10 @@ import click
 @click.option("--max-tokens", type=click.IntRange(256, 1_000_000), default=8192, show_default=True,
               help="The longest answer asked for (a 50-object scene graph is ~6k tokens).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def perceive_cmd(frames, world_file, out, actions_out, graph_out, goal_space, target, no_goals, model, llm_base_url,
-                 no_cache, max_tokens, as_json) -> None:
+def perceive_cmd(frames: tuple[Path, ...], world_file: Path | None, out: Path, actions_out: Path,
+                 graph_out: Path | None, goal_space: str | None, target: str | None, no_goals: bool,
+                 model: str | None, llm_base_url: str | None, no_cache: bool, max_tokens: int,
+                 as_json: bool) -> None:
     """Turn camera FRAMES (in time order) into a world and the person's actions with a vision model."""
     from siftom.errors import PerceptionError
     from siftom.perception import Frame, VisionModel, perceive

@@ -28,7 +28,7 @@ def scene() -> None:
 
 def inspect_summary(graph: SceneGraph, scene_view: SymbolicScene) -> dict[str, Any]:
     """The facts ``scene inspect`` prints, as a JSON-ready dict."""
-    room_name = {r.id: r.name for r in scene_view.rooms}
+    room_name: dict[int | None, str] = {r.id: r.name for r in scene_view.rooms}  # None: in no room
     in_room = Counter(p.room for p in scene_view.placements)
     held = Counter(p.parent for p in scene_view.placements)
     grabbable_in_room = Counter(scene_view.room_of(i) for i in scene_view.grabbables)

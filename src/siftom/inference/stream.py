@@ -71,6 +71,8 @@ class Recognised:
 
 Recognise = Callable[[np.ndarray], Recognised]
 Answer = Callable[[Recognised, Utterance], dict[str, Any]]
+# an early run: what was heard, the state token it was answered under, the answer and its seconds
+EarlyResult = tuple[Recognised, Any, tuple[dict[str, Any], float] | None]
 
 
 class StreamListener:
@@ -92,7 +94,7 @@ class StreamListener:
         self.segmenter = UtteranceSegmenter(options, scorer)
         self._recognise, self._answer, self.early, self._version = recognise, answer, early, version
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-early-asr") if early else None
-        self._early: tuple[tuple[int, float, int], Future[tuple[Recognised, Any, Any]]] | None = None
+        self._early: tuple[tuple[int, float, int], Future[EarlyResult]] | None = None
         self._lock = threading.Lock()
         self.utterances = 0
 
@@ -127,7 +129,7 @@ class StreamListener:
                 return
             self._early = (key, self._pool.submit(self._early_job, preview))
 
-    def _early_job(self, preview: Utterance) -> tuple[Recognised, Any, Any]:
+    def _early_job(self, preview: Utterance) -> EarlyResult:
         rec = self._recognise(preview.samples)
         if self._version is None or rec.instruction is None:
             return rec, None, None
@@ -153,10 +155,12 @@ class StreamListener:
             if self._early is not None and self._early[0] == key:
                 early = self._early[1]
             self._early = None
-        rec, token, body = None, None, None
+        rec: Recognised | None = None
+        token: Any = None
+        early_body: tuple[dict[str, Any], float] | None = None
         if early is not None:
             try:
-                rec, token, body = early.result()
+                rec, token, early_body = early.result()
             except Exception:  # the early run failed: recognise again below, where errors surface
                 rec = None
         if rec is None:
@@ -165,9 +169,9 @@ class StreamListener:
         if rec.instruction is None:  # noise, a cough, words outside any phrasing: nothing to answer
             return {"event": "no_speech", **utterance.to_json(), "heard": rec.text, "message": rec.why,
                     "timings": {"asr": round(rec.seconds, 4), "wait": round(t1 - t0, 4), "asr_early": early is not None}}
-        answered_early = body is not None and self._version is not None and self._version() == token
-        if answered_early:
-            body, answer_s = body
+        answered_early = early_body is not None and self._version is not None and self._version() == token
+        if answered_early and early_body is not None:
+            body, answer_s = early_body
         else:  # nothing was answered early, or the state changed since (a new action)
             body = self._answer(rec, utterance)
             answer_s = time.perf_counter() - t1

@@ -116,8 +116,10 @@ def scene_to_world(graph: SceneGraph, strict: bool = True) -> PerceivedScene:
         cont = view.container(pid)
         closable = bool(cont is not None and cont.openable)
         pos = view.position(pid) or (0.0, 0.0, 0.0)
+        room = view.room_of(pid)
+        assert room is not None  # a place in no room was rejected above
         places.append({"name": names[pid], "kind": "container" if closable else "surface",
-                       "room": room_name[view.room_of(pid)], "pos": [round(pos[0], 3), round(pos[2], 3)],
+                       "room": room_name[room], "pos": [round(pos[0], 3), round(pos[2], 3)],
                        "closable": closable})
     human = _agent_place(graph, HUMAN_CLASSES, set(place_ids))
     if human is None and strict:

@@ -104,9 +104,9 @@ class VisionModel:
             client = OpenAIClient(config, use_cache=False)
         self.client = client
         self.model: str = client.model
-        config = getattr(client, "config", None)
-        if config is not None:
-            folder = config.resolved_cache_dir / "perception"
+        client_config = getattr(client, "config", None)
+        if client_config is not None:
+            folder = client_config.resolved_cache_dir / "perception"
         else:
             from siftom.backends.config import cache_root
 
@@ -174,4 +174,5 @@ class VisionModel:
             raise PerceptionError(f"{stage}: the answer was cut off at {self.max_tokens} tokens; raise it "
                                   "(siftom perceive --max-tokens N, or VisionModel(max_tokens=N)) or show fewer "
                                   "objects per frame")
-        return content
+        text: str | None = content
+        return text

@@ -8,22 +8,38 @@ Both paths compute the same numbers; the tests run them against each other.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
 
 import numpy as np
+import numpy.typing as npt
 
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+_njit: Callable[..., Any] | None
 try:  # optional dependency
     if os.environ.get("SIFTOM_NO_NUMBA"):
         raise ImportError("disabled by SIFTOM_NO_NUMBA")
-    from numba import njit
+    from numba import njit as _njit
 except ImportError:  # pragma: no cover - exercised when numba is absent
-    njit = None
+    _njit = None
 
-AVAILABLE = njit is not None
+AVAILABLE = _njit is not None
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+Bool = npt.NDArray[np.bool_]
+
+
+def njit(**options: Any) -> Callable[[_F], _F]:
+    """numba's ``njit(**options)``, typed: the compiled function keeps its Python signature."""
+    assert _njit is not None
+    return cast(Callable[[_F], _F], _njit(**options))
 
 if AVAILABLE:
 
     @njit(cache=True, nogil=True, inline="always")
-    def _popcount(x):  # pragma: no cover - compiled
+    def _popcount(x: int | np.int64) -> int:  # pragma: no cover - compiled
         n = 0
         while x:
             x &= x - 1
@@ -31,7 +47,8 @@ if AVAILABLE:
         return n
 
     @njit(cache=True, nogil=True, inline="always")
-    def _prepare(cum_flat, opens_flat, fl, pos, m, relaxed, others, n_others):  # pragma: no cover - compiled
+    def _prepare(cum_flat: F64, opens_flat: I64, fl: I64, pos: Bool, m: int, relaxed: bool, others: I64,
+                 n_others: I64) -> tuple[float, np.int64]:  # pragma: no cover - compiled
         """Round trips, containers they open, and per class the containers the others open."""
         body = 0.0
         ob = np.int64(0)
@@ -50,7 +67,8 @@ if AVAILABLE:
         return body, ob
 
     @njit(cache=True, nogil=True, inline="always")
-    def _first_trip(delta2, fdelta2, fmask2, fl, pos, m, p, relaxed, others, n_others, inf):  # pragma: no cover
+    def _first_trip(delta2: F64, fdelta2: F64, fmask2: I64, fl: I64, pos: Bool, m: int, p: int, relaxed: bool,
+                    others: I64, n_others: I64, inf: float) -> float:  # pragma: no cover
         ft = inf
         for j in range(m):
             if pos[j]:
@@ -63,8 +81,9 @@ if AVAILABLE:
         return ft
 
     @njit(cache=True, nogil=True)
-    def values_kernel(cum_flat, opens_flat, delta2, fdelta2, fmask2, at_target, d_target, idx, cnt, q, held, k1,
-                      relaxed, inf):  # pragma: no cover - compiled
+    def values_kernel(cum_flat: F64, opens_flat: I64, delta2: F64, fdelta2: F64, fmask2: I64, at_target: I64,
+                      d_target: F64, idx: I64, cnt: I64, q: I64, held: I64, k1: int,
+                      relaxed: bool, inf: float) -> F64:  # pragma: no cover - compiled
         m, g_n = idx.shape
         q_n = q.shape[0]
         out = np.empty((q_n, g_n))

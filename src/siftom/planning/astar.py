@@ -11,11 +11,15 @@ import enum
 import heapq
 import itertools
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Hashable, Iterable, Iterator
 from dataclasses import dataclass, field
+from typing import Generic, TypeVar
 
 from siftom.errors import unknown_name
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, cost, legal_actions
+
+_L = TypeVar("_L")  # what labels a step of the plan (an action, or a macro of several)
+_S = TypeVar("_S", bound=Hashable)  # a search state
 
 
 class Status(enum.Enum):
@@ -26,15 +30,15 @@ class Status(enum.Enum):
 
 
 @dataclass(frozen=True)
-class PlanResult:
+class PlanResult(Generic[_L, _S]):
     """Outcome of a search: status, plan, its cost and the work done."""
 
     status: Status
-    plan: tuple[Action, ...] = ()
+    plan: tuple[_L, ...] = ()
     cost: float = float("inf")
     nodes_expanded: int = 0
     seconds: float = 0.0
-    states: tuple[State, ...] = field(default=(), repr=False)
+    states: tuple[_S, ...] = field(default=(), repr=False)
 
     @property
     def solved(self) -> bool:
@@ -42,19 +46,19 @@ class PlanResult:
 
 
 def astar(
-    start: State,
-    is_goal: Callable[[State], bool],
-    successors: Callable[[State], Iterable[tuple[Action, State, float]]],
-    heuristic: Callable[[State], float] | None = None,
+    start: _S,
+    is_goal: Callable[[_S], bool],
+    successors: Callable[[_S], Iterable[tuple[_L, _S, float]]],
+    heuristic: Callable[[_S], float] | None = None,
     max_nodes: int = 200_000,
     max_time: float = 10.0,
-) -> PlanResult:
+) -> PlanResult[_L, _S]:
     """A* from ``start``; optimal when ``heuristic`` is admissible (never overestimates)."""
     t0 = time.perf_counter()
     h = heuristic or (lambda _s: 0.0)
     tie = itertools.count()
-    g_best: dict[State, float] = {start: 0.0}
-    parent: dict[State, tuple[State, Action] | None] = {start: None}
+    g_best: dict[_S, float] = {start: 0.0}
+    parent: dict[_S, tuple[_S, _L] | None] = {start: None}
     # ties on f are broken towards deeper nodes (larger g): fetch orders of equal cost are
     # interchangeable, and without this A* expands every one of them
     frontier = [(h(start), 0.0, next(tie), 0.0, start)]
@@ -64,10 +68,11 @@ def astar(
         if g > g_best.get(s, float("inf")):
             continue
         if is_goal(s):
-            plan, states = [], [s]
+            plan: list[_L] = []
+            states = [s]
             node = s
-            while parent[node] is not None:
-                prev, a = parent[node]  # type: ignore[misc]
+            while (link := parent[node]) is not None:
+                prev, a = link
                 plan.append(a)
                 states.append(prev)
                 node = prev
@@ -97,7 +102,7 @@ def plan_for_goal(
     max_time: float = 10.0,
     prune: bool = True,
     heuristic: str = "admissible",
-) -> PlanResult:
+) -> PlanResult[Action, State]:
     """Optimal plan for one agent to reach ``goal`` (the other agent stays where it is).
 
     ``heuristic="admissible"`` (default) guarantees an optimal plan. ``"fast"`` uses the full
@@ -119,7 +124,7 @@ def plan_for_goal(
     N = goal_matrix(world, [goal])
     needed = {c for c, _n in goal.counts}
 
-    def acts_here(s: State):
+    def acts_here(s: State) -> Iterator[Action]:
         """Non-walk actions worth considering where the agent stands (pruned, see docstring)."""
         h = s.held[agent]
         holding_spare = h >= 0 and world.items[h].cls not in needed
@@ -136,7 +141,7 @@ def plan_for_goal(
                     continue
             yield a
 
-    def successors(s: State):
+    def successors(s: State) -> Iterator[tuple[tuple[Action, ...], State, float]]:
         if not prune:
             for a in legal_actions(world, s, agent):
                 yield (a,), apply(s, a), float(cost(world, s, a))
@@ -200,8 +205,8 @@ def plan_for_goal(
 
     res = astar(start, lambda s: goal.satisfied(world, s), successors,
                 h if use_heuristic else None, max_nodes, max_time)
-    if not res.solved:
-        return res
+    if not res.solved:  # no plan: the same result, its (empty) plan typed as single actions
+        return PlanResult(res.status, (), res.cost, res.nodes_expanded, res.seconds)
     plan = tuple(a for macro in res.plan for a in macro)
     states = [start]
     for a in plan:

@@ -30,15 +30,27 @@ import operator
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from siftom.errors import ObservationError
 from siftom.planning import _kernel
 from siftom.world.model import HELD, NOTHING, Action, Goal, State, World, apply, cost
 
 INF = np.float64(1e9)
-_ROW_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+Bool = npt.NDArray[np.bool_]
+# one class's table rows (``CostToGo._class_rows``): cum, opens, delta, fdelta, fmask, the number
+# already on the target, then the five arrays again with a leading axis of length one
+ClassRows = tuple[F64, I64, F64, F64, I64, int, F64, I64, F64, F64, I64]
+RowKey = tuple[int, tuple[int, ...], int]
+
+# per world: class rows by (target, kmax), tables by (target, kmax, agent, "tables")
+_ROW_CACHE: weakref.WeakKeyDictionary[World, dict[tuple[object, ...], dict[Any, Any]]] = weakref.WeakKeyDictionary()
 
 
 def goal_matrix(world: World, goals: Sequence[Goal]) -> np.ndarray:
@@ -80,7 +92,7 @@ class ClassTables:
     fmask: np.ndarray
     at_target: np.ndarray
 
-    def extend(self, rows: Sequence[tuple], relaxed: bool = False) -> ClassTables:
+    def extend(self, rows: Sequence[ClassRows], relaxed: bool = False) -> ClassTables:
         """These tables with class rows (``CostToGo._class_rows`` results) appended after them.
 
         Without ``relaxed`` the result serves full values only (its ``delta`` is left empty: one
@@ -88,9 +100,11 @@ class ClassTables:
         if not rows:
             return self
         fields = ("cum", "opens", "delta", "fdelta", "fmask")
-        out = [np.concatenate([getattr(self, f)] + [r[6 + k] for r in rows]) if relaxed or f != "delta"
-               else self.delta[:0] for k, f in enumerate(fields)]
-        return ClassTables(*out, np.concatenate([self.at_target, np.array([r[5] for r in rows], dtype=np.int64)]))
+        cum, opens, delta, fdelta, fmask = [
+            np.concatenate([getattr(self, f)] + [r[6 + k] for r in rows]) if relaxed or f != "delta"
+            else self.delta[:0] for k, f in enumerate(fields)]
+        return ClassTables(cum, opens, delta, fdelta, fmask,
+                           np.concatenate([self.at_target, np.array([r[5] for r in rows], dtype=np.int64)]))
 
 
 def fetch_order(sites: Sequence[int], size: dict[int, int], closed: dict[int, bool], dT: np.ndarray) -> list[int]:
@@ -135,9 +149,9 @@ class CostToGo:
         self._closable = np.array([p.closable for p in world.places])
         # class rows depend only on the world, target and kmax: share them across instances
         per_world = _ROW_CACHE.setdefault(world, {})
-        self._cache = per_world.setdefault((target, self.kmax), {})
+        self._cache: dict[RowKey, ClassRows] = per_world.setdefault((target, self.kmax), {})
         # values at every place by (goals, hand, objects, containers); kept small
-        self._vcache: dict[tuple, tuple[SparseGoals, np.ndarray]] = {}
+        self._vcache: dict[tuple[int, int, tuple[int, ...], int], tuple[SparseGoals, np.ndarray]] = {}
         # whole tables by state (tables are never modified in place)
         self._tables: dict[State, ClassTables] = per_world.setdefault((target, self.kmax, agent, "tables"), {})
 
@@ -147,7 +161,7 @@ class CostToGo:
         self._vcache.clear()
 
     # ----- tables ----------------------------------------------------------------------------
-    def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int):
+    def _class_rows(self, c: int, item_at: tuple[int, ...], open_mask: int) -> ClassRows:
         locs = self._cls_locs[c](item_at)
         hit = self._cache.get((c, locs, open_mask))
         if hit is not None:
@@ -222,8 +236,8 @@ class CostToGo:
 
     def _build_tables(self, s: State) -> ClassTables:
         rows = [self._class_rows(c, s.item_at, s.open_mask) for c in range(self.C)]
-        return ClassTables(*(np.stack([r[k] for r in rows]) for k in range(5)),
-                           np.array([r[5] for r in rows], dtype=np.int64))
+        cum, opens, delta, fdelta, fmask = (np.stack([r[k] for r in rows]) for k in range(5))
+        return ClassTables(cum, opens, delta, fdelta, fmask, np.array([r[5] for r in rows], dtype=np.int64))
 
     def retable(self, base: ClassTables, s: State, classes: Sequence[int]) -> ClassTables:
         """Tables of ``s`` rebuilt only for ``classes`` (the others are unchanged from ``base``)."""
@@ -296,19 +310,19 @@ class CostToGo:
         if deliver.any():
             body2, ft2, _any, _bits = self._trips(tabs, idx * K1 + need, need > 0, q, relaxed)
             dval = np.minimum(dval, 1.0 + body2[None, :] + ft2)
-        out = np.where(deliver[None, :], dval, other[None, :] + ft)
+        out: F64 = np.where(deliver[None, :], dval, other[None, :] + ft)
         return np.minimum(out, INF)
 
     def _trips(self, tabs: ClassTables, flat: np.ndarray, pos: np.ndarray, q: np.ndarray,
-               relaxed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+               relaxed: bool) -> tuple[F64, F64, Bool, F64]:
         """Round trips (G,), first-trip term from each place (Q, G), whether anything is needed
         (G,) and the containers the round trips alone open (G,), for (m, G) row indices."""
-        body = tabs.cum.reshape(-1).take(flat).sum(axis=0)
-        any_need = pos.any(axis=0)
+        body: F64 = tabs.cum.reshape(-1).take(flat).sum(axis=0)
+        any_need: Bool = np.any(pos, axis=0)
         # first trip from where the agent stands: min over the classes the goal still needs
         if relaxed:
             dl = tabs.delta.reshape(-1, self.P)[:, q].take(flat, axis=0)  # (m, G, Q)
-            bits = np.zeros_like(body)
+            bits: F64 = np.zeros_like(body)
         else:
             # the containers the other classes open, and this class's own with its first trip
             ow = tabs.opens.reshape(-1).take(flat)  # (m, G)
@@ -320,7 +334,7 @@ class CostToGo:
             dl = tabs.fdelta.reshape(-1, self.P)[:, q].take(flat, axis=0) + np.bitwise_count(
                 (others[:, :, None] | fm).view(np.uint64))
             bits = np.bitwise_count(pre[-1].view(np.uint64)).astype(np.float64)
-        ft = np.where(pos[:, :, None], dl, INF).min(axis=0).T  # (Q, G)
+        ft: F64 = np.where(pos[:, :, None], dl, INF).min(axis=0).T  # (Q, G)
         ft[:, ~any_need] = 0.0
         return body, ft, any_need, bits
 
@@ -355,14 +369,14 @@ class SparseGoals:
 
     @property
     def all_rows(self) -> np.ndarray:
-        cache = self.__dict__.setdefault("_rows_naming", {})
+        cache: dict[int | str, npt.NDArray[np.intp]] = self.__dict__.setdefault("_rows_naming", {})
         if "all" not in cache:
             cache["all"] = np.arange(len(self.idx))
         return cache["all"]
 
     def rows_naming(self, c: int) -> np.ndarray:
         """Indices of the goals that ask for class ``c`` (cached per instance)."""
-        cache = self.__dict__.setdefault("_rows_naming", {})
+        cache: dict[int | str, npt.NDArray[np.intp]] = self.__dict__.setdefault("_rows_naming", {})
         if c not in cache:
             cache[c] = np.flatnonzero(((self.idx == c) & (self.cnt > 0)).any(axis=1))
         return cache[c]
@@ -406,7 +420,7 @@ def successor_values(
     others = [r for r, a in enumerate(actions) if a.kind != "walk"]
     if not others:
         return Q
-    extra_rows: list[tuple] = []  # appended table rows
+    extra_rows: list[ClassRows] = []  # appended table rows
     parts_idx, parts_cnt, parts_held, owners = [], [], [], []
     any_need = grab_base = None
     for r in others:

@@ -31,7 +31,7 @@ class BoltzmannPolicy:
     def log_probs(self, Q: np.ndarray) -> np.ndarray:
         """Log-probabilities over actions (axis 0) for each column of ``Q`` (actions x goals)."""
         z = -self.beta * np.minimum(Q, 1e6)
-        lp = z - logsumexp(z, axis=0, keepdims=True)
+        lp: np.ndarray = z - logsumexp(z, axis=0, keepdims=True)
         if self.epsilon > 0:
             n = Q.shape[0]
             lp = np.logaddexp(np.log1p(-self.epsilon) + lp, np.log(self.epsilon / n))

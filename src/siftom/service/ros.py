@@ -202,4 +202,5 @@ def audio_message(pcm: bytes) -> dict[str, Any]:
 
 
 def pcm16(x: np.ndarray) -> bytes:
-    return (np.clip(x, -1.0, 1.0) * 32767).astype("<i2").tobytes()
+    pcm: bytes = (np.clip(x, -1.0, 1.0) * 32767).astype("<i2").tobytes()
+    return pcm

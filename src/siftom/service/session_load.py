@@ -150,7 +150,7 @@ def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]
 
 
 async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: float, pid: int | None = None,
-               seed: int = 0) -> tuple[list[float], list[float], int, int, float, float | None]:
+               seed: int = 0) -> tuple[list[tuple[str, float]], list[float], int, int, float, float | None]:
     import httpx
 
     n = len(work)

@@ -219,7 +219,8 @@ class SessionManager:
     def append(self, sid: str, lines: list[str], source: str = "actions") -> list[str]:
         """Parse, check and add action lines (siftom or VirtualHome format), all or none; returns
         the actions added, in siftom's form (a script line may stand for none, one or two)."""
-        return self.append_reply(sid, lines, None, None, source)["added"]
+        added: list[str] = self.append_reply(sid, lines, None, None, source)["added"]
+        return added
 
     def append_once(self, sid: str, lines: list[str], after: int | None) -> tuple[list[str], bool]:
         """:meth:`append`, safe to retry with ``after`` (see :meth:`append_reply`)."""
@@ -274,11 +275,12 @@ class SessionManager:
                 w, s = sess.scene.world, sess.scene.start
                 for text in sess.actions[:after]:
                     s = apply(s, w.parse_action(text, s))
+                late: list[Action] | None
                 try:
-                    acts, _ = parse_actions(w, s, lines, first=0)
+                    late, _ = parse_actions(w, s, lines, first=0)
                 except ObservationError:
-                    acts = None
-                texts = None if acts is None else [w.format_action(a) for a in acts]
+                    late = None
+                texts = None if late is None else [w.format_action(a) for a in late]
                 if texts is not None and after + len(texts) == n and sess.actions[after:] == texts:
                     return self._actions_reply(sess, n, texts, True)
         raise ProblemError(409, "conflict", f"the session holds {n} actions, not the {after} this request was "
@@ -316,7 +318,8 @@ class SessionManager:
                 if why is not None:
                     raise ObservationError(f"{source} action {k} is impossible here: {why}")
                 s = apply(s, a)
-            return self._add(sess, actions, source)["added"]
+            added: list[str] = self._add(sess, actions, source)["added"]
+            return added
 
     def _add(self, sess: Session, acts: list[Action], source: str, idem: Idem | None = None) -> dict[str, Any]:
         """Store and observe ``acts`` (the session's lock held); the answer to the request."""

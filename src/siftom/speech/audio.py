@@ -6,6 +6,7 @@ import io
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import soundfile as sf
 import soxr
 
@@ -93,7 +94,8 @@ def as_audio(audio: np.ndarray | str | Path, max_seconds: float = DEFAULT_MAX_SE
     x = x.astype(np.float32, copy=False)
     if not np.all(np.isfinite(x)):
         raise AudioError("the audio contains NaN or infinite samples")
-    return np.clip(x, -1.0, 1.0)
+    out: npt.NDArray[np.float32] = np.clip(x, -1.0, 1.0)
+    return out
 
 
 # pocketsphinx recognises studio-clean speech (TTS, or a recording gated to digital silence
@@ -125,7 +127,8 @@ def to_pcm16(x: np.ndarray, noise_floor_db: float | None = NOISE_FLOOR_DB) -> by
     """16-bit little-endian PCM bytes for pocketsphinx, with a noise floor (None: the samples as given)."""
     if noise_floor_db is not None:
         x = with_noise_floor(x, noise_floor_db)
-    return (np.clip(x, -1.0, 1.0) * 32767.0).round().astype("<i2").tobytes()
+    pcm: bytes = (np.clip(x, -1.0, 1.0) * 32767.0).round().astype("<i2").tobytes()
+    return pcm
 
 
 def write_wav(path: str | Path, x: np.ndarray, rate: int = SAMPLE_RATE) -> Path:

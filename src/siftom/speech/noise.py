@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import numpy.typing as npt
 
 from siftom.errors import AudioError, SiftomError, unknown_name
 from siftom.speech.audio import SAMPLE_RATE, load_audio
@@ -79,7 +80,8 @@ def measure_snr(speech: np.ndarray, noise: np.ndarray, mask: np.ndarray | None =
     pn = float(np.mean(np.asarray(noise, np.float64)[m] ** 2))
     if pn <= 0.0:
         return float("inf")
-    return 10.0 * np.log10(ps / pn)
+    snr: float = 10.0 * np.log10(ps / pn)
+    return snr
 
 
 def scale_noise(speech: np.ndarray, noise: np.ndarray, snr_db: float) -> np.ndarray:
@@ -94,7 +96,8 @@ def scale_noise(speech: np.ndarray, noise: np.ndarray, snr_db: float) -> np.ndar
     if pn <= 1e-20:
         raise AudioError("the noise is silent where the speech is; choose another noise clip")
     gain = np.sqrt(ps / (pn * 10.0 ** (snr_db / 10.0)))
-    return np.asarray(noise, np.float64) * gain
+    scaled: npt.NDArray[np.float64] = np.asarray(noise, np.float64) * gain
+    return scaled
 
 
 def mix_at_snr(
@@ -120,7 +123,8 @@ def mix_at_snr(
     peak = float(np.max(np.abs(mixed)))
     if peak > PEAK_LIMIT:  # scale speech and noise together: the SNR stays the same
         mixed *= PEAK_LIMIT / peak
-    return mixed.astype(np.float32)
+    out: npt.NDArray[np.float32] = mixed.astype(np.float32)
+    return out
 
 
 def fit_length(noise: np.ndarray, n: int, rng: Rng = None) -> np.ndarray:

@@ -12,6 +12,7 @@ keeps the speech's level, so a dataset mixes noise at the same SNR as for dry sp
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from scipy.signal import fftconvolve, lfilter
 
 from siftom.errors import SiftomError
@@ -60,4 +61,5 @@ def reverberate(x: np.ndarray, rt60: float, rng: np.random.Generator | int | Non
     peak = float(np.max(np.abs(y)))
     if peak > 0.99:
         y *= 0.99 / peak
-    return y.astype(np.float32)
+    out: npt.NDArray[np.float32] = y.astype(np.float32)
+    return out

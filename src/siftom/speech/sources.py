@@ -7,6 +7,8 @@ import queue
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from types import ModuleType
+from typing import Any, cast
 
 import numpy as np
 
@@ -35,7 +37,7 @@ def _paced(x: np.ndarray, step: int, realtime: bool) -> Iterator[np.ndarray]:
         yield x[k:k + step]
 
 
-def _sounddevice():  # noqa: ANN202
+def _sounddevice() -> ModuleType:
     try:
         import sounddevice as sd
     except ModuleNotFoundError:
@@ -44,7 +46,7 @@ def _sounddevice():  # noqa: ANN202
         raise BackendUnavailableError(f"--mic needs the PortAudio library ({exc}): on Debian/Ubuntu "
                                       "sudo apt-get install -y libportaudio2; or stream a file with --wav FILE "
                                       "--realtime") from None
-    return sd
+    return cast(ModuleType, sd)  # untyped: imported as Any
 
 
 def list_input_devices() -> list[str]:
@@ -71,7 +73,7 @@ def mic_chunks(device: int | str | None = None, chunk_s: float = CHUNK_S,
     channels = max(1, min(2, int(info["max_input_channels"])))
     q: queue.Queue[np.ndarray] = queue.Queue()
 
-    def callback(indata, frames, t, status) -> None:  # noqa: ANN001
+    def callback(indata: np.ndarray, frames: int, t: Any, status: Any) -> None:  # PortAudio's time, flags
         q.put(np.asarray(indata, dtype=np.float32).mean(axis=1).copy())
 
     import soxr

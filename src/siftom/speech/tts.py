@@ -105,7 +105,8 @@ def get_voice(name: str | Voice) -> Voice:
     """Look a voice up by name; raise UnknownNameError with close matches."""
     if isinstance(name, Voice):
         return name
-    return VOICES.spec(name).attrs["voice"]
+    voice: Voice = VOICES.spec(name).attrs["voice"]
+    return voice
 
 
 def engine_available(engine: str) -> bool:

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 from scipy.ndimage import uniform_filter1d
 
 from siftom.errors import SiftomError
@@ -75,7 +76,8 @@ def _frames(x: np.ndarray) -> np.ndarray:
         x = np.pad(x, (0, FRAME - len(x)))
     n = 1 + (len(x) - FRAME) // HOP
     idx = np.arange(FRAME)[None, :] + HOP * np.arange(n)[:, None]
-    return x[idx] * np.hanning(FRAME)[None, :]
+    frames: npt.NDArray[np.float64] = x[idx] * np.hanning(FRAME)[None, :]
+    return frames
 
 
 def frame_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

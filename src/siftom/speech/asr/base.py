@@ -112,7 +112,8 @@ def get_engine(name: str = DEFAULT_ENGINE, vocabulary: Sequence[str] | None = No
                                "vocabulary= (siftom.likelihood.phrasing.command_vocabulary)")
     if vocabulary is not None:
         options["vocabulary"] = list(vocabulary)
-    return entry.make(**options)
+    engine: ASREngine = entry.make(**options)  # the registry imports its classes by name: untyped
+    return engine
 
 
 def is_scene_engine(name: str) -> bool:

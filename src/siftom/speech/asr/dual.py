@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from siftom.observation import Hypothesis
-from siftom.speech.asr.base import Transcript, get_engine
+from siftom.speech.asr.base import ASREngine, Transcript, get_engine
 from siftom.speech.asr.pocketsphinx import PocketsphinxEngine
 from siftom.speech.asr.worker import EngineWorker, WorkerError, workers_enabled
 from siftom.speech.audio import as_audio
@@ -87,13 +87,13 @@ class DualEngine:
         self._parallel = parallel and workers_enabled()
         self._worker: EngineWorker | None = None
         self._lock = threading.Lock()
-        self._open: Any = None
+        self._open: ASREngine | None = None
         self._used_worker = False
         self.closed = PocketsphinxEngine(vocabulary=vocabulary, max_seconds=max_seconds)
         self.unknown_words = self.closed.unknown_words
 
     @property
-    def open(self) -> Any:
+    def open(self) -> ASREngine:
         """The open engine in this process (built on first use: the sequential path)."""
         if self._open is None:
             self._open = get_engine("pocketsphinx-open", vocabulary=self._vocabulary, **self._open_options)

@@ -20,7 +20,8 @@ import tempfile
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import Any, cast
 
 import numpy as np
 
@@ -56,15 +57,17 @@ REQUEST_TEMPLATES = (
 )
 
 
-def _ps():  # noqa: ANN202 - the pocketsphinx module
+def _ps() -> ModuleType:
+    """The pocketsphinx module (imported on first use)."""
     import pocketsphinx
 
-    return pocketsphinx
+    return cast(ModuleType, pocketsphinx)  # untyped: imported as Any
 
 
 def model_path(sub: str) -> str:
     """Path of a file inside pocketsphinx's shipped model folder."""
-    return _ps().get_model_path(sub)
+    path: str = _ps().get_model_path(sub)
+    return path
 
 
 @functools.lru_cache(maxsize=1)

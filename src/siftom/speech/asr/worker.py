@@ -33,12 +33,15 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from siftom.errors import SiftomError
 from siftom.speech.audio import SAMPLE_RATE
+
+if TYPE_CHECKING:
+    from siftom.speech.asr.base import Transcript
 
 MAX_WORKERS = 2  # per process: the scene's decoder and one more (e.g. an answer grammar's)
 START_TIMEOUT_S = 120.0  # importing siftom + building a decoder; generous for a loaded machine
@@ -88,7 +91,7 @@ def _touch(worker: EngineWorker) -> None:
             _LIVE.move_to_end(id(worker))
 
 
-def _shutdown(proc: subprocess.Popen, conns: tuple[Connection, ...], owner: int) -> None:
+def _shutdown(proc: subprocess.Popen[bytes], conns: tuple[Connection, ...], owner: int) -> None:
     """Close the pipes and end the child (a forked copy only closes its copies of the pipes)."""
     for c in conns:
         with contextlib.suppress(OSError):
@@ -178,14 +181,15 @@ class EngineWorker:
         self._pending = True
         self._audio_s = audio.size / SAMPLE_RATE
 
-    def result(self, timeout: float | None = None) -> Any:
+    def result(self, timeout: float | None = None) -> Transcript:
         """The Transcript of the last :meth:`submit` (waits at most ``timeout`` seconds)."""
         if not self._pending:
             raise WorkerError("nothing was submitted to the ASR worker")
         self._pending = False
-        return self._reply(DECODE_TIMEOUT_S + 2.0 * self._audio_s if timeout is None else timeout)
+        tr: Transcript = self._reply(DECODE_TIMEOUT_S + 2.0 * self._audio_s if timeout is None else timeout)
+        return tr
 
-    def transcribe(self, audio: np.ndarray, nbest: int = 1) -> Any:
+    def transcribe(self, audio: np.ndarray, nbest: int = 1) -> Transcript:
         """submit + result, one caller at a time."""
         with self._lock:
             self.submit(audio, nbest)

@@ -220,19 +220,10 @@ def print_posterior(post, console: Console | None = None, *, recogniser: str | N
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.bench.calibrate import _cli as calibrate_cli
-    from siftom.cli.bench import bench_group as bench
-
-    bench.add_command(calibrate_cli())
-    from siftom.bench.decide_speed import bench_decide_cmd
-
-    bench.add_command(bench_decide_cmd)
     from siftom.bench.decisions import answer_reliability_cmd
+    from siftom.cli.bench import bench_group as bench
 
     bench.add_command(answer_reliability_cmd)
     from siftom.bench.answers import answer_grammar_cmd
 
     bench.add_command(answer_grammar_cmd)
-    from siftom.bench.decision_tuning import loss_aversion_cmd
-
-    bench.add_command(loss_aversion_cmd)

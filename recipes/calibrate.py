@@ -41,8 +41,8 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
     from siftom.bench.engines import engine as get_engine
-    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.bench.trials import dataset_vocabulary
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(dataset)
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset

@@ -66,10 +66,10 @@ class _Tied:
 def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> None:
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.counts import count_heard
+    from siftom.people.stimuli import load_dataset, scenario_for
     from siftom.speech.asr.base import get_engine
     from siftom.world.commands import RobotCommand
 

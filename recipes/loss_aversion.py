@@ -70,8 +70,8 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     from siftom.bench import evaluate as ev
     from siftom.bench import trials as tr
     from siftom.bench.results_io import read_jsonl
-    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.inference.model import Observation
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     root = Path(results)
     run = json.loads((root / ev.RUN).read_text(encoding="utf-8"))

@@ -12,7 +12,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "siftom"
 
 # Lowest first. A package may import from its own layer and any layer below.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "private"),
+    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "private", "jsonlines"),
     ("world",),
     ("planning",),
     ("agents",),
@@ -22,7 +22,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("inference",),
     ("assist", "perception"),
     ("inputs", "settings", "answer"),  # the resolved settings and the one answer shape
-    ("observer",),  # the one path behind every door
+    ("observer", "listener"),  # the one path behind every door; a home listening through it
+    ("people",),  # participants: the dataset format, recording, annotation, ratings (bench and service)
     ("api", "bench", "service", "__init__"),  # the package root is the public facade
     ("cli",),
 )

@@ -89,7 +89,7 @@ def tiny_eval(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         pytest.skip("flite is not installed")
     from siftom.bench.dataset import build_dataset
     from siftom.bench.evaluate import EvalOptions, evaluate
-    from siftom.bench.stimuli import BuildOptions
+    from siftom.people.stimuli import BuildOptions
 
     root = tmp_path_factory.mktemp("tiny-eval")
     build_dataset(BuildOptions(scenarios=1, speakers=1, voices=("flite-slt",), noises=("pink",), snrs=(10.0,),

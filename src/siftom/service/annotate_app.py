@@ -1,4 +1,4 @@
-"""The annotation page (``siftom annotate``): the human baseline (:mod:`siftom.bench.human`).
+"""The annotation page (``siftom annotate``): the human baseline (:mod:`siftom.people.annotate`).
 
 An annotator agrees to the consent text, then gets one stimulus per page: the scene after each
 observed action (not the goal), the recording, a box for what they heard and a form with the
@@ -19,9 +19,9 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
-from siftom.bench.collect import action_words
-from siftom.bench.human import AnnotateOptions, Annotation, answer_form
-from siftom.bench.stimuli import scenario_for
+from siftom.people.annotate import AnnotateOptions, Annotation, answer_form
+from siftom.people.collect import action_words
+from siftom.people.stimuli import scenario_for
 from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 

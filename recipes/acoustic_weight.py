@@ -34,9 +34,9 @@ class _Recorded:
 
 def collect(dataset: str, out: str, start: int, step: int) -> None:
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
+    from siftom.people.stimuli import load_dataset, scenario_for
     from siftom.speech.asr.base import get_engine
 
     ds = load_dataset(dataset)

@@ -16,6 +16,8 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
+
 COUNTS = {"one": 1, "two": 2, "three": 3, "four": 4, "1": 1, "2": 2, "3": 3, "4": 4}
 
 
@@ -36,9 +38,11 @@ class _Recorded:
         self.last = None
 
     def log_prob(self, instruction, commands, context=None):
-        self.last = self.inner.log_prob(instruction, commands, context=context)
-        self.heard = [instruction.text, self.inner._whisper.last_heard if self.inner._whisper else []]
-        return self.last
+        scores = self.inner.log_prob(instruction, commands, context=context)
+        self.last = np.asarray(scores.log_probs, dtype=float)
+        # the recogniser's 1-best and Whisper's own words (the evidence says them; "" without Whisper)
+        self.heard = [instruction.text, str(scores.evidence.get("whisper_heard", "")).split()]
+        return scores
 
     def evidence(self):
         return self.inner.evidence()
@@ -62,10 +66,10 @@ class _Tied:
 def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> None:
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.stimuli import load_dataset, scenario_for
     from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.counts import count_heard
+    from siftom.people.stimuli import load_dataset, scenario_for
     from siftom.speech.asr.base import get_engine
     from siftom.world.commands import RobotCommand
 

@@ -71,7 +71,7 @@ def off_topic_clips(ds: Any, out: Path, seed: int) -> list[dict[str, Any]]:
 def answer_row(row: dict[str, Any], domain: str) -> dict[str, Any]:
     """Run the clip through siftom.listen; keep what was decided and what each recogniser heard."""
     import siftom
-    from siftom.bench.stimuli import resolve_scenario
+    from siftom.people.stimuli import resolve_scenario
 
     sc = resolve_scenario(row["scenario"], domain, row["scenario_seed"])
     ans = siftom.listen(row["audio"], scenario=sc, actions=row["actions"])
@@ -109,7 +109,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     """Build, answer, report (module doc)."""
     from siftom.bench.dataset import build_dataset
-    from siftom.bench.stimuli import BuildOptions
+    from siftom.people.stimuli import BuildOptions
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, required=True)

@@ -22,7 +22,7 @@ from pathlib import Path
 from siftom.bench.backends import make_backend
 from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate
-from siftom.bench.stimuli import BuildOptions, load_dataset
+from siftom.people.stimuli import BuildOptions, load_dataset
 
 DEFAULT = BuildOptions(scenarios=12, speakers=2, voices=("flite-slt", "flite-awb"), noises=("pink",),
                        snrs=(10.0,), seed=0)

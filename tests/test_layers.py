@@ -12,7 +12,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "siftom"
 
 # Lowest first. A package may import from its own layer and any layer below.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "private"),
+    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "private", "jsonlines"),
     ("world",),
     ("planning",),
     ("agents",),
@@ -22,7 +22,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("inference",),
     ("assist", "perception"),
     ("inputs", "settings", "answer"),  # the resolved settings and the one answer shape
-    ("observer",),  # the one path behind every door
+    ("observer", "listener"),  # the one path behind every door; a home listening through it
+    ("people",),  # participants: the dataset format, recording, annotation, ratings (bench and service)
     ("api", "bench", "service", "__init__"),  # the package root is the public facade
     ("cli",),
 )
@@ -185,3 +186,55 @@ def test_the_circle_finder_finds_a_circle(tmp_path):
     (pkg / "a" / "y.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from siftom.a import x\n")
     (pkg / "a" / "z.py").write_text("from siftom.a.x import f\n")
     assert circles(import_graph(pkg)) == [{"siftom.a.x", "siftom.a.y"}]
+
+
+# -- never: edges no layering change may bring back ---------------------------------------------
+
+# (importer, imported): neither may import the other in any way (module level, lazy, type-only).
+# The layers above would let some of these in (service and bench share a layer; settings sit
+# above speech's users); these rules keep them out whatever LAYERS becomes.
+NEVER: tuple[tuple[str, str], ...] = (
+    ("siftom.service", "siftom.bench"),  # the service serves people through siftom.people
+    ("siftom.bench", "siftom.service"),  # the bench listens through siftom.listener
+    ("siftom.settings", "siftom.service"),  # settings are read by every door, the service is one
+    ("siftom.speech", "siftom.likelihood"),  # speech produces what the likelihoods score
+)
+# (importer module, imported module) edges of NEVER that still exist, each with why; empty now.
+KNOWN_EXCEPTIONS: frozenset[tuple[str, str]] = frozenset()
+
+
+def _within(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def never_edges(graph: dict[str, set[str]], rules=NEVER) -> list[tuple[str, str]]:
+    """The (importer, imported) module edges that break a rule of ``rules``."""
+    return sorted((m, t) for m, targets in graph.items() for t in targets
+                  for a, b in rules if _within(m, a) and _within(t, b))
+
+
+def test_never_rules():
+    found = [e for e in never_edges(import_graph()) if e not in KNOWN_EXCEPTIONS]
+    assert not found, "forbidden imports (tests/test_layers.py NEVER): " + "; ".join(f"{m} -> {t}" for m, t in found)
+
+
+def test_known_exceptions_still_exist():
+    """A known exception that was removed must leave the list (so it cannot come back unnoticed)."""
+    gone = KNOWN_EXCEPTIONS - set(never_edges(import_graph()))
+    assert not gone, f"remove from KNOWN_EXCEPTIONS, these edges are gone: {sorted(gone)}"
+
+
+def test_the_never_rules_see_lazy_and_type_only_imports(tmp_path):
+    pkg = tmp_path / "siftom"
+    for sub in ("service", "bench", "speech", "likelihood"):
+        (pkg / sub).mkdir(parents=True)
+        (pkg / sub / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "settings.py").write_text("from siftom.service import app\n")
+    (pkg / "service" / "app.py").write_text("def f():\n    from siftom.bench.stuff import g\n")  # lazy
+    (pkg / "bench" / "stuff.py").write_text("def g():\n    pass\n")
+    (pkg / "speech" / "asr.py").write_text(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from siftom import likelihood\n")  # type-only
+    assert never_edges(import_graph(pkg)) == [("siftom.service.app", "siftom.bench.stuff"),
+                                              ("siftom.settings", "siftom.service.app"),
+                                              ("siftom.speech.asr", "siftom.likelihood")]

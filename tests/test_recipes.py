@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import ast
+import importlib.util
+import inspect
+import json
 import os
 import shutil
 import subprocess
@@ -59,9 +62,153 @@ def test_instruction_gate_recipe_runs(tmp_path: Path) -> None:
     res = _run(str(RECIPES / "instruction_gate.py"), "--out", str(tmp_path / "gate"), "--scenarios", "1",
                "--speakers", "1", "--snr", "none", cwd=tmp_path)
     assert res.returncode == 0, res.stderr[-2000:]
-    import json
-
     summary = json.loads((tmp_path / "gate" / "summary.json").read_text())
     assert set(summary["rates"]) == {"request", "off-topic"}
     assert summary["rates"]["off-topic"]["all"]["n"] == summary["rates"]["request"]["all"]["n"] == 1
     assert "off-topic" in res.stdout and "refused" in res.stdout
+
+
+# -- the studies (tuning and diagnostics) on a tiny dataset and its evaluation -------------------
+
+def _load(name: str):
+    """A recipe as a module (its functions, without running its command line)."""
+    spec = importlib.util.spec_from_file_location(f"recipe_{name}", RECIPES / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+TINY_MODELS = ("siftom", "siftom-phonetic", "siftom-oracle-text", "siftom-phonetic-eb")
+
+
+@pytest.fixture(scope="module")
+def tiny_eval(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(dataset, results): one kitchen scenario, clean and pink@10dB, evaluated with TINY_MODELS."""
+    if shutil.which("flite") is None:
+        pytest.skip("flite is not installed")
+    from siftom.bench.dataset import build_dataset
+    from siftom.bench.evaluate import EvalOptions, evaluate
+    from siftom.people.stimuli import BuildOptions
+
+    root = tmp_path_factory.mktemp("tiny-eval")
+    build_dataset(BuildOptions(scenarios=1, speakers=1, voices=("flite-slt",), noises=("pink",), snrs=(10.0,),
+                               seed=3), root / "ds")
+    evaluate(root / "ds", root / "res", EvalOptions(models=TINY_MODELS), workers=1)
+    return root / "ds", root / "res"
+
+
+def test_calibrate_collects_with_the_library_nbest() -> None:
+    from siftom.speech.asr import DEFAULT_NBEST
+
+    mod = _load("calibrate")
+    assert inspect.signature(mod.collect).parameters["nbest"].default == DEFAULT_NBEST
+    assert mod.ece([1.0, 0.0], [True, False]) == 0.0
+
+
+@pytest.mark.slow  # the acoustic likelihood (and Whisper, when installed) per stimulus
+def test_calibrate_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    ds, _res = tiny_eval
+    res = _run(str(RECIPES / "calibrate.py"), "--dataset", str(ds), "--limit", "2", "--out", str(tmp_path / "cal"),
+               "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    fit = json.loads(res.stdout)
+    assert fit["all"]["n"] == 2 and {"best_T", "nll", "accuracy", "ece_at_best"} <= set(fit["all"])
+    saved = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    assert saved["fit"] == fit and len(saved["rows"]) == 2
+
+
+def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny_eval: tuple[Path, Path]) -> None:
+    from siftom.assist.decide import DEFAULT_LOSS_AVERSION
+    from siftom.bench.evaluate import load_results
+
+    _ds, results = tiny_eval
+    # the curve re-infers with the run's (phonetic) likelihood: compare with the phonetic models
+    curve = _load("loss_aversion").loss_aversion_curve(results, lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
+    rows = load_results(results)
+
+    def mean(model: str) -> float:
+        return sum(r["models"][model]["speedup"] for r in rows) / len(rows)
+
+    assert curve["n"] == len(rows)
+    # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator's N-best rows
+    assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom-phonetic"))
+    assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-phonetic-eb"))
+    # no chance constraint (alpha = 1) is the risk-neutral rule
+    assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])
+
+
+def test_loss_aversion_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    _ds, results = tiny_eval
+    res = _run(str(RECIPES / "loss_aversion.py"), str(results), "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    assert out["target"] == 0.03 and len(out["curves"]) == 1 and "loss_aversion" in out
+    text = _run(str(RECIPES / "loss_aversion.py"), str(results), cwd=tmp_path)
+    assert text.returncode == 0 and "smallest loss aversion with <= 3 % negative" in text.stdout
+
+
+def test_decide_speed_recipe_runs(tmp_path: Path) -> None:
+    res = _run(str(RECIPES / "decide_speed.py"), "--repeats", "1", "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    assert out["repeats"] == 1 and len(out["cases"]) == len(_load("decide_speed").CASES)
+    assert all(r["infer_ms"] > 0 and r["expected-benefit_ms"] > 0 for r in out["cases"])
+
+
+@pytest.mark.slow  # the acoustic likelihood (and Whisper, when installed) per stimulus
+def test_acoustic_weight_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    ds, _res = tiny_eval
+    rows = tmp_path / "aw.jsonl"
+    res = _run(str(RECIPES / "acoustic_weight.py"), "collect", str(ds), str(rows), "--step", "1", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert len(rows.read_text().splitlines()) == 2
+    res = _run(str(RECIPES / "acoustic_weight.py"), "score", str(rows), "--gammas", "1,0.5", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "(2 stimuli)" in res.stdout and "1.00 |" in res.stdout and "0.50 |" in res.stdout
+
+
+@pytest.mark.slow  # the acoustic likelihood (and Whisper, when installed) per stimulus
+def test_count_diagnostics_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    ds, _res = tiny_eval
+    rows = tmp_path / "cd.jsonl"
+    res = _run(str(RECIPES / "count_diagnostics.py"), str(ds), str(rows), "--limit", "2", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    first = json.loads(rows.read_text().splitlines()[0])
+    assert {"heard", "whisper", "chosen", "tied", "count_heard", "gold_class"} <= set(first)
+    res = _run(str(RECIPES / "count_diagnostics.py"), str(rows), "--summary", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "| n | 1 | 1 |" in res.stdout and "counts nobody heard tied" in res.stdout
+
+
+def test_count_words_lost_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    _ds, results = tiny_eval
+    res = _run(str(RECIPES / "count_words_lost.py"), str(results), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "| n | 1 | 1 |" in res.stdout and "| object word lost |" in res.stdout
+
+
+def test_default_path_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    _ds, results = tiny_eval
+    res = _run(str(RECIPES / "default_path.py"), str(results), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.count("| res | ") == 3  # siftom, siftom-phonetic, siftom-oracle-text
+    res = _run(str(RECIPES / "default_path.py"), str(results), "--compact", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "| res (2) |" in res.stdout
+
+
+@pytest.mark.parametrize("script", sorted(RECIPES.glob("*.py")), ids=lambda p: p.name)
+def test_recipe_answers_help(script: Path, tmp_path: Path) -> None:
+    res = _run(str(script), "--help", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "usage:" in res.stdout
+
+
+def test_every_recipe_has_a_smoke_test() -> None:
+    """Each recipe (and each config under recipes/) is run by a test of this file."""
+    text = Path(__file__).read_text(encoding="utf-8")
+    tested = {n.value for n in ast.walk(ast.parse(text)) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    untested = [p.name for p in sorted(RECIPES.glob("*.py")) if p.name not in tested and p.stem not in tested]
+    untested += [p.name for p in sorted(RECIPES.glob("*.toml")) if p.name not in tested]
+    assert not untested, f"recipes without a smoke test here: {untested}"

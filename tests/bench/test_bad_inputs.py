@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.stimuli import BuildOptions
 from siftom.bench.sweep import load_config, plan
 from siftom.cli import main
 from siftom.errors import DatasetError, SiftomError
+from siftom.people.stimuli import BuildOptions
 
 
 def _toml(tmp_path: Path, text: str) -> Path:

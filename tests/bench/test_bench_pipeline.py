@@ -11,8 +11,8 @@ import pytest
 from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate, load_results
 from siftom.bench.report import write_report
-from siftom.bench.stimuli import BuildOptions, load_dataset
 from siftom.errors import DatasetError
+from siftom.people.stimuli import BuildOptions, load_dataset
 
 pytestmark = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
 
@@ -211,25 +211,6 @@ def test_llm_baselines_run_in_the_evaluator_with_any_scorer(tiny: Path, tmp_path
     summary = json.loads((tmp_path / "llm" / "summary.json").read_text())
     assert set(summary["models"]) == {"siftom", *lb.LLM_MODELS}
 
-
-def test_loss_aversion_curve_reproduces_the_evaluated_models(tiny: Path, tmp_path: Path) -> None:
-    from siftom.assist.decide import DEFAULT_LOSS_AVERSION
-    from siftom.bench.decision_tuning import loss_aversion_curve
-
-    # the curve re-infers with the run's (phonetic) likelihood: compare with the phonetic models
-    evaluate(tiny, tmp_path / "la", EvalOptions(models=("siftom-phonetic", "siftom-phonetic-eb")))
-    curve = loss_aversion_curve(tmp_path / "la", lambdas=(0.0, DEFAULT_LOSS_AVERSION), alphas=(1.0,))
-    rows = load_results(tmp_path / "la")
-
-    def mean(model: str) -> float:
-        return sum(r["models"][model]["speedup"] for r in rows) / len(rows)
-
-    assert curve["n"] == len(rows)
-    # re-inferred from the cached transcripts, the MAP and the default rule match the evaluator's N-best rows
-    assert curve["siftom"]["speedup"] == pytest.approx(mean("siftom-phonetic"))
-    assert curve["loss_aversion"][1]["speedup"] == pytest.approx(mean("siftom-phonetic-eb"))
-    # no chance constraint (alpha = 1) is the risk-neutral rule
-    assert curve["chance_constraint"][0]["speedup"] == pytest.approx(curve["loss_aversion"][0]["speedup"])
 
 def test_siftom_llm_and_chat_baselines_run_against_an_endpoint(tiny: Path, tmp_path: Path, fake_openai) -> None:
     """siftom-llm scores prompts at /completions; the baselines, finding no echo log-probs

@@ -13,7 +13,7 @@ import pytest
 
 from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS
-from siftom.bench.stimuli import BuildOptions
+from siftom.people.stimuli import BuildOptions
 
 pytestmark = [
     pytest.mark.slow,

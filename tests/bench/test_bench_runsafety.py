@@ -22,8 +22,8 @@ from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import RESULTS, EvalOptions, evaluate, load_results
 from siftom.bench.report import write_report
 from siftom.bench.runlock import LOCK, RunInterrupted, RunLock, RunLockedError
-from siftom.bench.stimuli import BuildOptions, load_dataset
 from siftom.errors import DatasetError, UnknownNameError
+from siftom.people.stimuli import BuildOptions, load_dataset
 
 pytestmark = pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
 

@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 from siftom.bench.evaluate import EvalOptions
 from siftom.bench.literal import literal_command, parse_literal
 from siftom.bench.metrics import bootstrap_ci, summarise_model
-from siftom.bench.stimuli import load_dataset
 from siftom.bench.trials import is_correct, is_helpful
 from siftom.errors import DatasetError, UnknownNameError
+from siftom.people.stimuli import load_dataset
 from siftom.scenarios.base import get_scenario
 
 HOUSE = ("bowl", "fork", "knife", "mug", "plate", "spoon", "waterglass", "wineglass")

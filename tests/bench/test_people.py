@@ -11,18 +11,13 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from siftom.bench.collect import Collection, CollectOptions, ask_words, goal_words
-from siftom.bench.human import (
-    AnnotateOptions,
-    Annotation,
-    answer_command,
-    plan_assignments,
-    score_answers,
-)
+from siftom.bench.human import ratings_summary, score_answers
 from siftom.bench.mix import MixOptions, mix_dataset
-from siftom.bench.ratings import check_scores, import_ratings, ratings_summary, session_model
-from siftom.bench.stimuli import load_dataset, resolve_scenario, scenario_for
 from siftom.errors import AudioError, DatasetError
+from siftom.people.annotate import AnnotateOptions, Annotation, answer_command, plan_assignments
+from siftom.people.collect import Collection, CollectOptions, ask_words, goal_words
+from siftom.people.ratings import check_scores, import_ratings, session_model
+from siftom.people.stimuli import load_dataset, resolve_scenario, scenario_for
 from siftom.speech.audio import load_audio, wav_bytes
 
 
@@ -233,7 +228,7 @@ def test_the_tutorials_commands_parse(monkeypatch):
 
 
 def test_actions_in_words():
-    from siftom.bench.collect import action_words
+    from siftom.people.collect import action_words
 
     sc = resolve_scenario("household-table-v0/0", "household-table-v0", None)
     words = [action_words(sc.world, a) for a in sc.actions]

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from siftom.bench.dataset import noise_categories, resolve_noises
-from siftom.bench.stimuli import BuildOptions, noise_folder
 from siftom.errors import DatasetError, SiftomError
+from siftom.people.stimuli import BuildOptions, noise_folder
 from siftom.speech.noise import RECORDED_NOISE_DIR, FolderNoise, get_noise
 
 

@@ -73,7 +73,7 @@ def test_every_grammar_phrasing_has_its_noun_phrase():
 
 
 def test_dataset_options_check_the_file(tmp_path):
-    from siftom.bench.stimuli import BuildOptions
+    from siftom.people.stimuli import BuildOptions
 
     bad = tmp_path / "bad.txt"
     bad.write_text("bring me the milk\n", encoding="utf-8")

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siftom.bench.collect import CollectOptions
-from siftom.bench.human import AnnotateOptions
 from siftom.cli import main as siftom
+from siftom.people.annotate import AnnotateOptions
+from siftom.people.collect import CollectOptions
 from siftom.service.annotate_app import create_annotate_app
 from siftom.service.collect_app import create_collect_app
 from siftom.service.loadtest import serve_in_thread

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from siftom.bench.collect import Collection, CollectOptions
-from siftom.bench.human import AnnotateOptions, Annotation
 from siftom.bench.runlock import RunLock
+from siftom.people.annotate import AnnotateOptions, Annotation
+from siftom.people.collect import Collection, CollectOptions
 from siftom.service.app import create_app
 from siftom.service.runtime import ServiceSettings
 from siftom.speech.audio import wav_bytes

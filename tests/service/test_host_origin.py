@@ -12,10 +12,10 @@ from fastapi.testclient import TestClient
 from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
-from siftom.bench.collect import CollectOptions
 from siftom.cli import main, root
 from siftom.cli.service import access_for
 from siftom.errors import OptionsError
+from siftom.people.collect import CollectOptions
 from siftom.service.access import Access, normal_origin, split_host
 from siftom.service.app import create_app
 from siftom.service.collect_app import create_collect_app

@@ -6,7 +6,6 @@ from __future__ import annotations
 import inspect
 
 from siftom.api import listen, transcribe_for
-from siftom.bench.calibrate import collect
 from siftom.bench.evaluate import EvalOptions
 from siftom.cli import root
 from siftom.inference.listen import hear
@@ -26,7 +25,7 @@ def test_library_evaluator_and_service_share_one_default():
     assert _default(listen) is None and AudioFields(scenario="kitchen-cereal-v0").asr_nbest is None
     assert AudioInstructionFields().asr_nbest is None and InferOptions().nbest == DEFAULT_NBEST
     assert _default(transcribe_for) == _default(hear) == DEFAULT_NBEST
-    assert EvalOptions().nbest == _default(collect) == DEFAULT_NBEST
+    assert EvalOptions().nbest == DEFAULT_NBEST  # recipes/calibrate.py too: tests/test_recipes.py
 
 
 def test_documented_defaults_match(client):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from siftom.bench.collect import CollectOptions
-from siftom.bench.human import AnnotateOptions
+from siftom.people.annotate import AnnotateOptions
+from siftom.people.collect import CollectOptions
 from siftom.service.annotate_app import create_annotate_app
 from siftom.service.collect_app import create_collect_app
 from siftom.speech.audio import wav_bytes

@@ -8,9 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from siftom.bench.collect import CollectOptions
-from siftom.bench.human import AnnotateOptions
 from siftom.cli.people import _access
+from siftom.people.annotate import AnnotateOptions
+from siftom.people.collect import CollectOptions
 from siftom.service.annotate_app import create_annotate_app
 from siftom.service.collect_app import create_collect_app
 from siftom.speech.audio import wav_bytes

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from siftom.errors import AudioError, BackendUnavailableError, OptionsError
-from siftom.service.listener import HomeListener, load_home
+from siftom.listener import HomeListener, load_home
 from siftom.service.ros import RosBridge, RosTopics, audio_bytes, audio_message, parse_url
 from support.rosbridge import FakeRosbridge
 from support.streaming import pcm16, say, silence

@@ -31,8 +31,8 @@ def test_reverberant_speech_keeps_its_level_and_length_plus_a_tail():
 def test_bad_room_settings_are_refused():
     with pytest.raises(SiftomError, match="rt60"):
         room_impulse_response(10.0, 0)
-    from siftom.bench.stimuli import BuildOptions
     from siftom.errors import DatasetError
+    from siftom.people.stimuli import BuildOptions
 
     with pytest.raises(DatasetError, match="--room"):
         BuildOptions(room=0.0)

@@ -48,7 +48,7 @@ DEFAULT_ASK_COST = 2.0
 DEFAULT_QUESTION_PENALTY = 0.0
 # A step lost weighs 1 + DEFAULT_LOSS_AVERSION steps saved (a teammate who slows the team down
 # is worse than one who does nothing); chosen on a development set of another seed
-# (docs/decisions.md; `siftom bench loss-aversion`).
+# (docs/decisions.md; `python recipes/loss_aversion.py`).
 DEFAULT_LOSS_AVERSION = 3.0
 # what the deciding rules measure a gain in: "steps" saved (L_single - L_team) or "speedup"
 # (L_single / L_team - 1, the benchmark's metric); docs/decisions.md

@@ -88,7 +88,7 @@ def _noise_dir(dataset_root: str) -> str | None:
     nd = json.loads(spec.read_text(encoding="utf-8")).get("options", {}).get("noise_dir")
     if not nd:
         return None
-    from siftom.bench.stimuli import RECORDED, noise_folder
+    from siftom.people.stimuli import RECORDED, noise_folder
 
     if nd == RECORDED:
         return str(noise_folder(nd))
@@ -180,7 +180,7 @@ def reliability_by_kind(dataset: str, engine: str = "pocketsphinx-vocab", limit:
                         seed: int = 0) -> dict[str, dict[float, list[bool]]]:
     """{kind: {snr: [heard as its own cell, ...]}} over a seeded sample of the dataset's stimuli."""
     from siftom.bench.engines import engine as get_engine
-    from siftom.bench.stimuli import load_dataset, scenario_for
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(dataset)
     stims = list(ds.stimuli)

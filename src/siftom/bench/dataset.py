@@ -35,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from siftom.bench.stimuli import (
+from siftom.errors import DatasetError, SiftomError
+from siftom.people.stimuli import (
     AUDIO_DIR,
     FORMAT_VERSION,
     MANIFEST,
@@ -49,7 +50,6 @@ from siftom.bench.stimuli import (
     resolve_scenario,
     select_scenarios,
 )
-from siftom.errors import DatasetError, SiftomError
 
 
 def make_speakers(opts: BuildOptions) -> list[Speaker]:

@@ -52,7 +52,6 @@ from siftom.bench.results_io import (
     split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
-from siftom.bench.stimuli import Dataset, Stimulus, load_dataset
 from siftom.bench.trials import (
     _eval_stimuli,
     _run_task,
@@ -61,6 +60,7 @@ from siftom.bench.trials import (
     scenario_key,
 )
 from siftom.errors import DatasetError
+from siftom.people.stimuli import Dataset, Stimulus, load_dataset
 from siftom.speech.asr.base import is_scene_engine
 
 # run only when a language model is configured (siftom.bench.llm_baselines)

@@ -1,263 +1,29 @@
-"""The human baseline: people hear each stimulus, type what they heard and pick what they would bring.
+"""The human baseline scored, and the report's section on people.
 
-As in the paper's annotation study, an annotator sees the scenario (what the person has done;
-not the goal), plays the (noisy) recording, types what was said, and chooses the item and count
-they would bring, one stimulus per page. Each stimulus is shown to ``per_stimulus`` annotators.
-
-Assignments: a stimulus's *source* is its recording (the scenario and the speaker: the clean clip
-and its noisy copies). In each of ``per_stimulus`` rounds the conditions of every source are
-dealt in a seeded random order over as many layers as a source has conditions, so each layer
-holds every source once; each layer is shuffled and cut into assignments of ``per_annotator``
-stimuli (default: the whole layer, 130 stimuli of the paper's 520). An annotator gets the first
-assignment nobody has taken: nobody hears the same recording twice (clean and noisy would give
-the noisy one away), and once every assignment is done every stimulus has been heard exactly
-``per_stimulus`` times. The plan is written to ``OUT/plan.json``; answers go to
-``OUT/answers.jsonl`` as they come (one JSON line each).
-
-Annotators: a new one gets an unguessable id (``a-`` and 8 random characters, never a1, a2, ...)
-and a secret key (``secrets.token_urlsafe``; ``annotators.jsonl`` keeps only its SHA-256). The
-page reaches the annotator's recordings and answers through the key, so nobody can hear or
-answer another annotator's assignment, and an id that is taken needs its key to continue.
-
+The annotation itself (the page's plan, annotators and answers) is :mod:`siftom.people.annotate`.
 Scoring (:func:`score_answers`) turns every answer into a trial of a model named ``human``:
 its command is scored against the gold one and simulated by the same team simulation as the
 models (agents/team.py), and the typed text is compared with the reference (word error rate).
 The rows go to ``RESULTS/human.jsonl``, which ``siftom report`` puts next to the models. Every
-answer is a trial: the confidence intervals resample answers, not stimuli.
+answer is a trial: the confidence intervals resample answers, not stimuli. People's ratings of
+the robot (:mod:`siftom.people.ratings`) are summarised per model by :func:`ratings_summary`.
 """
 
 from __future__ import annotations
 
 import json
-import re
-import secrets
-import threading
-import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from siftom.bench.results_io import read_jsonl, rewrite
-from siftom.bench.stimuli import Dataset, load_dataset, scenario_for
-from siftom.errors import DatasetError, NotYoursError
-from siftom.private import append_private, private_dir, write_private_text
+from siftom.errors import DatasetError
+from siftom.people.annotate import ANSWERS, PLAN
+from siftom.people.stimuli import load_dataset, scenario_for
 
-ANSWERS = "answers.jsonl"
-ANNOTATORS = "annotators.jsonl"
-PLAN = "plan.json"
 HUMAN_RESULTS = "human.jsonl"
 HUMAN = "human"
-NOTHING = "none"  # the answer "I would bring nothing"
-ANNOTATOR_ID = re.compile(r"[A-Za-z0-9_-]{1,32}")
-ANNOTATOR_CONSENT = (
-    "You will hear short recordings of people asking a robot for help, some with background noise. "
-    "For each one, type what you heard and choose what you would bring. Your answers and the "
-    "annotator id below are saved on this computer only and are not sent anywhere. Taking part is "
-    "voluntary and you can stop at any time."
-)
-
-
-@dataclass(frozen=True)
-class AnnotateOptions:
-    """How to run an annotation. Validated at construction.
-
-    Attributes:
-        per_stimulus: annotators per stimulus.
-        per_annotator: stimuli per annotator (None: one of each recording, in one condition).
-        seed: drives the order of the stimuli and the assignments.
-        consent: the text annotators agree to first.
-    """
-
-    per_stimulus: int = 3
-    per_annotator: int | None = None
-    seed: int = 0
-    consent: str = ANNOTATOR_CONSENT
-
-    def __post_init__(self) -> None:
-        if self.per_stimulus < 1:
-            raise DatasetError(f"--per-stimulus must be >= 1, got {self.per_stimulus}")
-        if self.per_annotator is not None and self.per_annotator < 1:
-            raise DatasetError(f"--per-annotator must be >= 1, got {self.per_annotator}")
-
-    def to_json(self) -> dict[str, Any]:
-        return {"per_stimulus": self.per_stimulus, "per_annotator": self.per_annotator, "seed": self.seed}
-
-
-def plan_assignments(items: list[tuple[str, str]], per_stimulus: int, per_annotator: int | None,
-                     seed: int) -> list[list[str]]:
-    """Assignments of stimulus ids from ``(id, source)`` pairs; no assignment holds a source twice."""
-    rng = np.random.default_rng([seed, 2601])
-    groups: dict[str, list[str]] = {}
-    for sid, source in items:
-        groups.setdefault(source, []).append(sid)
-    slots = max(len(g) for g in groups.values())
-    out: list[list[str]] = []
-    for _ in range(per_stimulus):
-        layers: list[list[str]] = [[] for _ in range(slots)]
-        for source in sorted(groups):
-            g = groups[source]
-            offset = int(rng.integers(slots))  # sources with fewer conditions spread over the layers
-            for j, k in enumerate(rng.permutation(len(g))):
-                layers[(j + offset) % slots].append(g[k])
-        for layer in layers:
-            order = [layer[i] for i in rng.permutation(len(layer))]
-            m = per_annotator or len(order)
-            out += [order[i:i + m] for i in range(0, len(order), m)]
-    return out
-
-
-def source_of(stimulus: Any) -> str:
-    """The recording a stimulus comes from: its scenario and speaker (clean and noisy copies share it)."""
-    return f"{stimulus.scenario}#{stimulus.scenario_seed}#{stimulus.speaker}"
-
-
-def answer_command(scenario: Any, item: str, count: int | None) -> str:
-    """The robot command an annotator's choice stands for (``none`` for nothing); DatasetError if invalid."""
-    from siftom.world.commands import MAX_COUNT
-
-    if item == NOTHING:
-        return NOTHING
-    if item not in scenario.world.classes:
-        raise DatasetError(f"item {item!r} is not in this scene; choose one of the list (or 'nothing')")
-    if scenario.verb == "fetch":
-        return f"fetch({item})"
-    if not isinstance(count, int) or not 1 <= count <= MAX_COUNT:
-        raise DatasetError(f"choose how many {item} to bring: a number from 1 to {MAX_COUNT}")
-    return f"deliver({item},{count})"
-
-
-def answer_form(scenario: Any) -> dict[str, Any]:
-    """What the page's form offers for this scenario: the scene's classes and, to deliver, counts."""
-    from siftom.world.commands import MAX_COUNT
-
-    return {"verb": scenario.verb, "classes": sorted(scenario.world.classes),
-            "max_count": MAX_COUNT if scenario.verb == "deliver" else None}
-
-
-class Annotation:
-    """An annotation folder: the plan, who has which assignment, the answers (thread-safe)."""
-
-    def __init__(self, dataset: str | Path | Dataset, out: str | Path, options: AnnotateOptions | None = None) -> None:
-        self.ds = dataset if isinstance(dataset, Dataset) else load_dataset(dataset)
-        self.options = options or AnnotateOptions()
-        self.root = Path(out)
-        private_dir(self.root)
-        self._lock = threading.Lock()
-        self.index = {s.id: k for k, s in enumerate(self.ds.stimuli)}
-        plan_path = self.root / PLAN
-        want = {"dataset": str(self.ds.root.resolve()), "dataset_fingerprint": self.ds.fingerprint,
-                "options": self.options.to_json()}
-        if plan_path.is_file():
-            plan = json.loads(plan_path.read_text(encoding="utf-8"))
-            if plan.get("dataset_fingerprint") != self.ds.fingerprint or plan.get("options") != want["options"]:
-                raise DatasetError(f"{self.root} holds an annotation of another dataset or with other options "
-                                   f"({plan.get('options')}); use another --out folder")
-        else:
-            items = [(s.id, source_of(s)) for s in self.ds.stimuli]
-            plan = {**want, "assignments": plan_assignments(items, self.options.per_stimulus,
-                                                            self.options.per_annotator, self.options.seed)}
-            write_private_text(plan_path, json.dumps(plan, indent=1) + "\n")
-        self.assignments: list[list[str]] = plan["assignments"]
-
-    # -- annotators -----------------------------------------------------------------------------
-
-    def _annotators(self) -> dict[str, int]:
-        return {r["annotator"]: int(r["assignment"]) for r in read_jsonl(self.root / ANNOTATORS)}
-
-    def _digests(self) -> dict[str, str]:
-        """annotator -> the SHA-256 of its key ('' for one who joined before keys existed)."""
-        return {r["annotator"]: str(r.get("key_sha256") or "") for r in read_jsonl(self.root / ANNOTATORS)}
-
-    def join(self, annotator: str | None, key: str | None = None) -> dict[str, Any]:
-        """Give ``annotator`` (a new unguessable id when None) its assignment: the one it had, or the
-        first free one; the answer holds ``key``, the annotator's secret (the page's links use it).
-
-        Coming back under an id that has a key needs that key (NotYoursError otherwise).
-        """
-        from siftom.bench.collect import key_digest, key_matches
-
-        if annotator is not None and not ANNOTATOR_ID.fullmatch(annotator):
-            raise DatasetError(f"annotator id {annotator!r} is not valid: use 1-32 letters, digits, '_' or '-'")
-        with self._lock:
-            known = self._annotators()
-            digests = self._digests()
-            if annotator is None:
-                annotator = "a-" + secrets.token_urlsafe(6)
-                while annotator in known:
-                    annotator = "a-" + secrets.token_urlsafe(6)
-            if annotator in known and digests.get(annotator):
-                if not key_matches(key, digests[annotator]):
-                    raise NotYoursError(f"annotator id {annotator!r} is taken; continue with the link you were "
-                                        "given, or leave the id empty to get a new one")
-                given = str(key)
-            else:
-                given = secrets.token_urlsafe(24)
-                if annotator in known:  # joined before keys existed: this key is its first
-                    assignment = known[annotator]
-                else:
-                    taken = set(known.values())
-                    free = [k for k in range(len(self.assignments)) if k not in taken]
-                    if not free:
-                        raise DatasetError(f"every assignment is taken: each stimulus already has "
-                                           f"{self.options.per_stimulus} annotator(s); score the answers with "
-                                           "siftom report RESULTS --human OUT")
-                    assignment = free[0]
-                rec = {"annotator": annotator, "assignment": assignment, "agreed": True,
-                       "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "consent": self.options.consent,
-                       "key_sha256": key_digest(given)}
-                with append_private(self.root / ANNOTATORS) as f:
-                    f.write(json.dumps(rec) + "\n")
-                known[annotator] = assignment
-        return {"annotator": annotator, "key": given, "assignment": known[annotator],
-                "total": len(self.assignments[known[annotator]])}
-
-    def annotator_for(self, key: str) -> str:
-        """The annotator whose key this is; NotYoursError for any other string."""
-        from siftom.bench.collect import key_matches
-
-        for annotator, digest in self._digests().items():
-            if key_matches(key, digest):
-                return annotator
-        raise NotYoursError("this link belongs to no annotator here; open the link you were given, or start "
-                            "again on the first page")
-
-    def assignment(self, annotator: str) -> list[str]:
-        known = self._annotators()
-        if annotator not in known:
-            raise DatasetError(f"annotator {annotator!r} has not started; agree on the first page first")
-        return self.assignments[known[annotator]]
-
-    def answered(self, annotator: str) -> set[int]:
-        return {int(a["position"]) for a in read_jsonl(self.root / ANSWERS) if a.get("annotator") == annotator}
-
-    def next_position(self, annotator: str) -> int | None:
-        """The first position of the annotator's assignment without an answer (None: done)."""
-        done = self.answered(annotator)
-        return next((k for k in range(len(self.assignment(annotator))) if k not in done), None)
-
-    def stimulus_at(self, annotator: str, position: int) -> Any:
-        ids = self.assignment(annotator)
-        if not 0 <= position < len(ids):
-            raise DatasetError(f"position {position} is outside this assignment (0 to {len(ids) - 1})")
-        return self.ds.stimuli[self.index[ids[position]]]
-
-    def answer(self, annotator: str, position: int, typed: str, item: str, count: int | None,
-               seconds: float | None = None) -> dict[str, Any]:
-        """Store one answer (a position answered twice keeps the first answer)."""
-        s = self.stimulus_at(annotator, position)
-        command = answer_command(scenario_for(s), item, count)
-        typed = " ".join(str(typed).split())[:500]
-        rec = {"annotator": annotator, "position": position, "id": s.id, "typed": typed, "command": command,
-               "seconds": None if seconds is None else round(float(seconds), 1),
-               "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-        with self._lock:
-            if position in self.answered(annotator):
-                raise DatasetError(f"position {position} is already answered; go on to the next stimulus")
-            with append_private(self.root / ANSWERS) as f:
-                f.write(json.dumps(rec) + "\n")
-        return rec
 
 
 # -- scoring -----------------------------------------------------------------------------------
@@ -270,6 +36,7 @@ def score_answers(annotation: str | Path, results: str | Path, dataset: str | Pa
     must be an evaluation of the same dataset (its team simulations are reused).
     """
     from siftom.bench import trials
+    from siftom.bench.scoring import is_correct, is_helpful
     from siftom.speech.metrics import wer
 
     ann, res = Path(annotation), Path(results)
@@ -301,8 +68,8 @@ def score_answers(annotation: str | Path, results: str | Path, dataset: str | Pa
         sc = scenario_for(s)
         cmd = a["command"]
         team = trials._simulate(trials.scenario_key(s), sc, cmd)
-        trial = {"command": cmd, "correct": trials.is_correct(cmd, s.gold_command, sc.verb),
-                 "helpful": trials.is_helpful(cmd, s.gold_goal["counts"]), "l_single": team["l_single"],
+        trial = {"command": cmd, "correct": is_correct(cmd, s.gold_command, sc.verb),
+                 "helpful": is_helpful(cmd, s.gold_goal["counts"]), "l_single": team["l_single"],
                  "l_team": team["l_team"], "remedy_steps": team["remedy_steps"],
                  "speedup": None if team["speedup"] is None else round(team["speedup"], 6)}
         if team.get("error"):
@@ -360,7 +127,7 @@ def people_section(summary: dict[str, Any]) -> str:
         parts += [""]
     r = summary.get("ratings")
     if r:
-        from siftom.bench.ratings import STATEMENTS
+        from siftom.people.ratings import STATEMENTS
 
         parts += ["## Ratings after trials with the robot", "",
                   "Mean of three statements rated from 1 (strongly disagree) to 7 (strongly agree), per trial; "
@@ -374,3 +141,18 @@ def people_section(summary: dict[str, Any]) -> str:
                          f"| {st} | {v['n']} |")
         parts += [""]
     return "\n".join(parts) + ("\n" if parts else "")
+
+
+def ratings_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
+    """Per model: mean of the three statements per trial (helpfulness) with a CI, and each statement's mean."""
+    from siftom.bench.metrics import bootstrap_ci
+
+    out: dict[str, Any] = {}
+    for m in sorted({r["model"] for r in rows}):
+        s = np.array([r["scores"] for r in rows if r["model"] == m], dtype=float)
+        per_trial = s.mean(axis=1)
+        lo, hi = bootstrap_ci(per_trial, seed=seed + 3)
+        out[m] = {"n": len(s), "mean": round(float(per_trial.mean()), 3), "mean_ci": [round(lo, 3), round(hi, 3)],
+                  "sd": round(float(per_trial.std(ddof=1)) if len(s) > 1 else 0.0, 3),
+                  "statements": [round(float(v), 3) for v in s.mean(axis=0)]}
+    return out

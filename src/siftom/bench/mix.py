@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from siftom.bench.stimuli import (
+from siftom.errors import DatasetError
+from siftom.people.stimuli import (
     AUDIO_DIR,
     FORMAT_VERSION,
     MANIFEST,
@@ -32,7 +33,6 @@ from siftom.bench.stimuli import (
     Stimulus,
     load_dataset,
 )
-from siftom.errors import DatasetError
 
 MIXED_FROM = "mixed_from"  # the extra key that marks a copy made here
 

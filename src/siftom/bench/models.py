@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
-from siftom.bench.stimuli import check_seed
 from siftom.errors import DatasetError, unknown_name
+from siftom.people.stimuli import check_seed
 from siftom.registry import Registry
 from siftom.speech.asr import DEFAULT_NBEST
 

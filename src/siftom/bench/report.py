@@ -357,9 +357,9 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
         rows = sorted(rows, key=lambda r: r["id"])
     if seed is None:
         seed = int(run.get("seed", 0))
-    from siftom.bench.human import human_summary, load_human, people_section
-    from siftom.bench.ratings import RATINGS, ratings_summary
+    from siftom.bench.human import human_summary, load_human, people_section, ratings_summary
     from siftom.bench.results_io import read_jsonl
+    from siftom.people.ratings import RATINGS
 
     human = load_human(root)  # people's answers as trials of the model "human" (bench/human.py)
     ratings = read_jsonl(root / RATINGS)

@@ -134,7 +134,7 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     from siftom.bench.evaluate import EvalOptions, evaluate
     from siftom.bench.report import write_report
     from siftom.bench.results_io import code_version, provenance
-    from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions, load_dataset
+    from siftom.people.stimuli import DEFAULT_VOICES, BuildOptions, load_dataset
 
     say = progress or (lambda _m: None)
     work = out / "runs" / s.name

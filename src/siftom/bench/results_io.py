@@ -17,12 +17,16 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from siftom.errors import DatasetError
+from siftom.jsonlines import (
+    read_jsonl as read_jsonl,  # re-exported: the result files are JSON lines
+)
+from siftom.jsonlines import rewrite as rewrite
 
 TIMINGS = "timings.jsonl"
 RESULTS = "results.jsonl"
@@ -94,27 +98,6 @@ class AtomicAppender:
             self.fd = -1
 
 
-def read_jsonl(path: Path, repair: bool = False) -> list[dict[str, Any]]:
-    """Lines of a JSONL file; a torn last line (interrupted write) is dropped (and cut if repair)."""
-    if not path.is_file():
-        return []
-    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
-    out = []
-    for n, line in enumerate(lines):
-        if not line.strip():
-            continue
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            if n == len(lines) - 1:
-                if repair:
-                    with open(path, "r+b") as f:
-                        f.truncate(len("".join(lines[:n]).encode("utf-8")))
-                break
-            raise DatasetError(f"{path}:{n + 1} is not valid JSON; delete the file to start over") from None
-    return out
-
-
 def check_unique(rows: Sequence[dict[str, Any]], where: str | Path) -> None:
     """Raise DatasetError naming the first stimulus id that appears twice."""
     seen: dict[str, int] = {}
@@ -127,17 +110,6 @@ def check_unique(rows: Sequence[dict[str, Any]], where: str | Path) -> None:
                 "--out folder (or pass --overwrite)"
             )
         seen[str(i)] = n
-
-
-def rewrite(path: Path, rows: Iterable[dict[str, Any]]) -> None:
-    """Replace a JSONL file atomically (a temporary file renamed over it)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
-        for r in rows:
-            f.write(json.dumps(r) + "\n")
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 def load_results(out: str | Path) -> list[dict[str, Any]]:

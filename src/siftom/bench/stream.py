@@ -3,7 +3,7 @@
 **Delay.** Instructions spoken by TTS voices (phrasings and voices of :data:`CLIPS`, none of
 them used to set the segmentation defaults) are laid end to end with pauses of 1.0-1.6 s
 (seeded) into one stream, optionally over a recorded noise bed at an SNR, and streamed **in
-real time** in 20 ms chunks into :class:`~siftom.service.listener.HomeListener`, as a
+real time** in 20 ms chunks into :class:`~siftom.listener.HomeListener`, as a
 microphone would deliver them, so recognising early overlaps with the audio still arriving
 exactly as it does live. For each instruction the delay is the wall time from the moment its
 last speech sample was fed (the end of its voiced part in the clean TTS audio, above -40 dB of
@@ -134,7 +134,7 @@ def build_stream(opts: StreamBenchOptions) -> tuple[np.ndarray, list[dict[str, A
 
 
 def _home(likelihood: str) -> Any:
-    from siftom.service.listener import HomeListener, load_home
+    from siftom.listener import HomeListener, load_home
 
     return HomeListener(load_home(SCENARIO), likelihood=likelihood)
 

@@ -42,8 +42,8 @@ from siftom.bench.dataset import build_dataset
 from siftom.bench.evaluate import EvalOptions, evaluate
 from siftom.bench.report import write_report
 from siftom.bench.runlock import RunLock, stop_on_signals
-from siftom.bench.stimuli import SPEC, BuildOptions, load_dataset
 from siftom.errors import DatasetError, SiftomError
+from siftom.people.stimuli import SPEC, BuildOptions, load_dataset
 from siftom.safejson import read_text
 
 BUILD_FIELDS = tuple(f.name for f in dataclasses.fields(BuildOptions))

@@ -27,8 +27,8 @@ from siftom.bench.decisions import (
 from siftom.bench.engines import engine as _engine
 from siftom.bench.models import EvalModel, EvalOptions, eval_model, eval_settings, siftom_likelihood
 from siftom.bench.scoring import is_correct, is_helpful
-from siftom.bench.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.errors import SiftomError
+from siftom.people.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.world.commands import MAX_COUNT
 
 if TYPE_CHECKING:

@@ -127,7 +127,7 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
               as_json: bool) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import build_dataset
-    from siftom.bench.stimuli import DEFAULT_VOICES, BuildOptions
+    from siftom.people.stimuli import DEFAULT_VOICES, BuildOptions
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
@@ -149,7 +149,7 @@ def check_cmd(folder: str) -> None:
     """Check a dataset folder (manifest keys, audio files, scenarios) without evaluating it."""
     from collections import Counter
 
-    from siftom.bench.stimuli import load_dataset, scenario_for
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(folder)
     for s in ds.stimuli:
@@ -241,7 +241,7 @@ def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None,
 
             score_answers(human, results)
         for r in ratings:
-            from siftom.bench.ratings import import_ratings
+            from siftom.people.ratings import import_ratings
 
             import_ratings(r, results)
         summary = write_report(results, seed=seed, figures=not no_figures)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -232,21 +231,10 @@ def print_posterior(post: Posterior, console: Console | None = None, *, recognis
 
 def register(root: click.Group) -> None:
     root.add_command(infer_cmd)
-    from siftom.bench.calibrate import _cli as calibrate_cli
-    from siftom.cli.bench import bench_group as bench
-
-    # siftom.bench.calibrate is being rewritten elsewhere and its _cli is not annotated yet: its type here
-    make_calibrate: Callable[[], click.Command] = calibrate_cli
-    bench.add_command(make_calibrate())
-    from siftom.bench.decide_speed import bench_decide_cmd
-
-    bench.add_command(bench_decide_cmd)
     from siftom.bench.decisions import answer_reliability_cmd
+    from siftom.cli.bench import bench_group as bench
 
     bench.add_command(answer_reliability_cmd)
     from siftom.bench.answers import answer_grammar_cmd
 
     bench.add_command(answer_grammar_cmd)
-    from siftom.bench.decision_tuning import loss_aversion_cmd
-
-    bench.add_command(loss_aversion_cmd)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -39,7 +39,7 @@ def _access(host: str, token: str | None, token_file: Path | None, allow_host: t
     return access, generated
 
 
-def _serve(app: object, host: str, port: int, what: str, access: Access, generated: bool) -> None:
+def _serve(app: Any, host: str, port: int, what: str, access: Access, generated: bool) -> None:
     import uvicorn
 
     from siftom.cli.service import announce
@@ -79,8 +79,8 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
     --participant the page records that participant only. Beyond loopback the page needs a
     token, as siftom serve does.
     """
-    from siftom.bench.collect import CONSENT_TEXT, CollectOptions
     from siftom.bench.runlock import RunLock
+    from siftom.people.collect import CONSENT_TEXT, CollectOptions
     from siftom.service.collect_app import create_collect_app
 
     opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
@@ -114,7 +114,7 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
     Score the answers next to the models with: siftom report RESULTS --human OUT (RESULTS: siftom
     eval --dataset DATASET --out RESULTS).
     """
-    from siftom.bench.human import ANNOTATOR_CONSENT, AnnotateOptions
+    from siftom.people.annotate import ANNOTATOR_CONSENT, AnnotateOptions
     from siftom.service.annotate_app import create_annotate_app
 
     opts = AnnotateOptions(per_stimulus=per_stimulus, per_annotator=per_annotator, seed=seed,

@@ -50,8 +50,8 @@ def _home_listener(scenario: str | None, scene: str | None, likelihood: str | No
                    cost: float, min_silence: float | None, max_utterance: float, recorded: bool = True) -> Any:
     from siftom.assist.clarify import ClarifyPolicy
     from siftom.assist.decide import get_rule
+    from siftom.listener import HomeListener, load_home
     from siftom.observer import observer_for
-    from siftom.service.listener import HomeListener, load_home
     from siftom.settings import Settings
     from siftom.speech.segment import SegmentOptions
 
@@ -169,7 +169,7 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
     siftom listen --wav say.wav --realtime --scenario kitchen-cereal-v0
     tail -f actions.log | siftom listen --mic --scene world.json --actions - --json
     """
-    from siftom.service.listener import compact, run_listener
+    from siftom.listener import compact, run_listener
     from siftom.speech.sources import file_chunks, mic_chunks
 
     if mic == (wav is not None):

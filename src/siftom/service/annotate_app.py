@@ -1,4 +1,4 @@
-"""The annotation page (``siftom annotate``): the human baseline (:mod:`siftom.bench.human`).
+"""The annotation page (``siftom annotate``): the human baseline (:mod:`siftom.people.annotate`).
 
 An annotator agrees to the consent text, then gets one stimulus per page: the scene after each
 observed action (not the goal), the recording, a box for what they heard and a form with the
@@ -19,9 +19,9 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
-from siftom.bench.collect import action_words
-from siftom.bench.human import AnnotateOptions, Annotation, answer_form
-from siftom.bench.stimuli import scenario_for
+from siftom.people.annotate import AnnotateOptions, Annotation, answer_form
+from siftom.people.collect import action_words
+from siftom.people.stimuli import scenario_for
 from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 
@@ -83,7 +83,8 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
 
     @app.get("/api/annotators/{key}/next")
     async def next_(key: str = KEY) -> dict[str, Any]:
-        return await run_cpu(view, await whose(key))
+        shown: dict[str, Any] = await run_cpu(view, await whose(key))
+        return shown
 
     @app.get("/api/annotators/{key}/{pos}/audio.wav", response_class=FileResponse)
     async def audio(pos: int, key: str = KEY) -> FileResponse:
@@ -99,6 +100,7 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
     async def answer(req: Answer, key: str = KEY) -> dict[str, Any]:
         aid = await whose(key)
         await run_cpu(ann.answer, aid, req.position, req.typed, req.item, req.count, req.seconds)
-        return await run_cpu(view, aid)
+        shown: dict[str, Any] = await run_cpu(view, aid)
+        return shown
 
     return app

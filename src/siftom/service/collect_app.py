@@ -1,5 +1,5 @@
 """The recording page (``siftom collect``): participants see each scenario and record what they
-would ask the robot; recordings land in a dataset folder (:mod:`siftom.bench.collect`).
+would ask the robot; recordings land in a dataset folder (:mod:`siftom.people.collect`).
 
 Endpoints: ``GET /api/collection`` (domain, consent text, how many scenarios),
 ``POST /api/participants`` (agree to the consent text; the answer holds the participant's
@@ -19,7 +19,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, Field
 
-from siftom.bench.collect import Collection, CollectOptions
+from siftom.people.collect import Collection, CollectOptions
 from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
 from siftom.service.problems import ProblemError, read_audio_form

@@ -1,7 +1,7 @@
 """Ratings after a trial with a session (``/rate`` page, ``POST /v1/sessions/{id}/rating``).
 
 After the robot acted on an instruction, the participant may rate it on the paper's three
-7-point statements (:data:`siftom.bench.ratings.STATEMENTS`). Each rating is one JSON line in
+7-point statements (:data:`siftom.people.ratings.STATEMENTS`). Each rating is one JSON line in
 ``DATA_DIR/ratings.jsonl`` with the session, the model it ran and the command it chose;
 ``siftom report RESULTS --ratings DATA_DIR/ratings.jsonl`` reports the mean per model.
 """
@@ -19,7 +19,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
-from siftom.bench.ratings import RATINGS, SCALE, STATEMENTS, session_model
+from siftom.people.ratings import RATINGS, SCALE, STATEMENTS, session_model
 from siftom.private import append_private
 from siftom.service.people import STATIC
 from siftom.service.problems import PROBLEM_JSON, ProblemError
@@ -40,7 +40,7 @@ class RatingRequest(BaseModel):
 def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
     """Add the rating page and endpoints; ratings go to ``rt.data_dir / 'ratings.jsonl'``."""
     lock = threading.Lock()
-    problems = {c: {"content": {PROBLEM_JSON: {}}} for c in (404, 422)}
+    problems: dict[int | str, dict[str, Any]] = {c: {"content": {PROBLEM_JSON: {}}} for c in (404, 422)}
 
     @app.get("/rate", include_in_schema=False)
     async def page() -> FileResponse:

@@ -5,7 +5,7 @@ asyncio transport), so nothing of ROS has to be installed next to siftom:
 
 * **audio** (``audio_common_msgs/AudioData``, 16 kHz mono 16-bit PCM; ``data`` is a uint8 array,
   sent by rosbridge as base64 or as a list of numbers) goes through the same
-  :class:`~siftom.service.listener.HomeListener` as ``siftom listen``: utterances are cut by the
+  :class:`~siftom.listener.HomeListener` as ``siftom listen``: utterances are cut by the
   voice-activity detector and answered;
 * **text** (``std_msgs/String``, e.g. another node's speech recogniser) is answered at once as
   the transcript of an utterance;
@@ -32,7 +32,7 @@ from urllib.parse import urlparse
 import numpy as np
 
 from siftom.errors import AudioError, BackendUnavailableError, OptionsError, SiftomError
-from siftom.service.listener import HomeListener, compact, run_listener
+from siftom.listener import HomeListener, compact, run_listener
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,8 @@ After a trial with a session of the service, the participant rates three stateme
 7-point Likert scale (1 = strongly disagree, 7 = strongly agree); their mean is the trial's
 helpfulness. The service stores one JSON line per rating in ``DATA_DIR/ratings.jsonl`` with the
 model the session ran; ``siftom report RESULTS --ratings FILE`` copies them into the results
-folder and reports the mean per model with a bootstrap CI.
+folder and reports the mean per model with a bootstrap CI
+(:func:`siftom.bench.human.ratings_summary`).
 """
 
 from __future__ import annotations
@@ -14,10 +15,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from siftom.bench.results_io import read_jsonl
 from siftom.errors import DatasetError
+from siftom.jsonlines import read_jsonl
 
 RATINGS = "ratings.jsonl"
 SCALE = (1, 7)
@@ -67,18 +66,3 @@ def import_ratings(source: str | Path, results: str | Path) -> int:
         tmp.write_text("".join(json.dumps(r) + "\n" for r in [*have, *add]), encoding="utf-8")
         os.replace(tmp, dest)
     return len(add)
-
-
-def ratings_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
-    """Per model: mean of the three statements per trial (helpfulness) with a CI, and each statement's mean."""
-    from siftom.bench.metrics import bootstrap_ci
-
-    out: dict[str, Any] = {}
-    for m in sorted({r["model"] for r in rows}):
-        s = np.array([r["scores"] for r in rows if r["model"] == m], dtype=float)
-        per_trial = s.mean(axis=1)
-        lo, hi = bootstrap_ci(per_trial, seed=seed + 3)
-        out[m] = {"n": len(s), "mean": round(float(per_trial.mean()), 3), "mean_ci": [round(lo, 3), round(hi, 3)],
-                  "sd": round(float(per_trial.std(ddof=1)) if len(s) > 1 else 0.0, 3),
-                  "statements": [round(float(v), 3) for v in s.mean(axis=0)]}
-    return out

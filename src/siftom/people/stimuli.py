@@ -316,7 +316,8 @@ def select_scenarios(domain: str, n: int) -> list[tuple[str, int | None]]:
     return out
 
 
-_SCENARIOS: dict[tuple[str, int | None], Any] = {}
+# (scenario, seed) for the registered or generated scenario; (scenario, seed, actions) for a manifest's own
+_SCENARIOS: dict[tuple[str, int | None] | tuple[str, int | None, tuple[str, ...]], Any] = {}
 
 
 def resolve_scenario(sid: str, domain: str, seed: int | None) -> Any:
@@ -355,8 +356,8 @@ def scenario_for(s: Stimulus) -> Any:
             except SiftomError as exc:
                 raise DatasetError(f"stimulus {s.id}: observed_actions[{k}] {text!r}: {exc}") from None
             acts.append(a)
-        _SCENARIOS[key] = replace(sc, actions=tuple(acts))  # type: ignore[index]
-    return _SCENARIOS[key]  # type: ignore[index]
+        _SCENARIOS[key] = replace(sc, actions=tuple(acts))
+    return _SCENARIOS[key]
 
 
 # -- building ----------------------------------------------------------------------------------

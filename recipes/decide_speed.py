@@ -1,17 +1,19 @@
-"""``siftom bench decide``: the time a decision rule adds, against the inference it follows.
+"""The time a decision rule adds, against the inference it follows.
 
 For each scenario the posterior is computed from scratch (phonetic caches and per-state
 cost-to-go tables cleared, as in ``siftom bench inference``), then each rule decides from
 scratch (its per-state tables cleared too). The target: expected-benefit within 2x the
 inference time. Numbers are wall-clock medians on one process.
+
+    python recipes/decide_speed.py [--repeats 20] [--json]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import time
 
-import click
 import numpy as np
 
 # (scenario, what was heard): a flat kitchen request, household requests with the count unsaid
@@ -82,18 +84,23 @@ def run_decision_bench(repeats: int = 20) -> dict:
             "max_ratio_ask": max(r["ratio_ask"] for r in rows), "floor": 2.0}
 
 
-@click.command("decide")
-@click.option("--repeats", type=int, default=20, show_default=True, help="timed calls per case")
-@click.option("--json", "as_json", is_flag=True, help="print JSON")
-def bench_decide_cmd(repeats: int, as_json: bool) -> None:
-    """Time the decision rules against the inference they follow (floor: expected-benefit <= 2x)."""
-    res = run_decision_bench(repeats)
-    if as_json:
-        click.echo(json.dumps(res, indent=2))
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description="Time the decision rules against the inference they follow "
+                                             "(floor: expected-benefit <= 2x).")
+    ap.add_argument("--repeats", type=int, default=20, help="timed calls per case (default: 20)")
+    ap.add_argument("--json", dest="as_json", action="store_true", help="print JSON")
+    a = ap.parse_args(argv)
+    res = run_decision_bench(a.repeats)
+    if a.as_json:
+        print(json.dumps(res, indent=2))
         return
-    click.echo(f"{'scenario':24s} {'hyps':>5s} {'infer':>8s} {'map':>8s} {'exp-ben':>8s} {'ask':>8s} {'ratio':>6s}")
+    print(f"{'scenario':24s} {'hyps':>5s} {'infer':>8s} {'map':>8s} {'exp-ben':>8s} {'ask':>8s} {'ratio':>6s}")
     for r in res["cases"]:
-        click.echo(f"{r['scenario']:24s} {r['hypotheses']:5d} {r['infer_ms']:7.2f}m {r['map_ms']:7.2f}m "
-                   f"{r['expected-benefit_ms']:7.2f}m {r['ask-or-act_ms']:7.2f}m {r['ratio']:6.2f}")
-    click.echo(f"expected-benefit / inference: median {res['median_ratio']:.2f}, max {res['max_ratio']:.2f} "
-               f"(floor {res['floor']:.0f}); ask-or-act max {res['max_ratio_ask']:.2f}")
+        print(f"{r['scenario']:24s} {r['hypotheses']:5d} {r['infer_ms']:7.2f}m {r['map_ms']:7.2f}m "
+              f"{r['expected-benefit_ms']:7.2f}m {r['ask-or-act_ms']:7.2f}m {r['ratio']:6.2f}")
+    print(f"expected-benefit / inference: median {res['median_ratio']:.2f}, max {res['max_ratio']:.2f} "
+          f"(floor {res['floor']:.0f}); ask-or-act max {res['max_ratio_ask']:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from siftom.bench.stimuli import (
+from siftom.errors import AudioError, DatasetError, NotYoursError
+from siftom.people.stimuli import (
     AUDIO_DIR,
     FORMAT_VERSION,
     MANIFEST,
@@ -40,7 +41,6 @@ from siftom.bench.stimuli import (
     resolve_scenario,
     select_scenarios,
 )
-from siftom.errors import AudioError, DatasetError, NotYoursError
 from siftom.private import append_private, make_private, private_dir, write_private_text
 
 PARTICIPANTS = "participants.jsonl"

@@ -1,6 +1,8 @@
 """Choosing the loss aversion of the decision rules on a development set (docs/decisions.md).
 
-``siftom bench loss-aversion RESULTS...`` reads results folders made by ``siftom eval`` on
+    python recipes/loss_aversion.py RESULTS... [--target 0.03] [--json]
+
+reads results folders made by ``siftom eval`` on
 development sets (another seed than the evaluation sets), re-infers every stimulus once from
 its cached transcript, and for each loss aversion ``lam`` of a grid lets expected benefit
 choose ``argmax_a E[b] - lam E[max(0, -b)]``; each chosen command goes through the team
@@ -14,12 +16,12 @@ share is within the target on every set and says whether the mean speedup stays 
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import click
 import numpy as np
 
 LAMBDA_GRID = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
@@ -62,19 +64,21 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
                         alphas: Sequence[float] = ALPHA_GRID) -> dict[str, Any]:
     """The negative share / speedup / accuracy of expected benefit at each loss aversion."""
     from siftom.api import get_model
-    from siftom.assist.decide import Situation, _best
+    from siftom.assist import decide as dec
+    from siftom.assist.decide import Situation
     from siftom.assist.teamvalue import team_values
     from siftom.bench import evaluate as ev
     from siftom.bench import trials as tr
-    from siftom.bench.stimuli import load_dataset, scenario_for
+    from siftom.bench.results_io import read_jsonl
     from siftom.inference.model import Observation
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     root = Path(results)
     run = json.loads((root / ev.RUN).read_text(encoding="utf-8"))
     ds = load_dataset(run["dataset"])
     likelihood = run["options"].get("likelihood", "phonetic")
     likelihood = "phonetic" if likelihood == "auto" else likelihood  # the decision rules' N-best likelihood
-    for t in ev._read_jsonl(root / ev.TEAM_CACHE):
+    for t in read_jsonl(root / ev.TEAM_CACHE):
         tr._TEAM.setdefault((t["key"], t["command"]), t)
     rows = {r["id"]: r for r in ev.load_results(root)}
     model = get_model("full", likelihood)
@@ -91,7 +95,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
         tv = team_values(post.joint, sc.world, sc.target, Situation.from_scenario(sc).state)
         outcome = _Outcome(tv.actions, skey, sc, s.gold_command, post)
         for x in lambdas:
-            per_l[x].append(outcome(_best(tv, x)[0]))
+            per_l[x].append(outcome(dec._best(tv, x)[0]))  # the rule's own choice
         for x in alphas:
             per_a[x].append(outcome(_choose_alpha(tv, x)))
         m = tr._simulate(skey, sc, post.command)
@@ -102,17 +106,10 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
             "chance_constraint": [{"alpha": x, **_summ(v)} for x, v in per_a.items()]}
 
 
-@click.command("loss-aversion")
-@click.argument("results", nargs=-1, required=True, type=click.Path(file_okay=False, exists=True))
-@click.option("--target", type=float, default=0.03, show_default=True, help="negative-speedup share allowed")
-@click.option("--json", "as_json", is_flag=True, help="print JSON")
-def loss_aversion_cmd(results: tuple[str, ...], target: float, as_json: bool) -> None:
-    """Choose the loss aversion of expected benefit from development RESULTS folders (siftom eval).
-
-    The smallest loss aversion whose negative-speedup share is within TARGET on every set (the
-    risk a teammate accepts); it says whether the mean speedup then stays at least siftom's
-    (the MAP command) on every set. None when no value of the grid reaches TARGET.
-    """
+def choose(results: Sequence[str | Path], target: float = 0.03) -> dict[str, Any]:
+    """The smallest loss aversion whose negative-speedup share is within ``target`` on every set
+    (the risk a teammate accepts), whether the mean speedup then stays at least siftom's (the MAP
+    command) on every set, and the curves. None when no value of the grid reaches ``target``."""
     curves = [loss_aversion_curve(r) for r in results]
     lams = [row["lam"] for row in curves[0]["loss_aversion"]]
 
@@ -123,22 +120,38 @@ def loss_aversion_cmd(results: tuple[str, ...], target: float, as_json: bool) ->
         return max(c["loss_aversion"][k]["neg_speedup_share"] for c in curves)
 
     ok = [k for k in range(len(lams)) if worst(k) <= target]
-    chosen = lams[ok[0]] if ok else None
-    faster = bool(ok) and keeps(ok[0])
-    if as_json:
-        click.echo(json.dumps({"target": target, "loss_aversion": chosen, "speedup_kept": faster,
-                               "curves": curves}, indent=2))
+    return {"target": target, "loss_aversion": lams[ok[0]] if ok else None,
+            "speedup_kept": bool(ok) and keeps(ok[0]), "curves": curves}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description="Choose the loss aversion of expected benefit from development "
+                                             "RESULTS folders (siftom eval).")
+    ap.add_argument("results", nargs="+", help="results folders of siftom eval on development sets")
+    ap.add_argument("--target", type=float, default=0.03, help="negative-speedup share allowed (default: 0.03)")
+    ap.add_argument("--json", dest="as_json", action="store_true", help="print JSON")
+    a = ap.parse_args(argv)
+    for r in a.results:
+        if not Path(r).is_dir():
+            ap.error(f"{r}: no such folder")
+    res = choose(a.results, a.target)
+    if a.as_json:
+        print(json.dumps(res, indent=2))
         return
-    for c in curves:
+    for c in res["curves"]:
         b = c["siftom"]
-        click.echo(f"{c['results']} (n = {c['n']}); siftom: speedup {b['speedup']:+.3f}, "
-                   f"negative {100 * b['neg_speedup_share']:.1f} %, accuracy {100 * b['accuracy']:.1f} %")
+        print(f"{c['results']} (n = {c['n']}); siftom: speedup {b['speedup']:+.3f}, "
+              f"negative {100 * b['neg_speedup_share']:.1f} %, accuracy {100 * b['accuracy']:.1f} %")
         for key, name in (("loss_aversion", "lam"), ("chance_constraint", "alpha")):
             for row in c[key]:
-                click.echo(f"  {name} {row[name]:5.2f}: speedup {row['speedup']:+.3f}, negative "
-                           f"{100 * row['neg_speedup_share']:.1f} %, accuracy {100 * row['accuracy']:.1f} %, "
-                           f"does nothing {100 * row['no_action']:.1f} %, "
-                           f"confident wrong {100 * row['confident_wrong_share']:.1f} %")
-    kept = "keeps" if faster else "does not keep"
-    click.echo(f"smallest loss aversion with <= {100 * target:g} % negative on every set: {chosen} "
-               f"({kept} a mean speedup >= siftom's on every set)")
+                print(f"  {name} {row[name]:5.2f}: speedup {row['speedup']:+.3f}, negative "
+                      f"{100 * row['neg_speedup_share']:.1f} %, accuracy {100 * row['accuracy']:.1f} %, "
+                      f"does nothing {100 * row['no_action']:.1f} %, "
+                      f"confident wrong {100 * row['confident_wrong_share']:.1f} %")
+    kept = "keeps" if res["speedup_kept"] else "does not keep"
+    print(f"smallest loss aversion with <= {100 * res['target']:g} % negative on every set: {res['loss_aversion']} "
+          f"({kept} a mean speedup >= siftom's on every set)")
+
+
+if __name__ == "__main__":
+    main()

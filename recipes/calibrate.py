@@ -10,11 +10,12 @@ temperature T_w (``WHISPER_GRID``) and the Whisper scores are kept instead. The 
 says which T fits. Use a dataset built with another seed (and other voices and noise) than the
 one you report on.
 
-    siftom bench calibrate --dataset runs/kitchen-cal-seed1 [--json] [--out DIR]
+    python recipes/calibrate.py --dataset runs/kitchen-cal-seed1 [--json] [--out DIR] [--limit N]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections import defaultdict
 from pathlib import Path
@@ -39,12 +40,13 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     """
     from siftom.api import get_model
     from siftom.bench.acoustic_models import heard
-    from siftom.bench.stimuli import load_dataset, scenario_for
-    from siftom.bench.trials import _engine, dataset_vocabulary
+    from siftom.bench.engines import engine as get_engine
+    from siftom.bench.trials import dataset_vocabulary
+    from siftom.people.stimuli import load_dataset, scenario_for
 
     ds = load_dataset(dataset)
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
-    asr = _engine(engine, vocab)
+    asr = get_engine(engine, vocab)
     model = get_model(mode, "acoustic")
     lk: Any = model.likelihood  # an AcousticLikelihood (raw_scores, with_phonetic)
     # the Whisper factor replaces the alignment: then T_w is fitted instead (and there is no combo)
@@ -155,27 +157,28 @@ def write(rows: list[dict[str, Any]], result: dict[str, Any], out: Path) -> None
                                           encoding="utf-8")
 
 
-def _cli():  # noqa: ANN202 - a click command, built lazily
-    import click
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description="Fit the acoustic likelihood's temperature (NLL of the gold "
+                                             "command per SNR).")
+    ap.add_argument("--dataset", required=True, help="a dataset built with another seed than the one you report on")
+    ap.add_argument("--out", default=None, help="write calibration.json here")
+    ap.add_argument("--mode", choices=["full", "speech-only"], default="full", help="(default: full)")
+    ap.add_argument("--limit", type=int, default=None, help="first N stimuli only")
+    ap.add_argument("--json", dest="as_json", action="store_true", help="print JSON")
+    a = ap.parse_args(argv)
+    if not Path(a.dataset).is_dir():
+        ap.error(f"--dataset {a.dataset}: no such folder")
+    rows = collect(a.dataset, mode=a.mode, limit=a.limit)
+    result = fit(rows)
+    if a.out:
+        write(rows, result, Path(a.out))
+    if a.as_json:
+        print(json.dumps(result, indent=2))
+        return
+    for g, v in result.items():
+        print(f"{g:8s} n={v['n']:4d}  best T={v['best_T']:5.1f} nats  accuracy {v['accuracy']:.3f}  "
+              f"ECE {v['ece_at_best']:.3f}  NLL@T: " + ", ".join(f"{k}:{x:.3f}" for k, x in v["nll"].items()))
 
-    @click.command("calibrate")
-    @click.option("--dataset", required=True, type=click.Path(exists=True, file_okay=False),
-                  help="a dataset built with another seed than the one you report on")
-    @click.option("--out", default=None, type=click.Path(file_okay=False), help="write calibration.json here")
-    @click.option("--mode", type=click.Choice(["full", "speech-only"]), default="full", show_default=True)
-    @click.option("--limit", type=int, default=None, help="first N stimuli only")
-    @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-    def calibrate_cmd(dataset: str, out: str | None, mode: str, limit: int | None, as_json: bool) -> None:
-        """Fit the acoustic likelihood's temperature (NLL of the gold command per SNR)."""
-        rows = collect(dataset, mode=mode, limit=limit)
-        result = fit(rows)
-        if out:
-            write(rows, result, Path(out))
-        if as_json:
-            click.echo(json.dumps(result, indent=2))
-            return
-        for g, v in result.items():
-            click.echo(f"{g:8s} n={v['n']:4d}  best T={v['best_T']:5.1f} nats  accuracy {v['accuracy']:.3f}  "
-                       f"ECE {v['ece_at_best']:.3f}  NLL@T: " + ", ".join(f"{k}:{x:.3f}" for k, x in v["nll"].items()))
 
-    return calibrate_cmd
+if __name__ == "__main__":
+    main()

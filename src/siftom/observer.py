@@ -43,6 +43,7 @@ from siftom.inference.model import OnlineInference, Posterior, SIFToM
 from siftom.inputs import SceneInput
 from siftom.likelihood.base import Instruction, InstructionLikelihood
 from siftom.settings import Settings
+from siftom.world.commands import RobotCommand
 from siftom.world.model import State, World
 
 LikelihoodArg = str | InstructionLikelihood
@@ -101,6 +102,24 @@ def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg, lexico
     if likelihood == "llm":
         options = {"backend": settings.llm, **options}
     return SIFToM(cfg, get_likelihood(likelihood, **options))
+
+
+def _named_instead(post: Posterior, instruction: Instruction, command: str, world: World,
+                   verb: str) -> tuple[str, RobotCommand] | None:
+    """(heard word, the command it names) when what was heard names another object of the
+    world and nothing near ``command`` (likelihood/nearness.py ``named_instead``)."""
+    from siftom.likelihood.nearness import heard_texts, named_instead
+
+    texts = heard_texts(instruction.nbest)
+    whisper = post.evidence.get("whisper_heard")
+    if isinstance(whisper, str) and whisper.strip():
+        texts.append(whisper)
+    if not texts:
+        return None
+    chosen = RobotCommand.parse(command)
+    others = [RobotCommand(chosen.verb, c) for c in world.classes]
+    got: tuple[str, RobotCommand] | None = named_instead(texts, chosen, others, _lexicon_of(world))
+    return got
 
 
 def _lexicon_of(world: World) -> Any:
@@ -259,6 +278,15 @@ class Observer:
         nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
                    else NOTHING_ASKED if instruction is None else "")
         decision = self.decide(post, world, target, decide, nothing=nothing)
+        if decision.action not in (NONE, "ask") and instruction is not None and mode != "speech-only":
+            other = _named_instead(post, instruction, decision.command, world, online.verb)
+            if other is not None:
+                word, cmd = other
+                post = dataclasses.replace(post, evidence={**post.evidence,
+                                                           "named_instead": {"word": word, "command": str(cmd)}})
+                decision = Decision(decision.rule, NONE, NONE, 0.0, 0.0,
+                                    reason=f"heard {word!r}, which names {cmd} and not {decision.command}: the "
+                                           "robot does not bring what was not asked for")
         post = dataclasses.replace(post, decision=decision)
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, speech, heard.asr if heard is not None else None,

@@ -40,6 +40,11 @@ from siftom.likelihood.phrasing import FILLER_WORDS, NUMBER_WORDS, content_prior
 # against the commands of every built-in scene; `python -m siftom.bench.nearness` (docs/speech.md)
 CHANCE_R: dict[int, float] = {2: 0.076, 3: 0.181, 4: 0.147, 5: 0.21, 6: 0.256, 7: 0.35, 8: 0.406}
 CHANCE_QUANTILE = 0.01
+# t'(length): the 5th percentile of r for random cmudict words against the words of ONE object
+# class (seed 5, 600 words x the built-in lexicon's classes): a heard word nearer than that to a
+# command "could be" that command's word misheard (`python -m siftom.bench.nearness --per-command`)
+COMMAND_CHANCE_R: dict[int, float] = {3: 0.536, 4: 0.537, 5: 0.496, 6: 0.513, 7: 0.54, 8: 0.581}
+COMMAND_CHANCE_QUANTILE = 0.05
 # the hypotheses that count as heard: those with at least this share of the N-best weight
 # softmax(score / ASR_TEMPERATURE), the weights of the phonetic likelihood (phonetic.py)
 MIN_WEIGHT = 0.05
@@ -61,12 +66,14 @@ def _scene_words(commands: tuple[Any, ...], lex: Lexicon) -> frozenset[str]:
     return frozenset(out)
 
 
-def chance_threshold(n_phones: int) -> float:
-    """t for a heard word of ``n_phones`` phonemes (the longest measured length for longer ones)."""
-    if not CHANCE_R:
+def chance_threshold(n_phones: int, table: dict[int, float] | None = None) -> float:
+    """t for a heard word of ``n_phones`` phonemes (the nearest measured length outside the table);
+    ``table``: :data:`CHANCE_R` (against a whole scene) unless given."""
+    levels = CHANCE_R if table is None else table
+    if not levels:
         return 0.0
-    keys = sorted(CHANCE_R)
-    return CHANCE_R[min(max(n_phones, keys[0]), keys[-1])]
+    keys = sorted(levels)
+    return levels[min(max(n_phones, keys[0]), keys[-1])]
 
 
 @dataclass(frozen=True)
@@ -94,7 +101,7 @@ def _vocab(words: frozenset[str]) -> MeaningVocabulary:
     v = _VOCABS.get(words)
     if v is None:
         v = _VOCABS[words] = MeaningVocabulary(words)
-        if len(_VOCABS) > 32:
+        if len(_VOCABS) > 256:  # one per scene and one per object class of the scenes in use
             _VOCABS.popitem(last=False)
     return v
 
@@ -175,4 +182,38 @@ def nearness(texts: Sequence[str], commands: Sequence[Any], lexicon: Lexicon | N
             frame = request_frame(text)
             if frame:
                 return Nearness(True, frame, best.cost, best.threshold)
+    return best
+
+
+def named_instead(texts: Sequence[str], command: Any, others: Sequence[Any],
+                  lexicon: Lexicon | None = None) -> tuple[str, Any] | None:
+    """(heard word, other command) when no heard word is near ``command``'s own words but one is
+    near another of ``others`` (a class of the scene, wanted or not); None otherwise.
+
+    The check before the robot acts: "pass the milk" when the milk is already on the counter
+    must not become ``fetch(oatmeal)`` because the actions favour the oatmeal. Words near no
+    object at all ("could you get me the ..." with the object lost) say nothing against the
+    command, and neither does a misheard word that could be its word ("silver" for "cereal",
+    "potato" for "tomato": nearer to it than 95 % of random words, :data:`COMMAND_CHANCE_R`).
+    Naming another object is the no-instruction check's test against that object's words (no
+    worse than random words reach 1 % of the time).
+    """
+    own = scene_words([command], lexicon)
+    for text in texts:
+        for _w, n, r in word_costs(text, own):
+            if r <= chance_threshold(n, COMMAND_CHANCE_R):
+                return None
+    best: tuple[str, Any] | None = None
+    margin = float("inf")
+    for other in others:
+        if getattr(other, "obj_class", None) == getattr(command, "obj_class", None):
+            continue
+        words = scene_words([other], lexicon)
+        if own >= words:  # a word of both (a shared synonym or category) says nothing against it
+            continue
+        for text in texts:
+            for w, n, r in word_costs(text, words - own):
+                t = chance_threshold(n)
+                if r <= t and r - t < margin:
+                    margin, best = r - t, (w, other)
     return best

@@ -32,7 +32,7 @@ from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
-from siftom.service.store import SessionStore
+from siftom.service.store import KeyTaken, SessionStore
 from siftom.world.io import (
     LoadedScene,
     feasible_goals,
@@ -142,8 +142,12 @@ class SessionManager:
             with self._lock:
                 self._live.pop(sid, None)
 
-    def create(self, spec: dict[str, Any], options: dict[str, Any]) -> Session:
-        """A new session over ``spec['world']``; written to the store before returning."""
+    def create(self, spec: dict[str, Any], options: dict[str, Any], idem: Idem | None = None,
+               actions: list[Action] | None = None, source: str = "actions") -> Session:
+        """A new session over ``spec['world']``, having seen ``actions`` (from ``source``); written
+        to the store before returning. ``idem``: the request's Idempotency-Key, claimed with the
+        session (a request that lost the race for the key gets the session the winner made, its
+        actions not added again; :meth:`created_reply` answers the retries)."""
         self.sweep(force=True)
         n = self.store.count()
         if n >= self.limits.max_sessions:
@@ -162,10 +166,38 @@ class SessionManager:
         online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
         options = {**options, "warnings": warnings}
-        created = self.store.create(sid, spec, options)
+        try:
+            created = self.store.create(sid, spec, options, None if idem is None else (idem.key, idem.request))
+        except KeyTaken:
+            assert idem is not None
+            first = self.store.creation(idem.key)
+            if first is None:  # claimed and expired meanwhile: practically never
+                raise ProblemError(409, "conflict", "another request with this Idempotency-Key created a session "
+                                   "at the same time; retry with the same key") from None
+            check_same(idem, first.request)
+            return self.get(first.session)
         sess = Session(sid, created, spec, options, scene, online, [], warnings)
         self._remember(sess)
+        if actions:
+            self.append_actions(sid, actions, source)
         return sess
+
+    def created_reply(self, idem: Idem | None) -> dict[str, Any] | None:
+        """The first answer of the session-creating request with ``idem``'s key, or None (422
+        when the key asked otherwise; the session's state now while the first has not finished)."""
+        if idem is None:
+            return None
+        first = self.store.creation(idem.key)
+        if first is None:
+            return None
+        check_same(idem, first.request)
+        return first.reply if first.reply is not None else self.view(self.get(first.session))
+
+    def created(self, idem: Idem | None, view: dict[str, Any]) -> dict[str, Any]:
+        """Record ``view`` as the first answer to a session-creating request; returns it."""
+        if idem is not None:
+            self.store.set_creation_reply(idem.key, view)
+        return view
 
     def _remember(self, sess: Session) -> None:
         with self._lock:

@@ -20,15 +20,16 @@ import re
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import SiftomError, UnknownNameError
+from siftom.service.idempotency import idem_of
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import MAX_SCENARIO_ID
-from siftom.service.session_api import _problems
+from siftom.service.session_api import _problems, created_response
 from siftom.service.session_schemas import SESSION_ID, SessionView
 from siftom.service.sessions import SessionManager
 from siftom.service.stream_settings import (
@@ -107,9 +108,14 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 
     @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
               responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
-    async def session_from_scenario(req: ScenarioSession) -> JSONResponse:
+    async def session_from_scenario(req: ScenarioSession, request: Request) -> JSONResponse:
         """Start a session over a registered scenario's world with its first ``n_actions`` actions
-        already observed (the web page streams its microphone into it)."""
+        already observed (the web page streams its microphone into it); a retry with the same
+        Idempotency-Key returns the first answer and creates nothing."""
+        idem = idem_of(request.headers, "from-scenario", req.model_dump())
+        first = await run_cpu(mgr.created_reply, idem)
+        if first is not None:
+            return created_response(first, replayed=True)
         try:
             sc = rt.scenario(req.scenario)
         except UnknownNameError as exc:
@@ -119,12 +125,11 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
             raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
 
         def work() -> dict[str, Any]:
-            sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None})
-            mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
-            return mgr.view(mgr.get(sess.id))
+            sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None}, idem,
+                              actions=list(sc.actions[:n]), source="scenario")
+            return mgr.created(idem, mgr.view(sess))
 
-        view = await run_cpu(work)
-        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
+        return created_response(await run_cpu(work))
 
     @app.websocket("/v1/sessions/{session_id}/listen")
     async def listen(ws: WebSocket, session_id: str) -> None:

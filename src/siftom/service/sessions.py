@@ -126,6 +126,7 @@ class SessionManager:
         self._lock = threading.Lock()
         self._loading: dict[str, threading.Lock] = {}
         self._last_sweep = 0.0
+        self._held: dict[str, int] = {}  # sessions in use by an open stream (how many)
 
     def _online(self, scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
         """A new online inference of the session's world (the observer's model for its mode)."""
@@ -138,6 +139,10 @@ class SessionManager:
         if not force and now - self._last_sweep < 60:
             return
         self._last_sweep = now
+        with self._lock:
+            held = list(self._held)
+        for sid in held:  # in use: a stream's audio is use even when nothing is said
+            self.store.touch(sid)
         for sid in self.store.expire(now - self.limits.idle_s):
             with self._lock:
                 self._live.pop(sid, None)
@@ -181,6 +186,21 @@ class SessionManager:
         if actions:
             self.append_actions(sid, actions, source)
         return sess
+
+    def hold(self, sid: str) -> None:
+        """Mark ``sid`` in use (an open stream) until :meth:`release`: it does not expire meanwhile."""
+        with self._lock:
+            self._held[sid] = self._held.get(sid, 0) + 1
+
+    def release(self, sid: str) -> None:
+        """The end of a :meth:`hold`; the session's idle time starts now."""
+        with self._lock:
+            left = self._held.get(sid, 0) - 1
+            if left > 0:
+                self._held[sid] = left
+            else:
+                self._held.pop(sid, None)
+        self.store.touch(sid)
 
     def created_reply(self, idem: Idem | None) -> dict[str, Any] | None:
         """The first answer of the session-creating request with ``idem``'s key, or None (422

@@ -103,6 +103,24 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
     return scene, warnings
 
 
+def check_speakable(classes: Any) -> None:
+    """Every object class can be named in an instruction (the likelihoods match what was heard
+    against the classes' names): a 422 naming the first that cannot, with the fix."""
+    import re
+
+    from siftom.likelihood.lexicon import LexiconError, default_lexicon
+
+    lex = default_lexicon()
+    for c in classes:
+        try:
+            lex.entry(c)
+        except LexiconError as exc:
+            fix = re.sub(r"[^a-z_]+", "", c.lower()).strip("_") or "cup"
+            raise ObservationError(f"class {c!r} has no spoken name, so no instruction could name it ({exc}); "
+                                   f"rename the class in the world to words, letters and underscores only "
+                                   f"(e.g. {fix!r}; two mugs are two objects of class 'mug')") from None
+
+
 def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
     """The warning when a request's ``goal_space`` loses to its ``goals`` or the world's own goals."""
     space, world = spec.get("goal_space"), spec["world"]
@@ -168,6 +186,7 @@ class SessionManager:
                                    f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
         self.observer.check_likelihood(options["likelihood"])
         scene, warnings = build_scene(spec, self.limits.max_world_items)
+        check_speakable(scene.world.classes)  # now, not at the first instruction
         online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
         options = {**options, "warnings": warnings}

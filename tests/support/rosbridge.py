@@ -20,6 +20,9 @@ class FakeRosbridge:
         self.ops: list[dict[str, Any]] = []  # every op received, in order
         self.subscribers: dict[str, set[Any]] = {}
         self.advertised: dict[str, str] = {}  # topic -> type
+        self.clients: set[Any] = set()
+        self.advertised_by: dict[Any, set[str]] = {}  # a connection's advertisements (gone with it)
+        self.unadvertised: list[dict[str, Any]] = []  # publishes on a topic their connection has not advertised
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Future | None = None
         self._ready = threading.Event()
@@ -30,6 +33,7 @@ class FakeRosbridge:
         return f"ws://127.0.0.1:{self.port}"
 
     async def _handle(self, ws: Any) -> None:
+        self.clients.add(ws)
         try:
             async for raw in ws:
                 op = json.loads(raw)
@@ -41,16 +45,30 @@ class FakeRosbridge:
                     self.subscribers.get(topic, set()).discard(ws)
                 elif kind == "advertise":
                     self.advertised[topic] = op.get("type", "")
+                    self.advertised_by.setdefault(ws, set()).add(topic)
                 elif kind == "publish":
+                    if topic not in self.advertised_by.get(ws, ()):
+                        # rosbridge infers the type from other clients, or refuses it when it cannot
+                        self.unadvertised.append(op)
                     out = json.dumps({"op": "publish", "topic": topic, "msg": op.get("msg", {})})
                     for sub in list(self.subscribers.get(topic, ())):
                         try:
                             await sub.send(out)
                         except Exception:
                             self.subscribers[topic].discard(sub)
+        except Exception:  # dropped (see drop)
+            pass
         finally:
+            self.clients.discard(ws)
+            self.advertised_by.pop(ws, None)
             for subs in self.subscribers.values():
                 subs.discard(ws)
+
+    def drop(self) -> None:
+        """Close every client connection (as a rosbridge restart or a network cut does)."""
+        assert self._loop is not None
+        for ws in list(self.clients):
+            asyncio.run_coroutine_threadsafe(ws.close(), self._loop).result(5)
 
     async def _main(self) -> None:
         import websockets

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -139,6 +141,50 @@ def announce(what: str, host: str, port: int, token: str | None, generated: bool
     click.echo(f"siftom: {what} at {urls[0]}{extra}{given}", err=True)
 
 
+STOP_GRACE_S = 5  # on SIGTERM, requests and streams in flight get this long before they are cut
+
+
+@contextmanager
+def stopped_by_signals() -> Iterator[None]:
+    """SIGTERM and SIGINT stop the server cleanly, also while it warms up: the ``finally``
+    blocks inside stop the audio workers, close the stores and release the data folder's lock
+    (its owner record removed); then the process ends by that signal, as an unhandled one
+    would (exit status 128 + signal in a shell, a clean stop for systemd). uvicorn handles the
+    signals while it serves and passes them on here when it has shut down (it swallows the
+    KeyboardInterrupt that follows: the signal is remembered here)."""
+    import signal
+    import threading
+
+    from siftom.bench.runlock import RunInterrupted
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+
+    def handler(signum: int, frame: Any) -> None:
+        if received:  # a second one while stopping: let the cleanup finish
+            return
+        received.append(signum)
+        raise RunInterrupted(signum)
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    except KeyboardInterrupt:
+        if not received:
+            raise
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+    if received:
+        signum = received[0]
+        click.echo(f"siftom: stopped by {signal.Signals(signum).name}; the data folder is released", err=True)
+        sys.stderr.flush()
+        signal.signal(signum, signal.SIG_DFL)
+        signal.raise_signal(signum)
+
+
 def claim_data_dir(data_dir: str) -> RunLock:
     """Hold ``DATA_DIR/.siftom.lock`` for the life of this process: one server per data folder.
 
@@ -225,17 +271,20 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
     settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
     private_umask()  # sessions, ratings, maps: 0600 files in 0700 folders
-    lock = claim_data_dir(data_dir) if data_dir is not None else None  # released when the process ends
-    announce("web page", host, port, token, generated, " , API schema at /openapi.json")
-    # every request goes through one observer built from these settings (as siftom.infer does)
-    observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
-    app = create_app(data_dir, settings, observer)
-    try:
-        uvicorn.run(app, host=host, port=port, log_level="info")
-    finally:
-        app.state.runtime.close()
-        if lock is not None:
-            lock.release()
+    with stopped_by_signals():
+        lock, app = None, None
+        try:
+            lock = claim_data_dir(data_dir) if data_dir is not None else None
+            announce("web page", host, port, token, generated, " , API schema at /openapi.json")
+            # every request goes through one observer built from these settings (as siftom.infer does)
+            observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
+            app = create_app(data_dir, settings, observer)
+            uvicorn.run(app, host=host, port=port, log_level="info", timeout_graceful_shutdown=STOP_GRACE_S)
+        finally:  # also on SIGTERM / SIGINT, during warm-up too: workers stopped, folder released
+            if app is not None:
+                app.state.runtime.close()
+            if lock is not None:
+                lock.release()
 
 
 @click.command("serve")

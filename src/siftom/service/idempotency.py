@@ -6,6 +6,8 @@ request within a session, e.g. a UUID) returns the answer the first request got,
 header ``Idempotent-Replayed: true``, and changes nothing. The first answer is written to the
 session store in the same transaction as the change it answers, so this holds across a
 restart. The same key sent with a different request is a 422 (a client bug, not a retry).
+Creating a session (``POST /v1/sessions``, ``/v1/sessions/from-scenario``) takes a key too,
+unique server-wide (there is no session yet to scope it), and so does ``POST .../rating``.
 """
 
 from __future__ import annotations

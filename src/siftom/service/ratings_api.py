@@ -14,13 +14,14 @@ import threading
 import time
 from typing import Any
 
-from fastapi import FastAPI
+from fastapi import FastAPI, Request
 from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
 from siftom.people.ratings import RATINGS, SCALE, STATEMENTS, session_model
 from siftom.private import append_private
+from siftom.service.idempotency import REPLAYED, idem_of
 from siftom.service.people import STATIC
 from siftom.service.problems import PROBLEM_JSON, ProblemError
 from siftom.service.session_schemas import SESSION_ID
@@ -53,26 +54,35 @@ def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
                 "labels": {"1": "strongly disagree", "4": "neither agree nor disagree", "7": "strongly agree"}}
 
     @app.post("/v1/sessions/{session_id}/rating", tags=["sessions"], status_code=201, responses=problems)
-    async def rate(req: RatingRequest,
+    async def rate(req: RatingRequest, request: Request,
                    session_id: str = PathParam(pattern=SESSION_ID, description="the session that was rated")
                    ) -> JSONResponse:
-        """Store the participant's ratings of the robot in this session's last trial."""
+        """Store the participant's ratings of the robot in this session's last trial; a retry with
+        the same Idempotency-Key returns the first answer and stores nothing."""
         lo, hi = SCALE
         if not all(lo <= x <= hi for x in req.scores):
             raise ProblemError(422, "validation", f"scores: each rating is a whole number from {lo} to {hi}")
         mgr = app.state.sessions
+        idem = idem_of(request.headers, "rating", req.model_dump())
 
-        def work() -> dict[str, Any]:
+        def work() -> tuple[dict[str, Any], bool]:
             sess = mgr.get(session_id)  # an unknown id is a 404
-            last = sess.last or {}
-            rec = {"id": secrets.token_hex(8), "session": session_id,
-                   "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
-                   "command": last.get("command"), "action": last.get("action"),
-                   "top_command": last.get("top_command"), "n_actions": len(sess.actions), "scores": list(req.scores),
-                   "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            with lock, append_private(rt.data_dir / RATINGS) as f:
-                f.write(json.dumps(rec) + "\n")
-            return rec
+            with lock:
+                first = mgr.replayed(session_id, idem)
+                if first is not None:
+                    return first, True
+                last = sess.last or {}
+                rec = {"id": secrets.token_hex(8), "session": session_id,
+                       "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
+                       "command": last.get("command"), "action": last.get("action"),
+                       "top_command": last.get("top_command"), "n_actions": len(sess.actions),
+                       "scores": list(req.scores), "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+                with append_private(rt.data_dir / RATINGS) as f:
+                    f.write(json.dumps(rec) + "\n")
+                rec = {**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}
+                if idem is not None:
+                    mgr.store.put_reply(session_id, idem.key, idem.request, rec)
+            return rec, False
 
-        rec = await run_cpu(work)
-        return JSONResponse({**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}, status_code=201)
+        rec, replayed = await run_cpu(work)
+        return JSONResponse(rec, status_code=201, headers={REPLAYED: "true"} if replayed else None)

@@ -14,6 +14,13 @@ asyncio transport), so nothing of ROS has to be installed next to siftom:
 * each answer is published as ``std_msgs/String`` whose ``data`` is the decision's JSON
   (``heard``, ``command``, ``prob``, ``action`` act/ask/none, ``decision``, ``question``, ``commands``,
   ``timings``) on ``/siftom/decision``.
+
+Bounded, whatever the robot sends: the audio waiting for the listener is at most
+:data:`AUDIO_QUEUE_S` seconds (the oldest is dropped first, with an error line); text messages
+are answered by :data:`TEXT_WORKERS` threads with at most :data:`TEXT_PENDING` waiting (more
+are dropped with an error line). A decision is published only while the decision topic is
+advertised on the current rosbridge connection: after a reconnect the bridge advertises it
+again first, and the decisions made meanwhile (the last :data:`HELD_DECISIONS`) follow.
 """
 
 from __future__ import annotations
@@ -21,10 +28,12 @@ from __future__ import annotations
 import base64
 import contextlib
 import json
-import queue
 import sys
 import threading
+import time
+from collections import deque
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import urlparse
@@ -33,6 +42,62 @@ import numpy as np
 
 from siftom.errors import AudioError, BackendUnavailableError, OptionsError, SiftomError
 from siftom.listener import HomeListener, compact, run_listener
+
+AUDIO_QUEUE_S = 10.0  # seconds of audio waiting for the listener at most (docs/ros.md)
+TEXT_WORKERS = 2  # threads answering text messages
+TEXT_PENDING = 8  # text messages waiting for them at most
+HELD_DECISIONS = 50  # decisions kept while the decision topic is not advertised
+
+
+class AudioQueue:
+    """16 kHz 16-bit audio chunks waiting for the listener, at most ``max_seconds`` of audio:
+    when more arrives the oldest is dropped (the listener fell behind; recent speech matters most)."""
+
+    def __init__(self, max_seconds: float = AUDIO_QUEUE_S, rate: int = 16_000) -> None:
+        self.max_bytes = max(2, int(max_seconds * rate) * 2)
+        self.bytes_per_s = 2 * rate
+        self._chunks: deque[bytes] = deque()
+        self._bytes = 0
+        self._closed = False
+        self._cond = threading.Condition()
+
+    @property
+    def seconds(self) -> float:
+        """Seconds of audio waiting."""
+        with self._cond:
+            return self._bytes / self.bytes_per_s
+
+    def put(self, chunk: bytes) -> float:
+        """Queue ``chunk``; returns the seconds of the oldest audio dropped to make room."""
+        if len(chunk) > self.max_bytes:  # one chunk longer than the queue: its end
+            chunk = chunk[len(chunk) - self.max_bytes:]
+        dropped = 0
+        with self._cond:
+            self._chunks.append(chunk)
+            self._bytes += len(chunk)
+            while self._bytes > self.max_bytes:
+                old = self._chunks.popleft()
+                self._bytes -= len(old)
+                dropped += len(old)
+            self._cond.notify()
+        return dropped / self.bytes_per_s
+
+    def get(self) -> bytes | None:
+        """The oldest chunk (blocks); None once closed and empty."""
+        with self._cond:
+            while not self._chunks and not self._closed:
+                self._cond.wait()
+            if not self._chunks:
+                return None
+            chunk = self._chunks.popleft()
+            self._bytes -= len(chunk)
+            return chunk
+
+    def close(self) -> None:
+        """No more audio: :meth:`get` returns what is queued, then None."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
 
 
 @dataclass(frozen=True)
@@ -116,12 +181,20 @@ class RosBridge:
             raise BackendUnavailableError(f"cannot reach rosbridge at {url} ({type(exc).__name__}); start it on "
                                           "the robot: ros2 launch rosbridge_server rosbridge_websocket_launch.xml "
                                           "(ROS 1: roslaunch rosbridge_server rosbridge_websocket.launch)") from None
-        self._audio: queue.Queue[bytes | None] = queue.Queue(maxsize=500)  # 10 s of 20 ms chunks
+        self._audio = AudioQueue(AUDIO_QUEUE_S)
+        self._dropped = [0.0, 0.0]  # seconds of audio dropped and not reported yet, when last reported
+        self._texts = ThreadPoolExecutor(TEXT_WORKERS, thread_name_prefix="siftom-ros-text")
+        self._text_pending = 0
         self._lock = threading.Lock()
         self.published: list[dict[str, Any]] = []
+        self._held: deque[dict[str, Any]] = deque(maxlen=HELD_DECISIONS)
+        self._advertised = False  # the decision topic, on the current connection
         t = self.topics
-        self._decision = roslibpy.Topic(self.ros, t.decision, t.decision_type)
-        self._decision.advertise()
+        # advertised again by this bridge on every (re)connection, before any decision is published
+        self._decision = roslibpy.Topic(self.ros, t.decision, t.decision_type, reconnect_on_close=False)
+        self.ros.on("close", self._on_close)
+        self.ros.on("ready", self._on_ready)
+        self._advertise()
         self._subs = []
         for name, typ, cb in ((t.actions, t.actions_type, self._on_actions), (t.text, t.text_type, self._on_text),
                               (t.audio, t.audio_type, self._on_audio)):
@@ -141,14 +214,30 @@ class RosBridge:
 
     def _on_text(self, msg: dict[str, Any]) -> None:
         text = str(msg.get("data", "")).strip()
-        if text:
-            threading.Thread(target=self._answer_text, args=(text,), daemon=True).start()
+        if not text:
+            return
+        with self._lock:
+            busy = self._text_pending >= TEXT_PENDING
+            if not busy:
+                self._text_pending += 1
+        if busy:
+            self._out({"event": "error", "heard": text, "detail": f"{TEXT_PENDING} text messages are waiting for "
+                       "their answer: dropped this one; send one per utterance"})
+            return
+        try:
+            self._texts.submit(self._answer_text, text)
+        except RuntimeError:  # stopping
+            with self._lock:
+                self._text_pending -= 1
 
     def _answer_text(self, text: str) -> None:
         try:
             self.publish(self.home.answer_text(text))
         except SiftomError as exc:  # e.g. the acoustic likelihood, which needs the audio
             self._out({"event": "error", "heard": text, "detail": str(exc)})
+        finally:
+            with self._lock:
+                self._text_pending -= 1
 
     def _on_audio(self, msg: dict[str, Any]) -> None:
         try:
@@ -156,20 +245,50 @@ class RosBridge:
         except AudioError as exc:
             self._out({"event": "error", "detail": str(exc)})
             return
-        try:
-            self._audio.put_nowait(chunk)
-        except queue.Full:  # the listener fell behind: drop the oldest audio rather than block ROS
-            self._out({"event": "error", "detail": "audio queue full: dropped a chunk"})
+        dropped = self._audio.put(chunk)  # the listener fell behind: the oldest audio goes, ROS never waits
+        if dropped:
+            self._dropped[0] += dropped
+            now = time.monotonic()
+            if now - self._dropped[1] >= 1.0:  # one line a second at most
+                self._out({"event": "error", "detail": f"audio queue full ({AUDIO_QUEUE_S:g} s): dropped the "
+                           f"oldest {self._dropped[0]:.2f} s"})
+                self._dropped[:] = [0.0, now]
 
     # ----- decisions ---------------------------------------------------------------------------
+    def _advertise(self) -> None:
+        """Advertise the decision topic on this connection, then publish what was held meanwhile."""
+        self._decision.advertise()  # sent before anything queued after it
+        with self._lock:
+            self._advertised = True
+            held = list(self._held)
+            self._held.clear()
+        for body in held:
+            self._send(body)
+
+    def _on_ready(self, *_: Any) -> None:  # a reconnection (the first connection was made in __init__)
+        with contextlib.suppress(Exception):
+            self._advertise()
+
+    def _on_close(self, *_: Any) -> None:  # the connection dropped: hold decisions until re-advertised
+        with self._lock:
+            self._advertised = False
+
+    def _send(self, body: dict[str, Any]) -> None:
+        self._decision.publish(self._roslibpy.Message({"data": json.dumps(body)}))
+
     def publish(self, answer: dict[str, Any]) -> None:
-        """Publish an answer (decision or no_speech) on the decision topic and log it."""
+        """Publish an answer (decision or no_speech) on the decision topic and log it; while the
+        topic is not advertised (rosbridge reconnecting) it is held and published after."""
         body = compact(answer)
+        send = body.get("event") in ("decision", "no_speech")
         with self._lock:
             self.published.append(body)
+            if send and not self._advertised:
+                self._held.append(body)
+                send = False
         self._out(body)
-        if body.get("event") in ("decision", "no_speech"):
-            self._decision.publish(self._roslibpy.Message({"data": json.dumps(body)}))
+        if send:
+            self._send(body)
 
     def _chunks(self) -> Iterator[bytes]:
         while (chunk := self._audio.get()) is not None:
@@ -183,9 +302,11 @@ class RosBridge:
             self._terminate()
 
     def stop(self) -> None:
-        self._audio.put(None)
+        self._audio.close()
 
     def _terminate(self) -> None:
+        if hasattr(self, "_texts"):
+            self._texts.shutdown(wait=False, cancel_futures=True)
         with contextlib.suppress(Exception):  # closing a connection that is already gone
             for topic in getattr(self, "_subs", []):
                 topic.unsubscribe()

@@ -56,9 +56,15 @@ def _need_json(request: Request) -> None:
         raise ProblemError(415, "media-type", f"send application/json, not {media or 'no Content-Type'}")
 
 
-def _replay(first: dict[str, Any]) -> JSONResponse:
+def _replay(first: dict[str, Any], status_code: int = 200) -> JSONResponse:
     """The first answer to a retried Idempotency-Key, marked as replayed."""
-    return JSONResponse(first, headers={REPLAYED: "true"})
+    return JSONResponse(first, status_code=status_code, headers={REPLAYED: "true"})
+
+
+def created_response(view: dict[str, Any], replayed: bool = False) -> JSONResponse:
+    """201 with a new session's state and its Location (``replayed``: a retried Idempotency-Key's)."""
+    headers = {"Location": f"/v1/sessions/{view['id']}", **({REPLAYED: "true"} if replayed else {})}
+    return JSONResponse(view, status_code=201, headers=headers)
 
 
 def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
@@ -84,15 +90,19 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
                                f"the world is {len(body)} bytes, more than the {limits.max_world_bytes} this server "
                                "allows (--max-world-bytes); leave out nodes the robot never uses")
         req = SessionCreate.model_validate_json(body)
+        idem = idem_of(request.headers, "create", body)
+        first = await run_cpu(mgr.created_reply, idem)
+        if first is not None:
+            return created_response(first, replayed=True)
         rt.check_likelihood(req.likelihood)  # 422 naming those this server offers
         spec = {"world": req.world, "goals": [g.model_dump() for g in req.goals] if req.goals else None,
                 "goal_space": req.goal_space, "target": req.target}
 
         def work() -> dict[str, Any]:
-            return mgr.view(mgr.create(spec, {"mode": req.mode, "likelihood": req.likelihood, "decide": req.decide}))
+            options = {"mode": req.mode, "likelihood": req.likelihood, "decide": req.decide}
+            return mgr.created(idem, mgr.view(mgr.create(spec, options, idem)))
 
-        view = await run_cpu(work)
-        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
+        return created_response(await run_cpu(work))
 
     @app.get("/v1/sessions/{session_id}", tags=["sessions"], response_model=None,
              responses={200: {"model": SessionView}, **_problems(404, 422, 503)})

@@ -32,7 +32,7 @@ from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
-from siftom.service.store import SessionStore
+from siftom.service.store import KeyTaken, SessionStore
 from siftom.world.io import (
     LoadedScene,
     feasible_goals,
@@ -103,6 +103,24 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
     return scene, warnings
 
 
+def check_speakable(classes: Any) -> None:
+    """Every object class can be named in an instruction (the likelihoods match what was heard
+    against the classes' names): a 422 naming the first that cannot, with the fix."""
+    import re
+
+    from siftom.likelihood.lexicon import LexiconError, default_lexicon
+
+    lex = default_lexicon()
+    for c in classes:
+        try:
+            lex.entry(c)
+        except LexiconError as exc:
+            fix = re.sub(r"[^a-z_]+", "", c.lower()).strip("_") or "cup"
+            raise ObservationError(f"class {c!r} has no spoken name, so no instruction could name it ({exc}); "
+                                   f"rename the class in the world to words, letters and underscores only "
+                                   f"(e.g. {fix!r}; two mugs are two objects of class 'mug')") from None
+
+
 def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
     """The warning when a request's ``goal_space`` loses to its ``goals`` or the world's own goals."""
     space, world = spec.get("goal_space"), spec["world"]
@@ -126,6 +144,7 @@ class SessionManager:
         self._lock = threading.Lock()
         self._loading: dict[str, threading.Lock] = {}
         self._last_sweep = 0.0
+        self._held: dict[str, int] = {}  # sessions in use by an open stream (how many)
 
     def _online(self, scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
         """A new online inference of the session's world (the observer's model for its mode)."""
@@ -138,12 +157,20 @@ class SessionManager:
         if not force and now - self._last_sweep < 60:
             return
         self._last_sweep = now
+        with self._lock:
+            held = list(self._held)
+        for sid in held:  # in use: a stream's audio is use even when nothing is said
+            self.store.touch(sid)
         for sid in self.store.expire(now - self.limits.idle_s):
             with self._lock:
                 self._live.pop(sid, None)
 
-    def create(self, spec: dict[str, Any], options: dict[str, Any]) -> Session:
-        """A new session over ``spec['world']``; written to the store before returning."""
+    def create(self, spec: dict[str, Any], options: dict[str, Any], idem: Idem | None = None,
+               actions: list[Action] | None = None, source: str = "actions") -> Session:
+        """A new session over ``spec['world']``, having seen ``actions`` (from ``source``); written
+        to the store before returning. ``idem``: the request's Idempotency-Key, claimed with the
+        session (a request that lost the race for the key gets the session the winner made, its
+        actions not added again; :meth:`created_reply` answers the retries)."""
         self.sweep(force=True)
         n = self.store.count()
         if n >= self.limits.max_sessions:
@@ -159,13 +186,57 @@ class SessionManager:
                                    f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
         self.observer.check_likelihood(options["likelihood"])
         scene, warnings = build_scene(spec, self.limits.max_world_items)
+        check_speakable(scene.world.classes)  # now, not at the first instruction
         online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
         options = {**options, "warnings": warnings}
-        created = self.store.create(sid, spec, options)
+        try:
+            created = self.store.create(sid, spec, options, None if idem is None else (idem.key, idem.request))
+        except KeyTaken:
+            assert idem is not None
+            first = self.store.creation(idem.key)
+            if first is None:  # claimed and expired meanwhile: practically never
+                raise ProblemError(409, "conflict", "another request with this Idempotency-Key created a session "
+                                   "at the same time; retry with the same key") from None
+            check_same(idem, first.request)
+            return self.get(first.session)
         sess = Session(sid, created, spec, options, scene, online, [], warnings)
         self._remember(sess)
+        if actions:
+            self.append_actions(sid, actions, source)
         return sess
+
+    def hold(self, sid: str) -> None:
+        """Mark ``sid`` in use (an open stream) until :meth:`release`: it does not expire meanwhile."""
+        with self._lock:
+            self._held[sid] = self._held.get(sid, 0) + 1
+
+    def release(self, sid: str) -> None:
+        """The end of a :meth:`hold`; the session's idle time starts now."""
+        with self._lock:
+            left = self._held.get(sid, 0) - 1
+            if left > 0:
+                self._held[sid] = left
+            else:
+                self._held.pop(sid, None)
+        self.store.touch(sid)
+
+    def created_reply(self, idem: Idem | None) -> dict[str, Any] | None:
+        """The first answer of the session-creating request with ``idem``'s key, or None (422
+        when the key asked otherwise; the session's state now while the first has not finished)."""
+        if idem is None:
+            return None
+        first = self.store.creation(idem.key)
+        if first is None:
+            return None
+        check_same(idem, first.request)
+        return first.reply if first.reply is not None else self.view(self.get(first.session))
+
+    def created(self, idem: Idem | None, view: dict[str, Any]) -> dict[str, Any]:
+        """Record ``view`` as the first answer to a session-creating request; returns it."""
+        if idem is not None:
+            self.store.set_creation_reply(idem.key, view)
+        return view
 
     def _remember(self, sess: Session) -> None:
         with self._lock:

@@ -11,7 +11,9 @@ source it came from: ``actions`` for the API, room for others such as ``perceive
 ``replies`` keeps the first answer to each ``Idempotency-Key`` of a session, written in the
 same transaction as the change it answers, so a retry after a lost reply (or a restart) gets
 that answer again and changes nothing; ``closed`` remembers the keys of ``DELETE`` requests for
-as long as a session may stay idle.
+as long as a session may stay idle; ``created`` keeps the first answer to each
+``Idempotency-Key`` of a session-creating request (``POST /v1/sessions``, ``/from-scenario``),
+claimed in the same transaction as the session it created, for as long too.
 """
 
 from __future__ import annotations
@@ -57,6 +59,13 @@ CREATE TABLE IF NOT EXISTS closed (
     at REAL NOT NULL,
     PRIMARY KEY (session, key)
 );
+CREATE TABLE IF NOT EXISTS created (
+    key TEXT PRIMARY KEY,
+    request TEXT NOT NULL,
+    session TEXT NOT NULL,
+    reply TEXT,
+    at REAL NOT NULL
+);
 """
 
 
@@ -66,6 +75,20 @@ class Reply:
 
     request: str
     reply: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Creation:
+    """The session a session-creating Idempotency-Key made: its first answer (None while the
+    request that made it has not finished)."""
+
+    request: str
+    session: str
+    reply: dict[str, Any] | None
+
+
+class KeyTaken(Exception):
+    """Another request with this Idempotency-Key created a session first."""
 
 
 @dataclass(frozen=True)
@@ -110,12 +133,38 @@ class SessionStore:
         with self._lock:
             self._db.close()
 
-    def create(self, sid: str, spec: dict[str, Any], options: dict[str, Any]) -> float:
+    def create(self, sid: str, spec: dict[str, Any], options: dict[str, Any],
+               claim: tuple[str, str] | None = None) -> float:
+        """Store a new session; ``claim`` (key, request): the Idempotency-Key that created it,
+        recorded in the same transaction (:class:`KeyTaken` when another request claimed it)."""
         now = time.time()
         with self._lock:
-            self._db.execute("INSERT INTO sessions (id, created, updated, spec, options) VALUES (?, ?, ?, ?, ?)",
-                             (sid, now, now, json.dumps(spec, separators=(",", ":")), json.dumps(options)))
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                if claim is not None:
+                    self._db.execute("INSERT INTO created (key, request, session, at) VALUES (?, ?, ?, ?)",
+                                     (*claim, sid, now))
+                self._db.execute("INSERT INTO sessions (id, created, updated, spec, options) VALUES (?, ?, ?, ?, ?)",
+                                 (sid, now, now, json.dumps(spec, separators=(",", ":")), json.dumps(options)))
+                self._db.execute("COMMIT")
+            except sqlite3.IntegrityError:
+                self._db.execute("ROLLBACK")
+                raise KeyTaken(claim[0] if claim else sid) from None
+            except BaseException:
+                self._db.execute("ROLLBACK")
+                raise
         return now
+
+    def creation(self, key: str) -> Creation | None:
+        """What the session-creating request with this Idempotency-Key made, or None."""
+        with self._lock:
+            row = self._db.execute("SELECT request, session, reply FROM created WHERE key = ?", (key,)).fetchone()
+        return None if row is None else Creation(row[0], row[1], json.loads(row[2]) if row[2] else None)
+
+    def set_creation_reply(self, key: str, answer: dict[str, Any]) -> None:
+        """Record the first answer of the request that claimed ``key`` (kept if one is there)."""
+        with self._lock:
+            self._db.execute("UPDATE created SET reply = ? WHERE key = ? AND reply IS NULL", (json.dumps(answer), key))
 
     def append(self, sid: str, first_seq: int, texts: list[str], source: str,
                reply: tuple[str, str, dict[str, Any]] | None = None) -> float:
@@ -211,4 +260,5 @@ class SessionStore:
             if ids:
                 self._db.execute("DELETE FROM sessions WHERE updated < ?", (before,))
             self._db.execute("DELETE FROM closed WHERE at < ?", (before,))
+            self._db.execute("DELETE FROM created WHERE at < ?", (before,))
         return ids

@@ -1,14 +1,17 @@
 """``WS /v1/sessions/{id}/listen``: a session's microphone, streamed (docs/streaming.md).
 
-The client sends 16 kHz mono 16-bit little-endian PCM as binary messages of any size; the
-server cuts utterances with the voice-activity detector (:class:`~siftom.inference.stream.StreamListener`)
+The client sends 16-bit little-endian PCM as binary messages of any size (16 kHz mono, or the
+``rate`` and ``channels`` it declares in the query: averaged and resampled here); the server cuts utterances with the voice-activity detector (:class:`~siftom.inference.stream.StreamListener`)
 and sends JSON text events: ``ready``, ``speech_started``, ``speech_ended``, then ``decision``
 (the session's posterior with the actions observed so far, and ``act`` / ``ask`` / ``wait``) or
 ``no_speech`` for each utterance; ``actions`` after an ``{"type": "actions"}`` command;
 ``error`` when one utterance could not be answered; with ``?partial=1`` also ``heard`` (the words
 so far, once per second of speech). Recognition and inference run in worker
 threads, so audio keeps flowing while an utterance is answered, and actions posted to
-``/v1/sessions/{id}/actions`` meanwhile count for the next answer.
+``/v1/sessions/{id}/actions`` meanwhile count for the next answer. One stream per session: a
+second is refused with 4409 unless it asks ``takeover=1`` (the newest connection then wins);
+an open stream keeps its session from expiring; a stream that closes without ``end`` cancels
+the utterances it has not answered.
 """
 
 from __future__ import annotations
@@ -17,18 +20,21 @@ import asyncio
 import contextlib
 import json
 import re
+import threading
 from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import Any
 
-from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import SiftomError, UnknownNameError
+from siftom.service.idempotency import idem_of
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import MAX_SCENARIO_ID
-from siftom.service.session_api import _problems
+from siftom.service.session_api import _problems, created_response
 from siftom.service.session_schemas import SESSION_ID, SessionView
 from siftom.service.sessions import SessionManager
 from siftom.service.stream_settings import (
@@ -57,20 +63,90 @@ class StreamClosed(Exception):
         self.code, self.reason = code, reason.encode()[:123].decode(errors="ignore")
 
 
+# the query parameters of WS /v1/sessions/{id}/listen (``token`` is taken out before: access.py)
+QUERY_PARAMS = ("top", "threshold", "cost", "nbest", "partial", "rate", "channels", "takeover")
+MAX_CHANNELS = 8
+RATES = (8000, 192_000)  # the sample rates a client may declare (resampled to 16 kHz)
+
+
+def _check_names(query: Any) -> None:
+    """4422 naming a query parameter this endpoint does not know (a typo would go unnoticed)."""
+    for name in query:
+        if name not in QUERY_PARAMS:
+            raise StreamClosed(CLOSE_BAD_PARAMETER, f"unknown query parameter {name[:24]!r}; "
+                               f"accepted: {', '.join(QUERY_PARAMS)}")
+
+
+def _number(query: Any, name: str, default: float, lo: float, hi: float, kind: type = float) -> Any:
+    raw = query.get(name)
+    if raw is None:
+        return kind(default)
+    try:
+        value = kind(raw)
+    except ValueError:
+        raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name}={raw[:24]!r} is not a number") from None
+    if not lo <= value <= hi:
+        raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name} must be in [{lo:g}, {hi:g}], got {raw[:24]}")
+    return value
+
+
+def _audio_params(query: Any) -> tuple[int, int, bool]:
+    """The client's sample rate and channel count (16000 and 1 when left out) and ``takeover``."""
+    return (_number(query, "rate", SAMPLE_RATE, *RATES, int), _number(query, "channels", 1, 1, MAX_CHANNELS, int),
+            _number(query, "takeover", 0, 0, 1, int) == 1)
+
+
+class PcmIn:
+    """The client's 16-bit little-endian PCM (``rate`` Hz, ``channels`` interleaved) as the 16 kHz
+    mono the detector takes: channels averaged, then resampled with soxr (streaming, so chunks
+    of any size join up without clicks)."""
+
+    def __init__(self, rate: int = SAMPLE_RATE, channels: int = 1) -> None:
+        import soxr
+
+        self.rate, self.channels = rate, channels
+        self.frame_bytes = 2 * channels
+        self._soxr = soxr.ResampleStream(rate, SAMPLE_RATE, 1, dtype="float32") if rate != SAMPLE_RATE else None
+
+    def convert(self, data: bytes) -> Any:
+        """One binary message -> 16 kHz mono (the bytes as they are when they are that already)."""
+        if self.channels == 1 and self._soxr is None:
+            return data
+        import numpy as np
+
+        x = np.frombuffer(data, dtype="<i2").astype(np.float32) / 32768.0
+        if self.channels > 1:
+            x = x.reshape(-1, self.channels).mean(axis=1)
+        return x if self._soxr is None else self._soxr.resample_chunk(x)
+
+    def flush(self) -> Any:
+        """What the resampler still holds, at the end of the stream."""
+        import numpy as np
+
+        if self._soxr is None:
+            return np.zeros(0, dtype=np.float32)
+        return self._soxr.resample_chunk(np.zeros(0, dtype=np.float32), last=True)
+
+
+class StreamGone(Exception):
+    """The stream closed before this utterance was answered: its answer is cancelled."""
+
+
+@dataclass
+class OpenStream:
+    """One session's open stream: the task running it, and whether a newer connection took it over."""
+
+    task: asyncio.Task[None] | None = None
+    taken_over: bool = False
+
+
 def _params(query: Any, top_default: int, nbest_default: int) -> tuple[int, ClarifyPolicy, int, bool]:
     """top, clarifying policy, N-best size and partial results from the query string (4422 when
-    invalid); left out, top and the N-best size are the settings (infer.top, infer.nbest)."""
+    invalid or unknown); left out, top and the N-best size are the settings (infer.top, infer.nbest)."""
+    _check_names(query)
+
     def number(name: str, default: float, lo: float, hi: float, kind: type = float) -> Any:
-        raw = query.get(name)
-        if raw is None:
-            return kind(default)
-        try:
-            value = kind(raw)
-        except ValueError:
-            raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name}={raw!r} is not a number") from None
-        if not lo <= value <= hi:
-            raise StreamClosed(CLOSE_BAD_PARAMETER, f"{name} must be in [{lo:g}, {hi:g}], got {raw}")
-        return value
+        return _number(query, name, default, lo, hi, kind)
 
     top = number("top", min(top_default, 20), 1, 20, int)
     policy = ClarifyPolicy(number("threshold", ClarifyPolicy().threshold, 0, 1),
@@ -101,15 +177,20 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     """Add ``WS /v1/sessions/{id}/listen`` (limits: ``rt.settings.stream``) and
     ``POST /v1/sessions/from-scenario`` (a session to stream into from the web page)."""
     limits: StreamLimits = rt.settings.stream
-    open_streams: set[str] = set()
+    open_streams: dict[str, OpenStream] = {}
     app.state.streams = open_streams
     admitted = [0]  # streams past the max_streams check (counted before any await: no race)
 
     @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
               responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
-    async def session_from_scenario(req: ScenarioSession) -> JSONResponse:
+    async def session_from_scenario(req: ScenarioSession, request: Request) -> JSONResponse:
         """Start a session over a registered scenario's world with its first ``n_actions`` actions
-        already observed (the web page streams its microphone into it)."""
+        already observed (the web page streams its microphone into it); a retry with the same
+        Idempotency-Key returns the first answer and creates nothing."""
+        idem = idem_of(request.headers, "from-scenario", req.model_dump())
+        first = await run_cpu(mgr.created_reply, idem)
+        if first is not None:
+            return created_response(first, replayed=True)
         try:
             sc = rt.scenario(req.scenario)
         except UnknownNameError as exc:
@@ -119,12 +200,11 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
             raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
 
         def work() -> dict[str, Any]:
-            sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None})
-            mgr.append_actions(sess.id, list(sc.actions[:n]), "scenario")
-            return mgr.view(mgr.get(sess.id))
+            sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None}, idem,
+                              actions=list(sc.actions[:n]), source="scenario")
+            return mgr.created(idem, mgr.view(sess))
 
-        view = await run_cpu(work)
-        return JSONResponse(view, status_code=201, headers={"Location": f"/v1/sessions/{view['id']}"})
+        return created_response(await run_cpu(work))
 
     @app.websocket("/v1/sessions/{session_id}/listen")
     async def listen(ws: WebSocket, session_id: str) -> None:
@@ -138,21 +218,38 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
         try:
             if not re.fullmatch(SESSION_ID, session_id):
                 raise StreamClosed(CLOSE_UNKNOWN_SESSION, "not a session id; create one with POST /v1/sessions")
-            if session_id in open_streams:
+            st = rt.observer.settings
+            top, policy, nbest, partial = _params(ws.query_params, st.infer.top, st.infer.nbest)
+            rate, channels, takeover = _audio_params(ws.query_params)
+            old = open_streams.get(session_id)
+            if old is not None and not takeover:
                 raise StreamClosed(CLOSE_ALREADY_STREAMING, "this session is already streaming; close the "
-                                   "other stream first")
-            open_streams.add(session_id)  # before any await: a second stream on it is refused
+                                   "other stream first, or reconnect with ?takeover=1 to replace it")
+            if old is not None:  # the robot again, after a frozen connection: the newest one wins
+                old.taken_over = True
+                if old.task is not None:
+                    old.task.cancel()
+            me = open_streams[session_id] = OpenStream()  # before any await: a second stream is refused
+            mgr.hold(session_id)  # an open stream is use: the session does not expire under it
             try:
-                st = rt.observer.settings
-                top, policy, nbest, partial = _params(ws.query_params, st.infer.top, st.infer.nbest)
                 try:
                     sess = await run_cpu(mgr.get, session_id)
                 except ProblemError as exc:
                     raise StreamClosed(CLOSE_UNKNOWN_SESSION,
                                        exc.detail if exc.status == 404 else str(exc)) from None
-                await _stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits, partial)
+                me.task = asyncio.create_task(_stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits,
+                                                      partial, PcmIn(rate, channels)))
+                try:
+                    await me.task
+                except asyncio.CancelledError:
+                    if not me.taken_over:
+                        raise
+                    raise StreamClosed(CLOSE_ALREADY_STREAMING, "another connection took this session's stream "
+                                       "over (takeover=1)") from None
             finally:
-                open_streams.discard(session_id)
+                mgr.release(session_id)
+                if open_streams.get(session_id) is me:
+                    del open_streams[session_id]
         except StreamClosed as exc:
             with contextlib.suppress(Exception):
                 await ws.close(exc.code, exc.reason)
@@ -167,7 +264,8 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 
 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
-                  policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False) -> None:
+                  policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False,
+                  pcm: PcmIn | None = None) -> None:
     from siftom.inference.stream import Recognised, StreamListener, recogniser
     from siftom.observer import Heard
     from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
@@ -176,7 +274,12 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
     # the observer's recogniser for this world (pocketsphinx biased to its command phrasings)
     rec_eng = await run_cpu(rt.observer.recogniser, sess.scene.world, sess.scene.verb)
 
+    pcm = pcm or PcmIn()
+    gone = threading.Event()  # set when the stream ends: what is not answered yet is cancelled
+
     def answer(rec: Recognised, utt: Utterance) -> dict[str, Any]:
+        if gone.is_set():  # recognised after the stream closed: the session is not changed
+            raise StreamGone(utt.index)
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
         body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard)
@@ -200,7 +303,7 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
         nonlocal waiting
         while (utt := await queue.get()) is not None:
             try:
-                await send(await run_cpu(listener.respond, utt))
+                await send(await run_cpu(respond, utt))
             except ProblemError as exc:
                 await send({"event": "error", "utterance": utt.index, "status": exc.status, "detail": exc.detail})
             except SiftomError as exc:
@@ -210,6 +313,11 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
                             "detail": f"internal error: {type(exc).__name__}"})
             finally:
                 waiting -= 1
+
+    def respond(utt: Utterance) -> dict[str, Any]:
+        if gone.is_set():
+            raise StreamGone(utt.index)
+        return listener.respond(utt)
 
     async def heard_so_far(index: int, t: float, samples: Any) -> None:
         try:
@@ -245,7 +353,8 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
                 queue.put_nowait(ev.utterance)
 
     worker = asyncio.create_task(answers())
-    await send({"event": "ready", "session": sid, "sample_rate": SAMPLE_RATE, "format": "s16le",
+    await send({"event": "ready", "session": sid, "sample_rate": pcm.rate, "channels": pcm.channels,
+                "format": "s16le",
                 "n_actions": len(sess.actions), "limits": {"max_utterance_s": limits.max_utterance_s,
                                                           "max_idle_s": limits.max_idle_s,
                                                           "max_chunk_bytes": limits.max_chunk_bytes}})
@@ -263,12 +372,15 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
                 if len(data) > limits.max_chunk_bytes:
                     raise StreamClosed(CLOSE_TOO_BIG, f"a message of {len(data)} bytes; send at most "
                                        f"{limits.max_chunk_bytes} bytes per message")
-                if len(data) % 2:
-                    raise StreamClosed(CLOSE_UNSUPPORTED, "16-bit PCM needs an even number of bytes per message")
-                await handle(listener.feed(data))
+                if len(data) % pcm.frame_bytes:
+                    raise StreamClosed(CLOSE_UNSUPPORTED, "16-bit PCM needs an even number of bytes per message"
+                                       if pcm.channels == 1 else f"16-bit PCM with {pcm.channels} channels needs "
+                                       f"a multiple of {pcm.frame_bytes} bytes per message (whole frames)")
+                await handle(listener.feed(pcm.convert(data)))
                 continue
             command = _command(text)
             if command["type"] == "end":
+                await handle(listener.feed(pcm.flush()))
                 await handle(listener.finish())
                 queue.put_nowait(None)
                 await worker
@@ -288,6 +400,7 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
     except Exception as exc:  # a bug: say so and close rather than hang the client
         raise StreamClosed(CLOSE_INTERNAL, f"internal error: {type(exc).__name__}") from exc
     finally:
+        gone.set()  # a closed, timed-out or taken-over stream: its unanswered utterances are cancelled
         worker.cancel()
         if partials["task"] is not None:
             partials["task"].cancel()

@@ -12,7 +12,7 @@ CLOSE_INTERNAL = 1011  # a bug: the server could not go on
 CLOSE_BUSY = 1013  # max_streams streams already open, or utterances waiting beyond max_pending
 CLOSE_UNKNOWN_SESSION = 4404  # no such session (deleted or expired)
 CLOSE_IDLE = 4408  # no message for max_idle_s
-CLOSE_ALREADY_STREAMING = 4409  # another stream is open on this session
-CLOSE_BAD_PARAMETER = 4422  # a query parameter is invalid (top, threshold, cost, partial)
+CLOSE_ALREADY_STREAMING = 4409  # another stream is open on this session, or took this one over
+CLOSE_BAD_PARAMETER = 4422  # a query parameter is invalid or unknown
 
 __all__ = ["StreamLimits"]

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from siftom.service.listener import HomeListener, load_home
+from siftom.listener import HomeListener, load_home
 from siftom.service.ros import (
     AUDIO_QUEUE_S,
     TEXT_PENDING,

@@ -103,22 +103,24 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
     return scene, warnings
 
 
-def check_speakable(classes: Any) -> None:
+def check_speakable(world: Any) -> None:
     """Every object class can be named in an instruction (the likelihoods match what was heard
-    against the classes' names): a 422 naming the first that cannot, with the fix."""
+    against the classes' names, the world's own ``names`` included): a 422 naming the first that
+    cannot, with the fix."""
     import re
 
-    from siftom.likelihood.lexicon import LexiconError, default_lexicon
+    from siftom.likelihood.lexicon import LexiconError, lexicon_for
 
-    lex = default_lexicon()
-    for c in classes:
+    lex = lexicon_for(world)
+    for c in world.classes:
         try:
             lex.entry(c)
         except LexiconError as exc:
             fix = re.sub(r"[^a-z_]+", "", c.lower()).strip("_") or "cup"
             raise ObservationError(f"class {c!r} has no spoken name, so no instruction could name it ({exc}); "
-                                   f"rename the class in the world to words, letters and underscores only "
-                                   f"(e.g. {fix!r}; two mugs are two objects of class 'mug')") from None
+                                   f"give it the names people say in the world's \"names\" (e.g. \"names\": "
+                                   f"{{\"{c}\": [\"blue mug\"]}}), or rename the class in the world to words, "
+                                   f"letters and underscores only (e.g. {fix!r})") from None
 
 
 def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
@@ -186,7 +188,7 @@ class SessionManager:
                                    f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
         self.observer.check_likelihood(options["likelihood"])
         scene, warnings = build_scene(spec, self.limits.max_world_items)
-        check_speakable(scene.world.classes)  # now, not at the first instruction
+        check_speakable(scene.world)  # now, not at the first instruction
         online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
         options = {**options, "warnings": warnings}

@@ -320,10 +320,11 @@ def select_scenarios(domain: str, n: int, world_seed: int | None = None) -> list
 
     if world_seed is not None:
         check_seed(world_seed, "--world-seed")
-        out = [(world_scenario_id(domain, world_seed, k), world_scenario_seed(world_seed, k)) for k in range(n)]
-        if len({seed for _sid, seed in out}) != n:  # 52-bit hashes: never seen, but a build must not repeat a world
+        worlds: list[tuple[str, int | None]] = [
+            (world_scenario_id(domain, world_seed, k), world_scenario_seed(world_seed, k)) for k in range(n)]
+        if len({seed for _sid, seed in worlds}) != n:  # 52-bit hashes: never seen, but a build must not repeat a world
             raise DatasetError(f"--world-seed {world_seed} draws one generator seed twice; use another world seed")
-        return out
+        return worlds
 
     fixed = list(get_domain(domain).fixed())
     out: list[tuple[str, int | None]] = [(sid, None) for sid in fixed[:n]]

@@ -174,3 +174,32 @@ def test_a_world_seed_dataset_evaluates_end_to_end(tmp_path: Path, capsys: pytes
     assert set(summary["models"]) == {"action-only", "siftom-oracle-text"}
     rows = [json.loads(line) for line in (res / "results.jsonl").read_text().splitlines()]
     assert {r["scenario"] for r in rows} == {"household-table-v0/w2-0", "household-table-v0/w2-1"}
+
+
+# -- the plan ----------------------------------------------------------------------------------
+
+def test_the_shipped_plan_has_unseen_world_sets_for_both_domains() -> None:
+    from siftom.bench.reproduce import load_plan
+
+    plan = load_plan(Path(__file__).resolve().parents[2] / "results" / "plan.toml")
+    worlds = [s for s in plan.sets if s.world_seed is not None]
+    assert {s.domain for s in worlds} == {"household-table-v0", "kitchen-v0"}
+    assert all("unseen worlds" in s.title and f"world seed {s.world_seed}" in s.title for s in worlds)
+    assert all(f"--world-seed {s.world_seed}" in s.build_command("D") for s in worlds)
+    assert all("--world-seed" not in s.build_command("D") for s in plan.sets if s.world_seed is None)
+
+
+def test_a_plan_world_seed_must_be_a_seed(tmp_path: Path) -> None:
+    from siftom.bench.reproduce import load_plan
+
+    p = tmp_path / "plan.toml"
+    p.write_text('[[set]]\nname = "x"\ndomain = "kitchen-v0"\nmodels = ["siftom"]\nworld_seed = "a"\n')
+    with pytest.raises(DatasetError, match="world_seed must be an integer"):
+        load_plan(p)
+
+
+def test_a_world_seed_results_page_says_so() -> None:
+    from siftom.bench.pages import _worlds
+
+    assert _worlds({"seed": 0}) == ""
+    assert "world seed 101" in _worlds({"seed": 0, "world_seed": 101})

@@ -203,3 +203,11 @@ def test_a_world_seed_results_page_says_so() -> None:
 
     assert _worlds({"seed": 0}) == ""
     assert "world seed 101" in _worlds({"seed": 0, "world_seed": 101})
+
+
+def test_a_sweep_takes_world_seeds_as_an_axis(tmp_path: Path) -> None:
+    from siftom.bench.sweep import plan
+
+    cells = plan({"axes": {"world_seeds": [1, 2]}, "dataset": {"domain": "kitchen-v0", "scenarios": 2}}, tmp_path)
+    assert [c.build.world_seed for c in cells] == [1, 2]
+    assert len({c.dataset_dir for c in cells}) == 2

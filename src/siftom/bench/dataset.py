@@ -7,7 +7,9 @@ docs/dataset-format.md documents the format so that real recordings can be broug
 How a dataset is built (paper, Simulated Experiment, Dataset Construction):
 
 * scenarios: the domain's registered scenarios in order (``household-table-v0/0..25``), then
-  generated ones (``domain.generate(i)``) when more are asked for. The human has acted for a
+  generated ones (``domain.generate(i)``) when more are asked for. With ``world_seed`` (``--world-seed``)
+  none is registered: scenario k is ``domain.generate(world_scenario_seed(world_seed, k))``, a world
+  no constant was tuned on (siftom.scenarios.base explains the seeds). The human has acted for a
   while (``Scenario.actions``) and asks the robot for its part (``Scenario.command``).
 * speakers: each speaker is a TTS voice with its own speaking rate and pitch. Per scenario,
   each speaker phrases the command as people do (``sample_phrasing``: direct, polite,
@@ -182,6 +184,7 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
             gold_command=str(sc.command), speaker=unit.speaker.id, voice=unit.speaker.voice,
             noise=noise, snr_db=snr, scenario_seed=unit.scenario_seed, rate=unit.speaker.rate,
             pitch=unit.speaker.pitch, style=style, duration_s=round(len(x) / 16000, 3),
+            extra={} if opts.world_seed is None else {"world_seed": opts.world_seed, "world": unit.k},
         ))
     return rows
 
@@ -197,7 +200,7 @@ def _worker_build(unit: _Unit, shared: tuple[BuildOptions, str]) -> list[Stimulu
 
 def plan_units(opts: BuildOptions) -> list[_Unit]:
     """Every scenario x speaker with its conditions (clean first, then one per SNR)."""
-    scenarios = select_scenarios(opts.domain, opts.scenarios)
+    scenarios = select_scenarios(opts.domain, opts.scenarios, opts.world_seed)
     speakers = make_speakers(opts)
     noise_names = [n for n, _ in resolve_noises(opts)] if opts.snrs else []
     units = []
@@ -311,6 +314,13 @@ def _phrasing_note(opts: BuildOptions) -> str:
             "as in\n`sample_phrasing` (with or without the count, synonyms and category words)")
 
 
+def _world_note(opts: BuildOptions) -> str:
+    if opts.world_seed is None:
+        return "the registered scenario id"
+    return (f"`generate(scenario_seed)`: every world was drawn from world seed {opts.world_seed}, none is a\n"
+            "registered scenario, so no constant of siftom was tuned on them")
+
+
 def _grammar_limit(opts: BuildOptions) -> str:
     if opts.phrasings is None:
         return ("* The phrasings come from the same grammar that the model's instruction likelihood and the\n"
@@ -333,7 +343,8 @@ def write_datasheet(ds: Dataset, opts: BuildOptions, seconds: float | None = Non
            + (f" --noises {','.join(opts.noises)}" if opts.noises else "")
            + f" --snr {','.join(f'{x:g}' for x in opts.snrs) or 'none'} --seed {opts.seed}"
            + (f" --phrasings {opts.phrasings}" if opts.phrasings else "")
-           + (f" --room {opts.room:g}" if opts.room is not None else ""))
+           + (f" --room {opts.room:g}" if opts.room is not None else "")
+           + (f" --world-seed {opts.world_seed}" if opts.world_seed is not None else ""))
     examples = [s for s in st if s.noise is None][:6]
     text = f"""# Datasheet: {ds.root.name}
 
@@ -348,7 +359,7 @@ and what the person was doing, with the paper's metrics (accuracy, speedup, help
 
 ## Composition
 Each line of `manifest.jsonl` is one stimulus: the scenario (world, start state, goal space
-come from the registered scenario id), the human's observed actions, the WAV, the reference
+come from {_world_note(opts)}), the human's observed actions, the WAV, the reference
 transcript, the gold goal and the gold robot command, the speaker and voice, noise type and SNR.
 The format is documented in docs/dataset-format.md of the siftom repository.
 

@@ -11,7 +11,7 @@ A plan (TOML) lists evaluation sets::
     domain = "household-table-v0"
     seed = 0
     noise_dir = "recorded"          # the recordings shipped with siftom; omit for synthetic noise
-    # voices, noises, phrasings, scenarios, speakers, snr: as `siftom dataset build`
+    # voices, noises, phrasings, scenarios, speakers, snr, world_seed: as `siftom dataset build`
 
 For each set :func:`reproduce` builds the dataset (``OUT/runs/NAME/dataset``), evaluates it
 (``OUT/runs/NAME/results``, resumable) and writes ``OUT/NAME.json``: the evaluator's summary
@@ -36,7 +36,7 @@ from siftom.errors import DatasetError
 
 RESULT_FORMAT = 1
 SET_KEYS = {"name", "title", "domain", "seed", "noise_dir", "noises", "voices", "phrasings", "scenarios",
-            "speakers", "snr", "models", "engine"}
+            "speakers", "snr", "models", "engine", "world_seed"}
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,7 @@ class EvalSet:
     speakers: int = 5
     snr: tuple[float, ...] = (20.0, 10.0, 5.0)
     engine: str = "pocketsphinx-vocab"
+    world_seed: int | None = None  # generated worlds nobody tuned on (`--world-seed`); None: registered scenarios
 
     def build_command(self, out: str) -> str:
         """The ``siftom dataset build`` command line for this set."""
@@ -70,6 +71,8 @@ class EvalSet:
             parts.append(f"--noises {','.join(self.noises)}")
         if self.phrasings:
             parts.append(f"--phrasings {self.phrasings}")
+        if self.world_seed is not None:
+            parts.append(f"--world-seed {self.world_seed}")
         return " ".join(parts)
 
     def eval_command(self, dataset: str, out: str) -> str:
@@ -112,13 +115,22 @@ def load_plan(path: str | Path) -> Plan:
             voices=tuple(merged.get("voices", ())), phrasings=merged.get("phrasings"),
             scenarios=int(merged.get("scenarios", 26)), speakers=int(merged.get("speakers", 5)),
             snr=tuple(float(x) for x in merged.get("snr", (20, 10, 5))),
-            engine=str(merged.get("engine", "pocketsphinx-vocab"))))
+            engine=str(merged.get("engine", "pocketsphinx-vocab")),
+            world_seed=_world_seed(merged.get("world_seed"), i)))
     if not sets:
         raise DatasetError(f"plan {str(p)!r} lists no [[set]]")
     names = [s.name for s in sets]
     if len(set(names)) != len(names):
         raise DatasetError(f"plan {str(p)!r} names a set twice: {names}")
     return Plan(str(p), tuple(sets))
+
+
+def _world_seed(value: object, i: int) -> int | None:
+    if value is None:
+        return None
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        raise DatasetError(f"plan set {i + 1}: world_seed must be an integer >= 0, got {value!r}")
+    return value
 
 
 def machine() -> dict[str, Any]:
@@ -140,7 +152,8 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     work = out / "runs" / s.name
     ds_dir, res_dir = work / "dataset", work / "results"
     opts = BuildOptions(domain=s.domain, scenarios=s.scenarios, speakers=s.speakers, voices=s.voices or DEFAULT_VOICES,
-                        noise_dir=s.noise_dir, noises=s.noises, snrs=s.snr, seed=s.seed, phrasings=s.phrasings)
+                        noise_dir=s.noise_dir, noises=s.noises, snrs=s.snr, seed=s.seed, phrasings=s.phrasings,
+                        world_seed=s.world_seed)
     t0 = time.perf_counter()
     if (ds_dir / "manifest.jsonl").is_file() and json.loads((ds_dir / "dataset.json").read_text()).get("options") == opts.to_json():
         say(f"{s.name}: dataset already built")
@@ -159,7 +172,8 @@ def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None]
     result = {
         "format": RESULT_FORMAT,
         "set": s.name, "title": s.title, "siftom": __version__, "source_sha1": code_version()["source_sha1"],
-        "dataset": {"fingerprint": ds.fingerprint, "stimuli": len(ds.stimuli), "domain": s.domain, "seed": s.seed},
+        "dataset": {"fingerprint": ds.fingerprint, "stimuli": len(ds.stimuli), "domain": s.domain, "seed": s.seed,
+                    **({"world_seed": s.world_seed} if s.world_seed is not None else {})},
         "machine": machine(),
         "commands": [s.build_command("DATASET"), s.eval_command("DATASET", "RESULTS")],
         "seconds": {"build": round(t_build, 1), "total": round(time.perf_counter() - t0, 1)},

@@ -102,7 +102,8 @@ def dataset_group() -> None:
 @dataset_group.command("build")
 @click.option("--domain", default="household-table-v0", show_default=True, help="household-table-v0 | kitchen-v0")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="dataset folder to write")
-@click.option("--scenarios", type=int, default=26, show_default=True, help="scenarios (registered first, then generated)")
+@click.option("--scenarios", type=int, default=26, show_default=True,
+              help="scenarios (registered first, then generated; with --world-seed: generated worlds)")
 @click.option("--speakers", type=int, default=5, show_default=True, help="speakers per scenario")
 @click.option("--voices", default=None, help="comma-separated voices (siftom voices); default: 2 flite + 3 espeak Klatt")
 @click.option("--noise-dir", type=click.Path(file_okay=False), default=None,
@@ -111,6 +112,9 @@ def dataset_group() -> None:
 @click.option("--noises", default=None, help="noise types: categories of --noise-dir or babble,pink,hum,white,brown")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy condition per SNR (dB); 'none' = clean only")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for phrasings, speakers and noise")
+@click.option("--world-seed", "world_seed", type=click.IntRange(min=0), default=None,
+              help="draw the scenarios from this seed (--scenarios N = N generated worlds, no registered "
+                   "one) instead of the registered scenarios every constant was tuned on; default: registered")
 @click.option("--room", type=float, default=None,
               help="reverberation time RT60 in seconds: the speaker is heard across a reverberant room "
                    "(a seeded synthetic impulse response per clip) before the noise")
@@ -121,7 +125,8 @@ def dataset_group() -> None:
 @_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, phrasings: str | None, room: float | None, workers: int | None,
+              noises: str | None, snr: str, seed: int, world_seed: int | None, room: float | None,
+              phrasings: str | None, workers: int | None,
               backend: str,
               ray_address: str | None,
               as_json: bool) -> None:
@@ -131,7 +136,7 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room)
+                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed)
     t0 = time.perf_counter()
     with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
         ds = build_dataset(opts, out, progress=bar, backend=be)

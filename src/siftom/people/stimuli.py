@@ -65,7 +65,8 @@ class BuildOptions:
 
     Attributes:
         domain: a registered domain id (``household-table-v0``, ``kitchen-v0``).
-        scenarios: how many scenarios (registered ones first, then generated).
+        scenarios: how many scenarios (registered ones first, then generated; with
+            ``world_seed``, all generated).
         speakers: how many speakers; voices are used in order and repeat when fewer.
         voices: TTS voice names (``siftom voices``).
         noise_dir: a folder of noise WAVs named ``CATEGORY_NN.wav`` (or MS-SNSD style);
@@ -81,6 +82,11 @@ class BuildOptions:
         room: reverberation time RT60 in seconds: every clip is heard across a reverberant room
             (``siftom.speech.room``, a seeded synthetic impulse response per clip) before the
             noise is added; None: dry speech.
+        world_seed: draw the scenarios from this seed instead of taking the registered ones:
+            ``scenarios`` worlds generated with ``world_scenario_seed(world_seed, k)``
+            (siftom.scenarios.base), which never meet the seeds the registered scenarios and
+            every tuned constant came from. None: registered scenarios first, then generated
+            ones (``generate(i)``), as before.
     """
 
     domain: str = "household-table-v0"
@@ -93,9 +99,12 @@ class BuildOptions:
     seed: int = 0
     phrasings: str | None = None
     room: float | None = None
+    world_seed: int | None = None
 
     def __post_init__(self) -> None:
         check_seed(self.seed)
+        if self.world_seed is not None:
+            check_seed(self.world_seed, "--world-seed")
         from siftom.scenarios.base import get_domain
 
         get_domain(self.domain)  # unknown domain: UnknownNameError with suggestions, before any work
@@ -124,7 +133,8 @@ class BuildOptions:
                 "voices": list(self.voices), "noise_dir": self.noise_dir, "noises": list(self.noises),
                 "snrs": list(self.snrs), "seed": self.seed,
                 **({"phrasings": self.phrasings} if self.phrasings is not None else {}),
-                **({"room": self.room} if self.room is not None else {})}
+                **({"room": self.room} if self.room is not None else {}),
+                **({"world_seed": self.world_seed} if self.world_seed is not None else {})}
 
 
 @dataclass(frozen=True)
@@ -300,9 +310,21 @@ def load_dataset(folder: str | Path, check_audio: bool = True) -> Dataset:
 
 # -- scenarios ---------------------------------------------------------------------------------
 
-def select_scenarios(domain: str, n: int) -> list[tuple[str, int | None]]:
-    """The first ``n`` scenarios of a domain as (id, seed): registered ones, then generated."""
-    from siftom.scenarios.base import get_domain
+def select_scenarios(domain: str, n: int, world_seed: int | None = None) -> list[tuple[str, int | None]]:
+    """The first ``n`` scenarios of a domain as (id, seed): registered ones, then generated.
+
+    With ``world_seed``, no registered scenario: ``n`` worlds generated from
+    ``world_scenario_seed(world_seed, k)`` for k = 0..n-1, with ids ``DOMAIN/wW-k``.
+    """
+    from siftom.scenarios.base import get_domain, world_scenario_seed
+
+    if world_seed is not None:
+        check_seed(world_seed, "--world-seed")
+        worlds: list[tuple[str, int | None]] = [
+            (world_scenario_id(domain, world_seed, k), world_scenario_seed(world_seed, k)) for k in range(n)]
+        if len({seed for _sid, seed in worlds}) != n:  # 52-bit hashes: never seen, but a build must not repeat a world
+            raise DatasetError(f"--world-seed {world_seed} draws one generator seed twice; use another world seed")
+        return worlds
 
     fixed = list(get_domain(domain).fixed())
     out: list[tuple[str, int | None]] = [(sid, None) for sid in fixed[:n]]
@@ -314,6 +336,11 @@ def select_scenarios(domain: str, n: int) -> list[tuple[str, int | None]]:
             out.append((sid, i))
         i += 1
     return out
+
+
+def world_scenario_id(domain: str, world_seed: int, k: int) -> str:
+    """The id of scenario ``k`` of a ``--world-seed`` build: ``kitchen-v0/w7-0``."""
+    return f"{domain}/w{world_seed}-{k}"
 
 
 # (scenario, seed) for the registered or generated scenario; (scenario, seed, actions) for a manifest's own

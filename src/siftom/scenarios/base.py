@@ -101,6 +101,34 @@ class Scenario:
         }
 
 
+# -- world seeds -------------------------------------------------------------------------------
+# ``siftom dataset build --world-seed W`` draws its scenarios from W instead of the registered
+# ones: scenario k of the build is ``generate(world_scenario_seed(W, k))``. The generator seed is
+# numpy's SeedSequence([W, k]) hashed to 52 bits and moved above WORLD_SEED_BASE = 2**52, so it
+# can never be one of the small seeds the registered scenarios and every tuned constant were
+# drawn from (household 0-25, kitchen 0-24, and whatever ``--scenarios`` added after them), nor
+# any seed a person types. Seeds from WORLD_SEED_BASE up also switch the domains' generators to
+# their wider variant (more storage spots, open containers, start places, how far the person
+# got), which the small seeds never see, so the registered scenarios stay bit for bit as before.
+# Every such seed is below 2**53, so it survives JSON readers that hold numbers as doubles.
+WORLD_SEED_BASE = 2**52
+
+
+def world_scenario_seed(world_seed: int, k: int) -> int:
+    """The generator seed of scenario ``k`` of a dataset built with ``--world-seed world_seed``."""
+    import numpy as np
+
+    if world_seed < 0 or k < 0:
+        raise ValueError(f"world seed and scenario index must be >= 0, got {world_seed}, {k}")
+    h = int(np.random.SeedSequence([world_seed, k]).generate_state(1, np.uint64)[0])
+    return WORLD_SEED_BASE + (h >> 12)
+
+
+def is_world_seed(seed: int) -> bool:
+    """Whether a generator seed was drawn by ``world_scenario_seed`` (the wider generator)."""
+    return seed >= WORLD_SEED_BASE
+
+
 DOMAINS = Registry("domain")
 DOMAINS.register("household-table-v0", "siftom.scenarios.household:Household",
                  summary="set the dining table in a 4-room apartment (paper, simulated experiment)")

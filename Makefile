@@ -6,7 +6,7 @@ SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
 EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs
 
-.PHONY: demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results
+.PHONY: demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results pages
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -73,6 +73,13 @@ docs: setup
 # resumable), then regenerate docs/results/*.md and the README's table from results/*.json
 results: setup
 	$(BIN)/siftom bench reproduce --plan results/plan.toml --out results/ --workers 2
+	$(MAKE) pages
+
+# the generated parts of the docs, no re-run: docs/results/*.md, the README's table, the numbers in
+# docs/benchmark.md (from results/*.json) and the constants table (from the code)
+pages: setup
+	$(BIN)/siftom bench pages --results results/ --docs docs/results --readme README.md \
+	    --fill docs/benchmark.md --fill docs/explanation/constants.md
 
 lint: setup
 	$(BIN)/ruff check src tests

@@ -42,12 +42,18 @@ def reproduce_cmd(plan_path: str, out: str, only: str | None, workers: int | Non
               help="where the results pages go")
 @click.option("--readme", type=click.Path(dir_okay=False), default="README.md", show_default=True,
               help="README whose results block is refreshed; '' to skip it")
-def pages_cmd(results_dir: str, docs_dir: str, readme: str) -> None:
+@click.option("--fill", "fill", type=click.Path(dir_okay=False), multiple=True,
+              help="a docs page whose <!-- gen:... --> blocks are rewritten (results numbers, the constants "
+                   "table); repeatable, e.g. --fill docs/benchmark.md --fill docs/explanation/constants.md")
+def pages_cmd(results_dir: str, docs_dir: str, readme: str, fill: tuple[str, ...]) -> None:
     """Regenerate the results pages and the README's table from results files (no re-run)."""
+    from siftom.bench.blocks import fill_pages
     from siftom.bench.pages import write_pages
 
     for p in write_pages(results_dir, docs_dir, readme or None):
         click.echo(f"wrote {p}")
+    for p in fill_pages(results_dir, fill):
+        click.echo(f"filled {p}")
 
 
 def register(root: click.Group) -> None:

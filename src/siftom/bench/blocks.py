@@ -1,0 +1,132 @@
+"""Generated blocks inside hand-written docs pages: numbers from results files, constants from code.
+
+A page holds ``<!-- gen:SPEC -->`` … ``<!-- /gen -->``; :func:`fill_page` rewrites what lies
+between the markers from ``results/*.json`` (:mod:`siftom.bench.pages`) or the constants
+registry (:mod:`siftom.bench.constants`), and leaves every other byte as it is. SPEC is split
+like a shell line (quote a key with spaces):
+
+* ``constants`` — the table of tuned constants;
+* ``table SET [models=a,b]`` — one set's model table (accuracy, speedup, CIs, n);
+* ``snr SET models=a,b [wer]`` — accuracy per condition, with the 1-best WER column;
+* ``value SET PATH FORMAT`` — one number inline; PATH is ``/``-separated inside the set's
+  ``summary`` (``models/siftom/accuracy``, ``"breakdowns/snr/10 dB/siftom/accuracy"``);
+* ``diff SET PATH PATH FORMAT`` — the first number minus the second.
+
+FORMAT: ``pct`` (61.2 %), ``pct0`` (61 %), ``pts`` (+18.7, percentage points), ``num`` (61.2,
+a share as a percentage without the sign), ``sp`` (+0.190), ``int``, ``ci`` ([56.9, 65.2]).
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from siftom.bench.constants import constants_table
+from siftom.bench.pages import _ci, _pct, load_results, model_order, set_table
+from siftom.errors import DatasetError
+
+FILL = "siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md"
+BLOCK = re.compile(r"<!-- gen:(?P<spec>.*?) -->(?P<body>.*?)<!-- /gen -->", re.DOTALL)
+SNR_ORDER = ("clean", "20 dB", "10 dB", "5 dB", "0 dB")
+
+
+def _get(result: dict[str, Any], path: str) -> Any:
+    node: Any = result["summary"]
+    for key in path.split("/"):
+        if not isinstance(node, dict) or key not in node:
+            raise DatasetError(f"results/{result['set']}.json has no summary/{path} (at {key!r})")
+        node = node[key]
+    return node
+
+
+def _fmt(x: Any, how: str) -> str:
+    if how == "ci":
+        return _ci(x).strip()
+    if x is None:
+        return "–"
+    if how == "pct":
+        return _pct(x)
+    if how == "pct0":
+        return f"{100 * x:.0f} %"
+    if how == "num":
+        return f"{100 * x:.1f}"
+    if how == "pts":
+        return f"{100 * x:+.1f}"
+    if how == "sp":
+        return f"{x:+.3f}"
+    if how == "int":
+        return f"{int(x)}"
+    raise DatasetError(f"unknown format {how!r} (pct, pct0, num, pts, sp, int, ci)")
+
+
+def _opts(args: Sequence[str]) -> tuple[list[str], dict[str, str]]:
+    pos = [a for a in args if "=" not in a]
+    kw = dict(a.split("=", 1) for a in args if "=" in a)
+    return pos, kw
+
+
+def snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -> str:
+    """Accuracy per condition (rows) and model (columns), with the 1-best WER."""
+    snr = result["summary"]["breakdowns"]["snr"]
+    conds = [c for c in SNR_ORDER if c in snr] + sorted(c for c in snr if c not in SNR_ORDER)
+    wers = result["summary"].get("asr_wer", {}).get("snr", {})
+    head = ["condition"] + (["WER"] if wer else []) + list(models)
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for c in conds:
+        cells = [c] + ([_pct(wers.get(c))] if wer else [])
+        cells += [_pct(snr[c][m]["accuracy"]) if m in snr[c] else "" for m in models]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def render(spec: str, results: dict[str, dict[str, Any]]) -> str:
+    """What a block with ``spec`` holds."""
+    args = shlex.split(spec)
+    if not args:
+        raise DatasetError("empty gen: block")
+    kind, rest = args[0], args[1:]
+    if kind == "constants":
+        return "\n" + constants_table() + "\n"
+    if not rest:
+        raise DatasetError(f"gen:{kind} needs a set name")
+    name = rest[0]
+    if name not in results:
+        raise DatasetError(f"gen:{spec}: no results/{name}.json (have: {', '.join(sorted(results)) or 'none'})")
+    r = results[name]
+    pos, kw = _opts(rest[1:])
+    models = kw["models"].split(",") if "models" in kw else model_order(r)
+    if kind == "table":
+        sub = dict(r, summary=dict(r["summary"], models={m: r["summary"]["models"][m] for m in models}))
+        return "\n" + set_table(sub) + "\n"
+    if kind == "snr":
+        return "\n" + snr_table(r, models, wer="wer" in pos) + "\n"
+    if kind == "value" and len(pos) == 2:
+        return _fmt(_get(r, pos[0]), pos[1])
+    if kind == "diff" and len(pos) == 3:
+        return _fmt(_get(r, pos[0]) - _get(r, pos[1]), pos[2])
+    raise DatasetError(f"bad gen: block {spec!r} (see siftom.bench.blocks)")
+
+
+def fill_page(text: str, results: Sequence[dict[str, Any]]) -> str:
+    """``text`` with every generated block rewritten."""
+    by_set = {r["set"]: r for r in results}
+    return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set)}<!-- /gen -->", text)
+
+
+def fill_pages(results_dir: str | Path, pages: Sequence[str | Path]) -> list[Path]:
+    """Rewrite the generated blocks of ``pages`` in place; return the pages that hold any."""
+    results = load_results(results_dir)
+    out = []
+    for page in pages:
+        path = Path(page)
+        text = path.read_text(encoding="utf-8")
+        if not BLOCK.search(text):
+            raise DatasetError(f"{path} has no <!-- gen:... --> ... <!-- /gen --> block to fill")
+        new = fill_page(text, results)
+        if new != text:
+            path.write_text(new, encoding="utf-8")
+        out.append(path)
+    return out

@@ -44,6 +44,7 @@ def run_decision_bench(repeats: int = 20) -> dict:
     from siftom.bench.speed import NBEST_SILVER
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.memo import memo
     from siftom.observation import Instruction
     from siftom.scenarios.base import get_scenario
 
@@ -59,8 +60,8 @@ def run_decision_bench(repeats: int = 20) -> dict:
         where = Situation.from_scenario(sc)
 
         def infer(obs=obs, ctg=ctg) -> None:
-            lk._dist.clear()
-            lk._heard_cache.clear()
+            memo("phonetic.distances", 1).clear()
+            memo("phonetic.heard", 1).clear()
             ctg.clear_state_cache()
             model.infer(obs)
 

@@ -12,7 +12,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "siftom"
 
 # Lowest first. A package may import from its own layer and any layer below.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "private", "jsonlines"),
+    ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "memo", "private", "jsonlines"),
     ("world",),
     ("planning",),
     ("agents",),

@@ -38,3 +38,15 @@ def guarded(method: F) -> F:
             return method(self, *args, **kwargs)
 
     return cast(F, wrapper)
+
+
+_MAKING = threading.Lock()
+
+
+def make_once(obj: object, attr: str, make: Callable[[], Any]) -> None:
+    """Set ``obj.attr = make()`` unless it is set already (None means unset), once across
+    threads: for lazily loaded native decoders, each of which guards its own state. Only the
+    making is serialised, never the work of the object that holds them."""
+    with _MAKING:
+        if getattr(obj, attr) is None:
+            setattr(obj, attr, make())

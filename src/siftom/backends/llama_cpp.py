@@ -24,6 +24,7 @@ import numpy as np
 
 from siftom.backends.config import LLMConfig
 from siftom.backends.scoring import ScoreCache, default_cache_dir
+from siftom.concurrency import guarded
 from siftom.errors import BackendUnavailableError, missing_extra, unknown_name
 
 ENV_MODEL_PATH = "SIFTOM_LLM_GGUF"  # deprecated: SIFTOM_LLM_MODEL takes a path too
@@ -147,6 +148,7 @@ class LlamaCppScorer:
             self._tok_memo[key] = toks
         return toks
 
+    @guarded  # one native llama context evaluates one sequence at a time
     def score(self, prefix: str, items: Sequence[tuple[str, str]]) -> list[float]:
         """log P(target | prefix + context) for each (context, target).
 

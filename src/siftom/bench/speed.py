@@ -55,6 +55,7 @@ def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
     """Time full inference, incremental updates and scaling with the number of goals."""
     from siftom.inference.model import ModelConfig, Observation, SIFToM
     from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.memo import memo
     from siftom.observation import Instruction
     from siftom.scenarios.base import get_scenario
 
@@ -68,8 +69,8 @@ def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
     ctg = model.online(sc.world, sc.start, sc.goals, sc.verb).ctg
 
     def full() -> None:
-        lk._dist.clear()  # a new instruction each time: no cached phonetic distances
-        lk._heard_cache.clear()
+        memo("phonetic.distances", 1).clear()  # a new instruction each time: no memoised distances
+        memo("phonetic.heard", 1).clear()
         ctg.clear_state_cache()  # and no tables cached for these states
         model.infer(obs)
 

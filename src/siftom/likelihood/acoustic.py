@@ -51,8 +51,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from siftom.concurrency import make_once as _once
 from siftom.errors import ObservationError, SiftomError
-from siftom.likelihood.base import Scores, as_scores, guarded
+from siftom.likelihood.base import Scores, as_scores
 from siftom.likelihood.keyphrases import (  # re-exported: the acoustic likelihood's words
     closest_phrasing as closest_phrasing,
 )
@@ -237,7 +238,7 @@ class AcousticLikelihood:
         if self._aligner is None:
             from siftom.speech.acoustic import ForcedAligner
 
-            self._aligner = ForcedAligner()
+            _once(self, "_aligner", ForcedAligner)
         aligner: ForcedAligner = self._aligner
         return aligner
 
@@ -245,7 +246,7 @@ class AcousticLikelihood:
         if self._phonetic is None:
             from siftom.likelihood.phonetic import PhoneticLikelihood
 
-            self._phonetic = PhoneticLikelihood(self.lexicon)
+            _once(self, "_phonetic", lambda: PhoneticLikelihood(self.lexicon))
         return np.array(as_scores(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands)).log_probs)
 
     def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
@@ -321,7 +322,6 @@ class AcousticLikelihood:
         w[raw.keep] = raw.whisper
         return w / self.whisper_temperature
 
-    @guarded
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:
         """Align the kept commands' key phrases (or sentences): scores in nats before T."""
@@ -392,7 +392,7 @@ class AcousticLikelihood:
         if self._loop is None:
             from siftom.speech.phoneloop import PhoneLoop
 
-            self._loop = PhoneLoop()
+            _once(self, "_loop", PhoneLoop)
         loop = self._loop.score(seg)
         return None if not np.isfinite(loop) else (loop - max(ok)) / (len(seg) / 160)
 
@@ -413,7 +413,6 @@ class AcousticLikelihood:
         score = dict(zip(unique, result.scores, strict=True))
         return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd], len(unique)
 
-    @guarded
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
                        heard: str | None = None) -> Scores:
         """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned.

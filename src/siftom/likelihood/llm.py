@@ -31,7 +31,6 @@ Two prompts (``prompt=``, docs/llm.md):
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any
 
@@ -40,11 +39,12 @@ import numpy as np
 from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
-from siftom.likelihood.base import Scores, guarded
+from siftom.likelihood.base import Scores
 from siftom.likelihood.lexicon import Lexicon, default_lexicon
 from siftom.likelihood.phonemes import normalize_text, word_phonemes
 from siftom.likelihood.phrasing import number_word
 from siftom.logspace import logsumexp
+from siftom.memo import Memo, memo
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
@@ -171,6 +171,10 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
     return scorer
 
 
+# every LLM likelihood's scores (siftom.memo): (model id, prompt, command context, heard text) -> nats
+_SCORES: Memo[float] = memo("llm.scores", 100_000)
+
+
 class LLMLikelihood:
     r"""log P(phi | pi_r) from a language model prompted with corrupted-instruction examples.
 
@@ -232,20 +236,18 @@ class LLMLikelihood:
         self.nbest_limit = nbest_limit
         self.asr_temperature = float(asr_temperature)
         self.temperature = float(temperature)
-        self._memo: OrderedDict[tuple[str, str, str], float] = OrderedDict()
+        # scores memoised in siftom.memo ("llm.scores"), keyed by model, prompt, context and text
 
     def _score(self, items: list[tuple[str, str]]) -> np.ndarray:
-        keys = [(self.scorer.model_id, c, t) for c, t in items]
-        todo = [k for k, key in enumerate(keys) if key not in self._memo]
+        keys = [(self.scorer.model_id, self.prefix, c, t) for c, t in items]
+        got = [_SCORES.peek(key) for key in keys]
+        todo = [k for k, v in enumerate(got) if v is None]
         if todo:
             values = self.scorer.score(self.prefix, [items[k] for k in todo])
             for k, v in zip(todo, values, strict=True):
-                self._memo[keys[k]] = float(v)
-            while len(self._memo) > 100_000:
-                self._memo.popitem(last=False)
-        return np.array([self._memo[key] for key in keys])
+                got[k] = _SCORES.put(keys[k], float(v))
+        return np.array(got, dtype=float)
 
-    @guarded
     def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:

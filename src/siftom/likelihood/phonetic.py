@@ -8,7 +8,7 @@ Instruction Likelihood; the equation is in docs/likelihoods.md).
 
 from __future__ import annotations
 
-from collections import OrderedDict
+import itertools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -16,7 +16,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
-from siftom.likelihood.base import Scores, guarded
+from siftom.likelihood.base import Scores
 from siftom.likelihood.editdistance import (
     PhonemeTrie,
     encode,
@@ -34,17 +34,46 @@ from siftom.likelihood.phonemes import (
 )
 from siftom.likelihood.phrasing import FILLER_WORDS, content_prior
 from siftom.logspace import logsumexp
+from siftom.memo import Memo, memo
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Plan:
-    content_ids: np.ndarray  # (n_contents_used,) ids into the instance's content registry
-    index: np.ndarray  # (n_commands, K) positions into content_ids
+    """What scoring a tuple of commands needs, built once per (configuration, commands)."""
+
+    contents: tuple[str, ...]  # the content words ("three forks") of the commands' phrasings
+    index: np.ndarray  # (n_commands, K) positions into contents
     log_prior: np.ndarray  # (n_commands, K), -inf on padding
-    trie: PhonemeTrie  # the used contents' phonemes, in content_ids order
-    vocab: int = 0  # which MeaningVocabulary rates the heard words (lexicon + these contents)
+    trie: PhonemeTrie  # the contents' phonemes, in order
+    vocab: MeaningVocabulary  # rates the heard words (the lexicon's words and these contents')
+    vocab_key: frozenset[str]
+    lost: np.ndarray  # D(nothing, u) per content: the cost of deleting it
+    token: int  # unique per plan: the key of its distance rows
+
+
+_TOKENS = itertools.count()
+# the memos of every phonetic likelihood (keyed by its configuration: siftom.memo)
+_PLANS: Memo[_Plan] = memo("phonetic.plans", 256)
+_CONTENTS: Memo[tuple[np.ndarray, np.ndarray]] = memo("phonetic.contents", 65536)
+_VOCABS: Memo[MeaningVocabulary] = memo("phonetic.vocabularies", 64)
+_HEARD: Memo[tuple[np.ndarray, np.ndarray, np.ndarray]] = memo("phonetic.heard", 16384)
+_DISTANCES: Memo[np.ndarray] = memo("phonetic.distances", 16384)
+
+
+def _encode_content(text: str) -> tuple[np.ndarray, np.ndarray]:
+    """Phoneme codes and deletion costs of a content ("three forks")."""
+    phones: list[str] = []
+    costs: list[float] = []
+    for w in normalize_text(text):
+        wp = word_phonemes(w)
+        phones.extend(wp)
+        costs.extend(indel_cost(p) for p in wp)
+        if wp and wp[-1] in _STOPS:
+            # Word-final stops are often unreleased and lost ("milk" heard "mail").
+            costs[-1] *= FINAL_STOP_DISCOUNT
+    return encode(phones), np.array(costs, dtype=np.float32)
 
 
 class PhoneticLikelihood:
@@ -121,62 +150,26 @@ class PhoneticLikelihood:
             raise ObservationError(f"relevance_range must be (near, far) with 0 <= near < far, got {relevance_range!r}")
         self.relevance_range = (float(r_near), float(r_far))
         self._lexicon_words = frozenset(lexicon_words(self.lexicon))
-        # one MeaningVocabulary per set of meaning words: the lexicon's plus the content words
-        # of the commands scored in the call (a class missing from the lexicon counts too)
-        self._vocab_id: dict[frozenset[str], int] = {}
-        self._vocabs: list[MeaningVocabulary] = []
-        self._cache_size = cache_size
-        self._contents: list[str] = []
-        self._content_id: dict[str, int] = {}
-        self._said: list[tuple[np.ndarray, np.ndarray]] = []
-        self._dist: OrderedDict[tuple[int, str], np.ndarray] = OrderedDict()
-        self._heard_cache: dict[tuple[int, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._plans: OrderedDict[tuple[RobotCommand, ...], _Plan] = OrderedDict()
+        self.cache_size = int(cache_size)  # kept for callers; the memos are bounded (siftom.memo)
+        # everything a memoised value depends on: one key per configuration
+        self._key = (self.lexicon.fingerprint, self.background, self.relevance_range, self.filler_cost,
+                     self.filler_sub_penalty, self.content_insert_scale)
 
     # -- encoding ------------------------------------------------------------------------------
 
-    def _content(self, text: str) -> int:
-        cid = self._content_id.get(text)
-        if cid is None:
-            phones: list[str] = []
-            costs: list[float] = []
-            for w in normalize_text(text):
-                wp = word_phonemes(w)
-                phones.extend(wp)
-                costs.extend(indel_cost(p) for p in wp)
-                if wp and wp[-1] in _STOPS:
-                    # Word-final stops are often unreleased and lost ("milk" heard "mail").
-                    costs[-1] *= FINAL_STOP_DISCOUNT
-            self._said.append((encode(phones), np.array(costs, dtype=np.float32)))
-            cid = len(self._contents)
-            self._contents.append(text)
-            self._content_id[text] = cid
-        return cid
-
     def vocabulary(self, commands: Sequence[RobotCommand]) -> MeaningVocabulary:
         """The meaning words that rate heard words when scoring ``commands``."""
-        return self._vocabs[self._plan(tuple(commands)).vocab]
+        return self._plan(tuple(commands)).vocab
 
-    def _vocab_for(self, content_ids: Iterable[int]) -> int:
-        words = self._lexicon_words | {w for i in content_ids for w in normalize_text(self._contents[i])}
-        key = frozenset(words)
-        vid = self._vocab_id.get(key)
-        if vid is None:
-            vid = self._vocab_id[key] = len(self._vocabs)
-            self._vocabs.append(MeaningVocabulary(key, *self.relevance_range))
-        return vid
+    def _vocab_for(self, contents: Iterable[str]) -> tuple[frozenset[str], MeaningVocabulary]:
+        key = frozenset(self._lexicon_words | {w for c in contents for w in normalize_text(c)})
+        return key, _VOCABS.get((key, self.relevance_range), lambda: MeaningVocabulary(key, *self.relevance_range))
 
-    def _heard(self, text: str, vocab: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Phoneme ids, insertion costs and substitution penalties of a hypothesis (cached)."""
-        key = (vocab, text)
-        hit = self._heard_cache.get(key)
-        if hit is None:
-            hit = self._heard_cache[key] = self._encode_heard(text, vocab)
-            if len(self._heard_cache) > self._cache_size:
-                self._heard_cache.pop(next(iter(self._heard_cache)))
-        return hit
+    def _heard(self, text: str, plan: _Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Phoneme ids, insertion costs and substitution penalties of a hypothesis (memoised)."""
+        return _HEARD.get((self._key, plan.vocab_key, text), lambda: self._encode_heard(text, plan.vocab))
 
-    def _encode_heard(self, text: str, vocab: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _encode_heard(self, text: str, vocab: MeaningVocabulary) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ids: list[int] = []
         ins: list[float] = []
         sub: list[float] = []
@@ -189,13 +182,13 @@ class PhoneticLikelihood:
         return (np.array(ids, dtype=np.int16), np.array(ins, dtype=np.float32),
                 np.array(sub, dtype=np.float32))
 
-    def _relevances(self, words: Sequence[str], vocab: int = 0) -> list[float]:
+    def _relevances(self, words: Sequence[str], vocab: MeaningVocabulary) -> list[float]:
         """g per heard word: 0 for filler words, else how much it sounds like a meaning word,
         alone or run together with a non-filler neighbour when neither is one already ("see
         real" for "cereal", but not "egg as" for "eggs"); 1 without the background model."""
         if not self.background:
             return [0.0 if w in FILLER_WORDS else 1.0 for w in words]
-        voc = self._vocabs[vocab]
+        voc = vocab
         g = [0.0 if w in FILLER_WORDS else voc.relevance(w) for w in words]
         for i in range(len(words) - 1):
             a, b = words[i], words[i + 1]
@@ -205,67 +198,49 @@ class PhoneticLikelihood:
         return g
 
     def _plan(self, commands: tuple[RobotCommand, ...]) -> _Plan:
-        plan = self._plans.get(commands)
-        if plan is not None:
-            self._plans.move_to_end(commands)
-            return plan
+        return _PLANS.get((self._key, commands), lambda: self._make_plan(commands))
+
+    def _make_plan(self, commands: tuple[RobotCommand, ...]) -> _Plan:
         per_cmd = [content_prior(c, self.lexicon) for c in commands]
-        used: dict[int, int] = {}
+        used: dict[str, int] = {}
         k = max((len(p) for p in per_cmd), default=1)
         index = np.zeros((len(commands), k), dtype=np.intp)
         prior = np.full((len(commands), k), -np.inf)
         for r, pairs in enumerate(per_cmd):
             for c, (text, lp) in enumerate(pairs):
-                cid = self._content(text)
-                index[r, c] = used.setdefault(cid, len(used))
+                index[r, c] = used.setdefault(text, len(used))
                 prior[r, c] = lp
-        ids = np.fromiter(used, dtype=np.intp, count=len(used))
-        plan = _Plan(ids, index, prior, PhonemeTrie.build([self._said[i] for i in ids]), self._vocab_for(ids))
-        self._plans[commands] = plan
-        if len(self._plans) > 64:
-            self._plans.popitem(last=False)
-        return plan
+        contents = tuple(used)
+        said = [_CONTENTS.get(t, lambda t=t: _encode_content(t)) for t in contents]  # type: ignore[misc]
+        vocab_key, vocab = self._vocab_for(contents)
+        lost = np.array([float(costs.sum()) for _, costs in said])
+        return _Plan(contents, index, prior, PhonemeTrie.build(said), vocab, vocab_key, lost, next(_TOKENS))
 
     # -- distances -----------------------------------------------------------------------------
 
-    @guarded
     def distances(self, texts: Sequence[str], plan: _Plan) -> np.ndarray:
         """D(h, u) for each hypothesis text and each content of ``plan``: (n_contents, n_texts).
 
-        Rows are cached per hypothesis text (LRU), so re-scoring an instruction is a lookup.
+        Rows are memoised per plan and hypothesis text, so re-scoring an instruction is a lookup.
         """
-        content_ids = plan.content_ids
-        out = np.empty((len(content_ids), len(texts)), dtype=np.float32)
-        n_reg = len(self._contents)
+        out = np.empty((len(plan.contents), len(texts)), dtype=np.float32)
         todo: list[int] = []
-        vecs: list[np.ndarray] = []
         for j, t in enumerate(texts):
-            key = (plan.vocab, t)
-            vec = self._dist.get(key)
-            if vec is None or len(vec) < n_reg:
-                grown = np.full(n_reg, np.nan, dtype=np.float32)
-                if vec is not None:
-                    grown[: len(vec)] = vec
-                vec = grown
-                self._dist[key] = vec
-            self._dist.move_to_end(key)
-            vecs.append(vec)
-            col = vec[content_ids]
-            if np.isnan(col).any():
+            col = _DISTANCES.peek((plan.token, t))
+            if col is None:
                 todo.append(j)
             else:
                 out[:, j] = col
-        if todo:
-            heard = [self._heard(texts[j], plan.vocab) for j in todo]
+        if todo:  # the missing rows in one batch
+            heard = [self._heard(texts[j], plan) for j in todo]
             nonempty = [k for k, h in enumerate(heard) if len(h[0])]
-            block = np.zeros((len(content_ids), len(todo)), dtype=np.float32)
+            block = np.zeros((len(plan.contents), len(todo)), dtype=np.float32)
             if nonempty:
                 block[:, nonempty] = trie_edit_distance(plan.trie, [heard[k] for k in nonempty])
             for k, j in enumerate(todo):
-                vecs[j][content_ids] = block[:, k]
-                out[:, j] = block[:, k]
-        while len(self._dist) > self._cache_size:
-            self._dist.popitem(last=False)
+                col = block[:, k].copy()
+                col.setflags(write=False)
+                out[:, j] = _DISTANCES.put((plan.token, texts[j]), col)
         return out
 
     # -- the likelihood ------------------------------------------------------------------------
@@ -280,7 +255,6 @@ class PhoneticLikelihood:
             merged[key] = float(np.logaddexp(merged[key], lw)) if key in merged else float(lw)
         return list(merged), np.array(list(merged.values()))
 
-    @guarded
     def log_prob(self, instruction: Instruction, commands: Sequence[RobotCommand]) -> Scores:
         """log P(phi | pi_r) for each command; shape (len(commands),)."""
         if not instruction.nbest:
@@ -295,23 +269,15 @@ class PhoneticLikelihood:
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
         ch = self._channel(d, plan)
-        ch[:, [len(self._heard(t, plan.vocab)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
+        ch[:, [len(self._heard(t, plan)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         return Scores(logsumexp(plan.log_prior + per_content[plan.index], axis=1))
-
-    def _lost_costs(self, plan: _Plan) -> np.ndarray:
-        """D(nothing, u): the cost of deleting each content of the plan (cached per plan)."""
-        lost = getattr(plan, "_lost", None)
-        if lost is None:
-            lost = np.array([float(self._said[i][1].sum()) for i in plan.content_ids])
-            object.__setattr__(plan, "_lost", lost)
-        return lost
 
     def _channel(self, d: np.ndarray, plan: _Plan) -> np.ndarray:
         """-lam (D(h, u) - alpha D(nothing, u)) per content and hypothesis (alpha = lost_word_weight)."""
         lp = -self.lam * d.astype(float)
         if self.lost_word_weight > 0:
-            lp += (self.lam * self.lost_word_weight) * self._lost_costs(plan)[:, None]
+            lp += (self.lam * self.lost_word_weight) * plan.lost[:, None]
         return lp
 
     def explain(self, instruction: Instruction, command: RobotCommand) -> list[tuple[str, float]]:
@@ -320,6 +286,6 @@ class PhoneticLikelihood:
         texts, logw = self.nbest_weights(instruction)
         d = self.distances(texts, plan)
         per_content = logsumexp(logw[None, :] + self._channel(d, plan), axis=1)
-        rows = [(self._contents[plan.content_ids[i]], float(lp + per_content[i]))
+        rows = [(plan.contents[i], float(lp + per_content[i]))
                 for i, lp in zip(plan.index[0], plan.log_prior[0], strict=True) if np.isfinite(lp)]
         return sorted(rows, key=lambda r: -r[1])

@@ -161,6 +161,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
         server offers."""
         if not authenticated(request):  # open to monitors, but nothing about the server
             return {"status": "ok", "token_required": True}
+        from siftom.memo import memo_stats
         from siftom.registry import load_all
         from siftom.speech.noise import SYNTHETIC_KINDS
         from siftom.speech.tts import list_voices
@@ -176,6 +177,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
                        "sessions": dataclasses.asdict(settings.sessions),
                        "stream": dataclasses.asdict(settings.stream)},
             "settings": settings_view,
+            "caches": memo_stats(),  # the scorers' memos: hits, misses, size, bound
         }
 
     # ----- scenarios -------------------------------------------------------------------------

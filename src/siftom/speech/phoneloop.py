@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from siftom.concurrency import guarded
 from siftom.speech.asr.pocketsphinx import _ps, model_path, path_score_nats
 from siftom.speech.audio import to_pcm16
 
@@ -27,6 +28,7 @@ class PhoneLoop:
                                    beam=1e-20, pbeam=1e-20, bestpath=False, loglevel="FATAL")
         self._logmath = self._decoder.get_logmath()
 
+    @guarded  # a native decoder decodes one utterance at a time
     def score(self, x: np.ndarray) -> float:
         """Best phone-loop path score of 16 kHz samples, in nats (NaN when decoding fails)."""
         if len(x) < 800:

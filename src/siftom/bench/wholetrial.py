@@ -34,7 +34,7 @@ P_ERR = 0.3  # the noisy channel's chance that the best hypothesis names another
 NBEST = 3
 
 
-def phrasing_speaker(world: World) -> Speaker:
+def phrasing_speaker(world: World) -> Callable[[RobotCommand, np.random.Generator], str]:
     """Say a command with a phrasing drawn from P(u | command) in the world's lexicon; heard exactly."""
     from siftom.likelihood.lexicon import lexicon_for
     from siftom.likelihood.phrasing import sample_phrasing

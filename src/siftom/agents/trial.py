@@ -149,6 +149,7 @@ class TrialResult:
     robot_actions: int
     remedy_steps: float
     events: tuple[TrialEvent, ...] = field(default=(), repr=False)
+    final: State | None = field(default=None, repr=False, compare=False)  # the state at the end
 
     @property
     def n_requests(self) -> int:
@@ -404,4 +405,4 @@ def simulate_trial(
     l_team = max(t_h, t_r)
     return TrialResult(sid, goal.name, str(rule_name), seed, float(single), float(l_team),
                        float(single) / l_team - 1.0 if l_team > 0 else 0.0, tuple(requests), n_h, n_r,
-                       remedy_total, tuple(events))
+                       remedy_total, tuple(events), s)

@@ -155,3 +155,17 @@ def test_the_cli_prints_a_trial_and_scores_a_batch(tmp_path):
     assert {s["rule"] for s in summary} == {"expected-benefit", "map"}
     lines = [json.loads(x) for x in path.read_text().splitlines()]
     assert len(lines) == 4 and all("speedup" in r and "request_log" in r for r in lines)
+
+
+@pytest.mark.parametrize("sid", ["household-table-v0/1", "kitchen-v0/3"])
+def test_the_person_asks_only_for_classes_they_have_not_started(observer, sid):
+    sc = get_scenario(sid)
+    for seed in range(3):
+        res = simulate_trial(sc, observer, seed=seed, rule="map")
+        for req in res.requests:
+            cls = RobotCommand.parse(req.asked).obj_class
+            grabbed = [e for e in res.events if e.who == "human" and e.end <= req.t
+                       and e.text.startswith("grab(") and sc.world.items[sc.world.item(e.text.split(", ")[1])].cls == cls]
+            assert not grabbed, (seed, req)
+    with pytest.raises(Exception, match="ask_for"):
+        simulate_trial(sc, observer, ask_for="sometimes")

@@ -8,7 +8,8 @@ One request is scored by :mod:`siftom.agents.team`; a trial chains them (docs/te
 * **Requests.** After ``k`` of their own actions (``k`` drawn by the seeded generator from
   ``request_every``), when the robot is idle and something is still needed, the person asks for
   one item: the needed class their own plan would fetch last (ties: the generator), the whole
-  count still needed for ``deliver``. ``speak(command, rng)`` turns the command into what the
+  count still needed for ``deliver``; by default only a class the person has not grabbed an
+  object of yet (``ask_for``). ``speak(command, rng)`` turns the command into what the
   robot hears (text or an :class:`~siftom.observation.Instruction`).
 * **The robot** answers through ``observer.answer(online, instruction, decide=rule)`` on an
   online inference that has observed every action so far, the person's (evidence about the
@@ -61,6 +62,8 @@ Speaker = Callable[[RobotCommand, np.random.Generator], "Instruction | str"]
 # how many of their own actions the person takes before each request (inclusive range)
 REQUEST_EVERY = (2, 6)
 MAX_REQUESTS = 3
+# which classes the person asks for: only those they have not started, or any still needed
+ASK_FOR = ("unstarted", "any")
 _NUMBERS = ("zero", "one", "two", "three", "four", "five", "six")
 _MAX_EVENTS = 10_000
 
@@ -228,6 +231,7 @@ def simulate_trial(
     request_every: tuple[int, int] = REQUEST_EVERY,
     goals: Sequence[Goal] | None = None,
     likelihood: Any = None,
+    ask_for: str = "unstarted",
 ) -> TrialResult:
     """Simulate a whole trial (module doc) and score it.
 
@@ -242,9 +246,14 @@ def simulate_trial(
         request_every: the person's own actions before each request, drawn uniformly in this
             inclusive range.
         likelihood: the instruction likelihood (None: the observer's setting).
+        ask_for: ``unstarted`` (default): the person asks only for a class they have not yet
+            grabbed an object of (the model's robot part is a whole class the person leaves to
+            the robot: pi_h = g minus pi_r); ``any``: also for a class they are working on.
     """
     sid, world, start, goal, space, verb = _unpack(scene, goals)
     lo, hi = request_every
+    if ask_for not in ASK_FOR:
+        raise SiftomError(f"ask_for must be one of {', '.join(ASK_FOR)}, got {ask_for!r}")
     if not 1 <= lo <= hi:
         raise SiftomError(f"request_every must be 1 <= low <= high, got {request_every}")
     rng = np.random.default_rng(seed)
@@ -262,6 +271,7 @@ def simulate_trial(
     events: list[TrialEvent] = []
     n_h = n_r = 0
     remedy_total = 0.0
+    started: set[str] = set()  # the classes the person has grabbed an object of
     rule_name = rule if isinstance(rule, str) else getattr(rule, "name", type(rule).__name__ if rule else "")
 
     def human_goal(state: State) -> Goal:
@@ -288,6 +298,8 @@ def simulate_trial(
 
     def choose(state: State) -> RobotCommand | None:
         need = needed(state)
+        if ask_for == "unstarted":
+            need = {c: n for c, n in need.items() if c not in started}
         if not need:
             return None
         first: dict[str, int] = {}
@@ -375,6 +387,8 @@ def simulate_trial(
                 human_plan = replan_human(s)
                 continue
             human_plan.pop(0)
+            if a.kind == "grab":
+                started.add(world.items[a.obj].cls)
             c = cost(world, s, a)
             online.observe(a)
             s = apply(s, a)

@@ -100,7 +100,7 @@ def speaker_for(channel: str, world: World, p_err: float = P_ERR) -> Speaker:
 
 def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer: Any, *,
                channels: Sequence[str] = ("oracle",), max_requests: int = MAX_REQUESTS, p_err: float = P_ERR,
-               scenarios: Sequence[str] | None = None,
+               scenarios: Sequence[str] | None = None, ask_for: str = "unstarted",
                progress: Callable[[int, int], None] | None = None) -> Iterator[dict[str, Any]]:
     """One row per (scenario, channel, seed, rule) over the domain's registered scenarios."""
     from siftom.scenarios.base import get_domain, get_scenario
@@ -116,11 +116,11 @@ def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer
             for seed in seeds:
                 for rule in rules:
                     res = simulate_trial(sc, observer, seed=seed, rule=rule, max_requests=max_requests,
-                                         speak=speaker_for(channel, sc.world, p_err))
+                                         speak=speaker_for(channel, sc.world, p_err), ask_for=ask_for)
                     done += 1
                     if progress is not None:
                         progress(done, total)
-                    yield {"domain": domain, "channel": channel, **res.metrics(),
+                    yield {"domain": domain, "channel": channel, "ask_for": ask_for, **res.metrics(),
                            "request_log": [r.to_json() for r in res.requests]}
 
 

@@ -37,6 +37,11 @@ def _rule_option(f: Any) -> Any:
                         help="decision rule: expected-benefit, ask-or-act, map (default: the setting infer.decide)")(f)
 
 
+def _ask_for_option(f: Any) -> Any:
+    return click.option("--ask-for", type=click.Choice(["unstarted", "any"]), default="unstarted", show_default=True,
+                        help="which classes the person asks for: only those they have not started, or any still needed")(f)
+
+
 def _channel_option(f: Any) -> Any:
     f = click.option("--p-err", "p_err", type=click.FloatRange(0.0, 1.0), default=0.3, show_default=True,
                      help="noisy channel: probability that the best hypothesis names a near class")(f)
@@ -53,9 +58,10 @@ def _channel_option(f: Any) -> Any:
 @click.option("--max-requests", type=click.IntRange(min=0), default=3, show_default=True,
               help="the most requests the person makes")
 @_channel_option
+@_ask_for_option
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (metrics, requests, events).")
 def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_requests: int, channel: str,
-                       p_err: float, as_json: bool) -> None:
+                       p_err: float, ask_for: str, as_json: bool) -> None:
     """Simulate a whole trial: the person works towards the goal and asks the robot for items;
     print it step by step and the trial's speedup (docs/team-simulation.md, "Whole trials")."""
     from siftom.agents.trial import simulate_trial
@@ -65,9 +71,9 @@ def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_reques
 
     sc = get_scenario(scenario_id)
     res = simulate_trial(sc, Observer(), seed=seed, rule=rule, max_requests=max_requests,
-                         speak=speaker_for(channel, sc.world, p_err))
+                         speak=speaker_for(channel, sc.world, p_err), ask_for=ask_for)
     if as_json:
-        click.echo(json.dumps({"channel": channel, **res.to_json()}, indent=2))
+        click.echo(json.dumps({"channel": channel, "ask_for": ask_for, **res.to_json()}, indent=2))
         return
     click.echo(f"{sc.id}: goal {sc.goal.describe()} ({sc.goal.name}); rule {res.rule}; seed {seed}; "
                f"channel {channel}")
@@ -90,13 +96,14 @@ def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_reques
 @click.option("--max-requests", type=click.IntRange(min=0), default=3, show_default=True,
               help="the most requests per trial")
 @_channel_option
+@_ask_for_option
 @click.option("--scenario", "scenarios", multiple=True, help="only these scenario ids (default: the domain's registered ones)")
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="write one JSON line per trial here (to re-plot)")
 @click.option("--json", "as_json", is_flag=True, help="print the per-rule summary as JSON")
 @click.option("--no-progress", is_flag=True, help="no progress bar")
 def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_requests: int, channel: str,
-                     p_err: float, scenarios: tuple[str, ...], out: str | None, as_json: bool,
+                     p_err: float, ask_for: str, scenarios: tuple[str, ...], out: str | None, as_json: bool,
                      no_progress: bool) -> None:
     """Whole trials over a domain's scenarios x seeds x rules: mean speedup, wrong fetches,
     questions and refusals per trial, per rule (docs/team-simulation.md, "Whole trials")."""
@@ -114,7 +121,7 @@ def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_r
         bar = stack.enter_context(_bar(f"trials {domain}", enabled=not no_progress))
         for row in run_trials(domain, range(seed_start, seed_start + seeds), rule_list, Observer(),
                               channels=channels, max_requests=max_requests, p_err=p_err,
-                              scenarios=scenarios or None, progress=bar):
+                              scenarios=scenarios or None, ask_for=ask_for, progress=bar):
             rows.append(row)
             if fh is not None:
                 fh.write(json.dumps(row) + "\n")

@@ -82,8 +82,11 @@ def test_hibari_missing_extra_names_the_pip_install(monkeypatch):
 
 
 def test_hibari_refuses_rates_outside_its_range():
+    """Checked before the extra, so this holds without hibari-tts installed too."""
     with pytest.raises(SiftomError, match=r"rate within 0.5..2.0"):
         synthesize("bring me the milk", "hibari-heart", rate=2.5)
+    with pytest.raises(SiftomError, match=r"pitch within 0.5..2.0"):
+        synthesize("bring me the milk", "hibari-heart", pitch=0.4)
 
 
 @pytest.fixture()

@@ -160,12 +160,18 @@ def _hibari_model(ident: str) -> object:
     return Hibari(model=path, threads=1)
 
 
-def _hibari_speak(v: Voice, text: str, rate: float, pitch: float) -> np.ndarray:
-    """hibari at 24 kHz -> 16 kHz. ``rate`` is the model's speed input; ``pitch`` scales the F0 of
-    its pulse source (the spectral envelope, hence the formants, stays). Fixed noise seed."""
+def _hibari_check_range(v: Voice, rate: float, pitch: float) -> None:
     for what, x, (lo, hi) in (("rate", rate, _HIBARI_SPEED), ("pitch", pitch, _HIBARI_PITCH)):
         if not lo <= x <= hi:
             raise SiftomError(f"the voice {v.name!r} takes {what} within {lo}..{hi}, got {x}")
+
+
+def _hibari_speak(v: Voice, text: str, rate: float, pitch: float) -> np.ndarray:
+    """hibari at 24 kHz -> 16 kHz. ``rate`` is the model's speed input; ``pitch`` scales the F0 of
+    its pulse source (the spectral envelope, hence the formants, stays). Fixed noise seed.
+
+    This is ``Hibari.from_ids`` with the F0 scaled between the network and the vocoder (hibari
+    0.2.x; the extra pins it below 0.3)."""
     tts: Any = _hibari_model(v.ident)
     from hibari import SAMPLE_RATE, dsp
 
@@ -201,6 +207,7 @@ def synthesize(text: str, voice: str | Voice = DEFAULT_VOICE, rate: float = 1.0,
     if not 0.3 <= pitch <= 3.0:
         raise SiftomError(f"pitch must be within 0.3..3.0 (1.0 = normal), got {pitch}")
     if v.engine == HIBARI:
+        _hibari_check_range(v, rate, pitch)
         if not engine_available(HIBARI):
             raise missing_extra(HIBARI_EXTRA, "hibari-tts")
         return _hibari_speak(v, text, rate, pitch)

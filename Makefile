@@ -4,7 +4,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
-EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs
+EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs,tts-neural
 
 .PHONY: demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results pages
 

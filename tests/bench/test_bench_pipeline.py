@@ -76,6 +76,17 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
 
 
 
+def test_summary_and_report_give_accuracy_per_voice(tiny_results: Path) -> None:
+    summary = json.loads((tiny_results / "summary.json").read_text())
+    by_voice = summary["breakdowns"]["voice"]
+    assert set(by_voice) == {"flite-slt"}
+    for m, cell in by_voice["flite-slt"].items():
+        assert cell["n"] == 4 and cell["accuracy"] == summary["models"][m]["accuracy"]
+    assert set(summary["asr_wer"]["voice"]) == {"flite-slt"}
+    report = (tiny_results / "report.md").read_text()
+    assert "## By voice" in report and "| flite-slt |" in report
+
+
 def test_the_siftom_row_is_the_products_default_path(tiny: Path, tmp_path: Path) -> None:
     """``siftom`` runs the likelihood a recording gets by default (acoustic with the whisper extra);
     ``siftom-acoustic`` is its alias and ``siftom-phonetic`` keeps the N-best one."""

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import siftom
-from siftom.bench.pages import END, PAGES, REPRODUCE, START, write_pages
+from siftom.bench.pages import END, PAGES, REPRODUCE, START, voice_table, write_pages
 from siftom.bench.reproduce import load_plan
 from siftom.cli import main
 from siftom.errors import DatasetError
@@ -58,6 +58,9 @@ def test_reproduce_a_tiny_plan_then_pages(tmp_path: Path) -> None:
     assert set(data["summary"]["models"]) == {"literal-asr", "siftom"}
     page = (docs / "tiny.md").read_text()
     assert f"siftom {siftom.__version__}" in page and REPRODUCE in page and PAGES in page
+    assert "## Accuracy per voice" in page and data["summary"]["breakdowns"]["voice"]
+    for v in data["summary"]["breakdowns"]["voice"]:
+        assert f"| {v} | 2 |" in page
     acc = data["summary"]["models"]["siftom"]["accuracy"]
     assert f"| siftom | {100 * acc:.1f} %" in page
     text = readme.read_text()
@@ -81,3 +84,17 @@ def test_committed_results_pages_match_the_committed_results(tmp_path: Path) -> 
     for p in sorted(docs.iterdir()):
         assert p.read_text() == (ROOT / "docs" / "results" / p.name).read_text(), p.name
     assert readme.read_text() == (ROOT / "README.md").read_text()
+
+
+def test_the_voice_table_has_a_row_per_voice_and_a_column_per_model() -> None:
+    cell = {"accuracy": 0.5, "speedup": 0.1, "n": 4}
+    result = {"commands": ["siftom eval D --out R --models siftom,literal-asr"],
+              "summary": {"models": {"siftom": {}, "literal-asr": {}},
+                          "breakdowns": {"voice": {"flite-slt": {"siftom": cell, "literal-asr": {**cell, "accuracy": 0.25}},
+                                                   "hibari-heart": {"siftom": {**cell, "accuracy": 1.0}}}},
+                          "asr_wer": {"voice": {"flite-slt": 0.2}}}}
+    lines = voice_table(result).splitlines()
+    assert lines[0] == "| voice | n | siftom | literal-asr | ASR WER |"
+    assert lines[2] == "| flite-slt | 4 | 50.0 % | 25.0 % | 20.0 % |"
+    assert lines[3] == "| hibari-heart | 4 | 100.0 % |  | – |"
+    assert voice_table({"commands": [], "summary": {"models": {}}}) == ""

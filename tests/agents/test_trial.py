@@ -72,8 +72,13 @@ def test_the_same_seed_gives_the_same_trial(observer, sid):
 
 def test_a_wrong_command_costs_the_remedy(observer):
     sc = get_scenario("kitchen-cereal-v0")
-    alone = simulate_trial(sc, observer, seed=0, rule=never, max_requests=1)
-    wrong = simulate_trial(sc, observer, seed=0, rule=always("fetch(salt)"), max_requests=1)
+    # an object word near no object of the world: a request that names another object is
+    # never acted on as salt (the observer's named-instead check), so the words name none
+    def vague(command, rng):  # noqa: ANN001, ANN202
+        return "could you get me the thingamajig"
+
+    alone = simulate_trial(sc, observer, seed=0, rule=never, max_requests=1, speak=vague)
+    wrong = simulate_trial(sc, observer, seed=0, rule=always("fetch(salt)"), max_requests=1, speak=vague)
     (req,) = wrong.requests
     assert req.executed == "fetch(salt)" and req.wrong == 1 and req.useful == 0 and wrong.wrong_fetches == 1
     target = sc.target

@@ -37,13 +37,8 @@ class Memo(Generic[V]):
 
     def get(self, key: Hashable, make: Callable[[], V]) -> V:
         """The value for ``key``; ``make()`` (outside the lock) on a miss."""
-        with self._lock:
-            if key in self._d:
-                self._d.move_to_end(key)
-                self.hits += 1
-                return self._d[key]
-            self.misses += 1
-        return self.put(key, make())
+        got = self.peek(key)
+        return got if got is not None else self.put(key, make())
 
     def peek(self, key: Hashable) -> V | None:
         """The value for ``key`` if held (a hit), else None (a miss): for callers that make

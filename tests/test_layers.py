@@ -18,7 +18,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("agents",),
     ("scenarios",),
     ("backends", "speech", "options"),  # options: the option classes of every stage and door
-    ("likelihood",),
+    ("likelihood", "language"),  # language: the utterance model (the words' slots and roles)
     ("inference",),
     ("assist", "perception"),
     ("inputs", "settings", "answer"),  # the resolved settings and the one answer shape

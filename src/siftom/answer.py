@@ -25,6 +25,7 @@ from typing import Any
 from siftom.assist.decide import Decision
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH
 from siftom.inference.model import JointHypothesis, JointPosterior, Posterior
+from siftom.language.record import NOBODY_ASKED, Understanding
 from siftom.world.commands import RobotCommand
 
 ACTIONS = ("act", "ask", "none")
@@ -43,8 +44,11 @@ class Answer:
         vad: the voice-activity detector's result for audio, None otherwise.
         seconds: wall time from the input to the answer.
         timings: seconds per stage (load, vad, asr, infer).
-        instruction: False when words were heard but none near a command of the scene
+        instruction: False when words were heard but nobody asked the robot for anything
             (``evidence['no_instruction_reason']`` says why).
+        parts: the command understood for each object asked for, in the order said (one for a
+            plain request, several for "the cereal and the sugar", none when nobody asked).
+        part_decisions: for a request of several parts, the rule's decision on each.
     """
 
     posterior: Posterior
@@ -55,6 +59,8 @@ class Answer:
     seconds: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
     instruction: bool = True
+    parts: tuple[RobotCommand, ...] = ()
+    part_decisions: tuple[Decision, ...] = field(default=(), compare=False)
 
     # ----- what the robot does --------------------------------------------------------------
     @property
@@ -69,6 +75,21 @@ class Answer:
         if self.action != "act":
             return None
         return RobotCommand.parse(self.decision.command)
+
+    @property
+    def carry_out(self) -> tuple[RobotCommand, ...]:
+        """Every command the robot carries out, in order (several for a request of several parts)."""
+        if self.action != "act":
+            return ()
+        if self.part_decisions:
+            return tuple(RobotCommand.parse(d.command) for d in self.part_decisions if d.action not in ("none", "ask"))
+        cmd = self.command
+        return (cmd,) if cmd is not None else ()
+
+    @property
+    def understanding(self) -> Understanding:
+        """What the utterance model understood of the words (``NOBODY_ASKED`` when nothing was said)."""
+        return self.posterior.understanding or NOBODY_ASKED
 
     @property
     def top_command(self) -> RobotCommand:
@@ -169,6 +190,9 @@ class Answer:
             "speech_heard": self.speech_heard,
             "instruction_heard": self.instruction_heard,
             "message": self.message,
+            "understanding": self.understanding.to_json(),
+            "parts": [str(c) for c in self.parts],
+            "carry_out": [str(c) for c in self.carry_out],
             "asr": self.asr.to_json() if self.asr is not None else None,
             "vad": self.vad.to_json() if self.vad is not None else None,
             "seconds": round(self.seconds, 4),

@@ -39,6 +39,9 @@ class Instruction:
     words: tuple[tuple[str, float, float], ...] = field(default=(), compare=False, repr=False)
     # speech-to-background ratio estimated by voice-activity detection (dB), when known
     snr_db: float | None = field(default=None, compare=False, repr=False)
+    # which target of the utterance the words are scored for (siftom.language): the k-th object
+    # asked for in "the cereal and the sugar"; None: every target
+    focus: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if not self.nbest and self.audio is None and self.samples is None:

@@ -41,6 +41,7 @@ from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
 from siftom.inference.model import OnlineInference, Posterior, SIFToM
 from siftom.inputs import SceneInput
+from siftom.language.record import Mention
 from siftom.likelihood.base import Instruction, InstructionLikelihood
 from siftom.settings import Settings
 from siftom.world.commands import RobotCommand
@@ -102,24 +103,6 @@ def build_model(settings: Settings, mode: str, likelihood: LikelihoodArg, lexico
     if likelihood == "llm":
         options = {"backend": settings.llm, **options}
     return SIFToM(cfg, get_likelihood(likelihood, **options))
-
-
-def _named_instead(post: Posterior, instruction: Instruction, command: str, world: World,
-                   verb: str) -> tuple[str, RobotCommand] | None:
-    """(heard word, the command it names) when what was heard names another object of the
-    world and nothing near ``command`` (likelihood/nearness.py ``named_instead``)."""
-    from siftom.likelihood.nearness import heard_texts, named_instead
-
-    texts = heard_texts(instruction.nbest)
-    whisper = post.evidence.get("whisper_heard")
-    if isinstance(whisper, str) and whisper.strip():
-        texts.append(whisper)
-    if not texts:
-        return None
-    chosen = RobotCommand.parse(command)
-    others = [RobotCommand(chosen.verb, c) for c in world.classes]
-    got: tuple[str, RobotCommand] | None = named_instead(texts, chosen, others, _lexicon_of(world))
-    return got
 
 
 def _lexicon_of(world: World) -> Any:
@@ -277,20 +260,38 @@ class Observer:
         world, target = online.world, online.goals[0].target
         nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
                    else NOTHING_ASKED if instruction is None else "")
-        decision = self.decide(post, world, target, decide, nothing=nothing)
-        if decision.action not in (NONE, "ask") and instruction is not None and mode != "speech-only":
-            other = _named_instead(post, instruction, decision.command, world, online.verb)
-            if other is not None:
-                word, cmd = other
-                post = dataclasses.replace(post, evidence={**post.evidence,
-                                                           "named_instead": {"word": word, "command": str(cmd)}})
-                decision = Decision(decision.rule, NONE, NONE, 0.0, 0.0,
-                                    reason=f"heard {word!r}, which names {cmd} and not {decision.command}: the "
-                                           "robot does not bring what was not asked for")
+        understood = post.understanding if said and instruction is not None else None
+        targets = understood.targets if understood is not None and understood.request else ()
+        parts: tuple[RobotCommand, ...] = ()
+        decisions: list[Decision] = []
+        if len(targets) > 1 and instruction is not None and not nothing and mode != "speech-only":
+            # several things in one request: each target read on its own (its slot alone is
+            # scored), decided on its own; the robot carries out every part it would act on
+            view = self._view(online, mode, lk)
+            part_posts = [with_likelihood(view.posterior(dataclasses.replace(instruction, focus=k), top=top),
+                                          lk if isinstance(lk, str) else type(lk).__name__, why)
+                          for k in range(len(targets))]
+            parts = tuple(pp.command for pp in part_posts)
+            decisions = [self._decide_part(pp, world, target, decide, m) for pp, m in zip(part_posts, targets, strict=True)]
+            decision = _combine(decisions)
+        else:
+            if targets:
+                parts = (post.command,)
+            decision = self.decide(post, world, target, decide, nothing=nothing)
+            if targets and not nothing:
+                decision = _absent(decision, targets[0]) or decision
+        post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
         post = dataclasses.replace(post, decision=decision)
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, speech, heard.asr if heard is not None else None,
-                      heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said)
+                      heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
+                      tuple(decisions))
+
+    def _decide_part(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None,
+                     mention: Mention) -> Decision:
+        """The rule's decision on one part of a request with several (an absent object: none)."""
+        made = self.decide(post, world, target, rule)
+        return _absent(made, mention) or made
 
     def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
                nothing: str = "") -> Decision:
@@ -372,6 +373,26 @@ class Observer:
     def describe(self) -> dict[str, Any]:
         """The resolved values this observer runs with (``/healthz``, ``siftom config show``)."""
         return {key: value for key, value, _ in self.settings.show()}
+
+
+def _absent(decision: Decision, mention: Mention) -> Decision | None:
+    """No action, with a reason naming it, when the target names an object the world lacks
+    ("bring me a banana" where there is none); None otherwise."""
+    if mention.obj_class is not None or not mention.named:
+        return None
+    return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
+                    reason=f"there is no {mention.named} here: the robot does not bring something else instead")
+
+
+def _combine(decisions: Sequence[Decision]) -> Decision:
+    """One decision for a request of several parts: act on the parts the rule acts on (the
+    first part's decision carries them), else the first part's ask or none."""
+    acting = [d for d in decisions if d.action not in (NONE, "ask")]
+    if not acting:
+        return decisions[0]
+    reason = "; ".join(f"{d.command if d.action not in (NONE, 'ask') else d.action}: {d.reason}"
+                       for d in decisions if d.reason)
+    return dataclasses.replace(acting[0], reason=reason)
 
 
 class _Locked:

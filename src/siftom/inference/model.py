@@ -31,6 +31,7 @@ import numpy as np
 
 from siftom.errors import ObservationError
 from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
+from siftom.language.record import NOBODY_ASKED, Understanding
 from siftom.likelihood.base import Instruction, InstructionLikelihood, as_scores
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.logspace import group_logsumexp, logsumexp
@@ -54,6 +55,7 @@ class ModelConfig:
     help_kappa: float = 0.1
     speech_weight: float = 1.0
     max_count: int = MAX_COUNT
+    off_plan: float = 0.05
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -64,6 +66,8 @@ class ModelConfig:
             raise ObservationError(f"unknown_prior must be in [0, 1), got {self.unknown_prior}")
         if self.speech_weight < 0 or self.help_kappa < 0:
             raise ObservationError("speech_weight and help_kappa must be >= 0")
+        if not 0 <= self.off_plan < 1:
+            raise ObservationError(f"off_plan must be in [0, 1), got {self.off_plan}")
 
     @property
     def uses_actions(self) -> bool:
@@ -163,6 +167,8 @@ class Posterior:
     evidence: dict[str, Any] = field(default_factory=dict, compare=False)
     # what a decision rule made of it (``siftom.infer(..., decide=RULE)``): a ``Decision``
     decision: Any = field(default=None, compare=False)
+    # what the utterance model understood of the words (siftom.language); None without words
+    understanding: Understanding | None = field(default=None, compare=False)
 
     def prob(self, command: str) -> float:
         """The posterior probability of ``command`` (a RobotCommand or its text)."""
@@ -187,34 +193,41 @@ class Posterior:
         }
 
 
-def _no_instruction(instruction: Instruction, commands: Sequence[RobotCommand],
-                    also_heard: Sequence[str] = (), lexicon: Any = None) -> dict[str, Any]:
-    """``{no_instruction: True, no_instruction_reason}`` when no heard word is near a command of
-    the scene (likelihood/nearness.py); ``{}`` otherwise, or when nothing but audio was given.
+def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand], also_heard: Sequence[str] = (),
+                     lexicon: Any = None) -> tuple[Understanding, dict[str, Any]]:
+    """What was understood (siftom.language) and the evidence it adds: ``understanding``, and
+    ``no_instruction`` with its reason when nobody asked the robot for anything.
 
     ``also_heard``: what an open-vocabulary recogniser heard in the same audio (Whisper's own
-    words). When it heard words, they decide: the scene-biased recogniser that made the N-best
+    words). When it heard words, they are read: the scene-biased recogniser that made the N-best
     can only write the scene's phrasings, so it writes command words into any speech ("my phone
-    battery is dead" comes out as "i some can cereal some lettuce"), and its words say nothing
-    about whether a request was made (docs/speech.md, "Was it a request?"). The N-best decides
-    when nothing else heard words. Whisper's confidence in its words (``whisper_logprob``) is
-    not used: in babble it writes a background talker's words as confidently as the speaker's,
-    and most noisy off-topic speech falls below its own failed-decoding threshold, so a
-    low-confidence fallback to the N-best would act on it (docs/speech.md).
+    battery is dead" comes out as "i some can cereal some lettuce"), and its words say little
+    about whether a request was made (docs/speech.md, "Was it a request?"). The N-best is read,
+    with its weights, when nothing else heard words.
     """
-    from siftom.likelihood.nearness import heard_texts, nearness
+    from siftom.language.understand import understand
+    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
 
+    classes = sorted({c.obj_class for c in commands})
     open_words = [t for t in also_heard if t and t.strip()]
-    texts = open_words or heard_texts(instruction.nbest)
-    if not texts:
-        return {}
-    near = nearness(texts, commands, lexicon)
-    by = "whisper" if open_words else "nbest"
-    if near.near:
-        return {"instruction_check": by}
-    who = "Whisper" if open_words else "the recogniser"
-    return {"no_instruction": True, "no_instruction_reason": f"{who} heard {texts[0]!r}: {near.reason()}",
-            "instruction_check": by}
+    if open_words:
+        texts, weights = open_words[:1], [1.0]
+        by, who = "whisper", "Whisper"
+    else:
+        hyps = [h for h in instruction.nbest if h.text.strip()]
+        if not hyps:
+            return NOBODY_ASKED, {}
+        sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
+        w = np.exp(sc - sc.max())
+        w /= w.sum()
+        keep = [k for k in range(len(hyps)) if w[k] >= MIN_WEIGHT]
+        texts, weights = [hyps[k].text for k in keep], list(w[keep] / w[keep].sum())
+        by, who = "nbest", "the recogniser"
+    u = understand(texts, weights, classes, lexicon)
+    evidence: dict[str, Any] = {"understanding": u.to_json(), "instruction_check": by}
+    if not u.request:
+        evidence.update(no_instruction=True, no_instruction_reason=f"{who} heard {texts[0]!r}: {u.reason}")
+    return u, evidence
 
 
 class SIFToM:
@@ -352,30 +365,33 @@ class OnlineInference:
             else:
                 scored = as_scores(lk.log_prob(instruction, cmds))
             whisper = scored.evidence.get("whisper_heard")
-            evidence = {**scored.evidence,
-                        **_no_instruction(instruction, cmds, (whisper,) if isinstance(whisper, str) else (),
-                                          getattr(lk, "lexicon", None))}
+            understood, checked = understanding_of(instruction, cmds, (whisper,) if isinstance(whisper, str) else (),
+                                                   getattr(lk, "lexicon", None))
+            evidence = {**scored.evidence, **checked}
             instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
                 raise ObservationError("the instruction likelihood returned invalid scores")
         else:
-            instr, evidence = np.zeros(len(cmds)), {}
+            instr, evidence, understood = np.zeros(len(cmds)), {}, None
         if cfg.mode == "speech-only":
             # uniform over the domain's commands, words alone
             lj = instr[unk_cmds] - np.log(len(unk_cmds))
             terms = np.stack([np.full(len(unk_cmds), -np.log(len(unk_cmds))), np.zeros(len(unk_cmds)), instr[unk_cmds]], 1)
         else:
             prior, act, unk_prior, unk_act = self._prior_and_actions(goal_idx, rows, len(unk_cmds))
+            off_prior, off_act = self._off_plan(prior, act, len(unk_cmds))
+            prior = prior + np.log1p(-cfg.off_plan)
             terms = np.concatenate([
                 np.stack([prior, act, instr[cmd_of]], 1),
                 np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), unk_act), instr[unk_cmds]], 1),
+                np.stack([np.full(len(unk_cmds), off_prior), np.full(len(unk_cmds), off_act), instr[unk_cmds]], 1),
             ])
             lj = terms.sum(axis=1)
         logZ = logsumexp(lj)
         p = np.exp(lj - logZ)
-        cmd_all = unk_cmds if cfg.mode == "speech-only" else np.concatenate([cmd_of, unk_cmds])
+        cmd_all = unk_cmds if cfg.mode == "speech-only" else np.concatenate([cmd_of, unk_cmds, unk_cmds])
         goal_all = (np.zeros(len(unk_cmds), dtype=np.int64) if cfg.mode == "speech-only"
-                    else np.concatenate([goal_idx, np.full(len(unk_cmds), len(self.goals))]))
+                    else np.concatenate([goal_idx, np.full(2 * len(unk_cmds), len(self.goals))]))
         goal_names = ["(any)"] if cfg.mode == "speech-only" else self._goal_names
         cm = np.bincount(cmd_all, weights=p, minlength=len(cmds))
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
@@ -395,7 +411,7 @@ class OnlineInference:
             transcript=instruction.text if instruction is not None else "",
             joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
                                  self.state),
-            evidence=evidence,
+            evidence=evidence, understanding=understood,
         )
         if self.model.on_step is not None:
             self.model.on_step("posterior", self, post)
@@ -411,15 +427,26 @@ class OnlineInference:
         return (prior, self.actions.log_lik(rows), self.goal_prior.log_unknown(n_unknown),
                 self.unknown_actions.cumulative)
 
+    def _off_plan(self, prior: np.ndarray, act: np.ndarray, n_unknown: int) -> tuple[float, float]:
+        """log prior and action term of an off-plan request: with probability ``off_plan`` the
+        person asks for any object of the world (uniform over the domain's commands), whatever
+        their goal; the actions are explained by the goals as they are (their marginal
+        likelihood), so a clear request for something no likely goal needs keeps this prior
+        however many actions were seen."""
+        rho = self.model.config.off_plan
+        if rho <= 0 or n_unknown == 0 or len(prior) == 0:
+            return -np.inf, 0.0
+        mass = float(logsumexp(prior))
+        return (float(np.log(rho) - np.log(n_unknown) + mass), float(logsumexp(prior + act)) - mass)
+
     def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,
                  n_cmds: int) -> np.ndarray:
         """log P(command | actions) up to a constant: the posterior without the instruction term."""
         prior, act, unk_prior, unk_act = self._prior_and_actions(goal_idx, rows, len(unk_cmds))
-        known = group_logsumexp(prior + act, cmd_of, n_cmds)
-        if not np.isfinite(unk_prior):
-            return known
+        off_prior, off_act = self._off_plan(prior, act, len(unk_cmds))
+        known = group_logsumexp(prior + np.log1p(-self.model.config.off_plan) + act, cmd_of, n_cmds)
         unk = np.full(n_cmds, -np.inf)
-        unk[unk_cmds] = unk_prior + unk_act
+        unk[unk_cmds] = np.logaddexp(unk_prior + unk_act, off_prior + off_act)
         out: np.ndarray = np.logaddexp(known, unk)
         return out
 

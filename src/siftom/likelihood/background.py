@@ -83,6 +83,7 @@ class MeaningVocabulary:
         self._ids = np.zeros((0, 1), dtype=np.intp)
         self._ins = np.zeros((0, 1), dtype=np.float32)
         self._cache: dict[str, float] = {}
+        self.order: tuple[str, ...] = ()
         self.add(words)
 
     def add(self, words: Iterable[str]) -> bool:
@@ -93,8 +94,10 @@ class MeaningVocabulary:
         if not new:
             return False
         self.words.update(new)
-        seqs = [word_phonemes(w) for w in sorted(self.words)]
-        seqs = [s for s in seqs if s]
+        pairs = [(w, word_phonemes(w)) for w in sorted(self.words)]
+        pairs = [(w, s) for w, s in pairs if s]
+        self.order = tuple(w for w, _ in pairs)  # the meaning word of each row
+        seqs = [s for _, s in pairs]
         width = max((len(s) for s in seqs), default=1)
         self._ids = np.full((len(seqs), width), PAD, dtype=np.intp)
         self._ins = np.zeros((len(seqs), width), dtype=np.float32)
@@ -115,13 +118,19 @@ class MeaningVocabulary:
     def relative_cost_phones(self, phones: tuple[str, ...], edge_weight: float | None = None) -> float:
         """r for a phoneme sequence (a word, or two adjacent heard words run together); the
         unheard rest of the meaning word costs ``edge_weight`` (default: the instance's β)."""
-        from siftom.likelihood.phonemes import PHONEME_ID, SUB_COST, indel_cost
-
         if not phones:
             return 0.0
         if len(self._ids) == 0:
             return float("inf")
+        return float(self.relative_costs_phones(phones, edge_weight).min())
+
+    def relative_costs_phones(self, phones: tuple[str, ...], edge_weight: float | None = None) -> np.ndarray:
+        """r of a phoneme sequence against each meaning word (in :attr:`order`)."""
+        from siftom.likelihood.phonemes import PHONEME_ID, SUB_COST, indel_cost
+
         n_v, width = self._ids.shape
+        if not phones or n_v == 0:
+            return np.zeros(n_v) if not phones else np.full(n_v, np.inf)
         # Every phoneme of the heard word is explained; the meaning word's phonemes before and
         # after the matched span cost edge_weight x their deletion cost (a heard fragment of a
         # long word is weaker evidence than the whole word).
@@ -142,7 +151,8 @@ class MeaningVocabulary:
             prev = cur
         end = prev + beta * (cum[:, -1:] - cum)
         total = sum(indel_cost(p) for p in phones)
-        return float(end.min() / total) if total > 0 else 0.0
+        out: np.ndarray = end.min(axis=1) / total if total > 0 else np.zeros(n_v)
+        return out
 
     def _ramp(self, r: float) -> float:
         return float(np.clip((self.r_far - r) / (self.r_far - self.r_near), 0.0, 1.0))

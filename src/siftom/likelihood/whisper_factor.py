@@ -60,7 +60,8 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
     frames: list[tuple[tuple[str, ...], tuple[str, ...], bool]] = []
     for words in transcripts:
-        idx = [i for i, w in enumerate(words) if w in key_words]
+        slots = target_positions(words, instruction.focus)
+        idx = [i for i, w in enumerate(words) if w in key_words and (slots is None or i in slots)]
         if idx:
             # a count heard after the object ("spoons four me", "the spoons, four of them"): the candidates
             # say their count there too, so the count is scored where it was said
@@ -80,6 +81,25 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
             items += [(" ".join([*words[:-1], k]), lp) for k, lp in keys[i]]
         out.append(items)  # a text guessed twice counts twice: each kind of guess weighs 1
     return out, "sentence"
+
+
+def target_positions(words: Sequence[str], focus: int | None) -> frozenset[int] | None:
+    """Word positions of the target slot(s) of a transcript (target ``focus``, or every target),
+    as the utterance model reads it (siftom.language); None when it asks for no target, or the
+    model's words are not the transcript's (then every key word counts, as before reading).
+
+    Only a target's key words are replaced by each candidate's: "no, not the sugar, the honey"
+    is scored as "no not the sugar the k", so the negated object stays in the carrier that every
+    candidate shares."""
+    from siftom.language.parse import read
+
+    reading = read(" ".join(words))
+    if tuple(reading.words) != tuple(words) or not reading.targets:
+        return None
+    targets = reading.targets
+    if focus is not None:
+        targets = (targets[min(focus, len(targets) - 1)],)
+    return frozenset(i for s in targets for i in range(s.start, s.end))
 
 
 def count_last(phrase: str) -> str:

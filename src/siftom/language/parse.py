@@ -1,0 +1,206 @@
+"""Read an utterance into object slots with roles: the syntax of the utterance model.
+
+``grammar.lark`` chunks the words into noun phrases (the object slots) and marker words; this
+module gives each slot its role from the markers around it, left to right:
+
+* after a negation ("not the sugar", "don't bring the sugar", "instead of the sugar"): ``negated``;
+* after a correction ("the jam, um, I mean the honey"): the slot before is ``retracted`` and
+  the next one is a ``target``;
+* after a relation word ("for the cereal", "from next to the oatmeal", "with the milk"), before
+  "is/are already here" ("the sugar is already here") or after a possession ("I already have the
+  sugar"): ``context``;
+* after a question word with no request frame between ("where did I leave my keys"): ``context``
+  (asked about, not asked for);
+* any other slot: ``target``; a slot joined to the one before by "and" takes its role ("not the
+  sugar and the honey" negates both, "the cereal and the sugar" asks for both).
+
+A request frame (a request verb, "could you", "I need", "please") is recorded beside the slots:
+the utterance model weighs it when deciding whether anybody asked (``understand.py``). The
+grammar is read with lark's LALR parser: linear in the number of words.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from siftom.likelihood.numbers import NUMBER_WORDS
+from siftom.likelihood.phonemes import normalize_text
+
+# the longest utterance read (words); the rest is background (a request is said in far fewer)
+MAX_WORDS = 64
+GRAMMAR = Path(__file__).with_name("grammar.lark")
+# markers that open a request frame (see _has_frame)
+_FRAME = frozenset({"VERB", "MODAL", "WANT", "PLEASE"})
+# the word classes a focused request keeps around its targets ("could you pass me ... please")
+FRAME_WORDS = frozenset({"VERB", "ME", "MODAL", "YOU", "SELF", "WANT", "PLEASE"})
+_COUNTS = {"both": 2, "pair": 2, "single": 1, "couple": 2}
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One noun phrase of an utterance.
+
+    Attributes:
+        role: ``target``, ``context``, ``negated`` or ``retracted``.
+        start, end: word positions of the whole phrase (determiners and count included).
+        nouns: word positions of the words that name the object (may be empty: "could you get me the").
+        count: the count said, None when none was.
+    """
+
+    role: str
+    start: int
+    end: int
+    nouns: tuple[int, ...]
+    count: int | None
+
+
+@dataclass(frozen=True)
+class Reading:
+    """The words of an utterance, its slots and whether it holds a request frame."""
+
+    words: tuple[str, ...]
+    slots: tuple[Slot, ...]
+    frame: bool
+    question: bool
+    truncated: bool = False
+    kinds: tuple[str, ...] = ()  # the grammar's word class per word (WORD, DET, NEG, VERB, ...)
+
+    def slot_words(self, slot: Slot) -> str:
+        """The words naming the object of ``slot`` ("olive oil"), '' for none."""
+        return " ".join(self.words[i] for i in slot.nouns)
+
+    @property
+    def targets(self) -> tuple[Slot, ...]:
+        return tuple(s for s in self.slots if s.role == "target")
+
+    def focus(self, k: int | None = None) -> str:
+        """The words that ask for target ``k`` (None: every target): the request frame and the
+        target slots, without negated, retracted or context slots and their markers. The text
+        itself when there is no target."""
+        targets = self.targets
+        if not targets:
+            return " ".join(self.words)
+        keep = targets if k is None else (targets[min(k, len(targets) - 1)],)
+        inside = {i for s in keep for i in range(s.start, s.end)}
+        slotted = {i for s in self.slots for i in range(s.start, s.end)}
+        return " ".join(w for i, (w, kind) in enumerate(zip(self.words, self.kinds, strict=True))
+                        if i in inside or (i not in slotted and kind in FRAME_WORDS))
+
+
+@lru_cache(maxsize=1)
+def _parser() -> object:
+    from lark import Lark
+
+    return Lark(GRAMMAR.read_text(encoding="utf-8"), parser="lalr", lexer="basic")
+
+
+def _count(word: str) -> int | None:
+    if word in _COUNTS:
+        return _COUNTS[word]
+    return NUMBER_WORDS.index(word) if word in NUMBER_WORDS else None
+
+
+@lru_cache(maxsize=16384)
+def read(text: str) -> Reading:
+    """The slots and roles of ``text`` (module doc); at most :data:`MAX_WORDS` words are read."""
+    from lark import Token, Tree
+
+    words = tuple(normalize_text(text))
+    truncated = len(words) > MAX_WORDS
+    words = words[:MAX_WORDS]
+    if not words:
+        return Reading((), (), False, False)
+    tree = _parser().parse(" ".join(words))  # type: ignore[attr-defined]
+    # pieces: ("np", [(kind, position)]) or (marker kind, position)
+    pieces: list[tuple[str, list[tuple[str, int]]]] = []
+    pos = 0
+    for child in tree.children:
+        assert isinstance(child, Tree)
+        toks = [t for t in child.scan_values(lambda v: isinstance(v, Token))]
+        items = []
+        for t in toks:
+            items.append((str(t.type), pos))
+            pos += 1
+        pieces.append(("np" if child.data == "np" else items[0][0], items))
+    kinds = tuple(k for _, items in pieces for k, _ in items)
+    return _roles(words, pieces, truncated, kinds)
+
+
+def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]]], truncated: bool,
+           kinds_of_words: tuple[str, ...]) -> Reading:
+    slots: list[Slot] = []
+    pending = ""  # the role the next slot takes from a marker before it
+    asking = False  # a question word with no request frame since
+    frame = False
+    question = False
+    joined = False  # "and" since the last slot
+    kinds = [k for k, _ in pieces]
+    for j, (kind, items) in enumerate(pieces):
+        if kind != "np":
+            if kind == "NEG":
+                pending = "negated"
+            elif kind == "MEAN":
+                if slots and slots[-1].role == "target":
+                    s = slots[-1]
+                    slots[-1] = Slot("retracted", s.start, s.end, s.nouns, s.count)
+                pending = "target"
+            elif kind == "CTX":
+                pending = "context"
+            elif kind == "HAVE" and not _asks_to_have(kinds, j):
+                pending = "context"  # "I already have the sugar"
+            elif kind == "WH":
+                asking, question = True, True
+            elif kind == "AND":
+                joined = True
+                continue
+            elif kind in _FRAME or kind == "ME":
+                frame = frame or _has_frame(kinds, j)
+                if kind in ("VERB", "MODAL") and pending in ("context", ""):
+                    pending = ""  # "I need to get the X": "to" before a verb relates nothing
+                if kind in ("VERB", "MODAL"):
+                    asking = False
+            joined = False if kind not in ("FILLER",) else joined
+            continue
+        nouns = tuple(p for k, p in items if k == "WORD")
+        counts = [c for k, p in items if k in ("NUM", "DET") for c in [_count(words[p])] if c is not None]
+        if joined and slots:
+            role = slots[-1].role
+        elif pending:
+            role = pending
+        elif asking:
+            role = "context"
+        else:
+            role = "target"
+        # "the sugar is already here": a slot followed by a copula and a place word is context
+        if role == "target" and _is_here(kinds, j):
+            role = "context"
+        slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
+        pending, joined = "", False
+    return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
+
+
+def _has_frame(kinds: list[str], j: int) -> bool:
+    """Whether the marker at ``j`` opens a request frame: a request verb, a modal ("could you",
+    "can I have"), a want ("I need", "we still need"), "please"."""
+    k = kinds[j]
+    if k in ("VERB", "PLEASE"):
+        return True
+    if k == "MODAL":
+        return any(x in ("YOU", "SELF") for x in kinds[j + 1:j + 3])
+    if k == "WANT":
+        return any(x == "SELF" for x in kinds[max(0, j - 3):j]) or j == 0
+    return False
+
+
+def _asks_to_have(kinds: list[str], j: int) -> bool:
+    """"can I have", "could we have", "I'd like to have": a request, not a possession."""
+    before = kinds[max(0, j - 3):j]
+    return "MODAL" in before or "WANT" in before or "CTX" in before
+
+
+def _is_here(kinds: list[str], j: int) -> bool:
+    """A slot at ``j`` followed by a copula and a place word ("is already here", "are there")."""
+    after = kinds[j + 1:j + 4]
+    return len(after) >= 2 and after[0] == "COP" and after[1] == "HERE"

@@ -1,0 +1,232 @@
+"""The utterance model: did anybody ask the robot for something, and for what (docs/understanding.md).
+
+A reading of the words (``parse.read``) gives object slots with roles. Each slot is named by the
+class of the world whose words it sounds most like (exactly, or as a recogniser misheard it:
+the relative phoneme cost of ``background.MeaningVocabulary`` against the chance level random
+words reach, ``nearness.CHANCE_R``), or by a name the lexicon knows for an object that is not in
+the world ("banana" where there is none).
+
+**Nobody asked is a hypothesis.** Two generative stories compete for the words:
+
+* *a request*: a person asks the robot for an object, usually with a request frame ("could you",
+  "pass me", "I need", "please") and a target slot that names it -- possibly misheard, or lost
+  in noise ("we still need the ...");
+* *no request*: the words are about something else (thanks, room talk, a question to nobody, a
+  recogniser's words for noise); they rarely hold a frame, and a slot names an object only by
+  chance.
+
+Each cue is a likelihood ratio P(cue | request) / P(cue | no request) (the table below); with
+even prior odds, log-odds(request) is their sum, and P(request | words) averages over the
+N-best hypotheses with their weights. The ratios are stated as the two probabilities they come
+from, so each can be read and argued with; docs/understanding.md gives the reasoning and what
+``siftom bench understanding`` measured with them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+from siftom.language.parse import Reading, Slot, read
+from siftom.language.record import Mention, Understanding
+from siftom.likelihood.lexicon import Lexicon, default_lexicon, pluralize
+from siftom.likelihood.phonemes import word_phonemes
+
+# P(cue | request), P(cue | nobody asked): each ratio's two probabilities (module doc)
+P_FRAME = (0.80, 0.02)  # a request frame ("could you", "pass me", "I need", "please")
+P_NAMES = (0.85, 0.02)  # the best target slot names an object (of the world or a known name)
+P_LOST = (0.10, 0.05)  # the target slot holds no word ("we still need the ..."): the object was lost
+P_FAR = (0.04, 0.50)  # the target slots name nothing (a word near no object name)
+P_NO_SLOT = (0.01, 0.43)  # no target slot at all ("thanks", "what", "don't bring the sugar")
+PRIOR_REQUEST = 0.5  # an utterance the robot heard is as likely a request as not
+
+
+def _llr(p: tuple[float, float]) -> float:
+    return math.log(p[0] / p[1])
+
+
+def _not(p: tuple[float, float]) -> tuple[float, float]:
+    return (1 - p[0], 1 - p[1])
+
+
+@dataclass(frozen=True)
+class Naming:
+    """What a slot's words name: a class of the world (``obj_class``), how near (relative cost
+    ``r`` and the chance level ``threshold``), or a known object absent from the world (``named``)."""
+
+    obj_class: str | None
+    r: float
+    threshold: float
+    exact: bool = False
+    named: str = ""
+
+    @property
+    def near(self) -> bool:
+        return self.obj_class is not None and (self.exact or self.r <= self.threshold)
+
+
+class Namer:
+    """Names slots by the classes of one world (built once per classes and lexicon)."""
+
+    def __init__(self, classes: Sequence[str], lexicon: Lexicon | None = None) -> None:
+        from siftom.likelihood.background import MeaningVocabulary
+
+        self.lexicon = lexicon or default_lexicon()
+        self.classes = tuple(classes)
+        own: dict[str, set[str]] = {}  # meaning word -> classes it names
+        self.exact: dict[str, str] = {}  # a whole name (singular or plural) -> class
+        for c in self.classes:
+            entry = self.lexicon.entry(c)
+            for n in entry.names:
+                for form in (n.singular, n.plural, pluralize(n.singular)):
+                    self.exact.setdefault(form, c)
+                    for w in form.split():
+                        own.setdefault(w, set()).add(c)
+        self.vocab = MeaningVocabulary(own)
+        self.row_classes = [sorted(own[w]) for w in self.vocab.order]
+        present = set(self.classes)
+        self.absent: dict[str, str] = {}  # a name of a class the lexicon knows but the world lacks
+        for c in self.lexicon.classes:
+            if c in present:
+                continue
+            for n in self.lexicon.entry(c).names:
+                for form in (n.singular, n.plural, pluralize(n.singular)):
+                    if form not in self.exact:
+                        self.absent.setdefault(form, n.singular)
+
+    def name(self, words: Sequence[str]) -> Naming:
+        """The class the words name best (module doc)."""
+        from siftom.likelihood.nearness import chance_threshold
+
+        if not words:
+            return Naming(None, math.inf, 0.0)
+        phrase = " ".join(words)
+        for k in range(len(words)):  # the longest name at the end of the slot ("the big olive oil")
+            tail = " ".join(words[k:])
+            if tail in self.exact:
+                return Naming(self.exact[tail], 0.0, 0.0, exact=True)
+        for k in range(len(words)):
+            tail = " ".join(words[k:])
+            if tail in self.absent:
+                return Naming(None, math.inf, 0.0, named=self.absent[tail])
+        best_r, best_c, best_n = math.inf, None, 0
+        spans = [(w,) for w in words] + [tuple(words[i:i + 2]) for i in range(len(words) - 1)]
+        for span in spans:
+            phones = tuple(p for w in span for p in word_phonemes(w))
+            if not phones or not len(self.vocab.order):
+                continue
+            costs = self.vocab.relative_costs_phones(phones, 1.0 if len(span) > 1 else None)
+            k = int(costs.argmin())
+            if costs[k] < best_r:
+                best_r, best_c, best_n = float(costs[k]), self.row_classes[k][0], len(phones)
+        del phrase
+        return Naming(best_c, best_r, chance_threshold(best_n) if best_c else 0.0)
+
+
+@lru_cache(maxsize=64)
+def namer(classes: tuple[str, ...], lexicon: Lexicon | None = None) -> Namer:
+    """The :class:`Namer` of a world's classes, built once."""
+    return Namer(classes, lexicon)
+
+
+def _slot_naming(reading: Reading, slot: Slot, nm: Namer) -> Naming:
+    return _name_cached(tuple(reading.words[i] for i in slot.nouns), nm)
+
+
+@lru_cache(maxsize=16384)
+def _name_cached(words: tuple[str, ...], nm: Namer) -> Naming:
+    return nm.name(words)
+
+
+def request_log_odds(reading: Reading, nm: Namer) -> tuple[float, str]:
+    """log-odds(request | words) for one reading and the cue that decided (module doc)."""
+    lo = math.log(PRIOR_REQUEST / (1 - PRIOR_REQUEST))
+    lo += _llr(P_FRAME) if reading.frame else _llr(_not(P_FRAME))
+    targets = reading.targets
+    if not targets:
+        return lo + _llr(P_NO_SLOT), "no object was asked for"
+    namings = [_slot_naming(reading, s, nm) for s in targets]
+    if any(n.near or n.named for n in namings):
+        return lo + _llr(P_NAMES), ""
+    if any(not s.nouns for s in targets):
+        return lo + _llr(P_LOST), ""
+    words = " ".join(reading.slot_words(s) for s in targets)
+    return lo + _llr(P_FAR), f"{words!r} names no object here"
+
+
+def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence[str],
+               lexicon: Lexicon | None = None) -> Understanding:
+    """The understanding of what was heard: ``texts`` (N-best hypotheses or a transcript) with
+    their weights (summing to 1), read against a world's ``classes``."""
+    texts = [t for t in texts]
+    if not texts:
+        return Understanding(False, 0.0, (), "", "nothing was heard")
+    nm = namer(tuple(classes), lexicon)
+    p = 0.0
+    first: tuple[Reading, str] | None = None
+    for text, w in zip(texts, weights, strict=True):
+        reading = read(text)
+        lo, why = request_log_odds(reading, nm)
+        p += w * (1 / (1 + math.exp(-lo)))
+        if first is None:
+            first = (reading, why)
+    assert first is not None
+    reading, why = first
+    mentions = []
+    for s in reading.slots:
+        n = _slot_naming(reading, s, nm)
+        mentions.append(Mention(s.role, reading.slot_words(s), n.obj_class if n.near else None, s.count, n.named))
+    request = p > 0.5
+    heard = " ".join(reading.words)
+    if request:
+        targets = [m for m in mentions if m.role == "target"]
+        said = ", ".join(_say(m) for m in targets)
+        reason = f"asked for {said}" if said else "asked for something"
+    else:
+        reason = why or ("the words hold no request" if reading.words else "nothing was heard")
+    return Understanding(request, p, tuple(mentions), heard, reason)
+
+
+def _say(m: Mention) -> str:
+    what = m.obj_class or (m.named and f"{m.named} (not here)") or (m.words and f"{m.words!r}") or "an object not heard"
+    return f"{m.count} x {what}" if m.count else str(what)
+
+
+# log B: a target slot that is exactly one object's name makes that object B times likelier than
+# the phonetic channel alone says (docs/understanding.md). B = 20: a recogniser that writes the
+# name of the requested object about as often as all other names of a 20-object scene together.
+NAMED_LOG_RATIO = 3.0
+
+
+def named_classes(text: str, classes: Sequence[str], lexicon: Lexicon | None, focus: int | None) -> frozenset[str]:
+    """The classes whose exact name fills a target slot of ``text`` (target ``focus``, or all)."""
+    reading = read(text)
+    targets = reading.targets
+    if focus is not None and targets:
+        targets = (targets[min(focus, len(targets) - 1)],)
+    nm = namer(tuple(classes), lexicon)
+    out = set()
+    for s in targets:
+        n = _slot_naming(reading, s, nm)
+        if n.exact and n.obj_class is not None:
+            out.add(n.obj_class)
+    return frozenset(out)
+
+
+def naming_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any], lexicon: Lexicon | None,
+                      focus: int | None, log_ratio: float = NAMED_LOG_RATIO) -> Any:
+    """log sum_n w_n (1 + (B - 1) [the target slot of hypothesis n names the command's class]),
+    per command: the exact-name term of the slot channel (``weights`` w_n sum to 1)."""
+    import numpy as np
+
+    classes = tuple(sorted({c.obj_class for c in commands}))
+    b = math.exp(log_ratio) - 1.0
+    col = {c: k for k, c in enumerate(classes)}
+    mix = np.ones(len(classes))
+    for text, w in zip(texts, weights, strict=True):
+        for c in named_classes(text, classes, lexicon, focus):
+            mix[col[c]] += float(w) * b
+    return np.log(mix)[[col[c.obj_class] for c in commands]]

@@ -47,7 +47,7 @@ class InferOptions:
     engine: str = "pocketsphinx"
     nbest: int = 10
     top: int = 10
-    decide: str = "expected-benefit"
+    decide: str = "teammate"
 
     def __post_init__(self) -> None:
         if self.nbest < 1 or self.top < 1:

@@ -21,6 +21,7 @@ Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -36,6 +37,7 @@ from siftom.errors import ObservationError, unknown_name
 from siftom.inference.model import JointPosterior, Posterior
 from siftom.logspace import logsumexp
 from siftom.registry import Registry
+from siftom.world.commands import RobotCommand
 from siftom.world.model import State, World
 
 # The time of one spoken exchange when a caller fixes it (``ask_cost=``) and for the simple pair
@@ -389,11 +391,118 @@ class AskOrActRule:
                         + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), top)
 
 
+# P(most probable command) at which a request counts as understood: the robot carries it out
+# (docs/decisions.md, "The teammate rule")
+DEFAULT_CONFIDENT = 0.75
+
+
+def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
+    """(objects of the command's class the robot could still bring, objects already at the
+    target or in the person's hands) in the situation's state."""
+    from siftom.world.model import HUMAN
+
+    cmd = RobotCommand.parse(command)
+    w, st = where.world, where.state
+    if cmd.obj_class not in w.classes:
+        return 0, 0
+    k = w.classes.index(cmd.obj_class)
+    items = [i for i, c in enumerate(w.item_class_idx) if int(c) == k]
+    held = {int(st.held[HUMAN])}
+    there = [i for i in items if int(st.item_at[i]) == where.target or i in held]
+    return len(items) - len(there), len(there)
+
+
+def decline_reason(command: str, where: Situation) -> str:
+    """A reason the robot can say for not carrying out ``command``, or '' when it can."""
+    from siftom.likelihood.lexicon import default_lexicon
+
+    cmd = RobotCommand.parse(command)
+    left, there = left_to_bring(command, where)
+    if left >= 1:
+        return ""
+    name = default_lexicon().entry(cmd.obj_class).singular
+    if there:
+        return f"the {name} is already with you"
+    return f"there is no {name} left to bring"
+
+
+@dataclass(frozen=True)
+class TeammateRule:
+    """Answer every request: carry it out when understood, ask when unsure, decline with a reason.
+
+    When the most probable command holds at least ``confident`` of the posterior, the request
+    was understood and the robot carries it out -- unless it cannot, for a reason it can say
+    ("the honey is already with you"). Otherwise it asks: ask-or-act's most valuable question
+    when one pays, and when none does a choice naming the two likeliest objects ("Which one:
+    the cereal or the sugar?"), so a person who asked never meets silence. Team value chooses
+    between interpretations and questions; it does not overrule a request understood. A
+    request nobody made never reaches a rule (the observer answers ``none``).
+
+    The other options are ask-or-act's (loss aversion, question cost, kinds).
+    """
+
+    confident: float = DEFAULT_CONFIDENT
+    ask_cost: float | None = None
+    penalty: float = DEFAULT_QUESTION_PENALTY
+    loss_aversion: float = DEFAULT_LOSS_AVERSION
+    kinds: tuple[str, ...] = KINDS
+    cost_model: QuestionCost = field(default_factory=QuestionCost)
+    utility: str = DEFAULT_UTILITY
+    spent: float = 0.0
+    name: str = "teammate"
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.confident, (int, float)) and 0.0 < self.confident <= 1.0):
+            raise ObservationError(f"confident must be a probability in (0, 1], got {self.confident!r}")
+
+    def __call__(self, post: Posterior, where: Situation) -> Decision:
+        top = str(post.command)
+        p = post.prob(top)
+        if p >= self.confident:
+            why_not = decline_reason(top, where)
+            if why_not:
+                return Decision(self.name, NONE, NONE, 0.0, 0.0, reason=f"asked for {top}, but {why_not}")
+            tv = _values(post, where)
+            eb = float(tv.expected()[tv.actions.index(top)]) if top in tv.actions else float("nan")
+            return Decision(self.name, top, top, p, eb,
+                            reason=f"asked for {top} (P = {p:.2f})" + (f", expected to save {eb:.1f} steps"
+                                                                        if np.isfinite(eb) else ""),
+                            benefits=_top(tv.actions, tv.expected()))
+        ask = AskOrActRule(self.ask_cost, self.penalty, self.loss_aversion, self.kinds, self.cost_model,
+                           utility=self.utility, spent=self.spent)(post, where)
+        if ask.action == "ask":
+            alt = ", ".join(o for o in ask.options if o != top)
+            return dataclasses.replace(ask, rule=self.name, reason=f"asked for {top} (P = {p:.2f}), or "
+                                       f"{alt or 'something else'}: {ask.reason}")
+        if ask.action == top and not decline_reason(top, where):
+            return dataclasses.replace(ask, rule=self.name, reason=f"asked for {top} (P = {p:.2f}): {ask.reason}")
+        return self._choose(post, where, top, p)
+
+    def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
+        """Ask which of the two likeliest objects it was (or what was needed, with one)."""
+        from siftom.assist.questions import Question, choose_question
+
+        others = [str(c) for c, _ in post.commands[1:] if str(c) != top and not decline_reason(str(c), where)]
+        if not decline_reason(top, where) and others:
+            q = choose_question(top, others[0])
+            return Decision(self.name, "ask", top, p, float("nan"), q.text, q.options, 0.0,
+                            question_cost(q, self.ask_cost, self.cost_model),
+                            f"asked for {top} (P = {p:.2f}) or {others[0]}: not sure which", (), q.kind, q)
+        q = Question("open", "Sorry, what do you need?", (), ((),), ((),))
+        return Decision(self.name, "ask", top, p, float("nan"), q.text, (), 0.0, self.ask_cost or DEFAULT_ASK_COST,
+                        "not sure what was asked for", (), q.kind, q)
+
+
 RULES = Registry("decision rule", default="map")
 RULES.register("map", "siftom.assist.decide:MapRule", summary="execute the most probable command")
 RULES.register("expected-benefit", "siftom.assist.decide:ExpectedBenefitRule",
                summary="carry out the command asked for when it saves the team steps in expectation, else nothing",
                attrs={"options": ("loss_aversion", "utility", "spent", "scope")})
+RULES.register("teammate", "siftom.assist.decide:TeammateRule",
+               summary="carry out a request understood, ask about one unsure (naming the candidates), "
+                       "decline only with a reason",
+               attrs={"options": ("confident", "ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",
+                                   "utility", "spent")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",

@@ -1,4 +1,5 @@
-"""Benchmark subcommands: ``dataset build``, ``dataset check``, ``eval``, ``report``."""
+"""Benchmark subcommands: ``dataset build``, ``dataset check``, ``eval``, ``report``, ``sweep`` and
+``bench understanding``."""
 
 from __future__ import annotations
 
@@ -281,6 +282,59 @@ def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_addr
 @click.group("bench")
 def bench_group() -> None:
     """Benchmarks (speed and accuracy); --json for machines."""
+
+
+_CONDITIONS = ("text", "clean", "10dB")
+
+
+def _conditions(value: str) -> tuple[str, ...]:
+    """``--conditions``: comma-separated, each one of text, clean, 10dB (any case)."""
+    by_lower = {c.lower(): c for c in _CONDITIONS}
+    got = []
+    for v in _csv(value):
+        if v.lower() not in by_lower:
+            raise click.BadParameter(f"unknown condition {v!r}; give a comma-separated list of "
+                                     f"{', '.join(_CONDITIONS)}, e.g. --conditions text,clean", param_hint="--conditions")
+        got.append(by_lower[v.lower()])
+    if not got:
+        raise click.BadParameter(f"no condition given; choose from {', '.join(_CONDITIONS)}", param_hint="--conditions")
+    return tuple(dict.fromkeys(got))
+
+
+@bench_group.command("understanding")
+@click.option("--set", "set_name", type=click.Choice(["dev", "heldout"]), default="dev", show_default=True,
+              help="the wordings: dev, or heldout (templates written apart from dev's, other worlds)")
+@click.option("--world-seed", "world_seed", type=click.IntRange(min=0), default=None,
+              help="the worlds' seed (default: 201 for dev, 202 for heldout)")
+@click.option("--worlds", type=click.IntRange(min=1), default=6, show_default=True, help="worlds per domain")
+@click.option("--conditions", default="text", show_default=True,
+              help="comma-separated: text (the words), clean (spoken by TTS voices), 10dB (in recorded noise)")
+@click.option("--limit", type=click.IntRange(min=1), default=None, help="run only the first N items (kinds mixed)")
+@click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
+              help="FILE.jsonl: one row per item and condition; FILE.summary.json and, for recorded "
+                   "conditions, FILE.audio/ beside it")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="seed of the items' objects, counts and wordings and of the noise")
+@click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
+def bench_understanding_cmd(set_name: str, world_seed: int | None, worlds: int, conditions: str, limit: int | None,
+                            out: str | None, seed: int, as_json: bool) -> None:
+    """How often the robot understands what people say: per kind of utterance and condition."""
+    from rich.console import Console
+
+    from siftom.bench.understanding import WORLD_SEEDS, generate_items, run_benchmark, table
+
+    conds = _conditions(conditions)
+    ws = WORLD_SEEDS[set_name] if world_seed is None else world_seed
+    items = generate_items(set_name, ws, worlds, seed)[:limit]
+    meta = {"set": set_name, "world_seed": ws, "worlds_per_domain": worlds, "seed": seed, "limit": limit}
+    with _bar("understanding", not as_json) as bar:
+        run = run_benchmark(items, conds, seed=seed, out=out, meta=meta, progress=bar)
+    if as_json:
+        click.echo(json.dumps(run.summary, indent=2))
+        return
+    Console().print(table(run.summary))
+    click.echo(f"{len(items)} items x {len(conds)} conditions in {run.seconds:.0f} s"
+               + (f"; wrote {', '.join(run.files)}" if run.files else ""))
 
 
 def register(root: click.Group) -> None:

@@ -170,7 +170,7 @@ def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence
     for text, w in zip(texts, weights, strict=True):
         reading = read(text)
         lo, why = request_log_odds(reading, nm)
-        p += w * (1 / (1 + math.exp(-lo)))
+        p += float(w) / (1 + math.exp(-lo))
         if first is None:
             first = (reading, why)
     assert first is not None
@@ -179,7 +179,8 @@ def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence
     for s in reading.slots:
         n = _slot_naming(reading, s, nm)
         mentions.append(Mention(s.role, reading.slot_words(s), n.obj_class if n.near else None, s.count, n.named))
-    request = p > 0.5
+    p = float(min(1.0, max(0.0, p)))
+    request = bool(p > 0.5)
     heard = " ".join(reading.words)
     if request:
         targets = [m for m in mentions if m.role == "target"]
@@ -195,10 +196,39 @@ def _say(m: Mention) -> str:
     return f"{m.count} x {what}" if m.count else str(what)
 
 
-# log B: a target slot that is exactly one object's name makes that object B times likelier than
-# the phonetic channel alone says (docs/understanding.md). B = 20: a recogniser that writes the
-# name of the requested object about as often as all other names of a 20-object scene together.
-NAMED_LOG_RATIO = 3.0
+# How sharply a target slot that is exactly an object's name speaks against the other objects:
+# command k loses NAMED_SHARPNESS * r(name, k)^NAMED_POWER nats, r the relative phoneme cost of
+# the heard name against k's names (0 for k itself, about 1 for nothing alike), so a name a
+# recogniser confuses with k's ("potato" for "tomato", r = 0.35) speaks little against k and an
+# unlike one ("bowl" for "apple", r = 0.54; "coffee" for "oatmeal") much (docs/understanding.md).
+NAMED_SHARPNESS = 10.0
+NAMED_POWER = 2.0
+
+
+@lru_cache(maxsize=4096)
+def _name_distances(name_class: str, classes: tuple[str, ...], lexicon: Lexicon | None) -> tuple[float, ...]:
+    """r of ``name_class``'s name against each class's names (0 for itself), capped at 1."""
+    from siftom.likelihood.background import MeaningVocabulary
+
+    lex = lexicon or default_lexicon()
+    heard = tuple(p for w in lex.entry(name_class).singular.split() for p in word_phonemes(w))
+    out = []
+    for c in classes:
+        if c == name_class:
+            out.append(0.0)
+            continue
+        words = {f for n in lex.entry(c).names for f in (n.singular.replace(" ", ""), n.plural.replace(" ", ""))}
+        v = _vocab_of(frozenset(words))
+        out.append(min(1.0, float(v.relative_costs_phones(heard, 1.0).min())) if heard else 1.0)
+    del MeaningVocabulary
+    return tuple(out)
+
+
+@lru_cache(maxsize=4096)
+def _vocab_of(words: frozenset[str]) -> Any:
+    from siftom.likelihood.background import MeaningVocabulary
+
+    return MeaningVocabulary(words)
 
 
 def named_classes(text: str, classes: Sequence[str], lexicon: Lexicon | None, focus: int | None) -> frozenset[str]:
@@ -217,16 +247,20 @@ def named_classes(text: str, classes: Sequence[str], lexicon: Lexicon | None, fo
 
 
 def naming_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any], lexicon: Lexicon | None,
-                      focus: int | None, log_ratio: float = NAMED_LOG_RATIO) -> Any:
-    """log sum_n w_n (1 + (B - 1) [the target slot of hypothesis n names the command's class]),
-    per command: the exact-name term of the slot channel (``weights`` w_n sum to 1)."""
+                      focus: int | None, sharpness: float = NAMED_SHARPNESS, power: float = NAMED_POWER) -> Any:
+    """Per command k: log sum_n w_n exp(-sharpness * r(named_n, k)^power), the exact-name term
+    of the slot channel (``weights`` w_n sum to 1; a hypothesis that names no object exactly
+    contributes w_n to every command, one that names several the best of them)."""
     import numpy as np
 
     classes = tuple(sorted({c.obj_class for c in commands}))
-    b = math.exp(log_ratio) - 1.0
     col = {c: k for k, c in enumerate(classes)}
-    mix = np.ones(len(classes))
+    mix = np.zeros(len(classes))
     for text, w in zip(texts, weights, strict=True):
-        for c in named_classes(text, classes, lexicon, focus):
-            mix[col[c]] += float(w) * b
-    return np.log(mix)[[col[c.obj_class] for c in commands]]
+        named = named_classes(text, classes, lexicon, focus)
+        if not named or sharpness <= 0:
+            mix += float(w)
+            continue
+        r = np.min([_name_distances(c, classes, lexicon) for c in sorted(named)], axis=0)
+        mix += float(w) * np.exp(-sharpness * r ** power)
+    return np.log(np.maximum(mix, 1e-300))[[col[c.obj_class] for c in commands]]

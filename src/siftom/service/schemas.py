@@ -19,7 +19,7 @@ MAX_SCENARIO_ID = 200
 MAX_SAY_CHARS = 300  # about 20 s of speech at the default rate
 
 Mode = Literal["full", "speech-only", "action-only"]  # == inference.model.MODES (tested)
-DecisionRuleName = Literal["map", "expected-benefit", "ask-or-act"]  # == assist.decide.RULES (tested)
+DecisionRuleName = Literal["map", "expected-benefit", "ask-or-act", "teammate"]  # == assist.decide.RULES (tested)
 NoiseKind = Literal["white", "pink", "brown", "babble", "hum"]
 VoiceName = Literal[tuple(VOICES)]  # type: ignore[valid-type]
 
@@ -194,7 +194,7 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
         "n_actions": {"type": "integer", "minimum": 0, "maximum": MAX_ACTIONS},
         "asr_nbest": {"type": "integer", "minimum": 1, "maximum": MAX_ASR_NBEST},
         "top": {"type": "integer", "minimum": 1, "maximum": 100},
-        "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act"]},
+        "decide": {"type": "string", "enum": ["map", "expected-benefit", "ask-or-act", "teammate"]},
     },
     "additionalProperties": False,
 }

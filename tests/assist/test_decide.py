@@ -119,7 +119,7 @@ def test_answer_update_is_bayes_rule():
 
 
 def test_registry_names_and_errors():
-    assert set(RULES) == {"map", "expected-benefit", "ask-or-act"}
+    assert set(RULES) == {"map", "expected-benefit", "ask-or-act", "teammate"}
     with pytest.raises(UnknownNameError, match="expected-benefit"):
         get_rule("expected_benefit")
     with pytest.raises(ObservationError, match="ask_cost"):

@@ -74,9 +74,10 @@ def test_steps_already_spent_count_in_every_outcome():
         eu = tv.prob @ u
         want = tv.actions[-1] if eu[-1] >= eu.max() - 1e-9 else tv.actions[int(np.argmax(eu))]
         assert decide(post, where, "expected-benefit", loss_aversion=3.0, spent=spent, scope="any").action == want
-    # here the robot that has spent nothing stands still, one already 2 steps behind acts
-    acts = [decide(post, where, "expected-benefit", loss_aversion=3.0, spent=x, scope="any").action for x in (0.0, 2.0)]
-    assert acts[0] == NONE and acts[1] != NONE
+    # doing nothing is a loss once steps were spent: its utility falls by (1 + aversion) per step
+    none_u = [float(tv.prob @ (tv.benefit[:, -1] - x - 3.0 * np.maximum(0.0, -(tv.benefit[:, -1] - x))))
+              for x in (0.0, 2.0)]
+    assert none_u[1] == pytest.approx(none_u[0] - 8.0)
 
 
 def test_unknown_utility_is_refused_with_the_choices():

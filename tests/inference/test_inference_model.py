@@ -122,17 +122,25 @@ def test_hand_computed_two_goal_one_action_posterior():
                      + cfg.help_kappa * saved[(g, cls)] - logsumexp([cfg.help_kappa * x for x in others]))
         cmd = f"deliver({cls},1)"
         log_joint[(g, cmd)] = log_prior + action_loglik(part) + cfg.speech_weight * heard[cmd]
+    # An off-plan request: with probability off_plan any command (uniform), whatever the goal;
+    # the walk is explained by the goals as they are: sum over hypotheses of prior x action term.
+    plans = logsumexp([v - cfg.speech_weight * heard[c] for (_g, c), v in log_joint.items()])
+    for key in list(log_joint):
+        log_joint[key] += math.log(1 - cfg.off_plan)
     # "Unknown goal": prior mass unknown_prior, uniform over the domain's commands (one object of
     # each class here), uniform over the legal actions.
     for cls in ("cup", "fork", "plate"):
         cmd = f"deliver({cls},1)"
         log_joint[(UNKNOWN, cmd)] = (math.log(cfg.unknown_prior) - math.log(3) - math.log(len(walks))
                                      + cfg.speech_weight * heard[cmd])
+        log_joint[("off-plan", cmd)] = (math.log(cfg.off_plan) - math.log(3) + plans
+                                        + cfg.speech_weight * heard[cmd])
     z = logsumexp(list(log_joint.values()))
     p = {h: math.exp(v - z) for h, v in log_joint.items()}
     commands, goal_marg = {}, {}
     for (g, cmd), x in p.items():
         commands[cmd] = commands.get(cmd, 0.0) + x
+        g = UNKNOWN if g == "off-plan" else g  # the robot values an off-plan request as the goal it names
         goal_marg[g] = goal_marg.get(g, 0.0) + x
 
     got_commands = dict(post.commands)
@@ -215,7 +223,10 @@ def test_unknown_goal_lets_the_words_win_outside_the_library():
     post = SIFToM(ModelConfig(unknown_prior=0.05), FixedLikelihood(says_plate)).infer(obs)
     assert post.command == "deliver(plate,1)"
     assert dict(post.goals)[UNKNOWN] > 0.5
-    none = SIFToM(ModelConfig(unknown_prior=0.0), FixedLikelihood(says_plate)).infer(obs)
+    # without the unknown goal, an off-plan request still lets the words win
+    off = SIFToM(ModelConfig(unknown_prior=0.0), FixedLikelihood(says_plate)).infer(obs)
+    assert off.command == "deliver(plate,1)"
+    none = SIFToM(ModelConfig(unknown_prior=0.0, off_plan=0.0), FixedLikelihood(says_plate)).infer(obs)
     assert none.prob("deliver(plate,1)") == 0.0
 
 
@@ -377,6 +388,7 @@ def _reference_posterior(world, start, actions, goals, cfg, heard):
         return logsumexp(per_beta) - math.log(len(cfg.betas))
 
     log_joint = {}
+    planned = {}
     for g in goals:
         parts = [(c, n - done(c)) for c, n in g.counts if n - done(c) >= 1]
         human = {c: tuple((c2, n2) for c2, n2 in g.counts if c2 != c) for c, _ in parts}
@@ -386,13 +398,20 @@ def _reference_posterior(world, start, actions, goals, cfg, heard):
             prior = (math.log(1 - cfg.unknown_prior) - math.log(len(goals))
                      + cfg.help_kappa * saved[c] - z)
             cmd = f"deliver({c},{left})"
-            log_joint[(g.name, cmd)] = prior + action_loglik(human[c]) + heard.get(cmd, -10.0)
+            planned[(g.name, cmd)] = (prior, action_loglik(human[c]))
+    # a request off the plan: with probability off_plan any command, whatever the goal; the
+    # actions are then explained by the goals' marginal likelihood
+    evidence = logsumexp([pr + al for pr, al in planned.values()])
+    for key, (pr, al) in planned.items():
+        log_joint[key] = math.log(1 - cfg.off_plan) + pr + al + heard.get(key[1], -10.0)
     unknown_cmds = [f"deliver({c},1)" for c in classes]
     uniform_actions = sum(-math.log(len(list(legal_actions(world, s, HUMAN))))
                           for s in states[:-1])
     for cmd in unknown_cmds:
         log_joint[(UNKNOWN, cmd)] = (math.log(cfg.unknown_prior) - math.log(len(unknown_cmds))
                                      + uniform_actions + heard.get(cmd, -10.0))
+        log_joint[("off-plan", cmd)] = (math.log(cfg.off_plan) - math.log(len(unknown_cmds))
+                                        + evidence + heard.get(cmd, -10.0))
     z = logsumexp(list(log_joint.values()))
     commands = {}
     for (_g, cmd), v in log_joint.items():

@@ -63,7 +63,8 @@ def test_listen_hears_the_command(cereal_wav, likelihood):
     assert evidence["likelihood"] == likelihood and evidence["likelihood_reason"] == "asked for"
     if likelihood == "phonetic":
         assert set(evidence) == {"likelihood", "likelihood_reason", "speech_heard", "instruction_heard",
-                                 "instruction_check"}
+                                 "instruction_check", "understanding", "parts"}
+        assert evidence["understanding"]["request"] and evidence["parts"] == ["fetch(cereal)"]
         assert evidence["instruction_check"] == "nbest"  # no open-vocabulary words: the N-best decides
     else:  # what the acoustic likelihood used is reported: its mode and, with Whisper, Whisper's own words
         from siftom.likelihood.whisper_factor import whisper_available

@@ -1,4 +1,5 @@
-"""Words near no command of the scene are not an instruction (likelihood/nearness.py)."""
+"""Nobody asked: words that hold no request are no instruction, by the utterance model's own weight
+(siftom.language.understand, with the chance levels of likelihood/nearness.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import pytest
 
 from siftom.api import get_model, make_instruction
 from siftom.assist.decide import Situation, decide
-from siftom.likelihood.nearness import CHANCE_QUANTILE, nearness
+from siftom.language.understand import understand
+from siftom.likelihood.nearness import CHANCE_QUANTILE
 from siftom.scenarios.base import get_scenario
 
 
@@ -24,16 +26,25 @@ def _commands(sid: str):
     return _online(sid)[1].candidates()[4]
 
 
-@pytest.mark.parametrize("heard", ["the panel of", "i have the puck", "what", "hand", "would i'm missing"])
-def test_what_a_recogniser_made_of_noise_is_not_near_the_kitchen_commands(heard):
-    assert not nearness([heard], _commands("kitchen-cereal-v0")).near
+def _asked(sid: str, heard: str) -> bool:
+    classes = sorted({c.obj_class for c in _commands(sid)})
+    return understand([heard], [1.0], classes).request
+
+
+@pytest.mark.parametrize("heard", ["the panel of", "i have the puck", "what", "hand", "would i'm missing",
+                                   "thanks", "the weather is nice today", "where did i leave my keys",
+                                   "don't bring the sugar", "my phone battery is dead"])
+def test_what_a_recogniser_made_of_noise_or_room_talk_is_no_request(heard):
+    assert not _asked("kitchen-cereal-v0", heard)
 
 
 @pytest.mark.parametrize("sid, heard", [("kitchen-cereal-v0", "can you pass me the serial"),
                                         ("kitchen-cereal-v0", "could you grab the olive oil please"),
-                                        ("household-table-v0/3", "bring me three forks")])
-def test_instructions_and_near_misses_are_near(sid, heard):
-    assert nearness([heard], _commands(sid)).near
+                                        ("household-table-v0/3", "bring me three forks"),
+                                        ("kitchen-cereal-v0", "pass me the silver"),
+                                        ("kitchen-cereal-v0", "we still need the")])
+def test_instructions_and_near_misses_are_requests(sid, heard):
+    assert _asked(sid, heard)
 
 
 def test_the_chance_level_holds_on_words_it_was_not_measured_on():
@@ -58,8 +69,9 @@ def test_the_chance_level_holds_on_words_it_was_not_measured_on():
 def test_the_posterior_says_so_and_the_decision_rules_do_nothing():
     sc, on = _online("kitchen-cereal-v0")
     post = on.posterior(make_instruction("the panel of"))
-    assert post.evidence["no_instruction"] is True
-    assert "no heard word is near a command" in post.evidence["no_instruction_reason"]
+    assert post.evidence["no_instruction"] is True and post.understanding is not None
+    assert not post.understanding.request and post.understanding.p_request < 0.5
+    assert "the panel of" in post.evidence["no_instruction_reason"]
     where = Situation.from_scenario(sc)
     for rule in ("map", "expected-benefit", "ask-or-act"):
         d = decide(post, where, rule)

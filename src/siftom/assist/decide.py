@@ -373,13 +373,15 @@ class AskOrActRule:
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         tv = _values(post, where)
-        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent)
+        # without a question it acts as expected-benefit does: the command asked for, or nothing
+        only = (post.command,) if post.command in tv.actions else None
+        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent, only)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
         qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds, unit=self.utility,
                             cost_model=self.cost_model, time_as_loss=self.time_as_loss, spent=self.spent)
         top = _top(tv.actions, eb)
-        if qs and qs[0][0] > self.cost(qs[0][1]):
+        if qs and qs[0][0] > self.cost(qs[0][1]) + 1e-9:  # a question worth exactly its cost is not asked
             value, q = qs[0]
             t = question_cost(q, self.ask_cost, self.cost_model)
             return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, t,

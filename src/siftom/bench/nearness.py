@@ -58,38 +58,6 @@ def measure(n: int = 4000, seed: int = 0, quantile: float = 0.01) -> dict[str, o
             "counts": {k: len(v) for k, v in sorted(by_len.items())}}
 
 
-def measure_command(n: int = 600, seed: int = 5, quantile: float = 0.05) -> dict[str, object]:
-    """Chance levels of r per phoneme length against the words of ONE object class (each class of
-    the built-in lexicon in turn): ``COMMAND_CHANCE_R``, the "could be that command's word" test
-    of ``siftom.likelihood.nearness.named_instead``. Single heard words only (no pairs)."""
-    from siftom.likelihood.lexicon import default_lexicon
-    from siftom.likelihood.nearness import scene_words, word_costs
-    from siftom.likelihood.phonemes import cmudict
-    from siftom.likelihood.phrasing import FILLER_WORDS, NUMBER_WORDS
-    from siftom.world.commands import RobotCommand
-
-    pool = sorted(w for w in cmudict() if w.isalpha() and len(w) > 1 and w not in FILLER_WORDS
-                  and w not in NUMBER_WORDS)
-    rng = np.random.default_rng(seed)
-    sample = [pool[i] for i in rng.choice(len(pool), size=n, replace=False)]
-    by_len: dict[int, list[float]] = {}
-    for cls in default_lexicon().classes:
-        words = scene_words([RobotCommand("fetch", cls)])
-        for w in sample:
-            if w in words:
-                continue
-            for heard, k, r in word_costs(w, words):
-                if " " not in heard:
-                    by_len.setdefault(min(k, LENGTHS[-1]), []).append(r)
-    levels = {k: round(float(np.quantile(v, quantile)), 3) for k, v in sorted(by_len.items()) if len(v) >= 50}
-    return {"words": n, "seed": seed, "quantile": quantile, "command_chance_r": levels,
-            "counts": {k: len(v) for k, v in sorted(by_len.items())}}
-
-
 if __name__ == "__main__":
-    if "--per-command" in sys.argv[1:]:
-        rest = [int(a) for a in sys.argv[1:] if a != "--per-command"][:2]
-        print(json.dumps(measure_command(*rest), indent=2))
-    else:
-        args = [int(a) for a in sys.argv[1:3]]
-        print(json.dumps(measure(*args), indent=2))
+    args = [int(a) for a in sys.argv[1:3]]
+    print(json.dumps(measure(*args), indent=2))

@@ -42,6 +42,7 @@ from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, 
 OnStep = Callable[[str, "OnlineInference", Any], None]
 MODES = ("full", "speech-only", "action-only")
 UNKNOWN = "unknown"
+OFF_PLAN = "off-plan"  # a request for something outside the person's plan (hypotheses only)
 
 
 @dataclass(frozen=True)
@@ -402,7 +403,10 @@ class OnlineInference:
         gorder = gorder[gm[gorder] > 0]
         goals = tuple(zip([goal_names[k] for k in gorder.tolist()], gm[gorder].tolist(), strict=True))
         order = np.argsort(-lj, kind="stable")[:top]
-        hyps = tuple(JointHypothesis(goal_names[goal_all[i]], cmds[cmd_all[i]], float(p[i]), float(terms[i, 0]),
+        labels = [goal_names[g] for g in goal_all.tolist()]
+        if cfg.mode != "speech-only" and len(unk_cmds):  # the off-plan rows, valued as the unknown goal
+            labels[len(labels) - len(unk_cmds):] = [OFF_PLAN] * len(unk_cmds)
+        hyps = tuple(JointHypothesis(labels[i], cmds[cmd_all[i]], float(p[i]), float(terms[i, 0]),
                                 float(terms[i, 1]), float(terms[i, 2])) for i in order)
         post = Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,

@@ -6,9 +6,9 @@ module gives each slot its role from the markers around it, left to right:
 * after a negation ("not the sugar", "don't bring the sugar", "instead of the sugar"): ``negated``;
 * after a correction ("the jam, um, I mean the honey"): the slot before is ``retracted`` and
   the next one is a ``target``;
-* after a relation word ("for the cereal", "from next to the oatmeal", "with the milk"), before
-  "is/are already here" ("the sugar is already here") or after a possession ("I already have the
-  sugar"): ``context``;
+* after a relation word ("for the cereal", "from next to the oatmeal", "with the milk"), as the
+  subject of a copula ("the sugar is already here", "my phone battery is dead") or after a
+  possession ("I already have the sugar"): ``context``;
 * after a question word with no request frame between ("where did I leave my keys"): ``context``
   (asked about, not asked for);
 * any other slot: ``target``; a slot joined to the one before by "and" takes its role ("not the
@@ -173,7 +173,7 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
             role = "context"
         else:
             role = "target"
-        # "the sugar is already here": a slot followed by a copula and a place word is context
+        # "the sugar is already here": the subject of a copula is context
         if role == "target" and _is_here(kinds, j):
             role = "context"
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
@@ -201,6 +201,6 @@ def _asks_to_have(kinds: list[str], j: int) -> bool:
 
 
 def _is_here(kinds: list[str], j: int) -> bool:
-    """A slot at ``j`` followed by a copula and a place word ("is already here", "are there")."""
-    after = kinds[j + 1:j + 4]
-    return len(after) >= 2 and after[0] == "COP" and after[1] == "HERE"
+    """A slot at ``j`` that is the subject of a copula: a statement about the object ("the sugar
+    is already here", "my phone battery is dead"), not a request for it."""
+    return j + 1 < len(kinds) and kinds[j + 1] == "COP"

@@ -103,15 +103,15 @@ class Namer:
 
         if not words:
             return Naming(None, math.inf, 0.0)
-        phrase = " ".join(words)
-        for k in range(len(words)):  # the longest name at the end of the slot ("the big olive oil")
-            tail = " ".join(words[k:])
-            if tail in self.exact:
-                return Naming(self.exact[tail], 0.0, 0.0, exact=True)
-        for k in range(len(words)):
-            tail = " ".join(words[k:])
-            if tail in self.absent:
-                return Naming(None, math.inf, 0.0, named=self.absent[tail])
+        # a name said in the slot: the last one (the head of an English noun phrase comes last:
+        # "the sugar cereal"), the longest there ("olive oil" before "oil")
+        for end in range(len(words), 0, -1):
+            for start in range(end):
+                said = " ".join(words[start:end])
+                if said in self.exact:
+                    return Naming(self.exact[said], 0.0, 0.0, exact=True)
+                if said in self.absent:
+                    return Naming(None, math.inf, 0.0, named=self.absent[said])
         best_r, best_c, best_n = math.inf, None, 0
         spans = [(w,) for w in words] + [tuple(words[i:i + 2]) for i in range(len(words) - 1)]
         for span in spans:
@@ -122,7 +122,6 @@ class Namer:
             k = int(costs.argmin())
             if costs[k] < best_r:
                 best_r, best_c, best_n = float(costs[k]), self.row_classes[k][0], len(phones)
-        del phrase
         return Naming(best_c, best_r, chance_threshold(best_n) if best_c else 0.0)
 
 
@@ -254,10 +253,13 @@ def naming_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any
     import numpy as np
 
     classes = tuple(sorted({c.obj_class for c in commands}))
+    # a name is read against every class the lexicon knows, so a command's factor does not depend
+    # on which other commands are scored with it
+    known = tuple(sorted(set(classes) | set((lexicon or default_lexicon()).classes)))
     col = {c: k for k, c in enumerate(classes)}
     mix = np.zeros(len(classes))
     for text, w in zip(texts, weights, strict=True):
-        named = named_classes(text, classes, lexicon, focus)
+        named = named_classes(text, known, lexicon, focus)
         if not named or sharpness <= 0:
             mix += float(w)
             continue

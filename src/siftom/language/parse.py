@@ -36,6 +36,8 @@ _FRAME = frozenset({"VERB", "MODAL", "WANT", "PLEASE"})
 # the word classes a focused request keeps around its targets ("could you pass me ... please")
 FRAME_WORDS = frozenset({"VERB", "ME", "MODAL", "YOU", "SELF", "WANT", "PLEASE"})
 _COUNTS = {"both": 2, "pair": 2, "single": 1, "couple": 2}
+# "I'd", "we'd": a wish ("I'd love the tea"), not a statement, whatever verb follows
+_WISHING = frozenset({"i'd", "we'd"})
 
 
 @dataclass(frozen=True)
@@ -146,18 +148,22 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
                     s = slots[-1]
                     slots[-1] = Slot("retracted", s.start, s.end, s.nouns, s.count)
                 pending = "target"
-            elif kind == "CTX":
+            elif kind == "CTX" and pending != "negated":
                 pending = "context"
-            elif kind == "HAVE" and not _asks_to_have(kinds, j):
+            elif kind == "HAVE" and pending != "negated" and not _asks_to_have(kinds, j):
                 pending = "context"  # "I already have the sugar"
+            elif kind == "COP" and slots and j > 0 and kinds[j - 1] == "np" and pending != "negated":
+                pending = "context"  # the predicate of a statement about a slot ("the weather is nice")
             elif kind == "WH":
                 asking, question = True, True
+            elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(kinds, words_of(pieces, j + 1)):
+                asking = True  # "I saw ...", "we bought ...": the speaker tells, nobody is asked
             elif kind == "AND":
                 joined = True
                 continue
             elif kind in _FRAME or kind == "ME":
                 frame = frame or _has_frame(kinds, j)
-                if kind in ("VERB", "MODAL") and pending in ("context", ""):
+                if kind in ("VERB", "MODAL") and pending == "context":
                     pending = ""  # "I need to get the X": "to" before a verb relates nothing
                 if kind in ("VERB", "MODAL"):
                     asking = False
@@ -179,6 +185,17 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
         pending, joined = "", False
     return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
+
+
+def words_of(pieces: list[tuple[str, list[tuple[str, int]]]], j: int) -> tuple[str, ...]:
+    """The word classes of the piece at ``j`` (empty past the end)."""
+    return tuple(k for k, _ in pieces[j][1]) if j < len(pieces) else ()
+
+
+def _tells(kinds: list[str], nxt: tuple[str, ...]) -> bool:
+    """"I" or "we" followed by a verb the grammar does not know as a request ("I saw", "we
+    bought"): a statement. The verb is read as the first word of a bare noun phrase."""
+    return bool(nxt) and nxt[0] == "WORD"
 
 
 def _has_frame(kinds: list[str], j: int) -> bool:

@@ -86,6 +86,13 @@ class Namer:
                     for w in form.split():
                         own.setdefault(w, set()).add(c)
         self.vocab = MeaningVocabulary(own)
+        # the spoken forms of each class a slot is compared with (whole names and their words)
+        self.forms: dict[str, tuple[str, ...]] = {}
+        for c in self.classes:
+            forms = {f.replace(" ", "") for n in self.lexicon.entry(c).names
+                     for f in (n.singular, n.plural, pluralize(n.singular))}
+            forms |= {w for n in self.lexicon.entry(c).names for f in (n.singular, n.plural) for w in f.split()}
+            self.forms[c] = tuple(sorted(forms))
         self.row_classes = [sorted(own[w]) for w in self.vocab.order]
         present = set(self.classes)
         self.absent: dict[str, str] = {}  # a name of a class the lexicon knows but the world lacks
@@ -96,6 +103,14 @@ class Namer:
                 for form in (n.singular, n.plural, pluralize(n.singular)):
                     if form not in self.exact:
                         self.absent.setdefault(form, n.singular)
+
+    def costs(self, words: Sequence[str]) -> list[float]:
+        """How unlike each class (in :attr:`classes`) the slot's words sound, in [0, 1]: the least
+        :func:`phone_distance` of a word, or two adjacent words run together, to a name of the
+        class (its whole name or one of its words, singular or plural); 0 when the slot says it."""
+        spans = [w for w in words] + [words[i] + words[i + 1] for i in range(len(words) - 1)]
+        return [min((phone_distance(sp, form) for sp in spans for form in self.forms[c]), default=1.0)
+                for c in self.classes]
 
     def name(self, words: Sequence[str]) -> Naming:
         """The class the words name best (module doc)."""
@@ -195,74 +210,88 @@ def _say(m: Mention) -> str:
     return f"{m.count} x {what}" if m.count else str(what)
 
 
-# How sharply a target slot that is exactly an object's name speaks against the other objects:
-# command k loses NAMED_SHARPNESS * r(name, k)^NAMED_POWER nats, r the relative phoneme cost of
-# the heard name against k's names (0 for k itself, about 1 for nothing alike), so a name a
-# recogniser confuses with k's ("potato" for "tomato", r = 0.35) speaks little against k and an
-# unlike one ("bowl" for "apple", r = 0.54; "coffee" for "oatmeal") much (docs/understanding.md).
-NAMED_SHARPNESS = 10.0
-NAMED_POWER = 2.0
+# The slot channel: how unlike a command's object the words of the target slot sound. Command k
+# loses SLOT_SHARPNESS * max(0, r_k - SLOT_SLACK) nats (at most SLOT_CAP), r_k the relative
+# phoneme cost of the slot's words against k's names (Namer.costs: 0 for k's own name, ~0.35 for
+# a rhyme such as "potato" for "tomato", 0.5 and more for words nothing alike). A recogniser
+# confuses near rhymes, so they cost little and the person's actions can still choose ("potato"
+# heard, the salad under way: the tomato); it does not write "beans" for "bowl", so an object
+# named clearly wins against the plan (docs/understanding.md).
+SLOT_SHARPNESS = 30.0
+SLOT_SLACK = 0.3
+SLOT_CAP = 12.0
+SLOT_POWER = 1.0
 
 
-@lru_cache(maxsize=4096)
-def _name_distances(name_class: str, classes: tuple[str, ...], lexicon: Lexicon | None) -> tuple[float, ...]:
-    """r of ``name_class``'s name against each class's names (0 for itself), capped at 1."""
-    from siftom.likelihood.background import MeaningVocabulary
-
-    lex = lexicon or default_lexicon()
-    heard = tuple(p for w in lex.entry(name_class).singular.split() for p in word_phonemes(w))
-    out = []
-    for c in classes:
-        if c == name_class:
-            out.append(0.0)
-            continue
-        words = {f for n in lex.entry(c).names for f in (n.singular.replace(" ", ""), n.plural.replace(" ", ""))}
-        v = _vocab_of(frozenset(words))
-        out.append(min(1.0, float(v.relative_costs_phones(heard, 1.0).min())) if heard else 1.0)
-    del MeaningVocabulary
-    return tuple(out)
-
-
-@lru_cache(maxsize=4096)
-def _vocab_of(words: frozenset[str]) -> Any:
-    from siftom.likelihood.background import MeaningVocabulary
-
-    return MeaningVocabulary(words)
+@lru_cache(maxsize=65536)
+def phone_distance(a: str, b: str) -> float:
+    """The phoneme edit distance of two words (unit costs) over the longer one's length: 0 for
+    the same sounds, 1/3 for "potato" and "tomato", 1/2 for "beans" and "bowls", 1 for nothing
+    shared. The recogniser's confusions are between words this near (docs/understanding.md)."""
+    pa = tuple(p for w in a.split() for p in word_phonemes(w))
+    pb = tuple(p for w in b.split() for p in word_phonemes(w))
+    if not pa or not pb:
+        return 0.0 if pa == pb else 1.0
+    prev = list(range(len(pb) + 1))
+    for i, x in enumerate(pa, 1):
+        cur = [i] + [0] * len(pb)
+        for j, y in enumerate(pb, 1):
+            cur[j] = min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y))
+        prev = cur
+    return prev[-1] / max(len(pa), len(pb))
 
 
-def named_classes(text: str, classes: Sequence[str], lexicon: Lexicon | None, focus: int | None) -> frozenset[str]:
-    """The classes whose exact name fills a target slot of ``text`` (target ``focus``, or all)."""
-    reading = read(text)
+def _target_slots(reading: Reading, focus: int | None) -> tuple[Slot, ...]:
     targets = reading.targets
     if focus is not None and targets:
         targets = (targets[min(focus, len(targets) - 1)],)
-    nm = namer(tuple(classes), lexicon)
-    out = set()
-    for s in targets:
-        n = _slot_naming(reading, s, nm)
-        if n.exact and n.obj_class is not None:
-            out.add(n.obj_class)
-    return frozenset(out)
+    return targets
 
 
-def naming_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any], lexicon: Lexicon | None,
-                      focus: int | None, sharpness: float = NAMED_SHARPNESS, power: float = NAMED_POWER) -> Any:
-    """Per command k: log sum_n w_n exp(-sharpness * r(named_n, k)^power), the exact-name term
-    of the slot channel (``weights`` w_n sum to 1; a hypothesis that names no object exactly
-    contributes w_n to every command, one that names several the best of them)."""
+@lru_cache(maxsize=16384)
+def _slot_costs(words: tuple[str, ...], nm: Namer) -> tuple[float, ...]:
+    return tuple(nm.costs(words))
+
+
+def _count_cost(said: int, count: int) -> float:
+    """r between two counts' number words (0 when equal)."""
+    from siftom.likelihood.numbers import number_word
+
+    if said == count:
+        return 0.0
+    return phone_distance(number_word(said), number_word(count))
+
+
+def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any], lexicon: Lexicon | None,
+                    focus: int | None, sharpness: float = SLOT_SHARPNESS) -> Any:
+    """Per command k: log sum_n w_n exp(-penalty_n(k)), the slot channel (module constants):
+    for hypothesis n, the penalty of k's object against the target slot's words, plus that of
+    k's count against the count said. A hypothesis with no target words contributes w_n to every
+    command (the slot was lost: it says nothing). ``weights`` w_n sum to 1."""
     import numpy as np
 
     classes = tuple(sorted({c.obj_class for c in commands}))
-    # a name is read against every class the lexicon knows, so a command's factor does not depend
-    # on which other commands are scored with it
+    # the slot is read against every class the lexicon knows and the commands', so a command's
+    # factor does not depend on which other commands are scored with it
     known = tuple(sorted(set(classes) | set((lexicon or default_lexicon()).classes)))
-    col = {c: k for k, c in enumerate(classes)}
-    mix = np.zeros(len(classes))
+    nm = namer(known, lexicon)
+    col = {c: k for k, c in enumerate(nm.classes)}
+    idx = np.array([col[c.obj_class] for c in commands])
+    counts = [int(c.count) for c in commands]
+    mix = np.zeros(len(commands))
     for text, w in zip(texts, weights, strict=True):
-        named = named_classes(text, known, lexicon, focus)
-        if not named or sharpness <= 0:
+        reading = read(text)
+        slots = [s for s in _target_slots(reading, focus) if s.nouns]
+        if not slots or sharpness <= 0:
             mix += float(w)
             continue
-        r = np.min([_name_distances(c, classes, lexicon) for c in sorted(named)], axis=0)
-        mix += float(w) * np.exp(-sharpness * r ** power)
-    return np.log(np.maximum(mix, 1e-300))[[col[c.obj_class] for c in commands]]
+        best = np.full(len(commands), np.inf)
+        for s in slots:  # with every target at once (focus None): the nearest slot speaks for k
+            r = np.asarray(_slot_costs(tuple(reading.words[i] for i in s.nouns), nm))[idx]
+            pen = sharpness * np.maximum(0.0, r - SLOT_SLACK) ** SLOT_POWER
+            if s.count is not None:
+                pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) ** SLOT_POWER
+                                                  for n in counts])
+            best = np.minimum(best, pen)
+        mix += float(w) * np.exp(-np.minimum(best, SLOT_CAP))
+    return np.log(np.maximum(mix, 1e-300))

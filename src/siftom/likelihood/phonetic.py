@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from siftom.errors import ObservationError
-from siftom.language.understand import NAMED_SHARPNESS
+from siftom.language.understand import SLOT_SHARPNESS
 from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
 from siftom.likelihood.base import Scores
 from siftom.likelihood.editdistance import (
@@ -120,7 +120,7 @@ class PhoneticLikelihood:
         filler_sub_penalty: float = 0.4,
         content_insert_scale: float = 0.5,
         lost_word_weight: float = 0.3,
-        named_sharpness: float = NAMED_SHARPNESS,
+        slot_sharpness: float = SLOT_SHARPNESS,
         background: bool = True,
         relevance_range: tuple[float, float] = (R_NEAR, R_FAR),
         cache_size: int = 4096,
@@ -144,11 +144,11 @@ class PhoneticLikelihood:
         if not (np.isfinite(lost_word_weight) and 0 <= lost_word_weight <= 1):
             raise ObservationError(f"lost_word_weight must be in [0, 1], got {lost_word_weight!r}")
         self.lost_word_weight = float(lost_word_weight)
-        # A target slot that is exactly an object's name speaks against the other objects by how
-        # unlike their names it is (siftom.language.understand.naming_log_factor)
-        if not (np.isfinite(named_sharpness) and named_sharpness >= 0):
-            raise ObservationError(f"named_sharpness must be a number >= 0, got {named_sharpness!r}")
-        self.named_sharpness = float(named_sharpness)
+        # The slot channel: the target slot's words speak against each object by how unlike its
+        # names they sound (siftom.language.understand.slot_log_factor); 0 turns it off
+        if not (np.isfinite(slot_sharpness) and slot_sharpness >= 0):
+            raise ObservationError(f"slot_sharpness must be a number >= 0, got {slot_sharpness!r}")
+        self.slot_sharpness = float(slot_sharpness)
         # Words that sound like no object name, synonym, category word or count are background:
         # they cost about the same under every command (background.py, docs/likelihoods.md).
         self.background = bool(background)
@@ -284,11 +284,11 @@ class PhoneticLikelihood:
         ch[:, [len(self._heard(t, plan)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         out = logsumexp(plan.log_prior + per_content[plan.index], axis=1)
-        if self.named_sharpness > 0:
-            from siftom.language.understand import naming_log_factor
+        if self.slot_sharpness > 0:
+            from siftom.language.understand import slot_log_factor
 
-            out = out + naming_log_factor(texts, np.exp(logw), commands, self.lexicon,
-                                          instruction.focus, self.named_sharpness)
+            out = out + slot_log_factor(texts, np.exp(logw), commands, self.lexicon, instruction.focus,
+                                        self.slot_sharpness)
         return Scores(out)
 
     def _channel(self, d: np.ndarray, plan: _Plan) -> np.ndarray:

@@ -77,11 +77,15 @@ class Reading:
     def targets(self) -> tuple[Slot, ...]:
         return tuple(s for s in self.slots if s.role == "target")
 
-    def focus(self, k: int | None = None) -> str:
-        """The words that ask for target ``k`` (None: every target): the request frame and the
-        target slots, without negated, retracted or context slots and their markers. The text
-        itself when there is no target."""
-        targets = self.targets
+    def bare(self, slot: Slot) -> bool:
+        """Whether ``slot`` is words alone, with no determiner or count ("skip", "chance")."""
+        return slot.end - slot.start == len(slot.nouns)
+
+    def focus(self, k: int | None = None, targets: tuple[Slot, ...] | None = None) -> str:
+        """The words that ask for target ``k`` (None: every target) of ``targets`` (default: the
+        target slots): the request frame and those slots, without negated, retracted or context
+        slots and their markers. The text itself when there is no target."""
+        targets = self.targets if targets is None else targets
         if not targets:
             return " ".join(self.words)
         keep = targets if k is None else (targets[min(k, len(targets) - 1)],)
@@ -169,6 +173,16 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
                     asking = False
             joined = False if kind not in ("FILLER",) else joined
             continue
+        before = next((k for k in reversed(kinds[:j]) if k != "FILLER"), "")
+        if before in ("SELF", "YOU", "MODAL") and items[0][0] == "WORD":
+            # a bare word after a subject or a modal is a verb, not an object ("I'd love the tea",
+            # "I saw eggs", "you know", "I should water the plants"); the words after it, if any,
+            # are the slot
+            if before == "SELF" and words[_last(pieces, j, "SELF")] in _WISHING:
+                frame = True
+            items = items[1:]
+            if not items:
+                continue
         nouns = tuple(p for k, p in items if k == "WORD")
         counts = [c for k, p in items if k in ("NUM", "DET") for c in [_count(words[p])] if c is not None]
         if joined and slots:
@@ -185,6 +199,14 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
         pending, joined = "", False
     return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
+
+
+def _last(pieces: list[tuple[str, list[tuple[str, int]]]], j: int, kind: str) -> int:
+    """The word position of the last piece of ``kind`` before ``j``."""
+    for k in range(j - 1, -1, -1):
+        if pieces[k][0] == kind:
+            return pieces[k][1][0][1]
+    return 0
 
 
 def words_of(pieces: list[tuple[str, list[tuple[str, int]]]], j: int) -> tuple[str, ...]:

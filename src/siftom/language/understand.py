@@ -155,11 +155,46 @@ def _name_cached(words: tuple[str, ...], nm: Namer) -> Naming:
     return nm.name(words)
 
 
+def object_targets(reading: Reading, nm: Namer) -> tuple[Slot, ...]:
+    """The target slots that are object mentions: a slot that names an object (of the world, or
+    a name the lexicon knows), or a noun phrase whose object was lost or misheard ("the ...",
+    "the silver"). Words that name nothing and stand bare ("skip", "go", "chance" in "any chance
+    you could ...") are background, as is a noun phrase naming nothing beside a target that names
+    an object ("the rice, when you get a chance")."""
+    targets = reading.targets
+    if not targets:
+        return ()
+    naming = [_slot_naming(reading, s, nm) for s in targets]
+    names = [n.near or bool(n.named) for n in naming]
+    kept = tuple(s for s, ok in zip(targets, names, strict=True)
+                 if ok or (not reading.bare(s) and not any(names)) or not s.nouns)
+    return kept
+
+
+def focus_text(text: str, focus: int | None, nm: Namer) -> str:
+    """The words of ``text`` that ask for its object target ``focus`` (None: every one)."""
+    reading = read(text)
+    return reading.focus(focus, object_targets(reading, nm))
+
+
+def target_positions(words: Sequence[str], focus: int | None, nm: Namer) -> frozenset[int] | None:
+    """Word positions of the object target(s) of a transcript; None when it names none."""
+    reading = read(" ".join(words))
+    if tuple(reading.words) != tuple(words):
+        return None
+    targets = object_targets(reading, nm)
+    if not targets:
+        return None
+    if focus is not None:
+        targets = (targets[min(focus, len(targets) - 1)],)
+    return frozenset(i for s in targets for i in range(s.start, s.end))
+
+
 def request_log_odds(reading: Reading, nm: Namer) -> tuple[float, str]:
     """log-odds(request | words) for one reading and the cue that decided (module doc)."""
     lo = math.log(PRIOR_REQUEST / (1 - PRIOR_REQUEST))
     lo += _llr(P_FRAME) if reading.frame else _llr(_not(P_FRAME))
-    targets = reading.targets
+    targets = object_targets(reading, nm)
     if not targets:
         return lo + _llr(P_NO_SLOT), "no object was asked for"
     namings = [_slot_naming(reading, s, nm) for s in targets]
@@ -190,7 +225,10 @@ def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence
     assert first is not None
     reading, why = first
     mentions = []
+    objects = set(object_targets(reading, nm))
     for s in reading.slots:
+        if s.role == "target" and s not in objects:
+            continue  # background words
         n = _slot_naming(reading, s, nm)
         mentions.append(Mention(s.role, reading.slot_words(s), n.obj_class if n.near else None, s.count, n.named))
     p = float(min(1.0, max(0.0, p)))
@@ -241,8 +279,8 @@ def phone_distance(a: str, b: str) -> float:
     return prev[-1] / max(len(pa), len(pb))
 
 
-def _target_slots(reading: Reading, focus: int | None) -> tuple[Slot, ...]:
-    targets = reading.targets
+def _target_slots(reading: Reading, focus: int | None, nm: Namer) -> tuple[Slot, ...]:
+    targets = object_targets(reading, nm)
     if focus is not None and targets:
         targets = (targets[min(focus, len(targets) - 1)],)
     return targets
@@ -281,7 +319,7 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
     mix = np.zeros(len(commands))
     for text, w in zip(texts, weights, strict=True):
         reading = read(text)
-        slots = [s for s in _target_slots(reading, focus) if s.nouns]
+        slots = [s for s in _target_slots(reading, focus, nm) if s.nouns]
         if not slots or sharpness <= 0:
             mix += float(w)
             continue

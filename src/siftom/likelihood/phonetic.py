@@ -252,18 +252,19 @@ class PhoneticLikelihood:
 
     # -- the likelihood ------------------------------------------------------------------------
 
-    def nbest_weights(self, instruction: Instruction) -> tuple[list[str], np.ndarray]:
+    def nbest_weights(self, instruction: Instruction, classes: Iterable[str] = ()) -> tuple[list[str], np.ndarray]:
         """Distinct hypothesis texts and their log weights log w_n (duplicates merged), each read
         by the utterance model: only the words that ask for the target(s) of ``instruction.focus``
         (the request frame and the target slots; negated, taken-back and context objects are
         background, siftom.language)."""
-        from siftom.language.parse import read
+        from siftom.language.understand import focus_text, namer
 
+        nm = namer(tuple(sorted(set(self.lexicon.classes) | set(classes))), self.lexicon)
         scores = np.array([h.score for h in instruction.nbest], dtype=float) / self.asr_temperature
         logw = scores - logsumexp(scores)
         merged: dict[str, float] = {}
         for h, lw in zip(instruction.nbest, logw, strict=True):
-            key = " ".join(_normalize(read(h.text).focus(instruction.focus)))
+            key = " ".join(_normalize(focus_text(h.text, instruction.focus, nm)))
             merged[key] = float(np.logaddexp(merged[key], lw)) if key in merged else float(lw)
         return list(merged), np.array(list(merged.values()))
 
@@ -278,7 +279,7 @@ class PhoneticLikelihood:
         if not commands:
             return Scores(np.zeros(0))
         plan = self._plan(commands)
-        texts, logw = self.nbest_weights(instruction)
+        texts, logw = self.nbest_weights(instruction, (c.obj_class for c in commands))
         d = self.distances(texts, plan)  # (n_contents, n_hyps)
         ch = self._channel(d, plan)
         ch[:, [len(self._heard(t, plan)[0]) == 0 for t in texts]] = 0.0  # nothing heard: uninformative

@@ -52,6 +52,7 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     transcript's carrier words are often right where the grammar-biased 1-best's are not).
     """
     from siftom.likelihood.keyphrases import closest_phrasing, key_phrases, key_word_forms
+    from siftom.likelihood.lexicon import default_lexicon
 
     kept = range(len(commands)) if keep is None else [int(i) for i in keep]
     heard = instruction.text if instruction.nbest else ""
@@ -59,8 +60,15 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
     key_words = key_word_forms(k for ks in keys for k, _ in ks)
     transcripts = [w for w in ([heard.split()] if heard else []) + [list(t) for t in also_heard] if w]
     frames: list[tuple[tuple[str, ...], tuple[str, ...], bool]] = []
+    from siftom.language.understand import namer, target_positions
+
+    lex = lexicon or default_lexicon()
+    nm = namer(tuple(sorted(set(lex.classes) | {c.obj_class for c in commands})), lex)
     for words in transcripts:
-        slots = target_positions(words, instruction.focus)
+        # only a target's key words are replaced by each candidate's: "no, not the sugar, the honey"
+        # is scored as "no not the sugar the k" (siftom.language: the negated object stays in the
+        # carrier every candidate shares)
+        slots = target_positions(words, instruction.focus, nm)
         idx = [i for i, w in enumerate(words) if w in key_words and (slots is None or i in slots)]
         if idx:
             # a count heard after the object ("spoons four me", "the spoons, four of them"): the candidates
@@ -81,25 +89,6 @@ def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
             items += [(" ".join([*words[:-1], k]), lp) for k, lp in keys[i]]
         out.append(items)  # a text guessed twice counts twice: each kind of guess weighs 1
     return out, "sentence"
-
-
-def target_positions(words: Sequence[str], focus: int | None) -> frozenset[int] | None:
-    """Word positions of the target slot(s) of a transcript (target ``focus``, or every target),
-    as the utterance model reads it (siftom.language); None when it asks for no target, or the
-    model's words are not the transcript's (then every key word counts, as before reading).
-
-    Only a target's key words are replaced by each candidate's: "no, not the sugar, the honey"
-    is scored as "no not the sugar the k", so the negated object stays in the carrier that every
-    candidate shares."""
-    from siftom.language.parse import read
-
-    reading = read(" ".join(words))
-    if tuple(reading.words) != tuple(words) or not reading.targets:
-        return None
-    targets = reading.targets
-    if focus is not None:
-        targets = (targets[min(focus, len(targets) - 1)],)
-    return frozenset(i for s in targets for i in range(s.start, s.end))
 
 
 def count_last(phrase: str) -> str:

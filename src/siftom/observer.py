@@ -262,17 +262,21 @@ class Observer:
                    else NOTHING_ASKED if instruction is None else "")
         understood = post.understanding if said and instruction is not None else None
         targets = understood.targets if understood is not None and understood.request else ()
+        # several things in one request: each names an object (a slot naming none is one request
+        # with the rest: "any chance you could grab four knights")
+        named = [k for k, m in enumerate(targets) if m.obj_class is not None or m.named]
         parts: tuple[RobotCommand, ...] = ()
         decisions: list[Decision] = []
-        if len(targets) > 1 and instruction is not None and not nothing and mode != "speech-only":
+        if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":
             # several things in one request: each target read on its own (its slot alone is
             # scored), decided on its own; the robot carries out every part it would act on
             view = self._view(online, mode, lk)
             part_posts = [with_likelihood(view.posterior(dataclasses.replace(instruction, focus=k), top=top),
                                           lk if isinstance(lk, str) else type(lk).__name__, why)
-                          for k in range(len(targets))]
+                          for k in named]
             parts = tuple(pp.command for pp in part_posts)
-            decisions = [self._decide_part(pp, world, target, decide, m) for pp, m in zip(part_posts, targets, strict=True)]
+            decisions = [self._decide_part(pp, world, target, decide, targets[k])
+                         for pp, k in zip(part_posts, named, strict=True)]
             decision = _combine(decisions)
         else:
             if targets:

@@ -86,13 +86,11 @@ class Namer:
                     for w in form.split():
                         own.setdefault(w, set()).add(c)
         self.vocab = MeaningVocabulary(own)
-        # the spoken forms of each class a slot is compared with (whole names and their words)
+        # the spoken forms of each class a slot is compared with (its names, words run together)
         self.forms: dict[str, tuple[str, ...]] = {}
         for c in self.classes:
-            forms = {f.replace(" ", "") for n in self.lexicon.entry(c).names
-                     for f in (n.singular, n.plural, pluralize(n.singular))}
-            forms |= {w for n in self.lexicon.entry(c).names for f in (n.singular, n.plural) for w in f.split()}
-            self.forms[c] = tuple(sorted(forms))
+            self.forms[c] = tuple(sorted({f.replace(" ", "") for n in self.lexicon.entry(c).names
+                                          for f in (n.singular, n.plural, pluralize(n.singular))}))
         self.row_classes = [sorted(own[w]) for w in self.vocab.order]
         present = set(self.classes)
         self.absent: dict[str, str] = {}  # a name of a class the lexicon knows but the world lacks
@@ -108,9 +106,22 @@ class Namer:
         """How unlike each class (in :attr:`classes`) the slot's words sound, in [0, 1]: the least
         :func:`phone_distance` of a word, or two adjacent words run together, to a name of the
         class (its whole name or one of its words, singular or plural); 0 when the slot says it."""
-        spans = [w for w in words] + [words[i] + words[i + 1] for i in range(len(words) - 1)]
+        said = self._said_name(words)
+        if said is not None:  # a name was said: it is what the slot says ("wine glasses", not "glasses")
+            spans = ["".join(words[said[0]:said[1]])]
+        else:
+            spans = [w for w in words] + [words[i] + words[i + 1] for i in range(len(words) - 1)]
         return [min((phone_distance(sp, form) for sp in spans for form in self.forms[c]), default=1.0)
                 for c in self.classes]
+
+    def _said_name(self, words: Sequence[str]) -> tuple[int, int] | None:
+        """The span of the last, longest name (of the world or the lexicon) the words say."""
+        for end in range(len(words), 0, -1):
+            for start in range(end):
+                said = " ".join(words[start:end])
+                if said in self.exact or said in self.absent:
+                    return start, end
+        return None
 
     def name(self, words: Sequence[str]) -> Naming:
         """The class the words name best (module doc)."""
@@ -120,13 +131,12 @@ class Namer:
             return Naming(None, math.inf, 0.0)
         # a name said in the slot: the last one (the head of an English noun phrase comes last:
         # "the sugar cereal"), the longest there ("olive oil" before "oil")
-        for end in range(len(words), 0, -1):
-            for start in range(end):
-                said = " ".join(words[start:end])
-                if said in self.exact:
-                    return Naming(self.exact[said], 0.0, 0.0, exact=True)
-                if said in self.absent:
-                    return Naming(None, math.inf, 0.0, named=self.absent[said])
+        at = self._said_name(words)
+        if at is not None:
+            said = " ".join(words[at[0]:at[1]])
+            if said in self.exact:
+                return Naming(self.exact[said], 0.0, 0.0, exact=True)
+            return Naming(None, math.inf, 0.0, named=self.absent[said])
         best_r, best_c, best_n = math.inf, None, 0
         spans = [(w,) for w in words] + [tuple(words[i:i + 2]) for i in range(len(words) - 1)]
         for span in spans:

@@ -78,7 +78,7 @@ def test_the_same_seed_gives_the_same_items_and_another_seed_others() -> None:
         "kitchen-v0/w7-0", "household-table-v0/w7-0"}
 
 
-@pytest.mark.parametrize("set_name", ["dev", "heldout"])
+@pytest.mark.parametrize("set_name", ["dev", "heldout", "unseen"])
 def test_the_items_of_one_world_and_kind_name_different_objects(set_name: str) -> None:
     seen: dict[tuple[str, str], set[str]] = {}
     for i in items(set_name):
@@ -101,7 +101,26 @@ def test_heldout_wordings_share_no_template_with_dev() -> None:
         assert all(i.template in TEMPLATES[set_name][i.kind] for i in items(set_name))
 
 
-@pytest.mark.parametrize("set_name", ["dev", "heldout"])
+def test_the_unseen_set_covers_every_kind_and_shares_no_template_with_the_others() -> None:
+    def norm(t: str) -> str:
+        return re.sub(r"[^a-z{} ]+", "", t.lower()).strip()
+
+    got = items("unseen")
+    assert len(got) >= 150
+    assert len({i.id for i in got}) == len(got)
+    for domain in DOMAINS:
+        kinds = {i.kind for i in got if i.domain == domain}
+        assert kinds == (set(KINDS) if domain in COUNTED else set(KINDS) - {"count"})
+    assert {i.scenario.split("/")[1].split("-")[0] for i in got} == {"w203"}
+    assert set(TEMPLATES["unseen"]) == set(KINDS)
+    assert all(5 <= len(ts) <= 8 for ts in TEMPLATES["unseen"].values())
+    assert all(i.template in TEMPLATES["unseen"][i.kind] for i in got)
+    unseen = {norm(t) for ts in TEMPLATES["unseen"].values() for t in ts}
+    for other in ("dev", "heldout"):
+        assert not unseen & {norm(t) for ts in TEMPLATES[other].values() for t in ts}
+
+
+@pytest.mark.parametrize("set_name", ["dev", "heldout", "unseen"])
 def test_objects_are_present_or_absent_as_the_kind_demands(set_name: str) -> None:
     for item in items(set_name):
         sc = world_of(item)

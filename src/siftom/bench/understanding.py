@@ -12,10 +12,11 @@ the Y": both), ``count`` ("four bowls", household), ``any_object`` (an object th
 does not need), ``absent`` (a known object that is not in the world: nothing done, the reason
 names it) and ``nonrequest`` (thanks, room talk, questions to nobody).
 
-Two sets of wordings, written apart: ``dev`` and ``heldout`` share no template, so a model built
-on the dev wordings can be checked on wordings it never saw (and on other worlds: world seed 201
-for dev, 202 for held-out). Conditions: ``text`` (the words themselves), ``clean`` (spoken by a
-TTS voice) and ``10dB`` (the same clip in recorded household noise at 10 dB SNR).
+Three sets of wordings, written apart: ``dev``, ``heldout`` and ``unseen`` share no template, so
+a model built on the dev wordings can be checked on wordings it never saw (and on other worlds:
+world seed 201 for dev, 202 for held-out, 203 for unseen). Conditions: ``text`` (the words
+themselves), ``clean`` (spoken by a TTS voice) and ``10dB`` (the same clip in recorded household
+noise at 10 dB SNR).
 
 Everything random is drawn from generators seeded with ``[seed, set, domain, world, kind]``, so
 the same arguments give the same items. The templates are benchmark data only: nothing in the
@@ -40,14 +41,14 @@ from siftom.errors import DatasetError
 
 KINDS = ("plain", "misheard", "correction", "negation", "context", "compound", "count", "any_object",
          "absent", "nonrequest")
-SETS = ("dev", "heldout")
+SETS = ("dev", "heldout", "unseen")
 KITCHEN = "kitchen-v0"
 HOUSEHOLD = "household-table-v0"
 DOMAINS = (KITCHEN, HOUSEHOLD)
 # domains whose objects are asked for in numbers ("three forks"); a kitchen object is one item
 COUNTED = (HOUSEHOLD,)
 CONDITIONS = ("text", "clean", "10dB")
-WORLD_SEEDS = {"dev": 201, "heldout": 202}
+WORLD_SEEDS = {"dev": 201, "heldout": 202, "unseen": 203}
 DEFAULT_WORLDS = 6  # per domain
 PER_KIND = 2  # items per kind and world
 VOICES = ("flite-slt", "flite-awb", "espeak-en-us+klatt", "hibari-heart")
@@ -203,10 +204,104 @@ TEMPLATES: dict[str, dict[str, tuple[str, ...]]] = {
             "my sister is visiting next week",
         ),
     },
+    # Written fresh, apart from both sets above, as people talk to a home robot: contractions,
+    # fillers, politeness, indirect requests and clauses in either order.
+    "unseen": {
+        "plain": (
+            "Be a dear and grab {x} for me.",
+            "Um, can I get {x} when you're free?",
+            "Hey, would you mind bringing over {x}?",
+            "I could really use {x} right now.",
+            "When you get a sec, pass me {x}, would you?",
+            "Uh, {x} over here, if you could.",
+            "Do you think you could fetch {x}?",
+            "I'm gonna need {x} over here.",
+        ),
+        "misheard": (
+            "Mind handing me {x} real quick?",
+            "Um, I'd like {x}, if that's okay.",
+            "Would you mind bringing {x} my way?",
+            "Go ahead and grab {x}, thanks.",
+            "Uh, could I trouble you for {x}?",
+            "Think you could rustle up {x} for me?",
+        ),
+        "correction": (
+            "I'm after {x}, oh, hang on, I mean {y}.",
+            "Go grab {x}... hmm, on second thought, make it {y}.",
+            "I need {x}, um, no, I meant {y}.",
+            "Can you pass {x}? Scratch that, {y} instead.",
+            "Uh, {x}, no wait, {y}, please.",
+            "Hand me {x}. Hmm, actually, I'd rather have {y}.",
+            "Would you get {x}, er, I mean {y}?",
+        ),
+        "negation": (
+            "Don't worry about {x}, we're fine.",
+            "Nah, forget about {x}, I changed my mind.",
+            "Please don't grab {x}, I'm all set.",
+            "We won't be needing {x} tonight.",
+            "You can leave {x} alone, thanks.",
+            "Um, skip {x}, I don't want any.",
+            "Turns out I won't need {x} after all.",
+        ),
+        "context": (
+            "Okay, {y} {y_be} out already, so I just need {x}.",
+            "I've already got {y}, I just need {x} now.",
+            "Right, I've sorted out {y}; what I still need is {x}.",
+            "Seeing as {y} {y_be} here already, could you just round up {x}?",
+            "Don't bother with {y}, I've got that covered. Just {x}, please.",
+            "Could you bring {x} over by {y}?",
+            "Now that I've got {y}, can you find me {x}?",
+        ),
+        "compound": (
+            "Could you round up {x} and {y} for me, please?",
+            "Um, I'll need {x}, and also {y}.",
+            "Grab {x} for me, oh, and {y} as well.",
+            "Can I get {x} plus {y}?",
+            "I need {x} and, uh, {y} too, if you don't mind.",
+            "Would you pass {x}? And {y} while you're at it.",
+            "When you've got a second, I'm gonna need {x} and {y} over here.",
+        ),
+        "count": (
+            "We've got guests, so um, could you set out {x}?",
+            "I'll need {x} for everyone.",
+            "Can you grab {x} from over there?",
+            "Um, can we get {x} set out at our places?",
+            "Mind grabbing {x}? We've got company.",
+            "Bring over {x} when you can.",
+            "It's not just me tonight, so {x}, please.",
+        ),
+        "any_object": (
+            "Oh, while you're up, could you get me {x}?",
+            "I know it's random, but can you bring {x}?",
+            "Oh, before I forget, I'd like you to bring {x}.",
+            "Okay, this is gonna sound odd, but I'd like {x}, please.",
+            "Could you run and get {x}? Thanks a bunch.",
+            "Pop over and get {x} for me, would you?",
+        ),
+        "absent": (
+            "Do me a favor and dig out {x}, would you?",
+            "Um, is there any way you could pass me {x}?",
+            "Hey there, would you track down {x} for me?",
+            "Would you get {x} for me?",
+            "I'd love {x}, if it's not too much trouble.",
+            "Go grab {x}, would you?",
+        ),
+        "nonrequest": (
+            "Thanks, that's everything for now.",
+            "Wow, it smells amazing in here.",
+            "Hey Sam, did you remember to call your mom back?",
+            "I already put {x} away, don't worry.",
+            "Oh, I love how this room looks with the lights down.",
+            "Jamie, are you done with {x}?",
+            "Great job, that's exactly what I wanted.",
+            "Huh, I didn't know we still had {x}.",
+        ),
+    },
 }
 
 # Words that sound like an object's name but are not a name of it: class -> ((singular, plural),
-# ...). The dev set uses the first, the held-out set the second (a class with one is dev only).
+# ...). The dev set uses the first, the held-out set the second (a class with one is dev only),
+# the unseen set the second or, for a class with one, the first.
 # A confusion is used only where it names no object of the world (tomato -> potato only where
 # there is no potato).
 CONFUSIONS: dict[str, tuple[tuple[str, str], ...]] = {
@@ -366,8 +461,8 @@ def _world_info(scenario: Any) -> _World:
 def _confusion(w: _World, cls: str, set_name: str) -> tuple[str, str] | None:
     """The misheard words for ``cls`` in this set, when they name no object of the world."""
     options = CONFUSIONS.get(cls, ())
-    k = SETS.index(set_name)
-    if k >= len(options):
+    k = {"dev": 0, "heldout": 1}.get(set_name, min(1, len(options) - 1))
+    if not 0 <= k < len(options):
         return None
     sing, plural = options[k]
     if _names_any(sing, w.names) or _names_any(plural, w.names):
@@ -490,7 +585,8 @@ def generate_items(set_name: str = "dev", world_seed: int | None = None, worlds:
     """The items of a set: ``per_kind`` items of every kind in ``worlds`` worlds of each domain.
 
     Args:
-        set_name: ``dev`` or ``heldout`` (its own templates and, by default, its own worlds).
+        set_name: ``dev``, ``heldout`` or ``unseen`` (its own templates and, by default, its own
+            worlds).
         world_seed: the worlds' seed (default: :data:`WORLD_SEEDS` of the set).
         worlds: worlds per domain.
         seed: seed of every choice (objects, counts, templates).

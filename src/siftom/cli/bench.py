@@ -302,10 +302,10 @@ def _conditions(value: str) -> tuple[str, ...]:
 
 
 @bench_group.command("understanding")
-@click.option("--set", "set_name", type=click.Choice(["dev", "heldout"]), default="dev", show_default=True,
-              help="the wordings: dev, or heldout (templates written apart from dev's, other worlds)")
+@click.option("--set", "set_name", type=click.Choice(["dev", "heldout", "unseen"]), default="dev", show_default=True,
+              help="the wordings: dev, heldout or unseen (templates written apart from dev's, other worlds)")
 @click.option("--world-seed", "world_seed", type=click.IntRange(min=0), default=None,
-              help="the worlds' seed (default: 201 for dev, 202 for heldout)")
+              help="the worlds' seed (default: 201 for dev, 202 for heldout, 203 for unseen)")
 @click.option("--worlds", type=click.IntRange(min=1), default=6, show_default=True, help="worlds per domain")
 @click.option("--conditions", default="text", show_default=True,
               help="comma-separated: text (the words), clean (spoken by TTS voices), 10dB (in recorded noise)")

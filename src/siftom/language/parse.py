@@ -142,6 +142,7 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
     frame = False
     question = False
     joined = False  # "and" since the last slot
+    told: set[int] = set()  # slots of a statement the speaker made ("I saw the egg ...")
     kinds = [k for k, _ in pieces]
     for j, (kind, items) in enumerate(pieces):
         if kind != "np":
@@ -191,6 +192,8 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
             role = pending
         elif asking:
             role = "context"
+            if not question:
+                told.add(len(slots))
         else:
             role = "target"
         # "the sugar is already here": the subject of a copula is context
@@ -198,7 +201,27 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
             role = "context"
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
         pending, joined = "", False
+    if frame and told:
+        # a statement before a request ("I think we're out of milk, could you bring some"): what
+        # it mentions is what the request is about
+        slots = [Slot("target", s.start, s.end, s.nouns, s.count) if k in told else s for k, s in enumerate(slots)]
+    slots = _anaphora(slots)
     return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
+
+
+def _anaphora(slots: list[Slot]) -> list[Slot]:
+    """A target with no words ("bring some", "pass me that") refers to the last object mentioned
+    before it that was not negated: that slot is the target and the empty one goes."""
+    out = list(slots)
+    for k, s in enumerate(slots):
+        if s.role != "target" or s.nouns or any(x.role == "target" and x.nouns for x in slots):
+            continue
+        before = [i for i in range(k) if slots[i].role == "context" and slots[i].nouns]
+        if before:
+            b = slots[before[-1]]
+            out[before[-1]] = Slot("target", b.start, b.end, b.nouns, b.count)
+            out[k] = Slot("context", s.start, s.end, s.nouns, s.count)
+    return out
 
 
 def _last(pieces: list[tuple[str, list[tuple[str, int]]]], j: int, kind: str) -> int:
@@ -228,8 +251,8 @@ def _has_frame(kinds: list[str], j: int) -> bool:
         return True
     if k == "MODAL":
         return any(x in ("YOU", "SELF") for x in kinds[j + 1:j + 3])
-    if k == "WANT":
-        return any(x == "SELF" for x in kinds[max(0, j - 3):j]) or j == 0
+    if k == "WANT":  # with its subject: "I need", "we still need" (a bare "need an" is no frame)
+        return any(x == "SELF" for x in kinds[max(0, j - 3):j])
     return False
 
 

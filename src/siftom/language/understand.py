@@ -176,8 +176,11 @@ def object_targets(reading: Reading, nm: Namer) -> tuple[Slot, ...]:
         return ()
     naming = [_slot_naming(reading, s, nm) for s in targets]
     names = [n.near or bool(n.named) for n in naming]
+    # a noun phrase that names nothing is background beside one that names an object; bare words
+    # that name nothing are background beside any other slot
+    phrases = [s for s, ok in zip(targets, names, strict=True) if ok or not reading.bare(s)]
     kept = tuple(s for s, ok in zip(targets, names, strict=True)
-                 if ok or (not reading.bare(s) and not any(names)) or not s.nouns)
+                 if ok or not s.nouns or (not any(names) and (not reading.bare(s) or not phrases)))
     return kept
 
 
@@ -341,5 +344,8 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
                 pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) ** SLOT_POWER
                                                   for n in counts])
             best = np.minimum(best, pen)
-        mix += float(w) * np.exp(-np.minimum(best, SLOT_CAP))
+        # each hypothesis points to the objects it sounds like, its best at no cost: one that
+        # matches nothing exactly ("see real") weighs as much as one that names an object
+        best = np.minimum(best, SLOT_CAP)
+        mix += float(w) * np.exp(-(best - best.min()))
     return np.log(np.maximum(mix, 1e-300))

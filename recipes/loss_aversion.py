@@ -94,8 +94,9 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
         post = model.infer(Observation.from_scenario(sc, tr._instruction(r["transcript"]["nbest"])))
         tv = team_values(post.joint, sc.world, sc.target, Situation.from_scenario(sc).state)
         outcome = _Outcome(tv.actions, skey, sc, s.gold_command, post)
+        asked = (post.command,) if post.command in tv.actions else None  # the rule weighs what was asked
         for x in lambdas:
-            per_l[x].append(outcome(dec._best(tv, x)[0]))  # the rule's own choice
+            per_l[x].append(outcome(dec._best(tv, x, only=asked)[0]))  # the rule's own choice
         for x in alphas:
             per_a[x].append(outcome(_choose_alpha(tv, x)))
         m = tr._simulate(skey, sc, post.command)

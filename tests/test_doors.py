@@ -184,4 +184,4 @@ def test_the_settings_file_changes_the_answer(settings):
 def test_the_server_reports_the_settings_it_runs_with(server):
     got = httpx.get(server + "/healthz", timeout=30).json()["settings"]
     assert got["model.unknown_prior"] == 0.3 and got["model.betas"] == [8.0]
-    assert got["infer.decide"] == "expected-benefit"
+    assert got["infer.decide"] == "teammate"

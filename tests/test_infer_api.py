@@ -42,7 +42,7 @@ def test_a_transcript_gives_a_typed_command():
     assert (p.command.verb, p.command.obj_class, p.command.count) == ("fetch", "tomato", 1)
     assert str(p.command) == "fetch(tomato)" and p.command == "fetch(tomato)"
     assert p.commands[0][0] == p.command and p.prob("fetch(tomato)") == p.commands[0][1]
-    assert [g for g, _ in p.goals] and p.decision.rule == "expected-benefit"  # the default rule
+    assert [g for g, _ in p.goals] and p.decision.rule == "teammate"  # the default rule
     assert p.action == "act" and p.top_command == p.command
     assert json.loads(json.dumps(p.to_json()))["command"] == "fetch(tomato)"
 
@@ -58,10 +58,13 @@ def test_audio_path_and_samples_give_the_same_command(potato_wav):
     from siftom.speech.audio import as_audio
 
     by_path = siftom.infer(str(WORLD), str(ACTIONS), str(potato_wav))
-    assert str(by_path.command) == "fetch(tomato)"
+    # a clear recording of "potato" where a potato is: the salad makes the tomato likely enough
+    # that the robot fetches it or asks which one; it never fetches the potato unasked-about
+    assert (by_path.action == "act" and str(by_path.command) == "fetch(tomato)") or (
+        by_path.action == "ask" and "fetch(tomato)" in by_path.decision.options), by_path.decision
     assert by_path.evidence["speech_heard"] is True and by_path.transcript
     by_samples = siftom.infer(str(WORLD), str(ACTIONS), as_audio(potato_wav))
-    assert by_samples.command == by_path.command
+    assert by_samples.command == by_path.command and by_samples.action == by_path.action
 
 
 def test_silence_falls_back_to_the_actions():

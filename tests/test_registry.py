@@ -102,7 +102,7 @@ def test_healthz_lists_the_plugins(tmp_path):
 
     with local_client(create_app(tmp_path)) as c:
         body = c.get("/healthz").json()
-    assert {e["name"] for e in body["plugins"]["decision rule"]} == {"map", "expected-benefit", "ask-or-act"}
+    assert {e["name"] for e in body["plugins"]["decision rule"]} == {"map", "expected-benefit", "ask-or-act", "teammate"}
 
 
 KINDS = ("domain", "voice", "decision rule", "instruction likelihood", "ASR engine", "LLM backend")

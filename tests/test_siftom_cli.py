@@ -93,16 +93,16 @@ def test_infer_scenario_json(cli):
     assert out["commands"][0] == {"command": "fetch(cereal)", "prob": out["commands"][0]["prob"]}
     assert {"goal", "prob"} == set(out["goals"][0])
     table = cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER)
-    assert "most probable command: fetch(cereal)" in table and "rule expected-benefit" in table
+    assert "most probable command: fetch(cereal)" in table and "rule teammate" in table
 
 
 def test_infer_words_name_no_recogniser_and_the_rule(cli):
     out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER, "--json"))
     assert out["recogniser"] is None  # the words were given: nothing heard them
-    assert out["likelihood"] == "phonetic" and out["rule"] == out["decision"]["rule"] == "expected-benefit"
+    assert out["likelihood"] == "phonetic" and out["rule"] == out["decision"]["rule"] == "teammate"
     text = " ".join(cli("infer", "--scenario", "kitchen-cereal-v0", "--transcript", SILVER).split())
     assert f'words given as a transcript (--transcript), no recogniser ran: "{SILVER}"' in text
-    assert "scored by the likelihood phonetic" in text and "decision rule expected-benefit" in text
+    assert "scored by the likelihood phonetic" in text and "decision rule teammate" in text
 
 
 def test_infer_audio_names_who_heard_it(cli, tmp_path):
@@ -113,11 +113,11 @@ def test_infer_audio_names_who_heard_it(cli, tmp_path):
     out = json.loads(cli("infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav), "--json"))
     assert out["recogniser"] == out["asr"]["engine"] == "pocketsphinx-vocab"  # the default engine, with the scene
     assert out["likelihood"] in ("acoustic", "phonetic") and out["likelihood"] == out["evidence"]["likelihood"]
-    assert out["rule"] == out["decision"]["rule"] == "expected-benefit"
+    assert out["rule"] == out["decision"]["rule"] == "teammate"
     text = " ".join(cli("infer", "--scenario", "kitchen-cereal-v0", "--audio", str(wav)).split())
     assert f'heard by the recogniser pocketsphinx-vocab: "{out["transcript"]}"' in text
     assert f"scored by the likelihood {out['likelihood']} (" in text
-    assert "decision rule expected-benefit" in text
+    assert "decision rule teammate" in text
 
 
 def test_infer_help_states_the_real_defaults(cli):

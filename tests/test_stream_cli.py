@@ -56,7 +56,7 @@ def test_a_file_played_as_a_microphone_gives_one_line_per_utterance(two_instruct
         assert d["action"] == "act" and d["n_actions"] == 2 and 0 < d["prob"] <= 1
         assert set(d["timings"]) >= {"asr", "answer", "wait"} and "after_speech_s" not in d["timings"]
         assert len(d["nbest"]) <= 3 and d["start_s"] < d["end_s"]
-        assert d["recogniser"] == "pocketsphinx-vocab" and d["rule"] == "expected-benefit" and d["likelihood"]
+        assert d["recogniser"] == "pocketsphinx-vocab" and d["rule"] == "teammate" and d["likelihood"]
 
 
 def test_actions_read_from_stdin_while_listening(two_instructions, capsys, monkeypatch):
@@ -82,7 +82,7 @@ def test_listen_prints_one_readable_line_per_utterance_by_default(two_instructio
         # when, what was heard and by whom, what decided, what the robot does
         assert re.match(r"^ *\d+\.\d\d-\d+\.\d\d s  ", line), line
         assert f'heard "{heard}" (pocketsphinx-vocab, likelihood ' in line, line
-        assert ", rule expected-benefit)" in line and f"->  the robot carries out {command} (P = " in line, line
+        assert ", rule teammate)" in line and f"->  the robot carries out {command} (P = " in line, line
     notes = err.splitlines()
     assert notes[0] == "observed walk(human, fridge) (1 action so far)", notes
     assert notes[1].startswith("error: line 'not an action': cannot parse action 'not an action'"), notes

@@ -264,7 +264,11 @@ class Observer:
         targets = understood.targets if understood is not None and understood.request else ()
         # several things in one request: each names an object (a slot naming none is one request
         # with the rest: "any chance you could grab four knights")
-        named = [k for k, m in enumerate(targets) if m.obj_class is not None or m.named]
+        named: list[int] = []
+        for k, m in enumerate(targets):  # a repeated object is one part ("the potato ... the potatoes")
+            if (m.obj_class is not None or m.named) and all(
+                    (targets[i].obj_class, targets[i].named) != (m.obj_class, m.named) for i in named):
+                named.append(k)
         parts: tuple[RobotCommand, ...] = ()
         decisions: list[Decision] = []
         if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":

@@ -177,7 +177,7 @@ def test_decision_models_are_every_rule_on_every_likelihood() -> None:
     from siftom.bench.models import decision_models
 
     DECISION_MODELS = decision_models()
-    LIKELIHOOD_TAGS, RULE_TAGS = ("acoustic", "phonetic"), ("expected-benefit", "ask-or-act")
+    LIKELIHOOD_TAGS, RULE_TAGS = ("acoustic", "phonetic"), ("expected-benefit", "ask-or-act", "teammate")
     from siftom.likelihood.registry import LIKELIHOODS
 
     assert set(DECISION_MODELS.values()) == {(lk, r) for lk in LIKELIHOOD_TAGS for r in RULE_TAGS}

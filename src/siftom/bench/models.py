@@ -92,6 +92,11 @@ _BUILTIN: tuple[tuple[str, str, dict[str, Any]], ...] = (
      {"kind": "decision", "likelihood": "acoustic", "rule": "expected-benefit", "heard": "audio", "default": True}),
     ("siftom-ask", "ask-or-act on the acoustic posterior: it may ask a question",
      {"kind": "decision", "likelihood": "acoustic", "rule": "ask-or-act", "heard": "audio", "default": True}),
+    ("siftom-teammate", "the teammate rule (the product's default) on the acoustic posterior: it acts on a "
+     "request understood, else asks", {"kind": "decision", "likelihood": "acoustic", "rule": "teammate",
+                                       "heard": "audio", "default": True}),
+    ("siftom-phonetic-teammate", "the teammate rule on the phonetic posterior",
+     {"kind": "decision", "likelihood": "phonetic", "rule": "teammate"}),
     ("siftom-phonetic-eb", "expected benefit on the phonetic posterior",
      {"kind": "decision", "likelihood": "phonetic", "rule": "expected-benefit"}),
     ("siftom-phonetic-ask", "ask-or-act on the phonetic posterior",

@@ -56,7 +56,7 @@ class ModelConfig:
     help_kappa: float = 0.1
     speech_weight: float = 1.0
     max_count: int = MAX_COUNT
-    off_plan: float = 0.02
+    off_plan: float = 0.005
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -146,6 +146,10 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
     kinds = [k for k, _ in pieces]
     for j, (kind, items) in enumerate(pieces):
         if kind != "np":
+            at = items[0][1]
+            if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
+                    and pending == "context":
+                pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
             if kind == "NEG":
                 pending = "negated"
             elif kind == "MEAN":
@@ -155,9 +159,11 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
                 pending = "target"
             elif kind == "CTX" and pending != "negated":
                 pending = "context"
-            elif kind == "HAVE" and pending != "negated" and not _asks_to_have(kinds, j):
+            elif kind == "HAVE" and pending != "negated" and not _asks_to_have(kinds, j) \
+                    and not (at + 1 < len(words) and words[at + 1] == "to"):
                 pending = "context"  # "I already have the sugar"
-            elif kind == "COP" and slots and j > 0 and kinds[j - 1] == "np" and pending != "negated":
+            elif kind == "COP" and slots and j > 0 and kinds[j - 1] == "np" and pending != "negated" \
+                    and words[at - 1] != "to":
                 pending = "context"  # the predicate of a statement about a slot ("the weather is nice")
             elif kind == "WH":
                 asking, question = True, True

@@ -58,7 +58,7 @@ def test_eval_writes_results_summary_report_and_figures(tiny_results: Path) -> N
         assert (tiny_results / name).is_file(), name
     summary = json.loads((tiny_results / "summary.json").read_text())
     assert set(summary["models"]) == {"literal-asr", "speech-only", "action-only", "siftom", "siftom-phonetic",
-                                      "siftom-oracle-text", "siftom-eb", "siftom-ask"}
+                                      "siftom-oracle-text", "siftom-eb", "siftom-ask", "siftom-teammate"}
     for m in summary["models"].values():
         assert {"questions_per_trial", "confident_wrong_share", "no_speedup", "no_speedup_reasons"} <= set(m)
         assert set(m) >= SUMMARY_KEYS

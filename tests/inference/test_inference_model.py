@@ -410,8 +410,11 @@ def _reference_posterior(world, start, actions, goals, cfg, heard):
     for cmd in unknown_cmds:
         log_joint[(UNKNOWN, cmd)] = (math.log(cfg.unknown_prior) - math.log(len(unknown_cmds))
                                      + uniform_actions + heard.get(cmd, -10.0))
-        log_joint[("off-plan", cmd)] = (math.log(cfg.off_plan) - math.log(len(unknown_cmds))
-                                        + evidence + heard.get(cmd, -10.0))
+        c = cmd[len("deliver("):-len(",1)")]
+        left = sum(1 for it in world.items if it.cls == c) - done(c)
+        if left >= 1:  # a person asks only for what is left to bring
+            log_joint[("off-plan", cmd)] = (math.log(cfg.off_plan) - math.log(len(unknown_cmds))
+                                            + evidence + heard.get(cmd, -10.0))
     z = logsumexp(list(log_joint.values()))
     commands = {}
     for (_g, cmd), v in log_joint.items():

@@ -228,7 +228,10 @@ def test_noisy_audio_scored_acoustically_uses_the_audio_and_leaves_no_file(clien
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()
     assert res.status_code == 200, body
-    assert body["likelihood"] == "acoustic" and body["command"] == "fetch(cereal)" and body["action"] == "act"
+    # the robot carries out fetch(cereal) or asks a question that names the cereal
+    assert body["likelihood"] == "acoustic" and body["top_command"] == "fetch(cereal)"
+    assert (body["action"] == "act" and body["command"] == "fetch(cereal)") or (
+        body["action"] == "ask" and "fetch(cereal)" in body["decision"]["options"]), body["decision"]
     phon = client.post("/v1/infer", data={"scenario": KITCHEN, "likelihood": "phonetic"},
                        files={"audio": ("say.wav", r.content, "audio/wav")}).json()
     assert phon["top_command"] != "fetch(cereal)"  # the words alone point elsewhere: the audio decided

@@ -328,10 +328,7 @@ class OnlineInference:
         The robot's part for goal g and class c is every object of c the goal still needs: not
         yet on the target and not in the human's hands.
         """
-        s = self.state
-        done = self._tabs.at_target.copy()
-        if s.held[HUMAN] >= 0:
-            done[self.world.item_class_idx[s.held[HUMAN]]] += 1
+        done = self._done()
         left = self._N_goal[self._pair_goal, self._pair_cls] - done[self._pair_cls]
         keep = np.flatnonzero(left >= 1)
         K = self._code_base
@@ -341,6 +338,14 @@ class OnlineInference:
         cmds = [_command(self.verb, classes[int(code) // K], int(code) % K) for code in codes]
         inv = inv.reshape(-1)
         return (self._pair_goal[keep], inv[: len(known)], self._pair_row[keep], inv[len(known):], cmds)
+
+    def _done(self) -> np.ndarray:
+        """Objects of each class on the target or in the person's hands."""
+        s = self.state
+        done: np.ndarray = self._tabs.at_target.copy()
+        if s.held[HUMAN] >= 0:
+            done[self.world.item_class_idx[s.held[HUMAN]]] += 1
+        return done
 
     def posterior(self, instruction: Instruction | None = None, top: int = 10, heard_nothing: bool = False) -> Posterior:
         """The joint posterior now, given what was heard (None: the action term alone).
@@ -361,7 +366,7 @@ class OnlineInference:
                 check_instruction(lk.name, instruction)
             if getattr(lk, "uses_context", False):
                 # e.g. the acoustic likelihood prunes commands with little prior x action mass
-                ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, len(cmds)) if cfg.uses_actions else None
+                ctx = self._context(goal_idx, cmd_of, rows, unk_cmds, cmds) if cfg.uses_actions else None
                 scored = as_scores(lk.log_prob(instruction, cmds, context=ctx))  # type: ignore[call-arg]
             else:
                 scored = as_scores(lk.log_prob(instruction, cmds))
@@ -385,7 +390,8 @@ class OnlineInference:
             terms = np.concatenate([
                 np.stack([prior, act, instr[cmd_of]], 1),
                 np.stack([np.full(len(unk_cmds), unk_prior), np.full(len(unk_cmds), unk_act), instr[unk_cmds]], 1),
-                np.stack([np.full(len(unk_cmds), off_prior), np.full(len(unk_cmds), off_act), instr[unk_cmds]], 1),
+                np.stack([off_prior + self._bringable(unk_cmds, cmds), np.full(len(unk_cmds), off_act),
+                          instr[unk_cmds]], 1),
             ])
             lj = terms.sum(axis=1)
         logZ = logsumexp(lj)
@@ -443,14 +449,24 @@ class OnlineInference:
         mass = float(logsumexp(prior))
         return (float(np.log(rho) - np.log(n_unknown) + mass), float(logsumexp(prior + act)) - mass)
 
+    def _bringable(self, unk_cmds: np.ndarray, cmds: Sequence[RobotCommand]) -> np.ndarray:
+        """0 for a command the robot could carry out now, -inf for one asking for more objects
+        of a class than are left to bring (a person does not ask for what is already in front of
+        them): the off-plan request's support."""
+        left = self._class_total - self._done()
+        classes = {c: k for k, c in enumerate(self.world.classes)}
+        ok = np.array([cmds[int(i)].count <= left[classes[cmds[int(i)].obj_class]] for i in unk_cmds], dtype=bool)
+        return np.where(ok, 0.0, -np.inf)
+
     def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,
-                 n_cmds: int) -> np.ndarray:
+                 cmds: Sequence[RobotCommand]) -> np.ndarray:
         """log P(command | actions) up to a constant: the posterior without the instruction term."""
         prior, act, unk_prior, unk_act = self._prior_and_actions(goal_idx, rows, len(unk_cmds))
         off_prior, off_act = self._off_plan(prior, act, len(unk_cmds))
+        n_cmds = len(cmds)
         known = group_logsumexp(prior + np.log1p(-self.model.config.off_plan) + act, cmd_of, n_cmds)
         unk = np.full(n_cmds, -np.inf)
-        unk[unk_cmds] = np.logaddexp(unk_prior + unk_act, off_prior + off_act)
+        unk[unk_cmds] = np.logaddexp(unk_prior + unk_act, off_prior + self._bringable(unk_cmds, cmds) + off_act)
         out: np.ndarray = np.logaddexp(known, unk)
         return out
 

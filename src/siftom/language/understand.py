@@ -89,8 +89,13 @@ class Namer:
         # the spoken forms of each class a slot is compared with (its names, words run together)
         self.forms: dict[str, tuple[str, ...]] = {}
         for c in self.classes:
-            self.forms[c] = tuple(sorted({f.replace(" ", "") for n in self.lexicon.entry(c).names
-                                          for f in (n.singular, n.plural, pluralize(n.singular))}))
+            forms = {f.replace(" ", "") for n in self.lexicon.entry(c).names
+                     for f in (n.singular, n.plural, pluralize(n.singular))}
+            for cat in self.lexicon.categories_of(c):  # "the cutlery" names a fork, a knife, a spoon
+                forms |= {cat.word.replace(" ", ""), pluralize(cat.word).replace(" ", "")}
+                for form in (cat.word, pluralize(cat.word)):
+                    self.exact.setdefault(form, c)
+            self.forms[c] = tuple(sorted(forms))
         self.row_classes = [sorted(own[w]) for w in self.vocab.order]
         present = set(self.classes)
         self.absent: dict[str, str] = {}  # a name of a class the lexicon knows but the world lacks
@@ -338,14 +343,15 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
             continue
         best = np.full(len(commands), np.inf)
         for s in slots:  # with every target at once (focus None): the nearest slot speaks for k
-            r = np.asarray(_slot_costs(tuple(reading.words[i] for i in s.nouns), nm))[idx]
+            r = np.asarray(_slot_costs(tuple(reading.words[i] for i in s.nouns), nm))
+            # each hypothesis points to the objects it sounds like, the nearest object the lexicon
+            # knows at no cost: one that matches nothing exactly ("see real") weighs as much as
+            # one that names an object
             pen = sharpness * np.maximum(0.0, r - SLOT_SLACK) ** SLOT_POWER
+            pen = np.minimum(pen - pen.min(), SLOT_CAP)[idx]
             if s.count is not None:
                 pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) ** SLOT_POWER
                                                   for n in counts])
             best = np.minimum(best, pen)
-        # each hypothesis points to the objects it sounds like, its best at no cost: one that
-        # matches nothing exactly ("see real") weighs as much as one that names an object
-        best = np.minimum(best, SLOT_CAP)
-        mix += float(w) * np.exp(-(best - best.min()))
+        mix += float(w) * np.exp(-np.minimum(best, SLOT_CAP))
     return np.log(np.maximum(mix, 1e-300))

@@ -271,4 +271,4 @@ def _asks_to_have(kinds: list[str], j: int) -> bool:
 def _is_here(kinds: list[str], j: int) -> bool:
     """A slot at ``j`` that is the subject of a copula: a statement about the object ("the sugar
     is already here", "my phone battery is dead"), not a request for it."""
-    return j + 1 < len(kinds) and kinds[j + 1] == "COP"
+    return j + 2 < len(kinds) and kinds[j + 1] == "COP" and kinds[j + 2] not in ("PLEASE", "FILLER")

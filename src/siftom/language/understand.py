@@ -83,6 +83,7 @@ class Namer:
             for n in entry.names:
                 for form in (n.singular, n.plural, pluralize(n.singular)):
                     self.exact.setdefault(form, c)
+                    self.exact.setdefault(form.replace(" ", ""), c)  # "wineglass" as a recogniser writes it
                     for w in form.split():
                         own.setdefault(w, set()).add(c)
         self.vocab = MeaningVocabulary(own)

@@ -49,6 +49,22 @@ def whisper_text(text: str) -> str:
     return " " + t[0].upper() + t[1:] + ("" if t[-1] in ".?!" else ".")
 
 
+def cut_repeat(words: list[str]) -> list[str]:
+    """``words`` up to where they start over: Whisper tiny.en, given a short clip, decodes it
+    again after the end ("the wine glasses please the wine glass is please ..."), with the
+    trigram block only making each copy a little different. The transcript is cut where its
+    opening word comes back followed by a word that starts as its second did (the first three
+    letters), after at least three words; a person rarely says their request twice in one breath.
+    """
+    if len(words) < 5:
+        return words
+    first, second = words[0], words[1][:3]
+    for k in range(3, len(words) - 1):
+        if words[k] == first and words[k + 1][:3] == second:
+            return words[:k]
+    return words
+
+
 class WhisperScorer:
     """Encode a clip once, then score any number of candidate texts against it.
 
@@ -160,7 +176,8 @@ class WhisperScorer:
         logprob = float(res[0].scores[0]) * len(ids) / (len(ids) + 1) if res[0].scores else float("-inf")
         text = self.tokenizer.decode(ids)
         words = re.sub(r"[^a-z0-9' ]", " ", re.sub(r"(\d)([a-z])", r"\1 \2", text.lower().replace("-", " "))).split()
-        return [DIGIT_WORDS.get(w, w) for w in words], logprob  # "4 spoons" -> "four spoons": counts stay counts
+        # "4 spoons" -> "four spoons": counts stay counts
+        return cut_repeat([DIGIT_WORDS.get(w, w) for w in words]), logprob
 
     def score(self, audio: np.ndarray | str | Path, texts: Sequence[str]) -> np.ndarray:
         """Encode ``audio`` and score every text against it (see :meth:`score_encoded`)."""

@@ -40,6 +40,8 @@ TEXTS = [
     ("clear request", "can you pass me the cereal", True),
     ("off-topic", "the weather is really nice today", False),
     ("room talk", "need an", False),
+    ("correction", "no, not the sugar, the honey", None),
+    ("several things", "could you get me the cereal and the sugar", None),
 ]
 NBEST = [{"text": "pass me the silver", "score": -1.0}, {"text": "pass me the cereal", "score": -3.0}]
 
@@ -99,6 +101,9 @@ def _same(answers: dict[str, dict], may_act: bool | None) -> None:
         for key in ("recogniser", "likelihood", "rule"):
             assert key in a and a[key] == ref[key], (name, key, a.get(key), ref.get(key))
         assert a["rule"] == a["decision"]["rule"]
+        # what was understood: the same record, parts and commands carried out at every door
+        for key in ("understanding", "parts", "carry_out"):
+            assert a.get(key) == ref.get(key), (name, key, a.get(key), ref.get(key))
     if may_act is False:
         assert ref["action"] == "none" and ref["command"] is None, ref["decision"]
     if may_act is True:

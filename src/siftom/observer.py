@@ -48,6 +48,7 @@ from siftom.world.commands import RobotCommand
 from siftom.world.model import State, World
 
 LikelihoodArg = str | InstructionLikelihood
+MAX_PARTS = 3  # the most objects one request carries out (a request naming more: the first three)
 MODES = ("full", "speech-only", "action-only")
 
 
@@ -269,6 +270,8 @@ class Observer:
             if (m.obj_class is not None or m.named) and all(
                     (targets[i].obj_class, targets[i].named) != (m.obj_class, m.named) for i in named):
                 named.append(k)
+        left_out = [targets[k] for k in named[MAX_PARTS:]]
+        named = named[:MAX_PARTS]
         parts: tuple[RobotCommand, ...] = ()
         decisions: list[Decision] = []
         if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":
@@ -282,6 +285,10 @@ class Observer:
             decisions = [self._decide_part(pp, world, target, decide, targets[k])
                          for pp, k in zip(part_posts, named, strict=True)]
             decision = _combine(decisions)
+            if left_out:
+                names = ", ".join(m.obj_class or m.named for m in left_out)
+                decision = dataclasses.replace(decision, reason=f"{decision.reason}; not taken this time (at most "
+                                               f"{MAX_PARTS} things per request): {names}")
         else:
             if targets:
                 parts = (post.command,)

@@ -36,6 +36,9 @@ _FRAME = frozenset({"VERB", "MODAL", "WANT", "PLEASE"})
 # the word classes a focused request keeps around its targets ("could you pass me ... please")
 FRAME_WORDS = frozenset({"VERB", "ME", "MODAL", "YOU", "SELF", "WANT", "PLEASE"})
 _COUNTS = {"both": 2, "pair": 2, "single": 1, "couple": 2}
+# relation words a recogniser writes for a count ("bring me to plates" for "two plates")
+_COUNT_LIKE = {"to": 2, "for": 4}
+_ASKS_BEFORE = frozenset({"VERB", "ME", "WANT", "MEAN", "PLEASE"})  # where a count, not a relation, comes next
 # "I'd", "we'd": a wish ("I'd love the tea"), not a statement, whatever verb follows
 _WISHING = frozenset({"i'd", "we'd"})
 
@@ -143,6 +146,9 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
     question = False
     joined = False  # "and" since the last slot
     told: set[int] = set()  # slots of a statement the speaker made ("I saw the egg ...")
+    related: set[int] = set()  # slots made context by a relation word or a copula
+    retract: int | None = None  # the target a correction takes back once another follows
+    said_count: int | None = None  # a count heard as its homophone ("to", "for")
     kinds = [k for k, _ in pieces]
     for j, (kind, items) in enumerate(pieces):
         if kind != "np":
@@ -153,10 +159,15 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
             if kind == "NEG":
                 pending = "negated"
             elif kind == "MEAN":
-                if slots and slots[-1].role == "target":
-                    s = slots[-1]
-                    slots[-1] = Slot("retracted", s.start, s.end, s.nouns, s.count)
+                # "the jam, I mean the honey": the target before is taken back when another follows
+                retract = next((k for k in range(len(slots) - 1, -1, -1) if slots[k].role == "target"), None)
                 pending = "target"
+            elif kind == "CTX" and words[at] in _COUNT_LIKE and j > 0 and kinds[j - 1] in _ASKS_BEFORE \
+                    and (frame or pending == "target") and words_of(pieces, j + 1)[:1] == ("WORD",):
+                # "bring me to water glasses", "for bowls": with nothing asked for yet, a relation
+                # word before a bare noun is a count the recogniser wrote as its homophone
+                said_count = _COUNT_LIKE[words[at]]
+                pending = pending if pending == "negated" else ""
             elif kind == "CTX" and pending != "negated":
                 pending = "context"
             elif kind == "HAVE" and pending != "negated" and not _asks_to_have(kinds, j) \
@@ -192,10 +203,18 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
                 continue
         nouns = tuple(p for k, p in items if k == "WORD")
         counts = [c for k, p in items if k in ("NUM", "DET") for c in [_count(words[p])] if c is not None]
+        if retract is not None:
+            s = slots[retract]
+            slots[retract] = Slot("retracted", s.start, s.end, s.nouns, s.count)
+            retract = None
+        if said_count is not None and not counts:
+            counts, said_count = [said_count], None
         if joined and slots:
             role = slots[-1].role
         elif pending:
             role = pending
+            if pending == "context":
+                related.add(len(slots))
         elif asking:
             role = "context"
             if not question:
@@ -205,12 +224,18 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
         # "the sugar is already here": the subject of a copula is context
         if role == "target" and _is_here(kinds, j):
             role = "context"
+            related.add(len(slots))
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
         pending, joined = "", False
     if frame and told:
         # a statement before a request ("I think we're out of milk, could you bring some"): what
         # it mentions is what the request is about
         slots = [Slot("target", s.start, s.end, s.nouns, s.count) if k in told else s for k, s in enumerate(slots)]
+    if frame and related and not any(x.role == "target" for x in slots):
+        # a request asks for something: when every slot read as context, the first one related
+        # is the object ("can you get me peanut butter chicken it's already here" as heard)
+        k = min(related)
+        slots[k] = Slot("target", slots[k].start, slots[k].end, slots[k].nouns, slots[k].count)
     slots = _anaphora(slots)
     return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
 

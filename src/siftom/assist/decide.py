@@ -429,7 +429,7 @@ def decline_reason(command: str, where: Situation) -> str:
 
 
 @dataclass(frozen=True)
-class TeammateRule:
+class TeammateRule(AskOrActRule):
     """Answer every request: carry it out when understood, ask when unsure, decline with a reason.
 
     When the most probable command holds at least ``confident`` of the posterior, the request
@@ -440,20 +440,15 @@ class TeammateRule:
     between interpretations and questions; it does not overrule a request understood. A
     request nobody made never reaches a rule (the observer answers ``none``).
 
-    The other options are ask-or-act's (loss aversion, question cost, kinds).
+    The other options are ask-or-act's (loss aversion, question cost, kinds): the rule is
+    ask-or-act with a request understood carried out.
     """
 
     confident: float = DEFAULT_CONFIDENT
-    ask_cost: float | None = None
-    penalty: float = DEFAULT_QUESTION_PENALTY
-    loss_aversion: float = DEFAULT_LOSS_AVERSION
-    kinds: tuple[str, ...] = KINDS
-    cost_model: QuestionCost = field(default_factory=QuestionCost)
-    utility: str = DEFAULT_UTILITY
-    spent: float = 0.0
     name: str = "teammate"
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if not (isinstance(self.confident, (int, float)) and 0.0 < self.confident <= 1.0):
             raise ObservationError(f"confident must be a probability in (0, 1], got {self.confident!r}")
 
@@ -470,14 +465,13 @@ class TeammateRule:
                             reason=f"asked for {top} (P = {p:.2f})" + (f", expected to save {eb:.1f} steps"
                                                                         if np.isfinite(eb) else ""),
                             benefits=_top(tv.actions, tv.expected()))
-        ask = AskOrActRule(self.ask_cost, self.penalty, self.loss_aversion, self.kinds, self.cost_model,
-                           utility=self.utility, spent=self.spent)(post, where)
+        ask = super().__call__(post, where)
         if ask.action == "ask":
             alt = ", ".join(o for o in ask.options if o != top)
-            return dataclasses.replace(ask, rule=self.name, reason=f"asked for {top} (P = {p:.2f}), or "
+            return dataclasses.replace(ask, reason=f"asked for {top} (P = {p:.2f}), or "
                                        f"{alt or 'something else'}: {ask.reason}")
         if ask.action == top and not decline_reason(top, where):
-            return dataclasses.replace(ask, rule=self.name, reason=f"asked for {top} (P = {p:.2f}): {ask.reason}")
+            return dataclasses.replace(ask, reason=f"asked for {top} (P = {p:.2f}): {ask.reason}")
         return self._choose(post, where, top, p)
 
     def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
@@ -504,7 +498,7 @@ RULES.register("teammate", "siftom.assist.decide:TeammateRule",
                summary="carry out a request understood, ask about one unsure (naming the candidates), "
                        "decline only with a reason",
                attrs={"options": ("confident", "ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",
-                                   "utility", "spent")})
+                                   "time_as_loss", "utility", "spent")})
 RULES.register("ask-or-act", "siftom.assist.decide:AskOrActRule",
                summary="ask the best question when it is worth more than its cost, else expected-benefit",
                attrs={"options": ("ask_cost", "penalty", "loss_aversion", "kinds", "cost_model",

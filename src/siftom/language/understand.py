@@ -289,13 +289,9 @@ def phone_distance(a: str, b: str) -> float:
     pb = tuple(p for w in b.split() for p in word_phonemes(w))
     if not pa or not pb:
         return 0.0 if pa == pb else 1.0
-    prev = list(range(len(pb) + 1))
-    for i, x in enumerate(pa, 1):
-        cur = [i] + [0] * len(pb)
-        for j, y in enumerate(pb, 1):
-            cur[j] = min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (x != y))
-        prev = cur
-    return prev[-1] / max(len(pa), len(pb))
+    from siftom.speech.metrics import edit_distance
+
+    return edit_distance(pa, pb) / max(len(pa), len(pb))
 
 
 def _target_slots(reading: Reading, focus: int | None, nm: Namer) -> tuple[Slot, ...]:

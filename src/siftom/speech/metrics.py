@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from siftom.speech.asr.base import normalise_text
 
 
-def edit_distance(ref: list[str], hyp: list[str]) -> int:
-    """Minimum substitutions + deletions + insertions turning ``ref`` into ``hyp``."""
+def edit_distance(ref: Sequence[str], hyp: Sequence[str]) -> int:
+    """Minimum substitutions + deletions + insertions turning ``ref`` into ``hyp`` (words or phonemes)."""
     prev = list(range(len(hyp) + 1))
     for i, r in enumerate(ref, 1):
         cur = [i] + [0] * len(hyp)

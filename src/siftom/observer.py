@@ -294,6 +294,9 @@ class Observer:
                 parts = (post.command,)
             decision = self.decide(post, world, target, decide, nothing=nothing)
             if targets and not nothing:
+                here = _already_here(decision, targets[0], post, world, target, online.verb)
+                if here is not None:  # understood, but nothing of it is left to bring: say so
+                    decision, parts = here
                 decision = _absent(decision, targets[0]) or decision
         post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
         post = dataclasses.replace(post, decision=decision)
@@ -397,6 +400,22 @@ def _absent(decision: Decision, mention: Mention) -> Decision | None:
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
                     reason=f"there is no {mention.named} here: the robot does not bring something else instead")
+
+
+def _already_here(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
+                  verb: str) -> tuple[Decision, tuple[RobotCommand, ...]] | None:
+    """(no action with the reason, the command understood) when the target names an object of
+    the world of which nothing is left to bring ("pass me the milk" with the milk already on the
+    counter): the robot says why, and does not bring another object instead; None otherwise."""
+    from siftom.assist.decide import Situation, decline_reason
+
+    if mention.obj_class is None or post.joint is None or post.joint.state is None:
+        return None
+    asked = RobotCommand(verb, mention.obj_class, mention.count or 1)
+    why = decline_reason(asked, Situation(world, post.joint.state, target))
+    if not why:
+        return None
+    return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}"), (asked,)
 
 
 def _combine(decisions: Sequence[Decision]) -> Decision:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import siftom
 from siftom.agents.team import simulate_scenario
 from siftom.api import get_model
 from siftom.assist.decide import (
@@ -185,3 +186,29 @@ def test_an_unknown_rule_option_is_an_error_naming_it():
         get_rule("expected-benefit", loss_avresion=1.0)
     with pytest.raises(UnknownNameError, match="ask_cost"):
         get_rule("map", ask_cost=1.0)
+
+
+def test_the_teammate_rule_acts_on_a_request_understood_and_asks_about_one_unsure():
+    from siftom.assist.decide import TeammateRule
+
+    sc, post = _posterior("kitchen-cereal-v0", "can you pass me the cereal")
+    where = Situation.from_scenario(sc)
+    sure = TeammateRule()(post, where)
+    assert sure.action == "fetch(cereal)" and sure.reason.startswith("asked for fetch(cereal)")
+    # misheard words, the bar above their probability: a question naming the cereal, or the cereal
+    sc, post = _posterior("kitchen-cereal-v0", "pass me the silver")
+    unsure = TeammateRule(confident=0.99)(post, Situation.from_scenario(sc))
+    assert unsure.action in ("ask", "fetch(cereal)") and "fetch(cereal)" in (*unsure.options, unsure.command)
+    with pytest.raises(ObservationError, match="confident"):
+        TeammateRule(confident=0.0)
+
+
+def test_the_teammate_rule_declines_only_with_a_reason_it_can_say():
+    from siftom.assist.decide import decline_reason
+
+    sc, post = _posterior("kitchen-cereal-v0", "can you pass me the milk")
+    where = Situation.from_scenario(sc)  # the person has put the milk on the counter
+    assert "milk" in decline_reason("fetch(milk)", where) and decline_reason("fetch(cereal)", where) == ""
+    # through the observer (what was understood): no other object instead, and the reason
+    a = siftom.infer("kitchen-cereal-v0", None, "can you pass me the milk")
+    assert a.action == "none" and "milk" in a.decision.reason and [str(c) for c in a.parts] == ["fetch(milk)"]

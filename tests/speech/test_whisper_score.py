@@ -195,3 +195,12 @@ def test_bad_padding_is_refused():
 
     with pytest.raises(SiftomError, match="pad_s"):
         WhisperScorer(pad_s=0)
+
+
+def test_a_transcript_that_starts_over_is_cut_where_it_does():
+    from siftom.speech.whisper_score import cut_repeat
+
+    loop = ["the", "wineglass", "is", "please", "the", "wine", "glass", "is", "please", "the", "wine", "glass's", "please"]
+    assert cut_repeat(loop) == ["the", "wineglass", "is", "please"]
+    once = ["could", "you", "get", "me", "the", "cereal", "and", "the", "sugar", "please"]
+    assert cut_repeat(once) == once

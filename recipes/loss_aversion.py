@@ -91,7 +91,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
             continue
         sc = scenario_for(s)
         skey = tr.scenario_key(s)
-        post = model.infer(Observation.from_scenario(sc, tr._instruction(r["transcript"]["nbest"])))
+        post = model.infer(Observation.from_scenario(sc, tr._instruction(r["transcript"]["nbest"], r["transcript"].get("engine"))))
         tv = team_values(post.joint, sc.world, sc.target, Situation.from_scenario(sc).state)
         outcome = _Outcome(tv.actions, skey, sc, s.gold_command, post)
         asked = (post.command,) if post.command in tv.actions else None  # the rule weighs what was asked

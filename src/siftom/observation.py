@@ -42,6 +42,10 @@ class Instruction:
     # which target of the utterance the words are scored for (siftom.language): the k-th object
     # asked for in "the cereal and the sugar"; None: every target
     focus: int | None = field(default=None, compare=False)
+    # the N-best came from a recogniser that can only write the scene's phrasings (a scene engine
+    # such as pocketsphinx-vocab): an object's exact name in it is weak evidence, since it writes
+    # some scene name whatever was said (the slot channel is off for it)
+    scene_words: bool = field(default=False, compare=False)
 
     def __post_init__(self) -> None:
         if not self.nbest and self.audio is None and self.samples is None:

@@ -86,11 +86,12 @@ def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
     return _TEAM[key]
 
 
-def _instruction(nbest: Sequence[dict[str, Any]]) -> Any:
+def _instruction(nbest: Sequence[dict[str, Any]], engine: str | None = None) -> Any:
     from siftom.observation import Hypothesis, Instruction
+    from siftom.speech.asr.base import writes_scene_words
 
     hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
-    return Instruction(nbest=hyps) if hyps else None
+    return Instruction(nbest=hyps, scene_words=writes_scene_words(engine)) if hyps else None
 
 
 def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any, Any, dict[str, Any], Any]]:
@@ -103,7 +104,7 @@ def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any
     for r in rows:
         s = stimuli[r["id"]]
         nbest = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
-        yield s, scenario_for(s), r, _instruction(nbest)
+        yield s, scenario_for(s), r, _instruction(nbest, r["transcript"].get("engine"))
 
 
 def _wer(reference: str, text: str) -> float:
@@ -146,7 +147,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                   "nbest": [{"text": h.text, "score": round(float(h.score), 4)} for h in t.nbest][: opts.nbest],
                   "rtf": round(t.rtf, 4), "audio_s": round(t.audio_s, 3)}
             new_tr = tr
-        instr = _instruction(tr["nbest"]) if tr["nbest"] else _instruction([{"text": tr["text"], "score": 0.0}])
+        instr = _instruction(tr["nbest"] or [{"text": tr["text"], "score": 0.0}], tr.get("engine"))
         audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
         posts: dict[str, Any] = {}  # this stimulus's posterior per likelihood, shared by its decision models
 

@@ -275,6 +275,9 @@ def _say(m: Mention) -> str:
 # heard, the salad under way: the tomato); it does not write "beans" for "bowl", so an object
 # named clearly wins against the plan (docs/understanding.md).
 SLOT_SHARPNESS = 30.0
+# a recogniser that can only write the scene's phrasings (``Instruction.scene_words``) writes some
+# object's name whatever was said: its names speak with this share of the sharpness and the cap
+SCENE_WORDS_WEIGHT = 0.25
 SLOT_SLACK = 0.3
 SLOT_CAP = 12.0
 SLOT_POWER = 1.0
@@ -316,7 +319,7 @@ def _count_cost(said: int, count: int) -> float:
 
 
 def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any], lexicon: Lexicon | None,
-                    focus: int | None, sharpness: float = SLOT_SHARPNESS) -> Any:
+                    focus: int | None, sharpness: float = SLOT_SHARPNESS, cap: float = SLOT_CAP) -> Any:
     """Per command k: log sum_n w_n exp(-penalty_n(k)), the slot channel (module constants):
     for hypothesis n, the penalty of k's object against the target slot's words, plus that of
     k's count against the count said. A hypothesis with no target words contributes w_n to every
@@ -345,10 +348,10 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
             # knows at no cost: one that matches nothing exactly ("see real") weighs as much as
             # one that names an object
             pen = sharpness * np.maximum(0.0, r - SLOT_SLACK) ** SLOT_POWER
-            pen = np.minimum(pen - pen.min(), SLOT_CAP)[idx]
+            pen = np.minimum(pen - pen.min(), cap)[idx]
             if s.count is not None:
                 pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) ** SLOT_POWER
                                                   for n in counts])
             best = np.minimum(best, pen)
-        mix += float(w) * np.exp(-np.minimum(best, SLOT_CAP))
+        mix += float(w) * np.exp(-np.minimum(best, cap))
     return np.log(np.maximum(mix, 1e-300))

@@ -247,7 +247,8 @@ class AcousticLikelihood:
             from siftom.likelihood.phonetic import PhoneticLikelihood
 
             _once(self, "_phonetic", lambda: PhoneticLikelihood(self.lexicon))
-        return np.array(as_scores(self._phonetic.log_prob(Instruction(nbest=instruction.nbest), commands)).log_probs)
+        words = Instruction(nbest=instruction.nbest, focus=instruction.focus, scene_words=instruction.scene_words)
+        return np.array(as_scores(self._phonetic.log_prob(words, commands)).log_probs)
 
     def candidates(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None, phon: np.ndarray | None = None) -> np.ndarray:
@@ -286,6 +287,13 @@ class AcousticLikelihood:
             evidence["count_heard"] = count_heard(heard)
             if not evidence["count_heard"]:
                 out = tie_unheard_counts(out, commands)
+        whisper = str(evidence.get("whisper_heard") or "")
+        if whisper.strip() and len(commands):
+            # Whisper writes what it heard in an open vocabulary: the target slot of its words is
+            # read by the slot channel as a transcript's is (siftom.language.understand)
+            from siftom.language.understand import slot_log_factor
+
+            out = out + slot_log_factor([whisper], [1.0], commands, self.lexicon, instruction.focus)
         return Scores(out, evidence)
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:

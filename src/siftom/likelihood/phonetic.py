@@ -286,10 +286,11 @@ class PhoneticLikelihood:
         per_content = logsumexp(logw[None, :] + ch, axis=1)
         out = logsumexp(plan.log_prior + per_content[plan.index], axis=1)
         if self.slot_sharpness > 0:
-            from siftom.language.understand import slot_log_factor
+            from siftom.language.understand import SCENE_WORDS_WEIGHT, SLOT_CAP, slot_log_factor
 
+            k = SCENE_WORDS_WEIGHT if instruction.scene_words else 1.0
             out = out + slot_log_factor(texts, np.exp(logw), commands, self.lexicon, instruction.focus,
-                                        self.slot_sharpness)
+                                        self.slot_sharpness * k, SLOT_CAP * k)
         return Scores(out)
 
     def _channel(self, d: np.ndarray, plan: _Plan) -> np.ndarray:

@@ -70,7 +70,8 @@ class Transcript:
         words = tuple((w.text, w.start, w.end) for w in self.words)
         if not any(h.text for h in hyps) and (audio is not None or samples is not None):
             return Instruction(nbest=(), audio=audio, samples=samples)
-        return Instruction(nbest=hyps, audio=audio, samples=samples, words=words)
+        return Instruction(nbest=hyps, audio=audio, samples=samples, words=words,
+                           scene_words=writes_scene_words(self.engine))
 
 
 @runtime_checkable
@@ -119,6 +120,15 @@ def get_engine(name: str = DEFAULT_ENGINE, vocabulary: Sequence[str] | None = No
 def is_scene_engine(name: str) -> bool:
     """Whether the engine is built per scene (its LM from the scene's phrasings)."""
     return bool(ENGINES.spec(name).attrs.get("scene"))
+
+
+def writes_scene_words(engine: str | None) -> bool:
+    """Whether a transcript by ``engine`` (a registered name, as ``Transcript.engine`` says it)
+    can only hold the scene's phrasings; False for an unknown or missing name."""
+    try:
+        return bool(engine) and is_scene_engine(str(engine))
+    except Exception:  # an engine this installation does not register
+        return False
 
 
 def normalise_text(text: str) -> str:

@@ -205,3 +205,13 @@ def test_fast_enough_for_inference(lik):
     for _ in range(20):
         lik.log_prob(ins, cmds)
     assert (time.perf_counter() - t) / 20 < 0.02  # generous: ~0.4 ms measured on 2 cores
+
+
+def test_a_scene_biased_recognisers_names_speak_softly():
+    from dataclasses import replace
+
+    cmds = [RobotCommand("fetch", "cup"), RobotCommand("fetch", "dressing")]
+    heard = Instruction.from_text("would you grab cup")
+    typed = PhoneticLikelihood().log_prob(heard, cmds).log_probs
+    biased = PhoneticLikelihood().log_prob(replace(heard, scene_words=True), cmds).log_probs
+    assert typed[0] - typed[1] > biased[0] - biased[1] > 0  # still the cup, by less

@@ -234,6 +234,11 @@ CONSTANTS: tuple[Constant, ...] = (
     Constant("siftom.language.understand.SLOT_CAP",
              "the most a target slot's words cost a command (nats)", "as `SLOT_SHARPNESS`",
              "`siftom bench understanding --set dev`", TUNED, "understanding.md#the-model"),
+    Constant("siftom.language.understand.SCENE_WORDS_WEIGHT",
+             "the share of the slot channel's sharpness and cap for an N-best from a scene-biased recogniser",
+             "a seed-57 check (108 kitchen and 108 household stimuli, unseen voices and noises): at 1 the "
+             "evaluator's siftom row lost 5.6 points in the kitchen; at 0.25 it is unchanged (kitchen) and "
+             "+0.9 (household)", NO_RECIPE, TUNED, "understanding.md#the-model"),
     Constant("siftom.language.parse.MAX_WORDS",
              "the longest utterance read, in words (the rest is background)", "set: requests are far shorter",
              NO_RECIPE, SET, "understanding.md#the-model"),

@@ -120,7 +120,7 @@ CONSTANTS: tuple[Constant, ...] = (
     Constant("siftom.inference.model.ModelConfig.off_plan",
              "prior probability that a request is for an object outside the person's plan (any object left "
              "to bring, uniform): what lets a clear request for something no likely goal needs win",
-             "the issue's examples: the coffee and the bowl in kitchen-cereal-v0 are fetched; a clear "
+             "three examples: the coffee and the bowl in kitchen-cereal-v0 are fetched; a clear "
              "recording of 'potato' in the salad is asked about, not fetched (0.02 fetched the potato)",
              NO_RECIPE, TUNED, "understanding.md#the-model"),
     Constant("siftom.inference.model.ModelConfig.help_kappa",

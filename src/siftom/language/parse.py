@@ -126,7 +126,8 @@ def read(text: str) -> Reading:
     pieces: list[tuple[str, list[tuple[str, int]]]] = []
     pos = 0
     for child in tree.children:
-        assert isinstance(child, Tree)
+        if not isinstance(child, Tree):  # the grammar makes every piece a rule: np or marker
+            continue
         toks = [t for t in child.scan_values(lambda v: isinstance(v, Token))]
         items = []
         for t in toks:
@@ -178,7 +179,7 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
                 pending = "context"  # the predicate of a statement about a slot ("the weather is nice")
             elif kind == "WH":
                 asking, question = True, True
-            elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(kinds, words_of(pieces, j + 1)):
+            elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(words_of(pieces, j + 1)):
                 asking = True  # "I saw ...", "we bought ...": the speaker tells, nobody is asked
             elif kind == "AND":
                 joined = True
@@ -268,7 +269,7 @@ def words_of(pieces: list[tuple[str, list[tuple[str, int]]]], j: int) -> tuple[s
     return tuple(k for k, _ in pieces[j][1]) if j < len(pieces) else ()
 
 
-def _tells(kinds: list[str], nxt: tuple[str, ...]) -> bool:
+def _tells(nxt: tuple[str, ...]) -> bool:
     """"I" or "we" followed by a verb the grammar does not know as a request ("I saw", "we
     bought"): a statement. The verb is read as the first word of a bare noun phrase."""
     return bool(nxt) and nxt[0] == "WORD"

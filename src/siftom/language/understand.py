@@ -229,20 +229,13 @@ def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence
                lexicon: Lexicon | None = None) -> Understanding:
     """The understanding of what was heard: ``texts`` (N-best hypotheses or a transcript) with
     their weights (summing to 1), read against a world's ``classes``."""
-    texts = [t for t in texts]
     if not texts:
         return Understanding(False, 0.0, (), "", "nothing was heard")
     nm = namer(tuple(classes), lexicon)
-    p = 0.0
-    first: tuple[Reading, str] | None = None
-    for text, w in zip(texts, weights, strict=True):
-        reading = read(text)
-        lo, why = request_log_odds(reading, nm)
-        p += float(w) / (1 + math.exp(-lo))
-        if first is None:
-            first = (reading, why)
-    assert first is not None
-    reading, why = first
+    readings = [read(t) for t in texts]
+    odds = [request_log_odds(r, nm) for r in readings]
+    p = sum(float(w) / (1 + math.exp(-lo)) for w, (lo, _) in zip(weights, odds, strict=True))
+    reading, why = readings[0], odds[0][1]  # the record is the best hypothesis's reading
     mentions = []
     objects = set(object_targets(reading, nm))
     for s in reading.slots:
@@ -280,7 +273,6 @@ SLOT_SHARPNESS = 30.0
 SCENE_WORDS_WEIGHT = 0.25
 SLOT_SLACK = 0.3
 SLOT_CAP = 12.0
-SLOT_POWER = 1.0
 
 
 @lru_cache(maxsize=65536)
@@ -347,11 +339,10 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
             # each hypothesis points to the objects it sounds like, the nearest object the lexicon
             # knows at no cost: one that matches nothing exactly ("see real") weighs as much as
             # one that names an object
-            pen = sharpness * np.maximum(0.0, r - SLOT_SLACK) ** SLOT_POWER
+            pen = sharpness * np.maximum(0.0, r - SLOT_SLACK)
             pen = np.minimum(pen - pen.min(), cap)[idx]
             if s.count is not None:
-                pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) ** SLOT_POWER
-                                                  for n in counts])
+                pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) for n in counts])
             best = np.minimum(best, pen)
         mix += float(w) * np.exp(-np.minimum(best, cap))
     return np.log(np.maximum(mix, 1e-300))

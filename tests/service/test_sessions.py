@@ -384,3 +384,22 @@ def test_what_the_robot_carried_out_changes_the_next_reading(folder):
     assert r.status_code == 422 and "no object of class 'unicorn'" in r.json()["detail"]
     r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": "fetch(sugar)", "actions": added})
     assert r.status_code == 422 and "either actions" in r.text
+
+
+def test_a_request_of_several_parts_is_carried_out_and_recorded(folder):
+    """The parts an answer carries out go back as `executed`, in order, in one request."""
+    c = _client(folder)
+    sid = c.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"}).json()["id"]
+    ans = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "could you get me the cereal and the sugar"})
+    body = ans.json()
+    assert body["carry_out"] == ["fetch(cereal)", "fetch(sugar)"] and body["understanding"]["request"]
+    r = c.post(f"/v1/sessions/{sid}/actions", json={"executed": body["carry_out"]})
+    assert r.status_code == 200, r.text
+    added = r.json()["added"]
+    puts = [a for a in added if a.startswith("put(robot")]
+    assert [p.split(",")[1].strip().split(".")[0] for p in puts] == ["cereal", "sugar"]
+    # asked again, both are already with the person: nothing to bring, and the robot says why
+    again = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "pass me the cereal"}).json()
+    assert again["action"] == "none" and "cereal" in again["decision"]["reason"]
+    too_many = c.post(f"/v1/sessions/{sid}/actions", json={"executed": ["fetch(milk)"] * 4})
+    assert too_many.status_code == 422

@@ -80,11 +80,13 @@ class ActionsRequest(Strict):
     actions: list[ActionLine] | None = Field(
         default=None, min_length=1, max_length=MAX_ACTIONS_PER_REQUEST,
         examples=[["[Walk] <fridge> (165)", "[Open] <fridge> (165)", "grab(human, milk.195, fridge.165)"]])
-    executed: str | None = Field(
-        default=None, min_length=1, max_length=MAX_TEXT_CHARS, examples=["fetch(cereal)"],
-        description="a command the robot carried out (fetch(cereal), deliver(fork,3)): its plan from the "
-                    "session's state is added as the robot's actions, so the world, the belief and the next "
-                    "request's reading follow it")
+    executed: Annotated[str, Field(min_length=1, max_length=MAX_TEXT_CHARS)] | Annotated[
+        list[Annotated[str, Field(min_length=1, max_length=MAX_TEXT_CHARS)]], Field(min_length=1, max_length=3)] | None = Field(
+        default=None, examples=["fetch(cereal)", ["fetch(cereal)", "fetch(sugar)"]],
+        description="a command the robot carried out (fetch(cereal), deliver(fork,3)), or the parts of a "
+                    "request of several, in order (at most 3; an answer's carry_out): their plans from the "
+                    "session's state are added as the robot's actions, so the world, the belief and the next "
+                    "request's reading follow them")
 
     @model_validator(mode="after")
     def _one_of(self) -> ActionsRequest:

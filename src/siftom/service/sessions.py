@@ -359,26 +359,35 @@ class SessionManager:
         raise ProblemError(409, "conflict", f"the session holds {n} actions, not the {after} this request was "
                            "sent after; GET the session to see them and send only what is new")
 
-    def executed_actions(self, sid: str, command: str) -> list[str]:
-        """The robot's actions for a command it carried out: its plan from the session's state
-        (assist/route.py), in siftom's form; an empty plan (nothing left to bring) is a 422."""
+    def executed_actions(self, sid: str, command: str | list[str]) -> list[str]:
+        """The robot's actions for a command it carried out, or the parts of a request of several
+        carried out in order: each part's plan from the state the one before left
+        (assist/route.py), in siftom's form; a part with nothing left to bring is a 422."""
         from siftom.assist.route import robot_plan
         from siftom.world.commands import RobotCommand
+        from siftom.world.model import apply
 
+        commands = [command] if isinstance(command, str) else list(command)
         sess = self.get(sid)
+        out: list[str] = []
         with sess.lock:
-            try:
-                cmd = RobotCommand.parse(command)
-            except SiftomError as exc:
-                raise ObservationError(f"executed: {exc}") from None
-            if cmd.obj_class not in sess.scene.world.classes:
-                raise ObservationError(f"executed: no object of class {cmd.obj_class!r} in this world; classes: "
-                                       f"{', '.join(sess.scene.world.classes)}")
-            plan = robot_plan(_Planned(sess.scene), sess.online.state, cmd)
-        if not plan.actions:
-            raise ObservationError(f"executed: the robot has nothing to do for {command} here ({plan.status}); "
-                                   "send the robot's actions instead")
-        return list(plan.actions)
+            world, state = sess.scene.world, sess.online.state
+            for text in commands:
+                try:
+                    cmd = RobotCommand.parse(text)
+                except SiftomError as exc:
+                    raise ObservationError(f"executed: {exc}") from None
+                if cmd.obj_class not in world.classes:
+                    raise ObservationError(f"executed: no object of class {cmd.obj_class!r} in this world; "
+                                           f"classes: {', '.join(world.classes)}")
+                plan = robot_plan(_Planned(sess.scene), state, cmd)
+                if not plan.actions:
+                    raise ObservationError(f"executed: the robot has nothing to do for {text} here ({plan.status}); "
+                                           "send the robot's actions instead")
+                for line in plan.actions:
+                    state = apply(state, world.parse_action(line, state))
+                out.extend(plan.actions)
+        return out
 
     def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
         """Add already-built human actions (another producer, e.g. perception), all or none;

@@ -9,7 +9,7 @@ mean the honey"). Only targets count for a command; every other word is backgrou
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 ROLES = ("target", "context", "negated", "retracted")
@@ -62,7 +62,6 @@ class Understanding:
     mentions: tuple[Mention, ...] = ()
     heard: str = ""
     reason: str = ""
-    extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
     @property
     def targets(self) -> tuple[Mention, ...]:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from siftom.assist.decide import Decision
+from siftom.assist.reply import Pending
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH
 from siftom.inference.model import JointHypothesis, JointPosterior, Posterior
 from siftom.language.record import NOBODY_ASKED, Understanding
@@ -49,6 +50,9 @@ class Answer:
         parts: the command understood for each object asked for, in the order said (one for a
             plain request, several for "the cereal and the sugar", none when nobody asked).
         part_decisions: for a request of several parts, the rule's decision on each.
+        pending: the question the robot waits on an answer to after this one (its own, or one
+            still open when these words asked nothing); pass it to the next
+            :meth:`~siftom.Observer.answer` of the conversation.
     """
 
     posterior: Posterior
@@ -61,6 +65,7 @@ class Answer:
     instruction: bool = True
     parts: tuple[RobotCommand, ...] = ()
     part_decisions: tuple[Decision, ...] = field(default=(), compare=False)
+    pending: Pending | None = field(default=None, compare=False)
 
     # ----- what the robot does --------------------------------------------------------------
     @property
@@ -90,6 +95,12 @@ class Answer:
     def understanding(self) -> Understanding:
         """What the utterance model understood of the words (``NOBODY_ASKED`` when nothing was said)."""
         return self.posterior.understanding or NOBODY_ASKED
+
+    @property
+    def reply_to(self) -> str | None:
+        """The question these words answered (they were weighed with the request that led to it)."""
+        got = self.posterior.evidence.get("reply_to")
+        return str(got) if got else None
 
     @property
     def top_command(self) -> RobotCommand:
@@ -193,6 +204,8 @@ class Answer:
             "understanding": self.understanding.to_json(),
             "parts": [str(c) for c in self.parts],
             "carry_out": [str(c) for c in self.carry_out],
+            "reply_to": self.reply_to,
+            "awaiting_reply": self.pending is not None,
             "asr": self.asr.to_json() if self.asr is not None else None,
             "vad": self.vad.to_json() if self.vad is not None else None,
             "seconds": round(self.seconds, 4),

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.reply import Pending
 from siftom.errors import ObservationError
 from siftom.inference.stream import Recognised, StreamListener, recogniser
 from siftom.observer import Observer
@@ -81,14 +82,15 @@ class HomeListener:
         self.likelihood = resolved if isinstance(resolved, str) else type(resolved).__name__
         self.online = self.observer.fresh(home.world, home.start, tuple(home.goals), self.verb, self.mode)
         self.actions: list[str] = []
-        self._lock = threading.Lock()  # the online inference
+        self.pending: Pending | None = None  # the question the robot asked last and waits on
+        self._lock = threading.Lock()  # the online inference and the pending question
         for a in getattr(home, "actions", ()) if recorded else ():  # a scenario's recorded actions so far
             self.online.observe(a)
             self.actions.append(self.world.format_action(a))
         rec = self.observer.recogniser(self.world, self.verb, engine)
         self.listener = StreamListener(recogniser(rec.engine, nbest or st.infer.nbest, rec.lock), self._answer,
                                        options, scorer, early,
-                                       version=lambda: len(self.actions))  # answers are pure: answer early
+                                       version=lambda: (len(self.actions), id(self.pending)))  # answer early
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, lines: Sequence[str]) -> list[str]:
@@ -112,7 +114,14 @@ class HomeListener:
         return self.listener.finish()
 
     def respond(self, utterance: Utterance) -> dict[str, Any]:
-        return self.listener.respond(utterance)
+        return self._kept(self.listener.respond(utterance))
+
+    def _kept(self, body: dict[str, Any]) -> dict[str, Any]:
+        """Keep the question an answer leaves waiting (an answer made early, then used, included)."""
+        if "_pending" in body:
+            with self._lock:
+                self.pending = body.pop("_pending")
+        return body
 
     def close(self) -> None:
         self.listener.close()
@@ -125,7 +134,7 @@ class HomeListener:
             raise ObservationError("the text is empty; give the words that were heard")
         t0 = time.perf_counter()
         rec = Recognised(Instruction(nbest=(Hypothesis(text.strip(), 0.0),)), None, 0.0)
-        body = self._answer(rec, None, text_only=True)
+        body = self._kept(self._answer(rec, None, text_only=True))
         total = round(time.perf_counter() - t0, 4)
         return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
                 **body, "timings": {"answer": total, "wait": total}}
@@ -140,9 +149,10 @@ class HomeListener:
         with self._lock:
             t0 = time.perf_counter()
             ans = self.observer.answer(self.online, rec.instruction, likelihood=likelihood, decide=self.decide,
-                                       top=self.top, heard=heard, mode=self.mode)
+                                       top=self.top, heard=heard, mode=self.mode, pending=self.pending)
             n = len(self.actions)
         body: dict[str, Any] = ans.to_json(top=self.top)
+        body["_pending"] = ans.pending  # kept by respond / answer_text, not sent
         body["clarification"] = clarify(ans.commands, self.policy).to_json()
         body["question"] = ans.decision.question if ans.action == "ask" else ""
         body["prob"] = ans.prob(ans.command) if ans.command is not None else 0.0

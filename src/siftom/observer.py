@@ -36,6 +36,7 @@ import numpy as np
 
 from siftom.answer import NOTHING_ASKED, Answer
 from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
+from siftom.assist.reply import Pending
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
@@ -228,19 +229,26 @@ class Observer:
     def answer(self, online: OnlineInference, instruction: Instruction | None, *,
                likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
                top: int | None = None, heard: Heard | None = None, mode: str | None = None,
-               gate: bool = True) -> Answer:
+               gate: bool = True, pending: Pending | None = None) -> Answer:
         """What the robot does about ``instruction`` on ``online`` (its actions observed so far).
 
         ``heard``: the clip the instruction was recognised from (no speech: ``instruction`` None).
         ``likelihood``, ``decide``, ``top`` and ``mode`` left out are the settings. ``gate``
         False keeps the words' posterior when they hold no instruction (the paper's model, for
         the evaluator's accuracy of the inferred command); the action is still ``none``.
+        ``pending``: the question the robot asked last and waits on (``answer.pending`` of the
+        answer that asked it): words that reply to it are weighed with the request's
+        (assist/reply.py). The answer's ``pending`` is what to keep for the next utterance.
         """
         t0 = time.perf_counter()
         top = top or self.settings.infer.top
         mode = mode or online.model.config.mode
         has_audio = instruction is not None and instruction.has_audio
         lk, why = self.resolve(likelihood, has_audio)
+        if pending is not None and instruction is not None and mode != "speech-only":
+            replied = self._reply(online, pending, instruction, mode, lk, why, top, decide, heard, t0)
+            if replied is not None:
+                return replied
         speech = None if heard is None else heard.speech
         said = not (heard is not None and heard.speech and instruction is None)  # speech, but no words
         if instruction is None:
@@ -274,6 +282,7 @@ class Observer:
         named = named[:MAX_PARTS]
         parts: tuple[RobotCommand, ...] = ()
         decisions: list[Decision] = []
+        part_posts: list[Posterior] = []
         if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":
             # several things in one request: each target read on its own (its slot alone is
             # scored), decided on its own; the robot carries out every part it would act on
@@ -300,10 +309,59 @@ class Observer:
                 decision = _absent(decision, targets[0]) or decision
         post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
         post = dataclasses.replace(post, decision=decision)
+        asking = next((pp for pp, d in zip(part_posts, decisions, strict=True) if d.action == "ask"), post) \
+            if decisions else post
+        keep = self._pending(online, asking, decision, mode) if decision.action == "ask" else (
+            pending if nothing else None)  # words that asked nothing leave a question waiting
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, speech, heard.asr if heard is not None else None,
                       heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
-                      tuple(decisions))
+                      tuple(decisions), keep)
+
+    def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str) -> Pending | None:
+        """What to keep while the robot waits on the answer to ``decision``'s question."""
+        from siftom.assist.reply import request_evidence
+
+        q = decision.asked
+        if q is None or mode == "speech-only":
+            return None
+        alone = self._view(online, "action-only", "phonetic").posterior(None, top=1)
+        return Pending(q, request_evidence(post, alone), str(post.command))
+
+    def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction, mode: str,
+               lk: LikelihoodArg, why: str, top: int, decide: str | DecisionRule | None, heard: Heard | None,
+               t0: float) -> Answer | None:
+        """The answer to words that reply to ``pending`` (assist/reply.py); None when they answer
+        nothing (they are then an utterance like any other)."""
+        from siftom.assist.reply import after_reply, cell_named
+
+        name = lk if isinstance(lk, str) else type(lk).__name__
+        words = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top), name, why)
+        u = words.understanding
+        targets = u.targets if u is not None and u.request and not words.evidence.get("no_instruction") else ()
+        cell = cell_named(pending.question, instruction)
+        if cell is None and not targets:
+            return None
+        base = words if targets else self._view(online, "action-only", "phonetic").posterior(None, top=top)
+        post = after_reply(base, pending, cell)
+        post = dataclasses.replace(post, transcript=instruction.text, understanding=u, evidence={
+            **words.evidence, "reply_to": pending.question.text, "reply_cell": cell})
+        world, target = online.world, online.goals[0].target
+        decision = self.decide(post, world, target, decide)
+        parts: tuple[RobotCommand, ...] = (post.command,)
+        if targets:
+            here = _already_here(decision, targets[0], post, world, target, online.verb)
+            if here is not None:
+                decision, parts = here
+            decision = _absent(decision, targets[0]) or decision
+        decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
+        post = dataclasses.replace(post, decision=decision,
+                                   evidence={**post.evidence, "parts": [str(c) for c in parts]})
+        keep = self._pending(online, post, decision, mode) if decision.action == "ask" else None
+        timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
+        return Answer(post, decision, None if heard is None else heard.speech,
+                      heard.asr if heard is not None else None, heard.vad if heard is not None else None,
+                      time.perf_counter() - t0, timings, True, parts, (), keep)
 
     def _decide_part(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None,
                      mention: Mention) -> Decision:
@@ -399,7 +457,8 @@ def _absent(decision: Decision, mention: Mention) -> Decision | None:
     if mention.obj_class is not None or not mention.named:
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
-                    reason=f"there is no {mention.named} here: the robot does not bring something else instead")
+                    reason=f"there is no {mention.named} here: the robot does not bring something else instead",
+                    declined=f"Sorry, there is no {mention.named} here.")
 
 
 def _already_here(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
@@ -415,7 +474,8 @@ def _already_here(decision: Decision, mention: Mention, post: Posterior, world: 
     why = decline_reason(asked, Situation(world, post.joint.state, target))
     if not why:
         return None
-    return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}"), (asked,)
+    return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
+                    declined=f"Sorry, {why}."), (asked,)
 
 
 def _combine(decisions: Sequence[Decision]) -> Decision:

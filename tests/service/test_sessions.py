@@ -403,3 +403,19 @@ def test_a_request_of_several_parts_is_carried_out_and_recorded(folder):
     assert again["action"] == "none" and "cereal" in again["decision"]["reason"]
     too_many = c.post(f"/v1/sessions/{sid}/actions", json={"executed": ["fetch(milk)"] * 4})
     assert too_many.status_code == 422
+
+
+def test_a_question_is_answered_in_the_next_instruction_even_after_a_restart(folder):
+    c = _client(folder)
+    sid = c.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"}).json()["id"]
+    first = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "pass me the silver"}).json()
+    assert first["action"] == "ask" and "cereal" in first["decision"]["question"], first["decision"]
+    assert first["awaiting_reply"] is True and first["pending"]["question"]["text"] == first["decision"]["question"]
+    talk = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "hmm what a day"}).json()
+    assert talk["action"] == "none" and talk["awaiting_reply"] is True  # room talk: the question waits
+    c2 = _client(folder)  # a new process on the same data directory
+    reply = c2.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "yes"}).json()
+    assert reply["action"] == "act" and reply["command"] == "fetch(cereal)", reply["decision"]
+    assert reply["reply_to"] == first["decision"]["question"] and reply["pending"] is None
+    again = c2.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "yes"}).json()
+    assert again["action"] == "none" and again["reply_to"] is None  # nothing waits any more

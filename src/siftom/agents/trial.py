@@ -62,8 +62,9 @@ Speaker = Callable[[RobotCommand, np.random.Generator], "Instruction | str"]
 # how many of their own actions the person takes before each request (inclusive range)
 REQUEST_EVERY = (2, 6)
 MAX_REQUESTS = 3
-# which classes the person asks for: only those they have not started, or any still needed
-ASK_FOR = ("unstarted", "any")
+# which classes the person asks for: the robot's part of the best joint plan, any they have not
+# started, or any still needed
+ASK_FOR = ("plan", "unstarted", "any")
 _NUMBERS = ("zero", "one", "two", "three", "four", "five", "six")
 _MAX_EVENTS = 10_000
 
@@ -114,13 +115,27 @@ class TrialRequest:
     useful: int
     wrong: int
     remedy: float
+    question: str = ""  # the question asked (action ask)
+    options: tuple[str, ...] = ()  # the commands it names
+    declined: str = ""  # what the robot said when it turned the request down (action none)
 
     @property
     def wrong_fetch(self) -> bool:
         return self.wrong > 0
 
+    @property
+    def answered(self) -> bool:
+        """Carried out as asked, or answered with a question that names what was asked for."""
+        return (self.action == "act" and self.executed == self.asked) or (
+            self.action == "ask" and self.asked in self.options)
+
+    @property
+    def ignored(self) -> bool:
+        """Turned down without a reason the robot can say."""
+        return self.action == "none" and not self.declined
+
     def to_json(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+        return {**self.__dict__, "options": list(self.options)}
 
 
 @dataclass(frozen=True)
@@ -174,12 +189,21 @@ class TrialResult:
     def acted(self) -> int:
         return sum(r.action == "act" for r in self.requests)
 
+    @property
+    def answered(self) -> int:
+        return sum(r.answered for r in self.requests)
+
+    @property
+    def ignored(self) -> int:
+        return sum(r.ignored for r in self.requests)
+
     def metrics(self) -> dict[str, Any]:
         """The numbers of the trial, without the log."""
         return {"scenario": self.scenario, "goal": self.goal, "rule": self.rule, "seed": self.seed,
                 "l_single": self.l_single, "l_team": self.l_team, "speedup": self.speedup,
                 "requests": self.n_requests, "acted": self.acted, "wrong_fetches": self.wrong_fetches,
-                "questions": self.questions, "refusals": self.refusals, "human_actions": self.human_actions,
+                "questions": self.questions, "refusals": self.refusals, "answered": self.answered,
+                "ignored": self.ignored, "human_actions": self.human_actions,
                 "robot_actions": self.robot_actions, "remedy_steps": self.remedy_steps}
 
     def to_json(self, events: bool = True) -> dict[str, Any]:
@@ -231,7 +255,7 @@ def simulate_trial(
     request_every: tuple[int, int] = REQUEST_EVERY,
     goals: Sequence[Goal] | None = None,
     likelihood: Any = None,
-    ask_for: str = "unstarted",
+    ask_for: str = "plan",
 ) -> TrialResult:
     """Simulate a whole trial (module doc) and score it.
 
@@ -246,9 +270,13 @@ def simulate_trial(
         request_every: the person's own actions before each request, drawn uniformly in this
             inclusive range.
         likelihood: the instruction likelihood (None: the observer's setting).
-        ask_for: ``unstarted`` (default): the person asks only for a class they have not yet
-            grabbed an object of (the model's robot part is a whole class the person leaves to
-            the robot: pi_h = g minus pi_r); ``any``: also for a class they are working on.
+        ask_for: ``plan`` (default): the person asks for the robot's part of the best joint
+            plan -- among the classes they have not yet grabbed an object of, the one whose
+            delivery by the robot (while the person does the rest) ends the task soonest, and
+            only when that beats working alone (the paper's model: the person asks for pi_r of
+            a good joint plan, pi_h = g minus pi_r); ``unstarted``: any class not yet started
+            (the part the person's own plan would fetch last); ``any``: also a class they are
+            working on.
     """
     sid, world, start, goal, space, verb = _unpack(scene, goals)
     lo, hi = request_every
@@ -298,10 +326,12 @@ def simulate_trial(
 
     def choose(state: State) -> RobotCommand | None:
         need = needed(state)
-        if ask_for == "unstarted":
+        if ask_for != "any":
             need = {c: n for c, n in need.items() if c not in started}
         if not need:
             return None
+        if ask_for == "plan":
+            return robot_part(state, need)
         first: dict[str, int] = {}
         for k, a in enumerate(human_plan):
             if a.kind == "grab":
@@ -312,6 +342,27 @@ def simulate_trial(
         cls = tied[int(rng.integers(len(tied)))] if len(tied) > 1 else tied[0]
         n = 1 if verb == "fetch" else min(need[cls], MAX_COUNT)
         return RobotCommand(verb, cls, n)
+
+    def robot_part(state: State, need: dict[str, int]) -> RobotCommand | None:
+        """The robot's part of the best joint plan from ``state``: the class whose delivery by the
+        robot, while the person does the rest, ends soonest -- if that beats the person alone."""
+        alone, _plan = _solve(world, state, goal, HUMAN)
+        best: list[tuple[float, str]] = []
+        for cls, k in sorted(need.items()):
+            n = 1 if verb == "fetch" else min(k, MAX_COUNT)
+            have = world.count_at(state, T, cls)
+            r_cost, r_plan = _solve(world, state, Goal("robot", T, ((cls, have + n),)), ROBOT)
+            taken = {a.obj for a in r_plan if a.kind == "grab"}
+            h_cost, _h = _solve(world, _reserve(state, taken), goal.minus(cls, n), HUMAN)
+            best.append((max(float(r_cost), float(h_cost)), cls))
+        if not best:
+            return None
+        top = min(t for t, _c in best)
+        if top >= alone - 1e-9:  # no part for the robot makes the team faster: the person works alone
+            return None
+        tied = [c for t, c in best if t <= top + 1e-9]
+        cls = tied[int(rng.integers(len(tied)))] if len(tied) > 1 else tied[0]
+        return RobotCommand(verb, cls, 1 if verb == "fetch" else min(need[cls], MAX_COUNT))
 
     def start_job(cmd: RobotCommand, state: State) -> _Job:
         cls = cmd.obj_class
@@ -368,9 +419,12 @@ def simulate_trial(
                     brought, wrong, remedy = len(job.reserved), job.wrong, job.remedy
                     useful = brought - wrong
                     human_plan = replan_human(s)
+                d = ans.decision
                 requests.append(TrialRequest(t_h, str(asked), instruction.text, action,
-                                             None if executed is None else str(executed), ans.decision.reason,
-                                             ask_cost if action == "ask" else 0.0, brought, useful, wrong, remedy))
+                                             None if executed is None else str(executed), d.reason,
+                                             ask_cost if action == "ask" else 0.0, brought, useful, wrong, remedy,
+                                             d.question if action == "ask" else "",
+                                             tuple(d.options) if action == "ask" else (), d.declined))
                 continue
         robot_ready = job is not None and bool(job.plan)
         if not human_plan and not robot_ready:

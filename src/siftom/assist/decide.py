@@ -78,6 +78,8 @@ class Decision:
         ask_cost: the cost of asking, in steps.
         reason: one line saying why.
         benefits: the best few actions with their expected benefit, best first.
+        declined: when the robot turns a request down, what it says to the person ("the honey
+            is already with you"); '' otherwise.
     """
 
     rule: str
@@ -93,6 +95,7 @@ class Decision:
     benefits: tuple[tuple[str, float], ...] = field(default=(), compare=False)
     question_kind: str = ""
     asked: Question | None = field(default=None, compare=False)
+    declined: str = ""
 
     @property
     def ask(self) -> bool:
@@ -104,7 +107,7 @@ class Decision:
         return {"rule": self.rule, "action": self.action, "command": self.command, "prob": self.prob,
                 "expected_benefit": None if not np.isfinite(eb) else round(eb, 4), "question": self.question,
                 "options": list(self.options), "evi": round(self.evi, 4), "ask_cost": self.ask_cost,
-                "reason": self.reason, "question_kind": self.question_kind,
+                "reason": self.reason, "question_kind": self.question_kind, "declined": self.declined,
                 "answers": list(self.asked.grammar()) if self.asked is not None else [],
                 "benefits": [{"action": a, "expected_benefit": round(b, 4)} for a, b in self.benefits]}
 
@@ -414,6 +417,11 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
     return len(items) - len(there), len(there)
 
 
+def _sentence(text: str) -> str:
+    """``text`` as a sentence the robot says: "Sorry, the honey is already with you."."""
+    return f"Sorry, {text.rstrip('.')}."
+
+
 def decline_reason(command: str, where: Situation) -> str:
     """A reason the robot can say for not carrying out ``command``, or '' when it can."""
     from siftom.likelihood.lexicon import default_lexicon
@@ -432,16 +440,16 @@ def decline_reason(command: str, where: Situation) -> str:
 class TeammateRule(AskOrActRule):
     """Answer every request: carry it out when understood, ask when unsure, decline with a reason.
 
-    When the most probable command holds at least ``confident`` of the posterior, the request
-    was understood and the robot carries it out -- unless it cannot, for a reason it can say
-    ("the honey is already with you"). Otherwise it asks: ask-or-act's most valuable question
-    when one pays, and when none does a choice naming the two likeliest objects ("Which one:
-    the cereal or the sugar?"), so a person who asked never meets silence. Team value chooses
-    between interpretations and questions; it does not overrule a request understood. A
-    request nobody made never reaches a rule (the observer answers ``none``).
+    Team value speaks first: when ask-or-act finds a question worth more than its cost, the
+    robot asks it; when it finds a command worth carrying out, the robot carries it out. Where
+    ask-or-act would do nothing, a request is still never ignored: the robot declines only for a
+    reason it can say ("the honey is already with you"); it carries out the command asked for
+    when that holds at least ``confident`` of the posterior (a request understood is not
+    overruled by the robot's guess of its worth); otherwise it asks a choice naming the two
+    likeliest objects ("Which one: the cereal or the sugar?"), or "Sorry, what do you need?".
+    A request nobody made never reaches a rule (the observer answers ``none``).
 
-    The other options are ask-or-act's (loss aversion, question cost, kinds): the rule is
-    ask-or-act with a request understood carried out.
+    The other options are ask-or-act's (loss aversion, question cost, kinds).
     """
 
     confident: float = DEFAULT_CONFIDENT
@@ -455,24 +463,53 @@ class TeammateRule(AskOrActRule):
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         top = str(post.command)
         p = post.prob(top)
-        if p >= self.confident:
-            why_not = decline_reason(top, where)
-            if why_not:
-                return Decision(self.name, NONE, NONE, 0.0, 0.0, reason=f"asked for {top}, but {why_not}")
+        made = self._ask_or_act(post, where, top)  # a question naming it when one pays, else expected benefit
+        if made.action == "ask":
+            alt = ", ".join(o for o in made.options if o != top) or next(
+                (f"{c} (P = {q:.2f})" for c, q in post.commands if str(c) != top), "something else")
+            return dataclasses.replace(made, reason=f"asked for {top} (P = {p:.2f}), or {alt}: {made.reason}")
+        if made.action != NONE:
+            return dataclasses.replace(made, reason=f"asked for {top} (P = {p:.2f}): {made.reason}")
+        # expected benefit would do nothing; a request is never ignored
+        why_not = decline_reason(top, where)
+        if why_not:
+            return Decision(self.name, NONE, NONE, 0.0, 0.0, reason=f"asked for {top}, but {why_not}",
+                            declined=_sentence(why_not))
+        if p >= self.confident:  # understood: carried out, whatever the robot guesses of its worth
+            valued = dict(made.benefits).get(top, float("nan"))  # loss-averse, as expected benefit weighed it
             tv = _values(post, where)
-            eb = float(tv.expected()[tv.actions.index(top)]) if top in tv.actions else float("nan")
-            return Decision(self.name, top, top, p, eb,
-                            reason=f"asked for {top} (P = {p:.2f})" + (f", expected to save {eb:.1f} steps"
-                                                                        if np.isfinite(eb) else ""),
-                            benefits=_top(tv.actions, tv.expected()))
-        ask = super().__call__(post, where)
-        if ask.action == "ask":
-            alt = ", ".join(o for o in ask.options if o != top)
-            return dataclasses.replace(ask, reason=f"asked for {top} (P = {p:.2f}), or "
-                                       f"{alt or 'something else'}: {ask.reason}")
-        if ask.action == top and not decline_reason(top, where):
-            return dataclasses.replace(ask, reason=f"asked for {top} (P = {p:.2f}): {ask.reason}")
+            raw = float(tv.expected()[tv.actions.index(top)]) if top in tv.actions else float("nan")
+            worth = (f"expected to save {raw:+.1f} steps, {valued:+.1f} weighed for risk; "
+                     if np.isfinite(raw) and np.isfinite(valued) else "")
+            return Decision(self.name, top, top, p, raw,
+                            reason=f"asked for {top} (P = {p:.2f}): understood, so carried out ({worth}"
+                                   f"the best question is worth {made.evi:.1f} steps <= its cost {made.ask_cost:.1f})",
+                            benefits=made.benefits)
         return self._choose(post, where, top, p)
+
+    def _ask_or_act(self, post: Posterior, where: Situation, top: str) -> Decision:
+        """Ask-or-act's decision among the questions that name the command asked for (a person
+        who asked for the cereal is asked about the cereal, not about the flour alone)."""
+        tv = _values(post, where)
+        only = (post.command,) if post.command in tv.actions else None
+        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent, only)
+        a = tv.actions[best]
+        p = 0.0 if a == NONE else post.prob(a)
+        qs = [(v, q) for v, q in best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds,
+                                                unit=self.utility, cost_model=self.cost_model,
+                                                time_as_loss=self.time_as_loss, spent=self.spent)
+              if top in q.options]
+        ranked = _top(tv.actions, eb)
+        if qs and qs[0][0] > self.cost(qs[0][1]) + 1e-9:  # a question worth exactly its cost is not asked
+            value, q = qs[0]
+            t = question_cost(q, self.ask_cost, self.cost_model)
+            return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, t,
+                            f"asking is worth {value:.1f} steps > its cost {self.cost(q):.1f}", ranked, q.kind, q)
+        value = qs[0][0] if qs else 0.0
+        cost = self.cost(qs[0][1]) if qs else 0.0
+        return Decision(self.name, a, a, p, float(eb[best]), "", (), value, cost,
+                        f"the best question is worth {value:.1f} steps <= its cost {cost:.1f}; "
+                        + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), ranked)
 
     def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
         """Ask which of the two likeliest objects it was (or what was needed, with one)."""

@@ -24,9 +24,11 @@ the answer depends on the command alone.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -103,9 +105,27 @@ class Question:
         """Every phrase of every cell: what the recogniser listens for after this question."""
         return tuple(dict.fromkeys(p for cell in self.answers for p in cell))
 
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "text": self.text, "options": list(self.options),
+                "answers": [list(a) for a in self.answers], "keys": [list(k) for k in self.keys]}
+
+    @classmethod
+    def from_json(cls, obj: Mapping[str, Any]) -> Question:
+        """The question :meth:`to_json` wrote (a malformed record is an ObservationError)."""
+        try:
+            answers = tuple(tuple(str(p) for p in a) for a in obj["answers"])
+            keys = tuple(tuple(str(k) for k in a) for a in obj["keys"])
+            q = cls(str(obj["kind"]), str(obj["text"]), tuple(str(o) for o in obj["options"]), answers, keys)
+        except (KeyError, TypeError) as exc:
+            raise ObservationError(f"a question record needs kind, text, options, answers and keys ({exc})") from None
+        if len(q.answers) != len(q.keys) or len(q.options) != len(q.answers) - 1:
+            raise ObservationError("a question record needs one answer list and one key list per cell, and one "
+                                   "cell more than options")
+        return q
+
     def heard_cell(self, text: str) -> int | None:
         """The cell a heard answer names: the one with the most key words in it; None on a tie or none."""
-        words = set(text.lower().split())
+        words = set(re.findall(r"[a-z']+", text.lower()))
         score = [sum(1 for k in keys if k in words) for keys in self.keys]
         best = max(score)
         if best == 0 or score.count(best) > 1:
@@ -214,3 +234,31 @@ def answer_log_likelihood_cells(question: Question, commands: Sequence[str], hea
     conf = channel(question.n_cells, r)
     out: npt.NDArray[np.float64] = np.log(np.array([conf[heard, question.cell(str(c))] for c in commands]))
     return out
+
+
+# How often a spoken answer is heard as the cell it names, per question kind and SNR (dB;
+# clean = inf), measured on the seed-1 development sets (both domains pooled) with
+# `siftom bench answer-grammar` (docs/decisions.md). The robot measures the noise level between
+# utterances; the benchmark hands it the stimulus's SNR as that measurement. Linear in between.
+ANSWER_RELIABILITY: dict[str, tuple[tuple[float, float], ...]] = {
+    "confirm": ((5.0, 0.77), (10.0, 0.91), (20.0, 0.99), (float("inf"), 0.94)),
+    "choose": ((5.0, 0.79), (10.0, 0.84), (20.0, 0.94), (float("inf"), 0.94)),
+    # household only; numbers and "nothing" (another class's count) pooled, 100 stimuli of the
+    # seed-1 household set (45/45 heard at 20 dB, capped at 0.99 as confirm)
+    "count": ((5.0, 0.73), (10.0, 0.82), (20.0, 0.99), (float("inf"), 0.94)),
+}
+
+
+def _interp(table: tuple[tuple[float, float], ...], snr_db: float | None) -> float:
+    x = float("inf") if snr_db is None else float(snr_db)
+    pts = [p for p in table if np.isfinite(p[0])]
+    if not np.isfinite(x):
+        return table[-1][1]
+    if x >= pts[-1][0]:
+        return pts[-1][1]
+    return float(np.interp(x, [p[0] for p in pts], [p[1] for p in pts]))
+
+
+def answer_reliability(snr_db: float | None, kind: str = "choose") -> float:
+    """The probability that an answer to a ``kind`` question is heard right at this SNR (None: clean)."""
+    return _interp(ANSWER_RELIABILITY[kind], snr_db)

@@ -29,6 +29,7 @@ import numpy as np
 from siftom.assist.questions import (
     KINDS,
     Question,
+    answer_reliability,
     choose_question,
     confirm_question,
     count_question,
@@ -36,34 +37,6 @@ from siftom.assist.questions import (
 from siftom.errors import DatasetError, SiftomError
 
 FALLBACK_VOICE = "flite-slt"  # for recordings of real people: no TTS voice to answer with
-# How often a spoken answer is heard as the cell it names, per question kind and SNR (dB;
-# clean = inf), measured on the seed-1 development sets (both domains pooled) with
-# `siftom bench answer-grammar` (docs/decisions.md). The robot measures the noise level between
-# utterances; the benchmark hands it the stimulus's SNR as that measurement. Linear in between.
-ANSWER_RELIABILITY: dict[str, tuple[tuple[float, float], ...]] = {
-    "confirm": ((5.0, 0.77), (10.0, 0.91), (20.0, 0.99), (float("inf"), 0.94)),
-    "choose": ((5.0, 0.79), (10.0, 0.84), (20.0, 0.94), (float("inf"), 0.94)),
-    # household only; numbers and "nothing" (another class's count) pooled, 100 stimuli of the
-    # seed-1 household set (45/45 heard at 20 dB, capped at 0.99 as confirm)
-    "count": ((5.0, 0.73), (10.0, 0.82), (20.0, 0.99), (float("inf"), 0.94)),
-}
-
-
-def _interp(table: tuple[tuple[float, float], ...], snr_db: float | None) -> float:
-    x = float("inf") if snr_db is None else float(snr_db)
-    pts = [p for p in table if np.isfinite(p[0])]
-    if not np.isfinite(x):
-        return table[-1][1]
-    if x >= pts[-1][0]:
-        return pts[-1][1]
-    return float(np.interp(x, [p[0] for p in pts], [p[1] for p in pts]))
-
-
-def answer_reliability(snr_db: float | None, kind: str = "choose") -> float:
-    """The probability that an answer to a ``kind`` question is heard right at this SNR (None: clean)."""
-    return _interp(ANSWER_RELIABILITY[kind], snr_db)
-
-
 def answer_reliabilities(snr_db: float | None) -> dict[str, float]:
     """:func:`answer_reliability` for every question kind."""
     return {k: answer_reliability(snr_db, k) for k in KINDS}
@@ -210,7 +183,7 @@ def answer_grammar_cmd(datasets: tuple[str, ...], limit: int, engine: str, as_js
     """How reliably answers to each kind of question are heard, by SNR, pooled over DATASETS.
 
     Measure on development sets (another seed than the evaluation sets); the printed table is
-    ANSWER_RELIABILITY in bench/answers.py.
+    ANSWER_RELIABILITY in assist/questions.py.
     """
     pooled: dict[str, dict[float, list[bool]]] = {k: {} for k in KINDS}
     for d in datasets:

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from siftom.agents.trial import MAX_REQUESTS, Speaker, simulate_trial
+from siftom.agents.trial import ASK_FOR, MAX_REQUESTS, Speaker, simulate_trial
 from siftom.errors import SiftomError, unknown_name
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
@@ -100,28 +100,34 @@ def speaker_for(channel: str, world: World, p_err: float = P_ERR) -> Speaker:
 
 def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer: Any, *,
                channels: Sequence[str] = ("oracle",), max_requests: int = MAX_REQUESTS, p_err: float = P_ERR,
-               scenarios: Sequence[str] | None = None, ask_for: str = "unstarted",
+               scenarios: Sequence[str] | None = None, ask_for: str | Sequence[str] = "plan",
                progress: Callable[[int, int], None] | None = None) -> Iterator[dict[str, Any]]:
-    """One row per (scenario, channel, seed, rule) over the domain's registered scenarios."""
+    """One row per (scenario, channel, person policy, seed, rule) over the domain's registered
+    scenarios; ``ask_for``: one person policy or several (agents/trial.py, ``ASK_FOR``)."""
     from siftom.scenarios.base import get_domain, get_scenario
 
+    policies = [ask_for] if isinstance(ask_for, str) else list(ask_for)
+    for a in policies:
+        if a not in ASK_FOR:
+            raise unknown_name("person policy (ask_for)", a, ASK_FOR)
     ids = list(scenarios) if scenarios is not None else list(get_domain(domain).fixed())
-    total = len(ids) * len(channels) * len(seeds) * len(rules)
+    total = len(ids) * len(channels) * len(policies) * len(seeds) * len(rules)
     done = 0
     if progress is not None:
         progress(0, total)
     for sid in ids:
         sc = get_scenario(sid)
         for channel in channels:
-            for seed in seeds:
-                for rule in rules:
-                    res = simulate_trial(sc, observer, seed=seed, rule=rule, max_requests=max_requests,
-                                         speak=speaker_for(channel, sc.world, p_err), ask_for=ask_for)
-                    done += 1
-                    if progress is not None:
-                        progress(done, total)
-                    yield {"domain": domain, "channel": channel, "ask_for": ask_for, **res.metrics(),
-                           "request_log": [r.to_json() for r in res.requests]}
+            for policy in policies:
+                for seed in seeds:
+                    for rule in rules:
+                        res = simulate_trial(sc, observer, seed=seed, rule=rule, max_requests=max_requests,
+                                             speak=speaker_for(channel, sc.world, p_err), ask_for=policy)
+                        done += 1
+                        if progress is not None:
+                            progress(done, total)
+                        yield {"domain": domain, "channel": channel, "ask_for": policy, **res.metrics(),
+                               "request_log": [r.to_json() for r in res.requests]}
 
 
 def _mean_se(xs: Sequence[float]) -> tuple[float, float]:
@@ -132,44 +138,53 @@ def _mean_se(xs: Sequence[float]) -> tuple[float, float]:
 
 
 def summarise(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per (domain, channel, rule): trials, mean speedup (and its standard error), wrong
-    fetches, questions, refusals and requests per trial; with two or more rules, each rule's
+    """Per (domain, channel, person policy, rule): trials, mean speedup (and its standard error),
+    wrong fetches, questions, refusals and requests per trial, the share of requests answered
+    (carried out as asked, or asked about by a question naming what was asked for) and the
+    requests turned down without a reason the robot can say; with two or more rules, each rule's
     mean paired difference in speedup from the first rule."""
-    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str, str, str], list[dict[str, Any]]] = {}
     for r in rows:
-        groups.setdefault((r["domain"], r["channel"], r["rule"]), []).append(r)
+        groups.setdefault((r["domain"], r["channel"], r.get("ask_for", ""), r["rule"]), []).append(r)
     out = []
-    for (domain, channel, rule), rs in groups.items():
+    for (domain, channel, ask_for, rule), rs in groups.items():
         sp, se = _mean_se([r["speedup"] for r in rs])
         n = len(rs)
-        out.append({"domain": domain, "channel": channel, "rule": rule, "trials": n, "speedup": sp,
-                    "speedup_se": se, "wrong_fetches": sum(r["wrong_fetches"] for r in rs) / n,
+        asked = sum(r["requests"] for r in rs)
+        out.append({"domain": domain, "channel": channel, "ask_for": ask_for, "rule": rule, "trials": n,
+                    "speedup": sp, "speedup_se": se, "wrong_fetches": sum(r["wrong_fetches"] for r in rs) / n,
                     "questions": sum(r["questions"] for r in rs) / n,
                     "refusals": sum(r["refusals"] for r in rs) / n,
-                    "requests": sum(r["requests"] for r in rs) / n,
+                    "requests": asked / n,
+                    "answered": sum(r.get("answered", 0) for r in rs) / asked if asked else math.nan,
+                    "ignored": sum(r.get("ignored", 0) for r in rs),
                     "l_single": sum(r["l_single"] for r in rs) / n, "l_team": sum(r["l_team"] for r in rs) / n})
-    # paired differences from the first rule of each (domain, channel)
-    first: dict[tuple[str, str], str] = {}
+    # paired differences from the first rule of each (domain, channel, person policy)
+    first: dict[tuple[str, str, str], str] = {}
     for r in rows:
-        first.setdefault((r["domain"], r["channel"]), r["rule"])
-    key = {(r["domain"], r["channel"], r["rule"], r["scenario"], r["seed"]): r["speedup"] for r in rows}
+        first.setdefault((r["domain"], r["channel"], r.get("ask_for", "")), r["rule"])
+    key = {(r["domain"], r["channel"], r.get("ask_for", ""), r["rule"], r["scenario"], r["seed"]): r["speedup"]
+           for r in rows}
     for s in out:
-        base = first[(s["domain"], s["channel"])]
+        base = first[(s["domain"], s["channel"], s["ask_for"])]
         if s["rule"] == base:
             continue
-        diffs = [v - key[(d, c, base, sc, seed)] for (d, c, rule, sc, seed), v in key.items()
-                 if d == s["domain"] and c == s["channel"] and rule == s["rule"] and (d, c, base, sc, seed) in key]
+        diffs = [v - key[(d, c, a, base, sc, seed)] for (d, c, a, rule, sc, seed), v in key.items()
+                 if (d, c, a, rule) == (s["domain"], s["channel"], s["ask_for"], s["rule"])
+                 and (d, c, a, base, sc, seed) in key]
         s["vs"], (s["diff"], s["diff_se"]) = base, _mean_se(diffs)
     return out
 
 
 def markdown(summary: Sequence[dict[str, Any]]) -> str:
     """The summary as a Markdown table."""
-    lines = ["| domain | channel | rule | trials | speedup (± se) | wrong fetches / trial | questions / trial "
-             "| refusals / trial | requests / trial |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| domain | channel | person | rule | trials | speedup (± se) | wrong fetches / trial "
+             "| questions / trial | refusals / trial | requests / trial | answered | ignored |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         diff = f"; {s['diff']:+.3f} ± {s['diff_se']:.3f} vs {s['vs']}" if "vs" in s else ""
-        lines.append(f"| {s['domain']} | {s['channel']} | {s['rule']} | {s['trials']} | "
+        lines.append(f"| {s['domain']} | {s['channel']} | {s['ask_for']} | {s['rule']} | {s['trials']} | "
                      f"{s['speedup']:+.3f} ± {s['speedup_se']:.3f}{diff} | {s['wrong_fetches']:.2f} | "
-                     f"{s['questions']:.2f} | {s['refusals']:.2f} | {s['requests']:.2f} |")
+                     f"{s['questions']:.2f} | {s['refusals']:.2f} | {s['requests']:.2f} | "
+                     f"{100 * s['answered']:.0f} % | {s['ignored']} |")
     return "\n".join(lines)

@@ -38,8 +38,10 @@ def _rule_option(f: Any) -> Any:
 
 
 def _ask_for_option(f: Any) -> Any:
-    return click.option("--ask-for", type=click.Choice(["unstarted", "any"]), default="unstarted", show_default=True,
-                        help="which classes the person asks for: only those they have not started, or any still needed")(f)
+    return click.option("--ask-for", default="plan", show_default=True,
+                        help="what the person asks for: plan (the robot's part of the best joint plan), "
+                             "unstarted (any class not yet started) or any (any still needed); several, "
+                             "comma-separated, for bench trials")(f)
 
 
 def _channel_option(f: Any) -> Any:
@@ -121,7 +123,7 @@ def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_r
         bar = stack.enter_context(_bar(f"trials {domain}", enabled=not no_progress))
         for row in run_trials(domain, range(seed_start, seed_start + seeds), rule_list, Observer(),
                               channels=channels, max_requests=max_requests, p_err=p_err,
-                              scenarios=scenarios or None, ask_for=ask_for, progress=bar):
+                              scenarios=scenarios or None, ask_for=_csv(ask_for), progress=bar):
             rows.append(row)
             if fh is not None:
                 fh.write(json.dumps(row) + "\n")

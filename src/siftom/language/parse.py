@@ -41,6 +41,9 @@ _COUNT_LIKE = {"to": 2, "for": 4}
 _ASKS_BEFORE = frozenset({"VERB", "ME", "WANT", "MEAN", "PLEASE"})  # where a count, not a relation, comes next
 # "I'd", "we'd": a wish ("I'd love the tea"), not a statement, whatever verb follows
 _WISHING = frozenset({"i'd", "we'd"})
+# determiners that cannot follow a quantifier "no": after "no" they start a new phrase, so the
+# "no" answers or rejects what came before ("no, the flour"), it does not negate the slot
+_DEFINITE = frozenset({"the", "a", "an", "that", "this", "these", "those", "my", "your", "our"})
 
 
 @dataclass(frozen=True)
@@ -138,6 +141,18 @@ def read(text: str) -> Reading:
     return _roles(words, pieces, truncated, kinds)
 
 
+def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
+    """Whether the "no" at ``at`` answers or rejects what came before rather than negating the
+    slot after it: a quantifier "no" takes a bare noun or a count ("no sugar", "no more milk",
+    "no two plates"); followed by a definite determiner, another marker or nothing, it does not."""
+    if words[at] != "no":
+        return False
+    if at + 1 >= len(words):
+        return True
+    nxt = kinds[at + 1]
+    return nxt not in ("WORD", "NUM", "DET") or words[at + 1] in _DEFINITE
+
+
 def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]]], truncated: bool,
            kinds_of_words: tuple[str, ...]) -> Reading:
     slots: list[Slot] = []
@@ -157,7 +172,12 @@ def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]
             if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
                     and pending == "context":
                 pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
-            if kind == "NEG":
+            if kind == "NEG" and _rejects(words, kinds_of_words, at):
+                # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
+                # oats"): what came before is taken back, the next slot is asked for
+                retract = next((k for k in range(len(slots) - 1, -1, -1) if slots[k].role == "target"), None)
+                pending = "target"
+            elif kind == "NEG":
                 pending = "negated"
             elif kind == "MEAN":
                 # "the jam, I mean the honey": the target before is taken back when another follows

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
+from siftom.assist.reply import Pending
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
@@ -452,8 +453,10 @@ class SessionManager:
                 return first
             ans = self.observer.answer(sess.online, instruction, likelihood=sess.options["likelihood"],
                                        decide=decide or sess.options.get("decide"), top=top, heard=heard,
-                                       mode=sess.options["mode"])
+                                       mode=sess.options["mode"], pending=_pending_of(sess.last))
             body: dict[str, Any] = {"session": sid, **ans.to_json(top=top)}
+            # the question the robot waits on an answer to, kept with the session (assist/reply.py)
+            body["pending"] = ans.pending.to_json() if ans.pending is not None else None
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(ans.commands, policy).to_json()
             if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
@@ -518,6 +521,18 @@ class SessionManager:
                 "last_instruction": sess.last,
                 "warnings": list(sess.warnings),
             }
+
+
+def _pending_of(last: dict[str, Any] | None) -> Pending | None:
+    """The question the session's last answer left waiting (None: none, or a record this version
+    cannot read, which is then forgotten rather than failing the instruction)."""
+    got = (last or {}).get("pending")
+    if not isinstance(got, dict):
+        return None
+    try:
+        return Pending.from_json(got)
+    except ObservationError:
+        return None
 
 
 def _state_json(w: Any, s: Any) -> dict[str, Any]:

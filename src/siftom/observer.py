@@ -27,7 +27,7 @@ import copy
 import dataclasses
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,7 +36,8 @@ import numpy as np
 
 from siftom.answer import NOTHING_ASKED, Answer
 from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
-from siftom.assist.reply import Pending
+from siftom.assist.questions import reliability_for
+from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
@@ -229,7 +230,8 @@ class Observer:
     def answer(self, online: OnlineInference, instruction: Instruction | None, *,
                likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
                top: int | None = None, heard: Heard | None = None, mode: str | None = None,
-               gate: bool = True, pending: Pending | None = None) -> Answer:
+               gate: bool = True, pending: Pending | None = None,
+               answer_reliability: float | Mapping[str, float] | None = None) -> Answer:
         """What the robot does about ``instruction`` on ``online`` (its actions observed so far).
 
         ``heard``: the clip the instruction was recognised from (no speech: ``instruction`` None).
@@ -239,14 +241,18 @@ class Observer:
         ``pending``: the question the robot asked last and waits on (``answer.pending`` of the
         answer that asked it): words that reply to it are weighed with the request's
         (assist/reply.py). The answer's ``pending`` is what to keep for the next utterance.
+        ``answer_reliability``: how often a spoken answer to a question is heard as the cell it
+        names, one number or one per kind (default: the measured clean values,
+        ``assist.reply.REPLY_RELIABILITY``); the questions' value and the reply's update use it.
         """
         t0 = time.perf_counter()
         top = top or self.settings.infer.top
         mode = mode or online.model.config.mode
         has_audio = instruction is not None and instruction.has_audio
         lk, why = self.resolve(likelihood, has_audio)
+        rel = REPLY_RELIABILITY if answer_reliability is None else answer_reliability
         if pending is not None and instruction is not None and mode != "speech-only":
-            replied = self._reply(online, pending, instruction, mode, lk, why, top, decide, heard, t0)
+            replied = self._reply(online, pending, instruction, mode, lk, why, top, decide, heard, t0, rel)
             if replied is not None:
                 return replied
         speech = None if heard is None else heard.speech
@@ -291,7 +297,7 @@ class Observer:
                                           lk if isinstance(lk, str) else type(lk).__name__, why)
                           for k in named]
             parts = tuple(pp.command for pp in part_posts)
-            decisions = [self._decide_part(pp, world, target, decide, targets[k])
+            decisions = [self._decide_part(pp, world, target, decide, targets[k], rel)
                          for pp, k in zip(part_posts, named, strict=True)]
             decision = _combine(decisions)
             if left_out:
@@ -301,7 +307,7 @@ class Observer:
         else:
             if targets:
                 parts = (post.command,)
-            decision = self.decide(post, world, target, decide, nothing=nothing)
+            decision = self.decide(post, world, target, decide, nothing=nothing, answer_reliability=rel)
             if targets and not nothing:
                 here = _already_here(decision, targets[0], post, world, target, online.verb)
                 if here is not None:  # understood, but nothing of it is left to bring: say so
@@ -330,7 +336,7 @@ class Observer:
 
     def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction, mode: str,
                lk: LikelihoodArg, why: str, top: int, decide: str | DecisionRule | None, heard: Heard | None,
-               t0: float) -> Answer | None:
+               t0: float, rel: float | Mapping[str, float]) -> Answer | None:
         """The answer to words that reply to ``pending`` (assist/reply.py); None when they answer
         nothing (they are then an utterance like any other)."""
         from siftom.assist.reply import after_reply, cell_named
@@ -343,11 +349,11 @@ class Observer:
         if cell is None and not targets:
             return None
         base = words if targets else self._view(online, "action-only", "phonetic").posterior(None, top=top)
-        post = after_reply(base, pending, cell)
+        post = after_reply(base, pending, cell, reliability_for(rel, pending.question.kind))
         post = dataclasses.replace(post, transcript=instruction.text, understanding=u, evidence={
             **words.evidence, "reply_to": pending.question.text, "reply_cell": cell})
         world, target = online.world, online.goals[0].target
-        decision = self.decide(post, world, target, decide)
+        decision = self.decide(post, world, target, decide, answer_reliability=rel)
         parts: tuple[RobotCommand, ...] = (post.command,)
         if targets:
             here = _already_here(decision, targets[0], post, world, target, online.verb)
@@ -364,15 +370,16 @@ class Observer:
                       time.perf_counter() - t0, timings, True, parts, (), keep)
 
     def _decide_part(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None,
-                     mention: Mention) -> Decision:
+                     mention: Mention, rel: float | Mapping[str, float]) -> Decision:
         """The rule's decision on one part of a request with several (an absent object: none)."""
-        made = self.decide(post, world, target, rule)
+        made = self.decide(post, world, target, rule, answer_reliability=rel)
         return _absent(made, mention) or made
 
     def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
-               nothing: str = "") -> Decision:
+               nothing: str = "", answer_reliability: float | Mapping[str, float] | None = None) -> Decision:
         """The decision rule's answer (default: the setting ``infer.decide``); ``nothing``: why
-        the robot was not asked anything (it then does nothing, whatever the rule)."""
+        the robot was not asked anything (it then does nothing, whatever the rule);
+        ``answer_reliability``: see :meth:`answer`."""
         rule = rule if rule is not None else (self.settings.infer.decide or "map")
         name = rule if isinstance(rule, str) else getattr(rule, "name", type(rule).__name__)
         if nothing:
@@ -382,7 +389,8 @@ class Observer:
         made = get_rule(rule, **self.settings.rule_options(rule)) if isinstance(rule, str) else rule
         if post.joint is None or post.joint.state is None:  # speech-only: no state to value actions in
             return MapRule()(post, None)
-        return made(post, Situation(world, post.joint.state, target))
+        rel = REPLY_RELIABILITY if answer_reliability is None else answer_reliability
+        return made(post, Situation(world, post.joint.state, target, rel))
 
     def _view(self, online: OnlineInference, mode: str, likelihood: LikelihoodArg) -> OnlineInference:
         """``online`` scored by another model: a shallow copy (posterior() only reads the action state)."""

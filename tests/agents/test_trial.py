@@ -77,8 +77,9 @@ def test_a_wrong_command_costs_the_remedy(observer):
     def vague(command, rng):  # noqa: ANN001, ANN202
         return "could you get me the thingamajig"
 
-    alone = simulate_trial(sc, observer, seed=0, rule=never, max_requests=1, speak=vague)
-    wrong = simulate_trial(sc, observer, seed=0, rule=always("fetch(salt)"), max_requests=1, speak=vague)
+    alone = simulate_trial(sc, observer, seed=0, rule=never, max_requests=1, speak=vague, ask_for="unstarted")
+    wrong = simulate_trial(sc, observer, seed=0, rule=always("fetch(salt)"), max_requests=1, speak=vague,
+                           ask_for="unstarted")
     (req,) = wrong.requests
     assert req.executed == "fetch(salt)" and req.wrong == 1 and req.useful == 0 and wrong.wrong_fetches == 1
     target = sc.target
@@ -174,3 +175,13 @@ def test_the_person_asks_only_for_classes_they_have_not_started(observer, sid):
             assert not grabbed, (seed, req)
     with pytest.raises(Exception, match="ask_for"):
         simulate_trial(sc, observer, ask_for="sometimes")
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(sid=st.sampled_from(SCENARIOS), seed=st.integers(0, 10_000))
+def test_the_person_asks_for_the_robots_part_of_a_good_joint_plan(observer, sid, seed):
+    """Heard exactly and carried out, what the person asks for makes the team no slower."""
+    sc = get_scenario(sid)
+    res = simulate_trial(sc, observer, seed=seed, rule="map", ask_for="plan")
+    assert all(r.executed == r.asked and r.wrong == 0 for r in res.requests)
+    assert res.speedup >= -1e-9, res.to_json(events=False)

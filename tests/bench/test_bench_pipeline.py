@@ -263,7 +263,9 @@ def test_a_trial_whose_answer_cannot_be_said_is_not_evaluable_and_the_eval_goes_
     ds = tmp_path / "ds"
     shutil.copytree(tiny, ds)
     manifest = ds / "manifest.jsonl"
-    manifest.write_text(manifest.read_text().replace('"noise": "pink"', '"noise": "cat_meowing"'))
+    # (every stimulus: the clean ones are mixed at 20 dB, so any question's answer needs the noise)
+    manifest.write_text(manifest.read_text().replace('"noise": "pink"', '"noise": "cat_meowing"')
+                        .replace('"noise": null, "snr_db": null', '"noise": "cat_meowing", "snr_db": 20.0'))
     run = evaluate(ds, tmp_path / "r", EvalOptions(models=("siftom", "siftom-ask")))
     rows = load_results(tmp_path / "r")
     assert len(rows) == len(load_dataset(ds).stimuli) == run.evaluated

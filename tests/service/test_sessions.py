@@ -410,12 +410,14 @@ def test_a_question_is_answered_in_the_next_instruction_even_after_a_restart(fol
     sid = c.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"}).json()["id"]
     first = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "pass me the silver"}).json()
     assert first["action"] == "ask" and "cereal" in first["decision"]["question"], first["decision"]
-    assert first["awaiting_reply"] is True and first["pending"]["question"]["text"] == first["decision"]["question"]
+    assert first["awaiting_reply"] is True and first["awaiting"]["question"]["text"] == first["decision"]["question"]
     talk = c.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "hmm what a day"}).json()
     assert talk["action"] == "none" and talk["awaiting_reply"] is True  # room talk: the question waits
     c2 = _client(folder)  # a new process on the same data directory
-    reply = c2.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "yes"}).json()
+    said = first["decision"]["answers"][0]  # the plainest answer naming the first option ("yes", "the cereal")
+    assert first["decision"]["options"][0] == "fetch(cereal)"
+    reply = c2.post(f"/v1/sessions/{sid}/instruction", json={"transcript": said}).json()
     assert reply["action"] == "act" and reply["command"] == "fetch(cereal)", reply["decision"]
-    assert reply["reply_to"] == first["decision"]["question"] and reply["pending"] is None
+    assert reply["reply_to"] == first["decision"]["question"] and reply["awaiting"] is None
     again = c2.post(f"/v1/sessions/{sid}/instruction", json={"transcript": "yes"}).json()
     assert again["action"] == "none" and again["reply_to"] is None  # nothing waits any more

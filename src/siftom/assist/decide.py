@@ -315,7 +315,7 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
     face value, the outcomes after the answer valued from there (the classic EVI). ``spent``:
     steps already spent on earlier questions about this request (in every outcome).
     """
-    qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds)
+    qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds, _lexicon(where.world))
     if not qs:
         return []
     v0 = float((tv.prob @ tv.utility(loss_aversion, spent, unit)).max())
@@ -417,6 +417,13 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
     return len(items) - len(there), len(there)
 
 
+def _lexicon(world: World) -> Any:
+    """How ``world`` names its classes (its own names, else the built-in lexicon)."""
+    from siftom.likelihood.lexicon import lexicon_for
+
+    return lexicon_for(world)
+
+
 def _sentence(text: str) -> str:
     """``text`` as a sentence the robot says: "Sorry, the honey is already with you."."""
     return f"Sorry, {text.rstrip('.')}."
@@ -424,13 +431,11 @@ def _sentence(text: str) -> str:
 
 def decline_reason(command: str, where: Situation) -> str:
     """A reason the robot can say for not carrying out ``command``, or '' when it can."""
-    from siftom.likelihood.lexicon import default_lexicon
-
     cmd = RobotCommand.parse(command)
     left, there = left_to_bring(command, where)
     if left >= 1:
         return ""
-    name = default_lexicon().entry(cmd.obj_class).singular
+    name = _lexicon(where.world).entry(cmd.obj_class).singular
     if there:
         return f"the {name} is already with you"
     return f"there is no {name} left to bring"
@@ -517,7 +522,7 @@ class TeammateRule(AskOrActRule):
 
         others = [str(c) for c, _ in post.commands[1:] if str(c) != top and not decline_reason(str(c), where)]
         if not decline_reason(top, where) and others:
-            q = choose_question(top, others[0])
+            q = choose_question(top, others[0], _lexicon(where.world))
             return Decision(self.name, "ask", top, p, float("nan"), q.text, q.options, 0.0,
                             question_cost(q, self.ask_cost, self.cost_model),
                             f"asked for {top} (P = {p:.2f}) or {others[0]}: not sure which", (), q.kind, q)

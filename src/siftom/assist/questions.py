@@ -55,22 +55,24 @@ def _parse(command: str) -> RobotCommand | None:
         return None
 
 
-def _noun(cmd: RobotCommand) -> str:
-    """The class's canonical spoken name ("water glasses"), as the instruction phrasings say it."""
+def _noun(cmd: RobotCommand, lexicon: Any = None) -> str:
+    """The class's canonical spoken name ("water glasses"), as the instruction phrasings say it;
+    ``lexicon``: the world's own names (None: the built-in lexicon)."""
     from siftom.likelihood.lexicon import default_lexicon
 
-    name = default_lexicon().entry(cmd.obj_class).names[0]  # unlisted classes get a default entry
+    lex = lexicon if lexicon is not None else default_lexicon()
+    name = lex.entry(cmd.obj_class).names[0]  # unlisted classes get a default entry
     return name.plural if cmd.count > 1 else name.singular
 
 
-def describe(command: str) -> str:
+def describe(command: str, lexicon: Any = None) -> str:
     """Spoken noun phrase: ``fetch(cereal)`` -> "the cereal", ``deliver(waterglass,3)`` -> "three water glasses"."""
     cmd = _parse(command)
     if cmd is None:
         return command
     if cmd.count == 1:
-        return f"the {_noun(cmd)}" if cmd.verb == "fetch" else f"one {_noun(cmd)}"
-    return f"{number_word(cmd.count)} {_noun(cmd)}"
+        return f"the {_noun(cmd, lexicon)}" if cmd.verb == "fetch" else f"one {_noun(cmd, lexicon)}"
+    return f"{number_word(cmd.count)} {_noun(cmd, lexicon)}"
 
 
 @dataclass(frozen=True)
@@ -133,37 +135,37 @@ class Question:
         return score.index(best)
 
 
-def confirm_question(command: str) -> Question:
+def confirm_question(command: str, lexicon: Any = None) -> Question:
     """"Shall I bring two plates?" (fetch: "Shall I get the cereal?"); yes / no."""
     cmd = _parse(command)
-    what = describe(command)
+    what = describe(command, lexicon)
     verb = "get" if cmd is not None and cmd.verb == "fetch" else "bring"
     return Question("confirm", f"Shall I {verb} {what}?", (command,), (YES, NO), (_YES_KEYS, _NO_KEYS))
 
 
-def _choice_names(a: RobotCommand, b: RobotCommand) -> tuple[str, str]:
+def _choice_names(a: RobotCommand, b: RobotCommand, lexicon: Any = None) -> tuple[str, str]:
     """What tells two commands apart, as a person would say it."""
     if a.obj_class == b.obj_class:  # only the count differs
         return number_word(a.count), number_word(b.count)
     if a.count == b.count or a.verb == "fetch":
-        return f"the {_noun(a)}", f"the {_noun(b)}"
-    return f"{number_word(a.count)} {_noun(a)}", f"{number_word(b.count)} {_noun(b)}"
+        return f"the {_noun(a, lexicon)}", f"the {_noun(b, lexicon)}"
+    return f"{number_word(a.count)} {_noun(a, lexicon)}", f"{number_word(b.count)} {_noun(b, lexicon)}"
 
 
-def choose_question(a: str, b: str) -> Question:
+def choose_question(a: str, b: str, lexicon: Any = None) -> Question:
     """"Which one: two plates or three plates?"; the answer names one (or says neither)."""
     ca, cb = _parse(a), _parse(b)
     if ca is None or cb is None or a == b:
         raise ObservationError(f"a choice needs two different commands, got {a!r} and {b!r}")
-    na, nb = _choice_names(ca, cb)
+    na, nb = _choice_names(ca, cb, lexicon)
     cells = tuple((n, f"{n} please") for n in (na, nb)) + (NEITHER,)
     wa, wb = set(na.split()) - {"the"}, set(nb.split()) - {"the"}
     keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), ("neither", "none"))
-    text = f"Which one: {describe(a)} or {describe(b)}?"
+    text = f"Which one: {describe(a, lexicon)} or {describe(b, lexicon)}?"
     return Question("choose", text, (a, b), cells, keys)
 
 
-def count_question(obj_class: str, commands: Sequence[str]) -> Question:
+def count_question(obj_class: str, commands: Sequence[str], lexicon: Any = None) -> Question:
     """"How many plates?" over the ``deliver`` commands of the class among ``commands``."""
     opts = tuple(sorted((c for c in commands if (p := _parse(c)) is not None and p.verb == "deliver"
                          and p.obj_class == obj_class), key=lambda c: RobotCommand.parse(c).count))
@@ -171,8 +173,8 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
         raise ObservationError(f"a count question needs at least two counts of {obj_class!r}")
     counts = [RobotCommand.parse(c).count for c in opts]
     cells = tuple((number_word(n), f"{number_word(n)} please",
-                   f"{describe(c).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True))
-    plural = _noun(RobotCommand("deliver", obj_class, 2))
+                   f"{describe(c, lexicon).replace('one ', 'just one ')}") for n, c in zip(counts, opts, strict=True))
+    plural = _noun(RobotCommand("deliver", obj_class, 2), lexicon)
     # the other cell must not sound like a number: "none" is heard as "one" and "no plates" as
     # "four plates" (4 of 10 heard right on household seed 0); "nothing" / "I don't need any" were
     # heard right 82 / 92 / 100 / 100 % at 5 / 10 / 20 dB / clean against 69 / 82 / 90 / 85 % for
@@ -183,19 +185,19 @@ def count_question(obj_class: str, commands: Sequence[str]) -> Question:
 
 
 def candidate_questions(ranked: Sequence[str], actions: Sequence[str], pool: int = 4,
-                        kinds: Sequence[str] = KINDS) -> list[Question]:
+                        kinds: Sequence[str] = KINDS, lexicon: Any = None) -> list[Question]:
     """Questions about the ``pool`` most probable commands ``ranked`` (all of them in ``actions``)."""
     top = [c for c in ranked if c in actions][:pool]
     out: list[Question] = []
     if "confirm" in kinds:
-        out += [confirm_question(c) for c in top]
+        out += [confirm_question(c, lexicon) for c in top]
     if "choose" in kinds:
-        out += [choose_question(a, b) for a, b in combinations(top, 2)]
+        out += [choose_question(a, b, lexicon) for a, b in combinations(top, 2)]
     if "count" in kinds:
         classes = dict.fromkeys(p.obj_class for c in top if (p := _parse(c)) is not None and p.verb == "deliver")
         for c in classes:
             try:
-                out.append(count_question(c, actions))
+                out.append(count_question(c, actions, lexicon))
             except ObservationError:
                 continue
     return out

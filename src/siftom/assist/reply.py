@@ -119,14 +119,15 @@ def cell_named(question: Question, instruction: Instruction) -> int | None:
     return None
 
 
-def after_reply(base: Posterior, pending: Pending, cell: int | None) -> Posterior:
+def after_reply(base: Posterior, pending: Pending, cell: int | None, reliability: float | None = None) -> Posterior:
     """``base`` (the reply's words, or the actions alone) with the request's evidence and the
-    named cell's added: the posterior after the exchange (module doc)."""
+    named cell's added: the posterior after the exchange (module doc). ``reliability``: how often
+    an answer to the question's kind is heard as the cell it names (None: :data:`REPLY_RELIABILITY`)."""
     if base.joint is None:
         raise ObservationError("a reply is weighed against a posterior with its hypotheses (not speech-only)")
     commands = [str(c) for c in base.joint.commands]
     ll = pending.log_lik(commands)
     if cell is not None:
-        r = reply_reliability(pending.question.kind)
+        r = reply_reliability(pending.question.kind) if reliability is None else reliability
         ll = ll + answer_log_likelihood_cells(pending.question, commands, cell, r)
     return with_answer(base, ll)

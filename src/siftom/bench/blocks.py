@@ -10,7 +10,9 @@ like a shell line (quote a key with spaces):
 * ``snr SET models=a,b [wer]`` — accuracy per condition, with the 1-best WER column;
 * ``value SET PATH FORMAT`` — one number inline; PATH is ``/``-separated inside the set's
   ``summary`` (``models/siftom/accuracy``, ``"breakdowns/snr/10 dB/siftom/accuracy"``);
-* ``diff SET PATH PATH FORMAT`` — the first number minus the second.
+* ``diff SET PATH PATH FORMAT`` — the first number minus the second;
+* ``trials NAME`` — the whole-trial table of ``results/trials/NAME.jsonl`` (written by
+  ``siftom bench trials --out``), per channel, person policy and rule, with its version and machine.
 
 FORMAT: ``pct`` (61.2 %), ``pct0`` (61 %), ``pts`` (+18.7, percentage points), ``num`` (61.2,
 a share as a percentage without the sign), ``sp`` (+0.190), ``int``, ``ci`` ([56.9, 65.2]).
@@ -82,7 +84,31 @@ def snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -
     return "\n".join(lines)
 
 
-def render(spec: str, results: dict[str, dict[str, Any]]) -> str:
+def trials_block(rows: Sequence[dict[str, Any]], name: str) -> str:
+    """The whole-trial summary of ``rows`` as a table, stamped with the version and machine."""
+    from siftom.bench.wholetrial import markdown, summarise
+
+    versions = sorted({str(r.get("version", "?")) for r in rows})
+    machines = sorted({f"{r['machine'].get('cpu_count')} CPUs, {r['machine'].get('platform')}"
+                       for r in rows if isinstance(r.get("machine"), dict)}) or ["not recorded"]
+    seeds = sorted({int(r["seed"]) for r in rows})
+    return (f"\n{markdown(summarise(rows))}\n\n{len(rows)} trials, seeds {seeds[0]}–{seeds[-1]}; siftom "
+            f"{', '.join(versions)}; measured on {'; '.join(machines)}. Regenerated from "
+            f"`results/trials/{name}.jsonl` by `make pages`.\n")
+
+
+def load_trials(folder: str | Path) -> dict[str, list[dict[str, Any]]]:
+    """``NAME.jsonl`` whole-trial rows per NAME in ``folder`` (none when it does not exist)."""
+    import json
+
+    out: dict[str, list[dict[str, Any]]] = {}
+    for path in sorted(Path(folder).glob("*.jsonl")) if Path(folder).is_dir() else []:
+        with path.open(encoding="utf-8") as f:
+            out[path.stem] = [json.loads(line) for line in f if line.strip()]
+    return out
+
+
+def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list[dict[str, Any]]] | None = None) -> str:
     """What a block with ``spec`` holds."""
     args = shlex.split(spec)
     if not args:
@@ -93,6 +119,11 @@ def render(spec: str, results: dict[str, dict[str, Any]]) -> str:
     if not rest:
         raise DatasetError(f"gen:{kind} needs a set name")
     name = rest[0]
+    if kind == "trials":
+        if not trials or name not in trials:
+            raise DatasetError(f"gen:{spec}: no results/trials/{name}.jsonl (have: "
+                               f"{', '.join(sorted(trials or {})) or 'none'}); write it with siftom bench trials --out")
+        return trials_block(trials[name], name)
     if name not in results:
         raise DatasetError(f"gen:{spec}: no results/{name}.json (have: {', '.join(sorted(results)) or 'none'})")
     r = results[name]
@@ -110,22 +141,24 @@ def render(spec: str, results: dict[str, dict[str, Any]]) -> str:
     raise DatasetError(f"bad gen: block {spec!r} (see siftom.bench.blocks)")
 
 
-def fill_page(text: str, results: Sequence[dict[str, Any]]) -> str:
+def fill_page(text: str, results: Sequence[dict[str, Any]],
+              trials: dict[str, list[dict[str, Any]]] | None = None) -> str:
     """``text`` with every generated block rewritten."""
     by_set = {r["set"]: r for r in results}
-    return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set)}<!-- /gen -->", text)
+    return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set, trials)}<!-- /gen -->", text)
 
 
 def fill_pages(results_dir: str | Path, pages: Sequence[str | Path]) -> list[Path]:
     """Rewrite the generated blocks of ``pages`` in place; return the pages that hold any."""
     results = load_results(results_dir)
+    trials = load_trials(Path(results_dir) / "trials")
     out = []
     for page in pages:
         path = Path(page)
         text = path.read_text(encoding="utf-8")
         if not BLOCK.search(text):
             raise DatasetError(f"{path} has no <!-- gen:... --> ... <!-- /gen --> block to fill")
-        new = fill_page(text, results)
+        new = fill_page(text, results, trials)
         if new != text:
             path.write_text(new, encoding="utf-8")
         out.append(path)

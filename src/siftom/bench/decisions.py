@@ -33,13 +33,10 @@ from siftom.assist.decide import (
     DEFAULT_ASK_COST,
     DEFAULT_LOSS_AVERSION,
     Situation,
-    decide,
     get_rule,
-    with_answer,
 )
 from siftom.assist.questions import (  # noqa: F401  (the table and its reader, named here for the benchmark)
     ANSWER_RELIABILITY,
-    answer_log_likelihood_cells,
     answer_reliability,
 )
 from siftom.bench import answers as _answers
@@ -95,73 +92,103 @@ def oracle_action(scenario: Any, gold_command: str) -> str:
     return NONE if b[-1] >= b[best] - 1e-9 else tv.actions[best]
 
 
+def decision_heard(likelihood: str, instruction: Any, audio: Path, engine: Any, nbest: int) -> Any:
+    """What a decision model hears: the evaluator's N-best (``phonetic``) or the clip as
+    ``siftom-acoustic`` hears it (``acoustic``; None when no words were heard)."""
+    if likelihood == "acoustic":
+        from siftom.bench.acoustic_models import heard
+
+        return heard(audio, engine, nbest)[0]
+    return instruction
+
+
 def run_decision_model(
     model: str,
     stimulus: Any,
     scenario: Any,
-    posterior: Any,
+    instruction: Any,
     dataset_root: str,
     transcribe: Callable[..., Any],
     cost_model: QuestionCost | None = None,
     ask_cost: float | None = None,
 ) -> dict[str, Any]:
-    """Decide for one stimulus; returns command, prob and what was asked and heard.
+    """Decide for one stimulus through the observer, as the doors do; returns command, prob and
+    what was asked and heard.
+
+    The model's rule answers through :meth:`siftom.Observer.answer` (nobody asked: nothing;
+    an absent object: declined with its reason; several parts: the first carried out), with the
+    measured answer reliability at the stimulus's SNR. When it asks, the simulated person's
+    spoken answer is heard with the question's grammar and goes back through the same observer
+    as the reply to the pending question (assist/reply.py); a second question is not answered
+    (the robot does nothing in that trial).
 
     Args:
         model: a decision model's name (``bench/models.py``).
         stimulus: the dataset stimulus.
         scenario: its scenario.
-        posterior: the model's likelihood's posterior (:func:`decision_posterior`).
+        instruction: what the model heard (:func:`decision_heard`; None: no words).
         dataset_root: the dataset folder (for its noise folder).
         transcribe: ``(audio samples, grammar phrases) -> transcript`` with ``nbest``: the
             evaluator's ASR engine listening for the question's answers (bench/answers.py).
         cost_model: the time model of a spoken exchange (default :class:`QuestionCost`).
         ask_cost: a fixed time per question in steps instead of the model (None: the model).
     """
+    from siftom.bench.models import eval_settings
     from siftom.bench.scoring import is_correct
+    from siftom.inputs import resolve_scene
+    from siftom.observation import Instruction
+    from siftom.observer import observer_for
 
-    _lk, rule = decision_models()[model]
+    lk, rule = decision_models()[model]
     cm = cost_model or QuestionCost()
-    lam = DEFAULT_LOSS_AVERSION
     reliability = _answers.answer_reliabilities(stimulus.snr_db)
-    where = Situation.from_scenario(scenario, answer_reliability=reliability)
-    opts: dict[str, Any] = {"loss_aversion": lam}
-    if rule == "ask-or-act":
+    opts: dict[str, Any] = {"loss_aversion": DEFAULT_LOSS_AVERSION}
+    if rule in ("ask-or-act", "teammate"):
         opts.update(ask_cost=ask_cost, cost_model=cm)
     chooser = get_rule(rule, **opts)
-    d = chooser(posterior, where)
-    # what the robot believes was asked for (the MAP command), next to what it does
-    out: dict[str, Any] = {"command": d.command, "prob": d.prob, "asked": False,
-                           "expected_benefit": round(d.expected_benefit, 3), "map_command": posterior.command,
-                           "map_correct": is_correct(posterior.command, stimulus.gold_command, scenario.verb)}
-    if rule == "ask-or-act":
+    obs = observer_for(eval_settings("full"))
+    online = obs.online(resolve_scene(scenario, None), "full")
+    ans = obs.answer(online, instruction, likelihood=lk, decide=chooser, answer_reliability=reliability)
+    d = ans.decision
+
+    def done(a: Any) -> tuple[str, float]:
+        """(the command carried out or "none", its probability)."""
+        if a.action != "act" or not a.carry_out:
+            return "none", 0.0
+        return str(a.carry_out[0]), float(a.prob(str(a.carry_out[0])))
+
+    def benefit(a: Any) -> float | None:
+        eb = float(a.decision.expected_benefit)
+        return round(eb, 3) if np.isfinite(eb) else None
+
+    top = str(ans.top_command)
+    command, prob = (d.command, ans.prob(d.command)) if d.ask else done(ans)
+    out: dict[str, Any] = {"command": command, "prob": prob, "asked": False, "action": ans.action,
+                           "reason": d.reason, "declined": d.declined, "expected_benefit": benefit(ans),
+                           "map_command": top, "map_correct": is_correct(top, stimulus.gold_command, scenario.verb)}
+    if rule in ("ask-or-act", "teammate"):
         out.update({"evi": round(d.evi, 3), "question_cost": round(d.ask_cost, 3),
                     "answer_reliability": {k: round(v, 4) for k, v in reliability.items()}})
-    if not d.ask:
+    if not d.ask or d.asked is None:
         return out
     q = d.asked
-    if q is None:  # an ask decision always carries its question
-        return out
     cell = next((k for k, o in enumerate(q.options) if is_correct(o, stimulus.gold_command, scenario.verb)),
                 q.n_cells - 1)
     h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe)
-    # the exchange as it was spoken: the question and the answer actually said
     spent = float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"])
-    r = where.reliability(q.kind)
-    ll = answer_log_likelihood_cells(q, [str(c) for c in posterior.joint.commands], h["heard_cell"], r)
-    post2 = with_answer(posterior, ll, h["answer_heard"])
-    # the question's time is spent; when the EVI weighed it as a loss (``time_as_loss``) it counts
-    # in every outcome after the answer, as the EVI assumed; else the robot decides from there
-    as_loss = getattr(chooser, "time_as_loss", True)
-    d2 = decide(post2, where, "expected-benefit", loss_aversion=lam, spent=spent if as_loss else 0.0)
-    out.update({"command": d2.command, "prob": d2.prob, "asked": True, "question": d.question,
-                "question_kind": q.kind, "evi": round(d.evi, 3), "ask_cost": round(spent, 4),
-                "command_before": d.command,
+    reply = Instruction.from_text(h["answer_heard"]) if str(h["answer_heard"]).strip() else None
+    ans2 = obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=ans.pending,
+                      answer_reliability=reliability)
+    top2 = str(ans2.top_command)
+    command, prob = done(ans2)
+    out.update({"command": command, "prob": prob, "asked": True, "question": d.question, "question_kind": q.kind,
+                "ask_cost": round(spent, 4), "command_before": d.command, "action_after": ans2.action,
+                "asked_again": ans2.action == "ask",
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": h["answer"], "answer_heard": h["answer_heard"], "map_command": post2.command,
+                "answer": h["answer"], "answer_heard": h["answer_heard"], "map_command": top2,
                 "answer_cell_ok": h["heard_cell"] == cell, "answer_unclear": h["heard_cell"] is None,
-                "map_correct": is_correct(post2.command, stimulus.gold_command, scenario.verb),
-                "expected_benefit": round(d2.expected_benefit, 3)})
+                "map_correct": is_correct(top2, stimulus.gold_command, scenario.verb),
+                "expected_benefit": benefit(ans2)})
     return out
 
 

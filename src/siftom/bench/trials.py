@@ -20,6 +20,7 @@ import numpy as np
 from siftom.bench.answers import AnswerUnavailableError
 from siftom.bench.decisions import (
     decision_fields,
+    decision_heard,
     decision_posterior,
     oracle_action,
     run_decision_model,
@@ -157,6 +158,13 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 posts[lk] = decision_posterior(lk, sc, instr, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
             return posts[lk]
 
+        hears: dict[str, Any] = {}  # what this stimulus's decision models hear, per likelihood
+
+        def heard_by(lk: str, instr: Any = instr, audio: Path = audio, hears: dict[str, Any] = hears) -> Any:
+            if lk not in hears:
+                hears[lk] = decision_heard(lk, instr, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
+            return hears[lk]
+
         before = set(_TEAM)
         models: dict[str, Any] = {}
         not_evaluable: dict[str, str] = {}  # model -> why this trial could not be evaluated for it
@@ -191,7 +199,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
                 command, prob, _ = memo[mk]
             elif spec.kind == "decision":  # a decision rule on a likelihood's posterior: bench/decisions.py
                 try:
-                    extra = run_decision_model(m, s, sc, posterior(str(spec.likelihood)), task.root,
+                    extra = run_decision_model(m, s, sc, heard_by(str(spec.likelihood)), task.root,
                                                lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
                                                .transcribe(x, nbest=opts.nbest))
                 except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on

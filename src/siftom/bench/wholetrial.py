@@ -104,8 +104,11 @@ def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer
                progress: Callable[[int, int], None] | None = None) -> Iterator[dict[str, Any]]:
     """One row per (scenario, channel, person policy, seed, rule) over the domain's registered
     scenarios; ``ask_for``: one person policy or several (agents/trial.py, ``ASK_FOR``)."""
+    from siftom import __version__
+    from siftom.bench.reproduce import machine
     from siftom.scenarios.base import get_domain, get_scenario
 
+    stamp = {"version": __version__, "machine": machine()}
     policies = [ask_for] if isinstance(ask_for, str) else list(ask_for)
     for a in policies:
         if a not in ASK_FOR:
@@ -127,7 +130,7 @@ def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer
                         if progress is not None:
                             progress(done, total)
                         yield {"domain": domain, "channel": channel, "ask_for": policy, **res.metrics(),
-                               "request_log": [r.to_json() for r in res.requests]}
+                               "request_log": [r.to_json() for r in res.requests], **stamp}
 
 
 def _mean_se(xs: Sequence[float]) -> tuple[float, float]:

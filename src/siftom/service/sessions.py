@@ -456,7 +456,7 @@ class SessionManager:
                                        mode=sess.options["mode"], pending=_pending_of(sess.last))
             body: dict[str, Any] = {"session": sid, **ans.to_json(top=top)}
             # the question the robot waits on an answer to, kept with the session (assist/reply.py)
-            body["pending"] = ans.pending.to_json() if ans.pending is not None else None
+            body["awaiting"] = ans.pending.to_json() if ans.pending is not None else None
             body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
             body["clarification"] = clarify(ans.commands, policy).to_json()
             if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
@@ -526,7 +526,7 @@ class SessionManager:
 def _pending_of(last: dict[str, Any] | None) -> Pending | None:
     """The question the session's last answer left waiting (None: none, or a record this version
     cannot read, which is then forgotten rather than failing the instruction)."""
-    got = (last or {}).get("pending")
+    got = (last or {}).get("awaiting")
     if not isinstance(got, dict):
         return None
     try:

@@ -180,6 +180,45 @@ def test_a_recording_gets_one_answer_through_every_door(clip, may_act, clips, co
                                                                     and event["command"] is None), event
 
 
+def test_the_readme_example_is_carried_out_or_asked_about_naming_the_cereal_at_every_door(config, settings, server):
+    text = "pass me the silver"
+    answers = {
+        "python": siftom.infer(SCENARIO, None, text, settings=settings).to_json(),
+        "cli": _cli(config, "--transcript", text),
+        "http": httpx.post(server + "/v1/infer", json={"scenario": SCENARIO, "transcript": text},
+                           timeout=60).raise_for_status().json(),
+        "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction", json={"transcript": text},
+                              timeout=60).raise_for_status().json(),
+        "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text),
+    }
+    _same(answers, None)
+    for name, a in answers.items():
+        assert (a["action"] == "act" and a["command"] == "fetch(cereal)") or (
+            a["action"] == "ask" and "cereal" in a["decision"]["question"]), (name, a["decision"])
+
+
+def test_a_question_and_its_reply_get_one_answer_through_every_conversation_door(settings, server):
+    """The robot asks; the person's reply goes back through each door that keeps a conversation."""
+    first = siftom.infer(SCENARIO, None, "pass me the silver", settings=settings)
+    assert first.action == "ask" and first.pending is not None, first.decision
+    reply = first.decision.asked.answers[0][0]  # the plainest answer naming the first option
+    sid = _session(server)
+    home = HomeListener(load_home(SCENARIO), observer=Observer(settings))
+    turns = {
+        "python": [first.to_json(), siftom.infer(SCENARIO, None, reply, settings=settings,
+                                                 pending=first.pending).to_json()],
+        "session": [httpx.post(server + f"/v1/sessions/{sid}/instruction", json={"transcript": t},
+                               timeout=60).raise_for_status().json() for t in ("pass me the silver", reply)],
+        "listener": [home.answer_text(t) for t in ("pass me the silver", reply)],
+    }
+    _same({k: v[0] for k, v in turns.items()}, None)
+    _same({k: v[1] for k, v in turns.items()}, None)
+    for name, (ask, done) in turns.items():
+        assert ask["awaiting_reply"] is True and done["awaiting_reply"] is False, name
+        assert done["reply_to"] == ask["decision"]["question"], name
+        assert done["action"] == "act" and done["command"] == first.decision.options[0], (name, done["decision"])
+
+
 def test_the_settings_file_changes_the_answer(settings):
     with_file = siftom.infer(SCENARIO, None, "pass me the silver", settings=settings)
     without = siftom.infer(SCENARIO, None, "pass me the silver", settings=Settings.load(env={}))

@@ -208,6 +208,7 @@ def infer(
     likelihood: LikelihoodArg | None = None,
     decide: Any = None,
     settings: Settings | None = None,
+    pending: Any = None,
 ) -> Answer:
     """What the robot does about what a person did and said: the decision beside the posterior.
 
@@ -225,10 +226,12 @@ def infer(
         likelihood: a registered likelihood name or an object with ``log_prob`` (default:
             the setting ``infer.likelihood``, ``auto``: acoustic for audio with the whisper
             extra, else phonetic).
-        decide: a decision rule name (``expected-benefit``, ``ask-or-act``, ``map``) or rule
-            (default: the setting ``infer.decide``, ``expected-benefit``).
+        decide: a decision rule name (``teammate``, ``expected-benefit``, ``ask-or-act``, ``map``)
+            or rule (default: the setting ``infer.decide``, ``teammate``).
         settings: every other option (default: :meth:`Settings.load`: ``SIFTOM_*`` and
             ``SIFTOM_CONFIG``).
+        pending: the question a previous answer asked (its ``answer.pending``): these words
+            are weighed as the reply to it, with the request that led to it (docs/decisions.md).
 
     Returns:
         Answer: ``action`` (act, ask or none), ``command`` (what the robot carries out, or None),
@@ -245,7 +248,7 @@ def infer(
     """
     from siftom.observer import observer_for
 
-    return observer_for(settings).infer(scene, actions, heard, likelihood=likelihood, decide=decide)
+    return observer_for(settings).infer(scene, actions, heard, likelihood=likelihood, decide=decide, pending=pending)
 
 
 def listen(

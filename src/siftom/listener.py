@@ -155,6 +155,7 @@ class HomeListener:
         body["_pending"] = ans.pending  # kept by respond / answer_text, not sent
         body["clarification"] = clarify(ans.commands, self.policy).to_json()
         body["question"] = ans.decision.question if ans.action == "ask" else ""
+        body["declined"] = ans.decision.declined  # what the robot says when it turns the request down
         body["prob"] = ans.prob(ans.command) if ans.command is not None else 0.0
         body["n_actions"] = n
         body["infer_s"] = round(time.perf_counter() - t0, 4)
@@ -162,8 +163,8 @@ class HomeListener:
 
 
 COMPACT = ("event", "utterance", "start_s", "end_s", "ended_s", "reason", "heard", "nbest", "command", "prob",
-           "action", "top_command", "question", "commands", "goals", "n_actions", "message", "recogniser",
-           "likelihood", "rule", "timings")
+           "action", "carry_out", "top_command", "question", "declined", "reply_to", "awaiting_reply", "commands",
+           "goals", "n_actions", "message", "recogniser", "likelihood", "rule", "timings")
 
 
 def compact(answer: dict[str, Any], nbest: int = 3) -> dict[str, Any]:

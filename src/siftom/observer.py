@@ -404,7 +404,8 @@ class Observer:
     # ----- one call ---------------------------------------------------------------------------
     def infer(self, scene: Any, actions: Any = None, heard: Any = None, *, likelihood: LikelihoodArg | None = None,
               decide: str | DecisionRule | None = None, mode: str | None = None, top: int | None = None,
-              engine: str | None = None, nbest: int | None = None, gate: bool = True) -> Answer:
+              engine: str | None = None, nbest: int | None = None, gate: bool = True,
+              pending: Pending | None = None) -> Answer:
         """What the robot does, from a scene, the person's actions and what was heard.
 
         Args:
@@ -412,14 +413,14 @@ class Observer:
             actions: siftom or VirtualHome action lines, a file of them, or None (the scenario's own).
             heard: a transcript, an N-best list, an audio path or 16 kHz samples; None: nothing was said.
             likelihood, decide, mode, top, engine, nbest: left out, the settings.
-            gate: see :meth:`answer`.
+            gate, pending: see :meth:`answer`.
         """
         from siftom.inputs import as_heard, resolve_scene
 
         t0 = time.perf_counter()
         sc = scene if isinstance(scene, SceneInput) else resolve_scene(scene, actions)
         return self._infer(sc, as_heard(heard), t0, likelihood=likelihood, decide=decide, mode=mode, top=top,
-                           engine=engine, nbest=nbest, gate=gate)
+                           engine=engine, nbest=nbest, gate=gate, pending=pending)
 
     def listen(self, audio: str | Path | np.ndarray, scene: Any, actions: Any = None, *,
                likelihood: LikelihoodArg | None = None, decide: str | DecisionRule | None = None,
@@ -439,7 +440,8 @@ class Observer:
 
     def _infer(self, sc: SceneInput, got: Instruction | np.ndarray | None, t0: float, *,
                likelihood: LikelihoodArg | None, decide: str | DecisionRule | None, mode: str | None,
-               top: int | None, engine: str | None, nbest: int | None, gate: bool = True) -> Answer:
+               top: int | None, engine: str | None, nbest: int | None, gate: bool = True,
+               pending: Pending | None = None) -> Answer:
         mode = mode or self.settings.model.mode
         if got is None and mode == "speech-only":
             raise ObservationError("speech-only inference needs heard= (a transcript, an N-best list or audio)")
@@ -451,7 +453,7 @@ class Observer:
             instruction = got
         online = self.online(sc, mode)
         ans = self.answer(online, instruction, likelihood=likelihood, decide=decide, top=top, heard=heard, mode=mode,
-                          gate=gate)
+                          gate=gate, pending=pending)
         return dataclasses.replace(ans, seconds=time.perf_counter() - t0)
 
     def describe(self) -> dict[str, Any]:

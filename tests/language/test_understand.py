@@ -140,3 +140,25 @@ def test_nbest_weights_decide_between_readings():
     weak = understand(["the weather is nice today", "pass me the cereal"], [0.9, 0.1], ["cereal", "sugar"])
     strong = understand(["the weather is nice today", "pass me the cereal"], [0.1, 0.9], ["cereal", "sugar"])
     assert not weak.request and strong.request and weak.p_request < strong.p_request
+
+
+@pytest.mark.parametrize(("text", "roles"), [
+    ("no, the flour", [("target", "flour")]),
+    ("no I need the flour", [("target", "flour")]),
+    ("the jam, no, the honey", [("retracted", "jam"), ("target", "honey")]),
+    ("no sugar please", [("negated", "sugar")]),
+    ("no more milk", [("negated", "milk")]),
+    ("no, not the sugar, the honey", [("negated", "sugar"), ("target", "honey")]),
+])
+def test_no_before_a_new_phrase_rejects_what_came_before_and_before_a_noun_negates_it(text, roles):
+    from siftom.language.parse import read
+
+    r = read(text)
+    assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == roles
+
+
+def test_no_need_to_bring_is_a_negation():
+    from siftom.language.parse import read
+
+    r = read("there's no need to bring the cup")
+    assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == [("negated", "cup")]

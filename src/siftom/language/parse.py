@@ -44,6 +44,7 @@ _WISHING = frozenset({"i'd", "we'd"})
 # determiners that cannot follow a quantifier "no": after "no" they start a new phrase, so the
 # "no" answers or rejects what came before ("no, the flour"), it does not negate the slot
 _DEFINITE = frozenset({"the", "a", "an", "that", "this", "these", "those", "my", "your", "our"})
+_NEW_PHRASE = frozenset({"SELF", "YOU", "ME", "VERB", "MODAL", "PLEASE", "NEG", "MEAN", "FILLER", "WH"})
 
 
 @dataclass(frozen=True)
@@ -143,14 +144,16 @@ def read(text: str) -> Reading:
 
 def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     """Whether the "no" at ``at`` answers or rejects what came before rather than negating the
-    slot after it: a quantifier "no" takes a bare noun or a count ("no sugar", "no more milk",
-    "no two plates"); followed by a definite determiner, another marker or nothing, it does not."""
+    phrase after it. A quantifier "no" takes a noun or a count ("no sugar", "no more milk", "no
+    need to bring the cup", "no two plates"); a "no" that starts a new phrase -- a definite
+    determiner, a subject, a request, another negation, a filler, or nothing -- does not ("no,
+    the flour", "no I need the oats", "no, bring the honey", "no, not the sugar", "no thanks")."""
     if words[at] != "no":
         return False
     if at + 1 >= len(words):
         return True
     nxt = kinds[at + 1]
-    return nxt not in ("WORD", "NUM", "DET") or words[at + 1] in _DEFINITE
+    return nxt in _NEW_PHRASE or (nxt == "DET" and words[at + 1] in _DEFINITE)
 
 
 def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]]], truncated: bool,

@@ -285,6 +285,7 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
         body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard)
         body.pop("session", None)
         body["question"] = body["decision"].get("question", "") if body["action"] == "ask" else ""
+        body["declined"] = body["decision"].get("declined", "")
         return body
 
     options = SegmentOptions(max_utterance_s=limits.max_utterance_s)

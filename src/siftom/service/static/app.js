@@ -245,8 +245,8 @@ function showResult(res) {
   $("command").textContent = res.top_command || "";
   $("top-prob").textContent = res.top_prob !== undefined ? `(P = ${res.top_prob.toFixed(2)})` : "";
   const q = $("question");
-  q.hidden = res.action !== "ask";
-  q.textContent = res.action === "ask" ? `Robot asks: “${d.question}”` : "";
+  q.hidden = !(res.action === "ask" || d.declined);
+  q.textContent = res.action === "ask" ? `Robot asks: “${d.question}”` : d.declined ? `Robot says: “${d.declined}”` : "";
   $("reason").textContent = res.message || d.reason || "";
   const nb = $("nbest");
   nb.replaceChildren();
@@ -266,7 +266,9 @@ function showResult(res) {
   bars($("goals-chart"), res.goals, "goal");
   const plan = $("plan");
   plan.replaceChildren();
-  for (const a of res.plan ? res.plan.actions : []) {
+  const steps = res.plan ? res.plan.actions
+    : res.action === "ask" ? ["(waits for the answer to its question)"] : ["(nothing to do)"];
+  for (const a of steps) {
     const li = document.createElement("li");
     li.textContent = a;
     plan.appendChild(li);

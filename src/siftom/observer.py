@@ -480,12 +480,25 @@ def _already_here(decision: Decision, mention: Mention, post: Posterior, world: 
 
     if mention.obj_class is None or post.joint is None or post.joint.state is None:
         return None
+    if _names_category_of(mention, str(post.command.obj_class), world):
+        return None  # "the spices": the words name the salt as well as the pepper; the posterior chose
     asked = RobotCommand(verb, mention.obj_class, mention.count or 1)
     why = decline_reason(asked, Situation(world, post.joint.state, target))
     if not why:
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
                     declined=f"Sorry, {why}."), (asked,)
+
+
+def _names_category_of(mention: Mention, obj_class: str, world: World) -> bool:
+    """Whether the mention's words are a category word that names ``obj_class`` too ("the
+    spices": salt and pepper; "the cutlery": forks, knives and spoons)."""
+    from siftom.likelihood.lexicon import lexicon_for, pluralize
+
+    if obj_class == mention.obj_class or obj_class not in world.classes:
+        return False
+    said = mention.words.strip()
+    return any(said in (cat.word, pluralize(cat.word)) for cat in lexicon_for(world).categories_of(obj_class))
 
 
 def _combine(decisions: Sequence[Decision]) -> Decision:

@@ -162,3 +162,13 @@ def test_no_need_to_bring_is_a_negation():
 
     r = read("there's no need to bring the cup")
     assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == [("negated", "cup")]
+
+
+@pytest.mark.parametrize(("text", "want"), [("bring me the coffee mog", "mug"), ("get me the tea spunes", "spoon")])
+def test_an_absent_name_before_a_head_that_sounds_like_an_object_modifies_it(text, want):
+    """"tea" and "coffee" are not on the table, but the misheard head is a spoon, a mug."""
+    from siftom.language.understand import understand
+    from siftom.scenarios.base import get_scenario
+
+    u = understand([text], [1.0], get_scenario("household-table-v0/3").world.classes)
+    assert u.request and [m.obj_class for m in u.targets] == [want]

@@ -131,7 +131,6 @@ class Namer:
 
     def name(self, words: Sequence[str]) -> Naming:
         """The class the words name best (module doc)."""
-        from siftom.likelihood.nearness import chance_threshold
 
         if not words:
             return Naming(None, math.inf, 0.0)
@@ -142,7 +141,19 @@ class Namer:
             said = " ".join(words[at[0]:at[1]])
             if said in self.exact:
                 return Naming(self.exact[said], 0.0, 0.0, exact=True)
+            if at[1] < len(words):
+                # the name of an absent object modifies a head that follows ("the coffee marks" for
+                # "the coffee mugs"): the head names the object when it sounds like one of the world
+                head = self._nearest(words[at[1]:])
+                if head.near:
+                    return head
             return Naming(None, math.inf, 0.0, named=self.absent[said])
+        return self._nearest(words)
+
+    def _nearest(self, words: Sequence[str]) -> Naming:
+        """The class whose names the words (one or two adjacent) sound most like."""
+        from siftom.likelihood.nearness import chance_threshold
+
         best_r, best_c, best_n = math.inf, None, 0
         spans = [(w,) for w in words] + [tuple(words[i:i + 2]) for i in range(len(words) - 1)]
         for span in spans:

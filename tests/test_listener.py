@@ -11,6 +11,6 @@ def test_the_listener_takes_the_reply_to_its_question():
     assert first["action"] == "ask" and "cereal" in first["question"] and "_pending" not in first
     assert home.pending is not None
     assert home.answer_text("thanks")["action"] == "none" and home.pending is not None
-    reply = home.answer_text("yes")
-    assert reply["action"] == "act" and reply["command"] == "fetch(cereal)"
+    reply = home.answer_text(first["decision"]["answers"][0])  # "yes", "the cereal": the first option
+    assert reply["action"] == "act" and reply["command"] == first["decision"]["options"][0] == "fetch(cereal)"
     assert reply["reply_to"] == first["question"] and home.pending is None

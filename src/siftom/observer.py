@@ -36,7 +36,7 @@ import numpy as np
 
 from siftom.answer import NOTHING_ASKED, Answer
 from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
-from siftom.assist.questions import reliability_for
+from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
@@ -324,7 +324,8 @@ class Observer:
                       heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
                       tuple(decisions), keep)
 
-    def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str) -> Pending | None:
+    def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str,
+                 answered: tuple[Question, ...] = ()) -> Pending | None:
         """What to keep while the robot waits on the answer to ``decision``'s question."""
         from siftom.assist.reply import request_evidence
 
@@ -332,7 +333,7 @@ class Observer:
         if q is None or mode == "speech-only":
             return None
         alone = self._view(online, "action-only", "phonetic").posterior(None, top=1)
-        return Pending(q, request_evidence(post, alone), str(post.command))
+        return Pending(q, request_evidence(post, alone), str(post.command), answered)
 
     def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction, mode: str,
                lk: LikelihoodArg, why: str, top: int, decide: str | DecisionRule | None, heard: Heard | None,
@@ -353,7 +354,8 @@ class Observer:
         post = dataclasses.replace(post, transcript=instruction.text, understanding=u, evidence={
             **words.evidence, "reply_to": pending.question.text, "reply_cell": cell})
         world, target = online.world, online.goals[0].target
-        decision = self.decide(post, world, target, decide, answer_reliability=rel)
+        decision = self.decide(post, world, target, decide, answer_reliability=rel,
+                               answered=(*pending.answered, pending.question))
         parts: tuple[RobotCommand, ...] = (post.command,)
         if targets:
             here = _already_here(decision, targets[0], post, world, target, online.verb)
@@ -363,7 +365,8 @@ class Observer:
         decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
         post = dataclasses.replace(post, decision=decision,
                                    evidence={**post.evidence, "parts": [str(c) for c in parts]})
-        keep = self._pending(online, post, decision, mode) if decision.action == "ask" else None
+        keep = self._pending(online, post, decision, mode, (*pending.answered, pending.question)) \
+            if decision.action == "ask" else None
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, None if heard is None else heard.speech,
                       heard.asr if heard is not None else None, heard.vad if heard is not None else None,
@@ -376,10 +379,12 @@ class Observer:
         return _absent(made, mention) or made
 
     def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
-               nothing: str = "", answer_reliability: float | Mapping[str, float] | None = None) -> Decision:
+               nothing: str = "", answer_reliability: float | Mapping[str, float] | None = None,
+               answered: tuple[Question, ...] = ()) -> Decision:
         """The decision rule's answer (default: the setting ``infer.decide``); ``nothing``: why
         the robot was not asked anything (it then does nothing, whatever the rule);
-        ``answer_reliability``: see :meth:`answer`."""
+        ``answer_reliability``: see :meth:`answer`; ``answered``: questions already answered
+        about this request (not asked again)."""
         rule = rule if rule is not None else (self.settings.infer.decide or "map")
         name = rule if isinstance(rule, str) else getattr(rule, "name", type(rule).__name__)
         if nothing:
@@ -390,7 +395,7 @@ class Observer:
         if post.joint is None or post.joint.state is None:  # speech-only: no state to value actions in
             return MapRule()(post, None)
         rel = REPLY_RELIABILITY if answer_reliability is None else answer_reliability
-        return made(post, Situation(world, post.joint.state, target, rel))
+        return made(post, Situation(world, post.joint.state, target, rel, answered=answered))
 
     def _view(self, online: OnlineInference, mode: str, likelihood: LikelihoodArg) -> OnlineInference:
         """``online`` scored by another model: a shallow copy (posterior() only reads the action state)."""

@@ -126,6 +126,15 @@ class Situation:
     # steps the human spent before speaking (part of L_single and L_team; only the speedup
     # utility depends on it)
     prefix: float = 0.0
+    # the questions already answered about this request (a reply was weighed): neither they nor
+    # a question only about their options is asked again ("How many bowls?" -- "four": not
+    # "Shall I bring four bowls?")
+    answered: tuple[Question, ...] = ()
+
+    def settled(self, q: Question) -> bool:
+        """Whether ``q`` asks again what an answered question asked (the same text, or options
+        all among one answered question's options)."""
+        return any(q.text == a.text or (q.options and set(q.options) <= set(a.options)) for a in self.answered)
 
     def __post_init__(self) -> None:
         r = self.answer_reliability
@@ -315,7 +324,8 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
     face value, the outcomes after the answer valued from there (the classic EVI). ``spent``:
     steps already spent on earlier questions about this request (in every outcome).
     """
-    qs = candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds, _lexicon(where.world))
+    qs = [q for q in candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds,
+                                         _lexicon(where.world)) if not where.settled(q)]
     if not qs:
         return []
     v0 = float((tv.prob @ tv.utility(loss_aversion, spent, unit)).max())
@@ -415,6 +425,9 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
     held = {int(st.held[HUMAN])}
     there = [i for i in items if int(st.item_at[i]) == where.target or i in held]
     return len(items) - len(there), len(there)
+
+
+OPEN_QUESTION = "Sorry, what do you need?"
 
 
 def _lexicon(world: World) -> Any:
@@ -521,12 +534,16 @@ class TeammateRule(AskOrActRule):
         from siftom.assist.questions import Question, choose_question
 
         others = [str(c) for c, _ in post.commands[1:] if str(c) != top and not decline_reason(str(c), where)]
-        if not decline_reason(top, where) and others:
-            q = choose_question(top, others[0], _lexicon(where.world))
+        q_choice = choose_question(top, others[0], _lexicon(where.world)) if others else None
+        if not decline_reason(top, where) and q_choice is not None and not where.settled(q_choice):
+            q = q_choice
             return Decision(self.name, "ask", top, p, float("nan"), q.text, q.options, 0.0,
                             question_cost(q, self.ask_cost, self.cost_model),
                             f"asked for {top} (P = {p:.2f}) or {others[0]}: not sure which", (), q.kind, q)
-        q = Question("open", "Sorry, what do you need?", (), ((),), ((),))
+        q = Question("open", OPEN_QUESTION, (), ((),), ((),))
+        if where.settled(q):  # asked already, and still not made out: say so rather than ask again
+            return Decision(self.name, NONE, NONE, 0.0, 0.0, reason=f"asked for {top} (P = {p:.2f}): still not sure "
+                            "what was asked for after asking", declined="Sorry, I could not make out what you need.")
         return Decision(self.name, "ask", top, p, float("nan"), q.text, (), 0.0, self.ask_cost or DEFAULT_ASK_COST,
                         "not sure what was asked for", (), q.kind, q)
 

@@ -80,11 +80,13 @@ class Pending:
         evidence: per command, the log-likelihood ratio of the words that led to the question
             (best first, the best at 0); a command not listed gets the weakest listed value.
         asked: the command the robot took to be asked for.
+        answered: the questions about this request answered before this one (not asked again).
     """
 
     question: Question
     evidence: tuple[tuple[str, float], ...]
     asked: str
+    answered: tuple[Question, ...] = ()
 
     def log_lik(self, commands: Sequence[Any]) -> np.ndarray:
         """The request's evidence for each of ``commands``."""
@@ -94,7 +96,7 @@ class Pending:
 
     def to_json(self) -> dict[str, Any]:
         return {"question": self.question.to_json(), "asked": self.asked,
-                "evidence": [[c, v] for c, v in self.evidence]}
+                "evidence": [[c, v] for c, v in self.evidence], "answered": [q.to_json() for q in self.answered]}
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any]) -> Pending:
@@ -102,11 +104,12 @@ class Pending:
             ev = tuple((str(c), float(v)) for c, v in obj["evidence"])
             q = Question.from_json(obj["question"])
             asked = str(obj["asked"])
+            answered = tuple(Question.from_json(a) for a in obj.get("answered", ()))
         except (KeyError, TypeError, ValueError) as exc:
             raise ObservationError(f"a pending question needs question, asked and evidence ({exc})") from None
         if not all(np.isfinite(v) for _c, v in ev):
             raise ObservationError("a pending question's evidence must be finite numbers")
-        return cls(q, ev, asked)
+        return cls(q, ev, asked, answered)
 
 
 def cell_named(question: Question, instruction: Instruction) -> int | None:

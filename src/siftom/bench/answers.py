@@ -119,6 +119,23 @@ def ask_and_hear(question: Question, cell: int, stimulus: Any, dataset_root: str
     return {"answer": text, "answer_heard": heard, "heard_cell": hc, "cell": cell}
 
 
+def repeat_and_hear(stimulus: Any, dataset_root: str, listen: Callable[..., Any], salt: int = 0) -> dict[str, Any]:
+    """The person's answer to an open question ("Sorry, what do you need?"): the request said
+    again in the stimulus's voice and noise, heard with the evaluator's own vocabulary.
+
+    Raises:
+        AnswerUnavailableError: as :func:`ask_and_hear`.
+    """
+    text = stimulus.reference
+    try:
+        audio = answer_audio(stimulus, text, dataset_root, salt)
+    except (SiftomError, OSError) as exc:
+        raise AnswerUnavailableError(f"cannot say the answer in voice {stimulus.voice!r} with noise "
+                                     f"{stimulus.noise!r}: {exc}") from None
+    tr = listen(audio)
+    return {"answer": text, "answer_heard": tr.text, "heard_cell": None, "cell": None}
+
+
 def probe_questions(scenario: Any, gold: str, stimulus_id: str) -> list[tuple[Question, int]]:
     """The questions :func:`reliability_by_kind` asks about one stimulus, with the true cell."""
     from siftom.bench.llm_baselines import command_space

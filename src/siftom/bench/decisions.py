@@ -43,6 +43,7 @@ from siftom.bench import answers as _answers
 from siftom.bench.models import decision_models
 
 DEFAULT_DECISION_LIKELIHOOD = "acoustic"
+MAX_QUESTIONS = 3  # the most questions the simulated exchange answers about one request (then: as it stands)
 # the measured reliability table lives in assist/questions.py, the answer path in bench/answers.py
 
 
@@ -171,24 +172,38 @@ def run_decision_model(
                     "answer_reliability": {k: round(v, 4) for k, v in reliability.items()}})
     if not d.ask or d.asked is None:
         return out
-    q = d.asked
-    cell = next((k for k, o in enumerate(q.options) if is_correct(o, stimulus.gold_command, scenario.verb)),
-                q.n_cells - 1)
-    h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe)
-    spent = float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"])
-    reply = Instruction.from_text(h["answer_heard"]) if str(h["answer_heard"]).strip() else None
-    ans2 = obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=ans.pending,
-                      answer_reliability=reliability)
-    top2 = str(ans2.top_command)
-    command, prob = done(ans2)
-    out.update({"command": command, "prob": prob, "asked": True, "question": d.question, "question_kind": q.kind,
-                "ask_cost": round(spent, 4), "command_before": d.command, "action_after": ans2.action,
-                "asked_again": ans2.action == "ask",
+    # the exchange: the person answers each question; the robot may ask again (another question)
+    first_q, h0, spent, now = d.asked, None, 0.0, ans
+    said: list[str] = []
+    while now.action == "ask" and now.decision.asked is not None and len(said) < MAX_QUESTIONS:
+        q = now.decision.asked
+        if q.kind == "open":  # "Sorry, what do you need?": the person says the request again
+            h = _answers.repeat_and_hear(stimulus, dataset_root, transcribe, salt=len(said))
+        else:
+            cell = next((k for k, o in enumerate(q.options) if is_correct(o, stimulus.gold_command, scenario.verb)),
+                        q.n_cells - 1)
+            h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe, salt=len(said))
+        h0 = h0 or h
+        spent += float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"])
+        said.append(f"{q.text} -> {h['answer_heard']}")
+        reply = Instruction.from_text(h["answer_heard"]) if str(h["answer_heard"]).strip() else None
+        now = obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=now.pending,
+                         answer_reliability=reliability)
+    if h0 is None:  # (the loop runs at least once: the first answer asked)
+        return out
+    top2 = str(now.top_command)
+    command, prob = done(now)
+    first_cell = h0["cell"]
+    out.update({"command": command, "prob": prob, "asked": True, "question": d.question,
+                "question_kind": first_q.kind, "questions": len(said), "exchange": said,
+                "ask_cost": round(spent, 4), "command_before": d.command, "action_after": now.action,
+                "asked_again": len(said) > 1 or now.action == "ask",
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": h["answer"], "answer_heard": h["answer_heard"], "map_command": top2,
-                "answer_cell_ok": h["heard_cell"] == cell, "answer_unclear": h["heard_cell"] is None,
+                "answer": h0["answer"], "answer_heard": h0["answer_heard"], "map_command": top2,
+                **({"answer_cell_ok": h0["heard_cell"] == first_cell, "answer_unclear": h0["heard_cell"] is None}
+                   if first_cell is not None else {}),
                 "map_correct": is_correct(top2, stimulus.gold_command, scenario.verb),
-                "expected_benefit": benefit(ans2)})
+                "expected_benefit": benefit(now)})
     return out
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.blocks import BLOCK, FILL, fill_page, fill_pages, render
+from siftom.bench.blocks import BLOCK, FILL, fill_page, fill_pages, load_trials, render
 from siftom.bench.constants import (
     CONSTANTS,
     NOT_RECORDED,
@@ -72,11 +72,21 @@ def test_the_constants_page_shows_the_codes_values() -> None:
 def test_generated_docs_match_the_committed_results_and_code() -> None:
     """Every <!-- gen: --> block of docs/ is what the generator writes from results/*.json and the code."""
     results = load_results(ROOT / "results")
+    trials = load_trials(ROOT / "results" / "trials")
     pages = _pages_with_blocks()
-    assert CONSTANTS_PAGE in pages and ROOT / "docs" / "benchmark.md" in pages
+    assert CONSTANTS_PAGE in pages and ROOT / "docs" / "benchmark.md" in pages and ROOT / "docs" / "decisions.md" in pages
     for p in pages:
         text = p.read_text(encoding="utf-8")
-        assert fill_page(text, results) == text, f"{p.relative_to(ROOT)} is stale; run: {FILL}"
+        assert fill_page(text, results, trials) == text, f"{p.relative_to(ROOT)} is stale; run: {FILL}"
+
+
+def test_the_trials_block_renders_the_rules_and_says_where_it_came_from() -> None:
+    trials = load_trials(ROOT / "results" / "trials")
+    got = render("trials kitchen-v0", {}, trials)
+    assert "| kitchen-v0 | oracle | plan | teammate |" in got and "results/trials/kitchen-v0.jsonl" in got
+    assert "siftom " in got and "CPUs" in got
+    with pytest.raises(DatasetError, match="no results/trials/nope.jsonl"):
+        render("trials nope", {}, trials)
 
 
 def test_blocks_render_from_a_results_file(tmp_path: Path) -> None:

@@ -30,7 +30,7 @@ from siftom.bench.constants import constants_table
 from siftom.bench.pages import _ci, _pct, load_results, model_order, set_table
 from siftom.errors import DatasetError
 
-FILL = "siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md"
+FILL = "siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md"
 BLOCK = re.compile(r"<!-- gen:(?P<spec>.*?) -->(?P<body>.*?)<!-- /gen -->", re.DOTALL)
 SNR_ORDER = ("clean", "20 dB", "10 dB", "5 dB", "0 dB")
 

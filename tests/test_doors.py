@@ -110,9 +110,9 @@ def _same(answers: dict[str, dict], may_act: bool | None) -> None:
         assert ref["action"] == "act" and ref["command"] == "fetch(cereal)", ref["decision"]
 
 
-@pytest.mark.parametrize(("name", "text", "may_act"), TEXTS, ids=[t[0] for t in TEXTS])
-def test_words_get_one_answer_through_every_door(name, text, may_act, config, settings, server):
-    answers = {
+def _word_doors(text: str, config: Path, settings: Settings, server: str) -> dict[str, dict]:
+    """``text`` through every door that takes words: each door's answer as JSON."""
+    return {
         "python": siftom.infer(SCENARIO, None, text, settings=settings).to_json(),
         "observer": Observer(settings).infer(SCENARIO, None, text).to_json(),
         "cli": _cli(config, "--transcript", text),
@@ -122,7 +122,11 @@ def test_words_get_one_answer_through_every_door(name, text, may_act, config, se
                               timeout=60).raise_for_status().json(),
         "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text),
     }
-    _same(answers, may_act)
+
+
+@pytest.mark.parametrize(("name", "text", "may_act"), TEXTS, ids=[t[0] for t in TEXTS])
+def test_words_get_one_answer_through_every_door(name, text, may_act, config, settings, server):
+    _same(_word_doors(text, config, settings, server), may_act)
 
 
 def test_an_nbest_list_gets_one_answer_through_every_door(config, settings, server, tmp_path):
@@ -181,16 +185,7 @@ def test_a_recording_gets_one_answer_through_every_door(clip, may_act, clips, co
 
 
 def test_the_readme_example_is_carried_out_or_asked_about_naming_the_cereal_at_every_door(config, settings, server):
-    text = "pass me the silver"
-    answers = {
-        "python": siftom.infer(SCENARIO, None, text, settings=settings).to_json(),
-        "cli": _cli(config, "--transcript", text),
-        "http": httpx.post(server + "/v1/infer", json={"scenario": SCENARIO, "transcript": text},
-                           timeout=60).raise_for_status().json(),
-        "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction", json={"transcript": text},
-                              timeout=60).raise_for_status().json(),
-        "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text),
-    }
+    answers = _word_doors("pass me the silver", config, settings, server)
     _same(answers, None)
     for name, a in answers.items():
         assert (a["action"] == "act" and a["command"] == "fetch(cereal)") or (

@@ -385,14 +385,22 @@ class AskOrActRule:
         return question_cost(q, self.ask_cost, self.cost_model) + self.penalty
 
     def __call__(self, post: Posterior, where: Situation) -> Decision:
+        return self._ask_or_act(post, where)
+
+    def _ask_or_act(self, post: Posterior, where: Situation, naming: str | None = None) -> Decision:
+        """Ask the best question when it pays, else act as expected-benefit does; ``naming``: only
+        questions that name this command (a person who asked for the cereal is asked about the
+        cereal, not about the flour alone)."""
         tv = _values(post, where)
         # without a question it acts as expected-benefit does: the command asked for, or nothing
         only = (post.command,) if post.command in tv.actions else None
         best, eb = _best(tv, self.loss_aversion, self.utility, self.spent, only)
         a = tv.actions[best]
         p = 0.0 if a == NONE else post.prob(a)
-        qs = best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds, unit=self.utility,
-                            cost_model=self.cost_model, time_as_loss=self.time_as_loss, spent=self.spent)
+        qs = [(v, q) for v, q in best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds,
+                                                unit=self.utility, cost_model=self.cost_model,
+                                                time_as_loss=self.time_as_loss, spent=self.spent)
+              if naming is None or naming in q.options]
         top = _top(tv.actions, eb)
         if qs and qs[0][0] > self.cost(qs[0][1]) + 1e-9:  # a question worth exactly its cost is not asked
             value, q = qs[0]
@@ -481,7 +489,7 @@ class TeammateRule(AskOrActRule):
     def __call__(self, post: Posterior, where: Situation) -> Decision:
         top = str(post.command)
         p = post.prob(top)
-        made = self._ask_or_act(post, where, top)  # a question naming it when one pays, else expected benefit
+        made = self._ask_or_act(post, where, naming=top)  # a question naming it when one pays, else expected benefit
         if made.action == "ask":
             alt = ", ".join(o for o in made.options if o != top) or next(
                 (f"{c} (P = {q:.2f})" for c, q in post.commands if str(c) != top), "something else")
@@ -504,30 +512,6 @@ class TeammateRule(AskOrActRule):
                                    f"the best question is worth {made.evi:.1f} steps <= its cost {made.ask_cost:.1f})",
                             benefits=made.benefits)
         return self._choose(post, where, top, p)
-
-    def _ask_or_act(self, post: Posterior, where: Situation, top: str) -> Decision:
-        """Ask-or-act's decision among the questions that name the command asked for (a person
-        who asked for the cereal is asked about the cereal, not about the flour alone)."""
-        tv = _values(post, where)
-        only = (post.command,) if post.command in tv.actions else None
-        best, eb = _best(tv, self.loss_aversion, self.utility, self.spent, only)
-        a = tv.actions[best]
-        p = 0.0 if a == NONE else post.prob(a)
-        qs = [(v, q) for v, q in best_questions(tv, post, where, self.loss_aversion, self.ask_cost, self.kinds,
-                                                unit=self.utility, cost_model=self.cost_model,
-                                                time_as_loss=self.time_as_loss, spent=self.spent)
-              if top in q.options]
-        ranked = _top(tv.actions, eb)
-        if qs and qs[0][0] > self.cost(qs[0][1]) + 1e-9:  # a question worth exactly its cost is not asked
-            value, q = qs[0]
-            t = question_cost(q, self.ask_cost, self.cost_model)
-            return Decision(self.name, "ask", a, p, float(eb[best]), q.text, q.options, value, t,
-                            f"asking is worth {value:.1f} steps > its cost {self.cost(q):.1f}", ranked, q.kind, q)
-        value = qs[0][0] if qs else 0.0
-        cost = self.cost(qs[0][1]) if qs else 0.0
-        return Decision(self.name, a, a, p, float(eb[best]), "", (), value, cost,
-                        f"the best question is worth {value:.1f} steps <= its cost {cost:.1f}; "
-                        + (f"{a} saves {eb[best]:.1f} steps" if a != NONE else "no command saves time"), ranked)
 
     def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
         """Ask which of the two likeliest objects it was (or what was needed, with one)."""

@@ -309,10 +309,7 @@ class Observer:
                 parts = (post.command,)
             decision = self.decide(post, world, target, decide, nothing=nothing, answer_reliability=rel)
             if targets and not nothing:
-                here = _already_here(decision, targets[0], post, world, target, online.verb)
-                if here is not None:  # understood, but nothing of it is left to bring: say so
-                    decision, parts = here
-                decision = _absent(decision, targets[0]) or decision
+                decision, parts = _said_object(decision, parts, targets[0], post, world, target, online.verb)
         post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
         post = dataclasses.replace(post, decision=decision)
         asking = next((pp for pp, d in zip(part_posts, decisions, strict=True) if d.action == "ask"), post) \
@@ -358,10 +355,7 @@ class Observer:
                                answered=(*pending.answered, pending.question))
         parts: tuple[RobotCommand, ...] = (post.command,)
         if targets:
-            here = _already_here(decision, targets[0], post, world, target, online.verb)
-            if here is not None:
-                decision, parts = here
-            decision = _absent(decision, targets[0]) or decision
+            decision, parts = _said_object(decision, parts, targets[0], post, world, target, online.verb)
         decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
         post = dataclasses.replace(post, decision=decision,
                                    evidence={**post.evidence, "parts": [str(c) for c in parts]})
@@ -493,6 +487,16 @@ def _already_here(decision: Decision, mention: Mention, post: Posterior, world: 
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
                     declined=f"Sorry, {why}."), (asked,)
+
+
+def _said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Mention, post: Posterior,
+                 world: World, target: int, verb: str) -> tuple[Decision, tuple[RobotCommand, ...]]:
+    """The decision and parts once the object the words name is checked: none with the reason
+    when nothing of it is left to bring, or when the world lacks it."""
+    here = _already_here(decision, mention, post, world, target, verb)
+    if here is not None:  # understood, but nothing of it is left to bring: say so
+        decision, parts = here
+    return _absent(decision, mention) or decision, parts
 
 
 def _names_category_of(mention: Mention, obj_class: str, world: World) -> bool:

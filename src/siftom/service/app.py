@@ -275,7 +275,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
 
     from siftom.service.perceive import install as install_perceive
 
-    install_perceive(app, folder)  # POST /v1/perceive (camera frames through a vision model)
+    install_perceive(app, folder, run_cpu)  # POST /v1/perceive (camera frames through a vision model)
 
     # ----- sessions --------------------------------------------------------------------------
     from siftom.service.session_api import install_sessions, session_schemas

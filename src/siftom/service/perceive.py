@@ -8,6 +8,7 @@ fails or keeps answering wrongly a 502 (docs/perception.md).
 from __future__ import annotations
 
 import functools
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any, Literal
 
@@ -20,8 +21,14 @@ from pydantic import Field
 from siftom.errors import BackendUnavailableError, PerceptionError
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import Strict
+from siftom.world.io import check_world_bounds
+
+
+async def _to_thread(fn: Callable[..., Any], *args: Any) -> Any:
+    return await anyio.to_thread.run_sync(functools.partial(fn, *args))
 
 MAX_FRAMES = 32
+RunCpu = Callable[..., Awaitable[Any]]
 PERCEIVE_TIMEOUT_S = 300.0  # a vision model takes tens of seconds per frame, far over the infer limit
 
 
@@ -54,8 +61,10 @@ def vision_model(app: FastAPI, folder: Path) -> Any:
     return VisionModel(cache_dir=folder)
 
 
-def install(app: FastAPI, folder: Path) -> None:
-    """Add the route; accepted answers are cached under ``folder/perception``."""
+def install(app: FastAPI, folder: Path, run_cpu: RunCpu | None = None) -> None:
+    """Add the route; accepted answers are cached under ``folder/perception``. ``run_cpu`` runs
+    the checks of the frames and the world in a worker thread (default: a plain worker thread)."""
+    cpu: RunCpu = run_cpu or _to_thread
 
     @app.post("/v1/perceive", tags=["perception"],
               responses={c: {"description": d} for c, d in ((422, "bad frames or world"), (501, "no vision model "
@@ -65,10 +74,17 @@ def install(app: FastAPI, folder: Path) -> None:
         from siftom.perception import Frame, perceive
         from siftom.perception.pipeline import known_world
 
-        try:
-            frames = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
+        if req.world is not None:  # a 422 at once, before anything is decoded or built
+            check_world_bounds(req.world, max_items=app.state.runtime.settings.sessions.max_world_items)
+
+        def check() -> list[Any]:
+            decoded = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
             if req.world is not None:
                 known_world(req.world)
+            return decoded
+
+        try:
+            frames = await cpu(check)  # decoding and the world's walking costs: off the event loop
         except PerceptionError as exc:
             raise ProblemError(422, "invalid-observation", str(exc)) from None
         try:
@@ -122,10 +138,11 @@ def install_session_frames(app: FastAPI, folder: Path) -> None:
         if first is not None:
             return JSONResponse(first, headers={REPLAYED: "true"})
         try:
-            frames = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
+            frames = await anyio.to_thread.run_sync(
+                lambda: [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)])
         except PerceptionError as exc:
             raise ProblemError(422, "invalid-observation", str(exc)) from None
-        sess = mgr.get(session_id)  # 404 before any model call
+        sess = await anyio.to_thread.run_sync(mgr.get, session_id)  # 404 before any model call (rebuilt off the loop)
         try:
             model = vision_model(app, folder)
         except BackendUnavailableError as exc:

@@ -19,6 +19,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from siftom.errors import BackendUnavailableError, NotYoursError, SiftomError, UnknownNameError
+from siftom.world.io import WorldTooLargeError
 
 log = logging.getLogger("siftom.service")
 PROBLEM_JSON = "application/problem+json"
@@ -99,6 +100,10 @@ def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(BackendUnavailableError)
     async def _backend(_: Request, exc: BackendUnavailableError) -> JSONResponse:
         return problem_response(501, "backend-unavailable", str(exc))
+
+    @app.exception_handler(WorldTooLargeError)
+    async def _world_limit(_: Request, exc: WorldTooLargeError) -> JSONResponse:
+        return problem_response(422, "world-over-limit", str(exc))
 
     @app.exception_handler(SiftomError)
     async def _siftom(_: Request, exc: SiftomError) -> JSONResponse:

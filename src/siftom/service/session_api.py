@@ -36,6 +36,7 @@ from siftom.service.session_schemas import (
 )
 from siftom.service.sessions import SessionManager
 from siftom.service.store import SessionStore
+from siftom.world.io import check_world_bounds
 
 RunCpu = Callable[..., Awaitable[Any]]
 
@@ -90,6 +91,7 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
                                f"the world is {len(body)} bytes, more than the {limits.max_world_bytes} this server "
                                "allows (--max-world-bytes); leave out nodes the robot never uses")
         req = SessionCreate.model_validate_json(body)
+        check_world_bounds(req.world, max_items=limits.max_world_items)  # 422 at once, before any work
         idem = idem_of(request.headers, "create", body)
         first = await run_cpu(mgr.created_reply, idem)
         if first is not None:

@@ -36,6 +36,7 @@ from siftom.service.problems import ProblemError
 from siftom.service.store import KeyTaken, SessionStore
 from siftom.world.io import (
     LoadedScene,
+    check_world_bounds,
     feasible_goals,
     goal_library,
     scene_from_json,
@@ -69,6 +70,7 @@ class Session:
 def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
     """The session's scene from a create request's spec (world, goals, goal_space, target), and warnings."""
     world = spec["world"]
+    check_world_bounds(world, max_items=max_items)  # before anything is built
     ignored = _ignored_goal_space(spec)
     try:
         if "nodes" in world and "edges" in world:

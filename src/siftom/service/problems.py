@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import sqlite3
 from http import HTTPStatus
 from typing import Any
 
@@ -19,10 +20,14 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from siftom.errors import BackendUnavailableError, NotYoursError, SiftomError, UnknownNameError
+from siftom.service.store import DiskFullError, is_disk_full
 from siftom.world.io import WorldTooLargeError
 
 log = logging.getLogger("siftom.service")
 PROBLEM_JSON = "application/problem+json"
+DISK_FULL = ("the server's disk is full, so nothing was written; DELETE the sessions you no longer need "
+             "(DELETE /v1/sessions/{id} works on a full disk) and try again, or free space in the server's data "
+             "folder")
 
 
 class ProblemError(Exception):
@@ -68,6 +73,11 @@ def _summary(errors: list[dict[str, Any]]) -> str:
 def install_handlers(app: FastAPI) -> None:
     """Map every exception to a problem document."""
 
+    @app.exception_handler(Exception)
+    async def _bug(request: Request, exc: Exception) -> JSONResponse:
+        log.exception("unhandled error on %s %s", request.method, request.url.path, exc_info=exc)
+        return problem_response(500, "internal", "an internal error occurred; the server log has the details")
+
     @app.exception_handler(ProblemError)
     async def _problem(_: Request, exc: ProblemError) -> JSONResponse:
         return problem_response(exc.status, exc.slug, exc.detail, exc.errors, exc.headers)
@@ -101,6 +111,17 @@ def install_handlers(app: FastAPI) -> None:
     async def _backend(_: Request, exc: BackendUnavailableError) -> JSONResponse:
         return problem_response(501, "backend-unavailable", str(exc))
 
+    @app.exception_handler(DiskFullError)
+    async def _disk_full(_: Request, exc: Exception) -> JSONResponse:
+        return problem_response(507, "insufficient-storage", DISK_FULL)
+
+    for kind in (OSError, sqlite3.Error):  # a write elsewhere than the session store (e.g. the map cache)
+        @app.exception_handler(kind)
+        async def _write_failed(request: Request, exc: Exception) -> JSONResponse:
+            if is_disk_full(exc):
+                return problem_response(507, "insufficient-storage", DISK_FULL)
+            return await _bug(request, exc)
+
     @app.exception_handler(WorldTooLargeError)
     async def _world_limit(_: Request, exc: WorldTooLargeError) -> JSONResponse:
         return problem_response(422, "world-over-limit", str(exc))
@@ -109,10 +130,6 @@ def install_handlers(app: FastAPI) -> None:
     async def _siftom(_: Request, exc: SiftomError) -> JSONResponse:
         return problem_response(422, "invalid-observation", str(exc))
 
-    @app.exception_handler(Exception)
-    async def _bug(request: Request, exc: Exception) -> JSONResponse:
-        log.exception("unhandled error on %s %s", request.method, request.url.path)
-        return problem_response(500, "internal", "an internal error occurred; the server log has the details")
 
     app.add_middleware(_KeepConnectionMiddleware)
 

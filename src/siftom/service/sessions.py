@@ -33,7 +33,7 @@ from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
-from siftom.service.store import KeyTaken, SessionStore
+from siftom.service.store import DiskFullError, KeyTaken, SessionStore
 from siftom.world.io import (
     LoadedScene,
     check_world_bounds,
@@ -166,7 +166,11 @@ class SessionManager:
             held = list(self._held)
         for sid in held:  # in use: a stream's audio is use even when nothing is said
             self.store.touch(sid)
-        for sid in self.store.expire(now - self.limits.idle_s):
+        try:
+            expired = self.store.expire(now - self.limits.idle_s)
+        except DiskFullError:  # no room even to delete: the next sweep tries again
+            return
+        for sid in expired:
             with self._lock:
                 self._live.pop(sid, None)
 

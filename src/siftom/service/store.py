@@ -14,12 +14,21 @@ that answer again and changes nothing; ``closed`` remembers the keys of ``DELETE
 as long as a session may stay idle; ``created`` keeps the first answer to each
 ``Idempotency-Key`` of a session-creating request (``POST /v1/sessions``, ``/from-scenario``),
 claimed in the same transaction as the session it created, for as long too.
+
+**A full disk.** A write the disk (or a quota) refuses raises :class:`DiskFullError` (the service
+answers 507). The store keeps ``RESERVE_BYTES`` of room next to its file (``*.reserve``), given
+up when a delete finds the disk full, so ``DELETE`` still works and the space of the sessions
+deleted is reused by the next ones; the reserve is made again once the disk has room.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
+import logging
+import os
+import shutil
 import sqlite3
 import threading
 import time
@@ -28,7 +37,25 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from siftom.private import create_private, private_dir
+from siftom.private import FILE_MODE, create_private, private_dir
+
+log = logging.getLogger("siftom.service")
+SQLITE_FULL = 13
+RESERVE_BYTES = 1024 * 1024  # a delete writes a few pages to the write-ahead log
+
+
+class DiskFullError(Exception):
+    """A write was refused because the disk (or the user's quota) is full."""
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` says the disk or quota is full (OSError ENOSPC/EDQUOT, SQLite's SQLITE_FULL)."""
+    if isinstance(exc, OSError):
+        return exc.errno in (errno.ENOSPC, errno.EDQUOT)
+    if isinstance(exc, sqlite3.Error):
+        return (getattr(exc, "sqlite_errorcode", None) == SQLITE_FULL
+                or "database or disk is full" in str(exc))
+    return False
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (
@@ -117,17 +144,74 @@ class SessionStore:
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.execute("PRAGMA foreign_keys=ON")
         self._db.executescript(SCHEMA)
+        self.reserve = path.with_name(path.name + ".reserve")
+        self._refill_reserve()
+
+    # ----- a full disk -------------------------------------------------------------------------
+    def _refill_reserve(self) -> None:
+        """Make the reserve file when it is missing and the disk has room for it (and more)."""
+        if self.reserve.exists():
+            return
+        with contextlib.suppress(OSError):
+            if shutil.disk_usage(self.reserve.parent).free < 4 * RESERVE_BYTES:
+                return
+        try:
+            fd = os.open(self.reserve, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
+        except OSError:
+            return
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(bytes(RESERVE_BYTES))  # real blocks, not a sparse file
+        except OSError:
+            with contextlib.suppress(OSError):
+                self.reserve.unlink()
+
+    def _release_reserve(self) -> bool:
+        """Give the reserve's room back to the disk; whether there was one."""
+        try:
+            self.reserve.unlink()
+        except OSError:
+            return False
+        log.warning("the disk of %s is full: its reserve was given up so sessions can be deleted", self.path)
+        return True
+
+    def _checkpoint(self) -> bool:
+        """Copy the write-ahead log into the database (the pages of deleted sessions are reused),
+        so the next write starts the log over in the room it has; whether that worked."""
+        try:
+            busy, _log, _done = self._db.execute("PRAGMA wal_checkpoint(PASSIVE)").fetchone()
+        except sqlite3.Error:
+            return False
+        return not busy
+
+    def _rollback(self) -> None:
+        """Roll back the open transaction, if SQLite has not already (it does after SQLITE_FULL)."""
+        if self._db.in_transaction:
+            with contextlib.suppress(sqlite3.Error):
+                self._db.execute("ROLLBACK")
+
+    @contextlib.contextmanager
+    def _full(self) -> Iterator[None]:
+        """Turn a full disk into :class:`DiskFullError`, the transaction rolled back."""
+        try:
+            yield
+        except (sqlite3.Error, OSError) as exc:
+            if not is_disk_full(exc):
+                raise
+            self._rollback()
+            raise DiskFullError(str(exc)) from exc
 
     @contextlib.contextmanager
     def _tx(self) -> Iterator[None]:
         """One transaction (the connection is in autocommit mode); call with the lock held."""
-        self._db.execute("BEGIN IMMEDIATE")
-        try:
-            yield
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
+        with self._full():
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                yield
+            except BaseException:
+                self._rollback()
+                raise
+            self._db.execute("COMMIT")
 
     def close(self) -> None:
         with self._lock:
@@ -137,8 +221,19 @@ class SessionStore:
                claim: tuple[str, str] | None = None) -> float:
         """Store a new session; ``claim`` (key, request): the Idempotency-Key that created it,
         recorded in the same transaction (:class:`KeyTaken` when another request claimed it)."""
-        now = time.time()
         with self._lock:
+            self._refill_reserve()
+            try:
+                return self._create(sid, spec, options, claim)
+            except DiskFullError:
+                if not self._checkpoint():  # the log written over from its start needs no new room
+                    raise
+                return self._create(sid, spec, options, claim)
+
+    def _create(self, sid: str, spec: dict[str, Any], options: dict[str, Any], claim: tuple[str, str] | None
+                ) -> float:
+        now = time.time()
+        with self._full():
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 if claim is not None:
@@ -148,10 +243,10 @@ class SessionStore:
                                  (sid, now, now, json.dumps(spec, separators=(",", ":")), json.dumps(options)))
                 self._db.execute("COMMIT")
             except sqlite3.IntegrityError:
-                self._db.execute("ROLLBACK")
+                self._rollback()
                 raise KeyTaken(claim[0] if claim else sid) from None
             except BaseException:
-                self._db.execute("ROLLBACK")
+                self._rollback()
                 raise
         return now
 
@@ -163,7 +258,7 @@ class SessionStore:
 
     def set_creation_reply(self, key: str, answer: dict[str, Any]) -> None:
         """Record the first answer of the request that claimed ``key`` (kept if one is there)."""
-        with self._lock:
+        with self._lock, self._full():
             self._db.execute("UPDATE created SET reply = ? WHERE key = ? AND reply IS NULL", (json.dumps(answer), key))
 
     def append(self, sid: str, first_seq: int, texts: list[str], source: str,
@@ -171,7 +266,7 @@ class SessionStore:
         """Append actions ``first_seq, first_seq+1, ...`` in one transaction; ``reply`` (key,
         request, answer): the idempotency record written in the same transaction."""
         now = time.time()
-        with self._lock:
+        with self._lock, self._full():
             self._db.execute("BEGIN IMMEDIATE")
             try:
                 self._db.executemany("INSERT INTO actions (session, seq, text, source) VALUES (?, ?, ?, ?)",
@@ -181,7 +276,7 @@ class SessionStore:
                 self._db.execute("UPDATE sessions SET updated = ? WHERE id = ?", (now, sid))
                 self._db.execute("COMMIT")
             except sqlite3.IntegrityError:
-                self._db.execute("ROLLBACK")
+                self._rollback()
                 gone = self._db.execute("SELECT 1 FROM sessions WHERE id = ?", (sid,)).fetchone() is None
                 from siftom.service.problems import ProblemError
 
@@ -191,7 +286,7 @@ class SessionStore:
                 raise ProblemError(409, "conflict", f"session {sid!r} was changed by another request at the "
                                    "same time; GET it and send the actions again") from None
             except BaseException:
-                self._db.execute("ROLLBACK")
+                self._rollback()
                 raise
         return now
 
@@ -227,7 +322,8 @@ class SessionStore:
                                     (sid, key)).fetchone() is not None
 
     def touch(self, sid: str) -> None:
-        with self._lock:
+        """Mark ``sid`` used now (nothing when the disk is full: it only delays the expiry)."""
+        with self._lock, contextlib.suppress(DiskFullError), self._full():
             self._db.execute("UPDATE sessions SET updated = ? WHERE id = ?", (time.time(), sid))
 
     def load(self, sid: str) -> StoredSession | None:
@@ -241,8 +337,20 @@ class SessionStore:
                              json.loads(row[5]) if row[5] else None)
 
     def delete(self, sid: str, key: str | None = None) -> bool:
-        """Delete a session; with ``key``, remember that this key closed it (one transaction)."""
-        with self._lock, self._tx():
+        """Delete a session; with ``key``, remember that this key closed it (one transaction). On
+        a full disk the reserve is given up and the delete tried again, so it still succeeds."""
+        with self._lock:
+            try:
+                return self._delete(sid, key)
+            except DiskFullError:
+                if not self._release_reserve():
+                    raise
+            gone = self._delete(sid, key)
+            self._checkpoint()
+            return gone
+
+    def _delete(self, sid: str, key: str | None) -> bool:
+        with self._tx():
             cur = self._db.execute("DELETE FROM sessions WHERE id = ?", (sid,))
             if key is not None and cur.rowcount > 0:
                 self._db.execute("INSERT OR REPLACE INTO closed (session, key, at) VALUES (?, ?, ?)",
@@ -257,8 +365,17 @@ class SessionStore:
         """Delete sessions not updated since ``before``; return their ids."""
         with self._lock:
             ids = [r[0] for r in self._db.execute("SELECT id FROM sessions WHERE updated < ?", (before,))]
-            if ids:
+            try:
+                self._expire(before, bool(ids))
+            except DiskFullError:
+                if not self._release_reserve():
+                    raise
+                self._expire(before, bool(ids))
+        return ids
+
+    def _expire(self, before: float, sessions: bool) -> None:
+        with self._tx():
+            if sessions:
                 self._db.execute("DELETE FROM sessions WHERE updated < ?", (before,))
             self._db.execute("DELETE FROM closed WHERE at < ?", (before,))
             self._db.execute("DELETE FROM created WHERE at < ?", (before,))
-        return ids

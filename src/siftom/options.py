@@ -14,17 +14,23 @@ from dataclasses import dataclass, field
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError, OptionsError, SettingsError, SiftomError
 
+MIN_TOKEN = 16
 MAX_TOKEN = 256
 
 
 def check_token(token: str, source: str = "the token") -> str:
-    """``token`` without surrounding whitespace; an OptionsError naming ``source`` when it cannot be used."""
+    """``token`` without surrounding whitespace; an OptionsError naming ``source`` when it cannot be used
+    (empty, shorter than :data:`MIN_TOKEN` characters, longer than :data:`MAX_TOKEN`, or not
+    visible ASCII)."""
     token = token.strip()
-    how = "e.g. python -c 'import secrets; print(secrets.token_urlsafe(32))'"
+    how = "make one with: python -c 'import secrets; print(secrets.token_urlsafe(32))'"
     if not token:
         raise OptionsError(f"{source} is empty; give a long random string, {how}")
+    if len(token) < MIN_TOKEN:
+        raise OptionsError(f"{source} is too short ({len(token)} characters; at least {MIN_TOKEN}, "
+                           f"a short token can be guessed); {how}")
     if len(token) > MAX_TOKEN or not all(33 <= ord(ch) <= 126 for ch in token):
-        raise OptionsError(f"{source} must be 1-{MAX_TOKEN} visible ASCII characters without spaces; {how}")
+        raise OptionsError(f"{source} must be {MIN_TOKEN}-{MAX_TOKEN} visible ASCII characters without spaces; {how}")
     return token
 
 

@@ -128,17 +128,17 @@ def test_the_token_is_never_shown_in_the_settings(monkeypatch):
 def test_resolve_token(tmp_path, monkeypatch):
     monkeypatch.delenv("SIFTOM_TOKEN", raising=False)
     assert resolve_token("127.0.0.1", None, None) == (None, False)  # loopback: optional
-    assert resolve_token("localhost", "mine-1234", None) == ("mine-1234", False)
+    assert resolve_token("localhost", "mine-1234-long-enough", None) == ("mine-1234-long-enough", False)
     made, generated = resolve_token("0.0.0.0", None, None)
     assert generated and made is not None and len(made) >= 40
     assert resolve_token("0.0.0.0", None, None)[0] != made
     f = tmp_path / "tok"
     f.write_text(TOKEN + "\n")
     assert resolve_token("0.0.0.0", None, f) == (TOKEN, False)
-    monkeypatch.setenv("SIFTOM_TOKEN", "from-env-123")
-    assert resolve_token("0.0.0.0", None, None) == ("from-env-123", False)
+    monkeypatch.setenv("SIFTOM_TOKEN", "from-env-123-long-enough")
+    assert resolve_token("0.0.0.0", None, None) == ("from-env-123-long-enough", False)
     monkeypatch.delenv("SIFTOM_TOKEN")
-    assert resolve_token("192.168.1.5", None, None, "from-settings") == ("from-settings", False)
+    assert resolve_token("192.168.1.5", None, None, "from-settings-long-enough") == ("from-settings-long-enough", False)
     with pytest.raises(OptionsError, match="not both"):
         resolve_token("0.0.0.0", "a", f)
     with pytest.raises(OptionsError, match="cannot read the token file"):

@@ -17,6 +17,10 @@
   to the same URL without the token). The WebSocket accepts the same three. Tokens are
   compared in constant time (:func:`secrets.compare_digest`). The ``token`` query parameter is
   taken out of the request before the app (and the access log) sees it.
+* **Wrong guesses are slowed**: a client address that sent :data:`MAX_FAILURES` wrong tokens
+  within :data:`FAILURE_WINDOW_S` seconds gets 429 (with ``Retry-After``) for every request
+  carrying a token until the oldest of them leaves the window; its tokens are not compared
+  meanwhile. At most :data:`MAX_TRACKED` addresses are remembered (the least recent forgotten).
 * Without a token, a request gets in (loopback only: ``siftom serve`` refuses to listen
   elsewhere without one).
 
@@ -29,7 +33,11 @@ from __future__ import annotations
 import hashlib
 import ipaddress
 import json
+import math
 import secrets
+import time
+from collections import OrderedDict, deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from http.cookies import SimpleCookie
 from typing import Any
@@ -47,6 +55,9 @@ OPEN_PREFIXES = ("/static/",)
 CLOSE_UNAUTHORIZED = 4401  # a WebSocket without the token
 UNSAFE_METHODS = ("POST", "PUT", "PATCH", "DELETE")
 AUTH_KEY = "siftom.authenticated"  # set on every scope by AccessGuard
+MAX_FAILURES = 10  # wrong tokens one address may send within FAILURE_WINDOW_S ...
+FAILURE_WINDOW_S = 60.0
+MAX_TRACKED = 4096  # ... addresses remembered at once
 
 
 def new_token() -> str:
@@ -192,14 +203,70 @@ class Access:
         return (o_host, o_port) == (h_host, h_port)
 
 
-class AccessGuard:
-    """ASGI middleware enforcing :class:`Access` on HTTP requests and WebSockets."""
+class FailureLog:
+    """Wrong-token attempts per client address in a sliding window, in bounded memory: at most
+    ``max_failures`` times per address, at most ``max_clients`` addresses (the least recently
+    failing forgotten first)."""
 
-    def __init__(self, app: ASGIApp, access: Access) -> None:
+    def __init__(self, max_failures: int = MAX_FAILURES, window_s: float = FAILURE_WINDOW_S,
+                 max_clients: int = MAX_TRACKED, clock: Callable[[], float] = time.monotonic) -> None:
+        if max_failures < 1 or window_s <= 0 or max_clients < 1:
+            raise OptionsError("the wrong-token budget needs max_failures >= 1, window_s > 0, max_clients >= 1")
+        self.max_failures, self.window_s, self.max_clients, self.clock = max_failures, window_s, max_clients, clock
+        self._seen: OrderedDict[str, deque[float]] = OrderedDict()
+
+    def _recent(self, client: str, now: float) -> deque[float] | None:
+        times = self._seen.get(client)
+        if times is None:
+            return None
+        while times and times[0] <= now - self.window_s:
+            times.popleft()
+        if not times:
+            del self._seen[client]
+            return None
+        return times
+
+    def retry_after(self, client: str) -> int:
+        """Seconds until ``client`` may try a token again; 0: it may now."""
+        now = self.clock()
+        times = self._recent(client, now)
+        if times is None or len(times) < self.max_failures:
+            return 0
+        return max(1, math.ceil(times[0] + self.window_s - now))
+
+    def failed(self, client: str) -> None:
+        """Note a wrong token from ``client``."""
+        now = self.clock()
+        times = self._recent(client, now)
+        if times is None:
+            times = self._seen[client] = deque(maxlen=self.max_failures)
+        times.append(now)
+        self._seen.move_to_end(client)
+        while len(self._seen) > self.max_clients:
+            self._seen.popitem(last=False)
+
+    def __len__(self) -> int:
+        return len(self._seen)
+
+
+class AccessGuard:
+    """ASGI middleware enforcing :class:`Access` on HTTP requests and WebSockets.
+
+    ``max_failures``, ``window_s``, ``max_clients`` and ``clock`` set the wrong-token budget
+    (:class:`FailureLog`)."""
+
+    def __init__(self, app: ASGIApp, access: Access, *, max_failures: int = MAX_FAILURES,
+                 window_s: float = FAILURE_WINDOW_S, max_clients: int = MAX_TRACKED,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.app, self.access = app, access
         tok = access.token
         self._token = tok.encode() if tok else None
         self._cookie = cookie_name(tok) if tok else ""
+        self._failures = FailureLog(max_failures, window_s, max_clients, clock)
+
+    def tracked_clients(self) -> int:
+        """How many client addresses the wrong-token log holds now."""
+        return len(self._failures)
 
     def _matches(self, given: str | None) -> bool:
         return (self._token is not None and given is not None
@@ -246,12 +313,21 @@ class AccessGuard:
         except Exception:  # a malformed Cookie header counts as none
             jar = SimpleCookie()
         cookie = jar[self._cookie].value if self._cookie in jar else None
+        given = bearer is not None or cookie is not None or bool(from_query)
+        client = (scope.get("client") or ("",))[0] or ""
+        if given:
+            wait = self._failures.retry_after(client)
+            if wait:  # too many wrong guesses from this address: not even compared
+                await self._throttle(scope, receive, send, wait)
+                return
         query_ok = any(self._matches(v) for v in from_query)
         ok = self._matches(bearer) or query_ok or self._matches(cookie)
         scope[AUTH_KEY] = ok
+        if given and not ok:
+            self._failures.failed(client)
         path = scope.get("path", "")
         if not ok and not (path in OPEN_PATHS or path.startswith(OPEN_PREFIXES)):
-            await self._refuse(scope, receive, send, bearer is not None or cookie is not None or bool(from_query))
+            await self._refuse(scope, receive, send, given)
             return
         if scope["type"] == "http" and query_ok:
             await self._set_cookie(scope, receive, send, headers)
@@ -282,11 +358,21 @@ class AccessGuard:
 
         await self.app(scope, receive, with_cookie)
 
+    async def _throttle(self, scope: Scope, receive: Receive, send: Send, wait: int) -> None:
+        log = self._failures
+        detail = (f"too many wrong tokens from this address (at most {log.max_failures} in "
+                  f"{log.window_s:g} s); wait {wait} s (Retry-After), then send the right token: the one "
+                  "siftom serve printed or was given with --token, --token-file or SIFTOM_TOKEN")
+        await self._deny(scope, receive, send, 429, "too-many-wrong-tokens", detail,
+                         [(b"retry-after", str(wait).encode())])
+
     @staticmethod
-    async def _deny(scope: Scope, receive: Receive, send: Send, status: int, slug: str, detail: str) -> None:
+    async def _deny(scope: Scope, receive: Receive, send: Send, status: int, slug: str, detail: str,
+                    extra: list[tuple[bytes, bytes]] | None = None) -> None:
         """A problem response; a WebSocket is refused before its handshake completes."""
         body = json.dumps(problem(status, slug, detail)).encode()
-        headers = [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode())]
+        headers = [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode()),
+                   *(extra or [])]
         if scope["type"] == "websocket":
             msg = await receive()
             if msg["type"] != "websocket.connect":

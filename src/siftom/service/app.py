@@ -154,6 +154,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     # ----- health ----------------------------------------------------------------------------
     # the resolved values the server runs with (siftom config show), secrets masked
     settings_view = {key: _jsonable(value) for key, value, _ in observer.settings.show()}
+    settings_view["service.token"] = "set" if settings.token else None  # the one in force, never its value
 
     @app.get("/healthz", tags=["meta"])
     async def healthz(request: Request) -> dict[str, Any]:

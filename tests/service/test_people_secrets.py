@@ -72,9 +72,10 @@ def test_collect_for_one_participant_accepts_only_them(tmp_path):
     assert r.status_code == 403 and "participant 'p01' only" in r.json()["detail"]
     key = page.post("/api/participants", json={"participant": "p01", "agree": True}).json()["key"]
     assert _record(page, "p01", key).status_code == 201
-    # the experimenter's page for p01 gives p01 a new key when they come back, and the old one stops
-    key2 = page.post("/api/participants", json={"participant": "p01", "agree": True}).json()["key"]
-    assert key2 != key and _record(page, "p01", key).status_code == 403
+    # agreeing again without the key takes nothing over, even on p01's own page
+    r = page.post("/api/participants", json={"participant": "p01", "agree": True})
+    assert r.status_code == 403 and "--new-key" in r.json()["detail"]
+    assert _record(page, "p01", key).status_code == 201
     assert not list((out / "audio").glob("*p02*"))
 
 

@@ -61,6 +61,9 @@ _host = click.option("--host", default="127.0.0.1", show_default=True,
 @click.option("--scenarios", type=click.IntRange(1, 10_000), default=26, show_default=True,
               help="scenarios per participant (registered first, then generated)")
 @click.option("--participant", default=None, help="participant id (default: asked on the page)")
+@click.option("--new-key", is_flag=True,
+              help="with --participant: the participant's old key stops working and their next agreement "
+                   "on this page gets a new one (for a participant who lost their page)")
 @click.option("--consent", "consent", type=click.Path(dir_okay=False), default=None,
               help="a text file with the consent text to show (default: a generic one)")
 @click.option("--max-seconds", type=click.FloatRange(1, 120), default=30.0, show_default=True,
@@ -68,27 +71,36 @@ _host = click.option("--host", default="127.0.0.1", show_default=True,
 @_host
 @click.option("--port", type=click.IntRange(1, 65535), default=8010, show_default=True, help="TCP port")
 @with_access_options
-def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, consent: str | None,
-                max_seconds: float, host: str, port: int, token: str | None, token_file: Path | None,
+def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, new_key: bool,
+                consent: str | None, max_seconds: float, host: str, port: int, token: str | None, token_file: Path | None,
                 allow_host: tuple[str, ...], allow_origin: tuple[str, ...]) -> None:
     """Serve a page that records participants asking the robot for help, into a dataset folder.
 
     Each participant agrees to the consent text, then sees each scenario (the scene after each of
     the person's actions and the goal in words), records what they would ask the robot and types
     what they said. Then: siftom dataset mix OUT, siftom dataset check OUT, siftom eval. With
-    --participant the page records that participant only. Beyond loopback the page needs a
-    token, as siftom serve does.
+    --participant the page records that participant only; --new-key also resets their key when
+    they lost their page (without it, only the page holding the key can go on). Beyond loopback
+    the page needs a token, as siftom serve does.
     """
     from siftom.bench.runlock import RunLock
     from siftom.people.collect import CONSENT_TEXT, CollectOptions
     from siftom.service.collect_app import create_collect_app
 
+    if new_key and participant is None:
+        raise click.UsageError("--new-key resets one participant's key: give --participant ID too")
     opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
                           consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
     access, generated = _access(host, token, token_file, allow_host, allow_origin)
     private_dir(out)
     with RunLock(out):  # one server per folder: several participants may share it, two servers may not
         app = create_collect_app(out, opts, access)
+        if new_key and participant is not None:
+            if app.state.collection.reset_key(participant):
+                click.echo(f"siftom: {participant}'s old key no longer works; their next agreement on this page "
+                           "gets a new one", err=True)
+            else:
+                click.echo(f"siftom: {participant} has no key yet (they have not agreed); nothing to reset", err=True)
         _serve(app, host, port, f"recording page for {out}", access, generated)
 
 

@@ -220,28 +220,42 @@ class Collection:
 
     # -- participants ---------------------------------------------------------------------------
 
-    def agree(self, participant: str, key: str | None = None, renew: bool = False) -> dict[str, Any]:
+    def agree(self, participant: str, key: str | None = None) -> dict[str, Any]:
         """Store that ``participant`` agreed to the consent text shown; return the record with
         ``key``, the participant's secret (the only place it is ever given in clear).
 
-        A new participant gets a fresh key. One who agreed before keeps theirs when ``key`` is it;
-        ``renew`` (a server started for this one participant) gives a new key instead; any other
-        caller is refused with NotYoursError.
+        A new participant (or one whose key the experimenter reset, :meth:`reset_key`) gets a
+        fresh key. One who agreed before keeps theirs, and only when ``key`` is it: any other
+        caller is refused with NotYoursError (nobody can lock a participant out by agreeing again).
         """
         check_participant(participant)
         with self._lock:
             digest = self._key_digest(participant)
-            if digest and not renew and not key_matches(key, digest):
-                raise NotYoursError(f"participant {participant!r} has already started on another page; continue "
-                                    "on that page (it keeps the key), or ask the experimenter to start "
-                                    f"'siftom collect --participant {participant}' for you")
-            given = key if digest and not renew and key else secrets.token_urlsafe(24)
+            if digest and not key_matches(key, digest):
+                raise NotYoursError(f"participant {participant!r} has already started on another page and this "
+                                    "page does not have their key; continue on that page (it keeps the key), or "
+                                    "ask the experimenter to give them a new key with "
+                                    f"'siftom collect --participant {participant} --new-key'")
+            given = key if digest and key else secrets.token_urlsafe(24)
             rec = {"participant": participant, "agreed": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                    "consent_sha1": self.consent_sha1, "consent": self.options.consent, "domain": self.options.domain,
                    "key_sha256": key_digest(given)}
             with append_private(self.root / PARTICIPANTS) as f:
                 f.write(json.dumps(rec) + "\n")
         return {**rec, "key": given}
+
+    def reset_key(self, participant: str) -> bool:
+        """Make ``participant``'s key stop working: their next agreement gets a fresh one (the
+        experimenter's way back for a participant who lost their page). False when they have no
+        key to reset (they have not agreed)."""
+        check_participant(participant)
+        with self._lock:
+            if self._key_digest(participant) is None:
+                return False
+            rec = {"participant": participant, "key_reset": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+            with append_private(self.root / PARTICIPANTS) as f:
+                f.write(json.dumps(rec) + "\n")
+        return True
 
     def _records(self) -> list[dict[str, Any]]:
         p = self.root / PARTICIPANTS
@@ -258,11 +272,16 @@ class Collection:
         return out
 
     def _key_digest(self, participant: str) -> str | None:
-        """The digest of the participant's current key; None if they have not agreed. One who
-        agreed before keys existed has the digest '' (any first key is theirs)."""
+        """The digest of the participant's current key; None if they have not agreed or their key
+        was reset since. One who agreed before keys existed has the digest '' (any first key is
+        theirs)."""
         found: str | None = None
         for r in self._records():
-            if r.get("participant") == participant and r.get("agreed"):
+            if r.get("participant") != participant:
+                continue
+            if r.get("key_reset"):
+                found = None
+            elif r.get("agreed"):
                 found = str(r.get("key_sha256") or "")
         return found
 

@@ -7,7 +7,9 @@ secret ``key``), ``GET /api/prompts/{k}`` (scenario ``k``: actions, goal in word
 for), ``GET /api/prompts/{k}/frames/{step}.png``, ``POST /api/recordings`` (multipart:
 ``participant``, ``key``, ``index``, ``reference``, ``audio``). A recording needs the
 participant's key (403 otherwise); a page started for one participant (``--participant``)
-accepts no other.
+accepts no other. A participant who has a key gets it again only by sending it: agreeing again
+without it is a 403 (the experimenter gives a new key with ``siftom collect --participant ID
+--new-key``).
 """
 
 from __future__ import annotations
@@ -61,8 +63,7 @@ def create_collect_app(out: str | Path, options: CollectOptions, access: Access 
             raise ProblemError(422, "no-consent", "recording needs your agreement to the text above; "
                                "tick the box to agree, or close the page to stop")
         only(req.participant)
-        # a page started for one participant gives them a new key each time they agree
-        rec = await run_cpu(coll.agree, req.participant, req.key, options.participant is not None)
+        rec = await run_cpu(coll.agree, req.participant, req.key)
         return {"participant": req.participant, "key": rec["key"], "done": coll.done(req.participant),
                 "scenarios": len(coll.prompts)}
 

@@ -27,10 +27,17 @@ def _csv(value: str | None) -> tuple[str, ...]:
 def _snrs(value: str) -> tuple[float, ...]:
     if value.strip().lower() in ("", "none"):
         return ()
+    from siftom.cli.speech import SNR_MAX_DB, SNR_MIN_DB
+
     try:
-        return tuple(float(v) for v in _csv(value))
+        snrs = tuple(float(v) for v in _csv(value))
     except ValueError:
         raise DatasetError(f"--snr must be comma-separated numbers of dB, e.g. 20,10,5; got {value!r}") from None
+    far = [f"{x:g}" for x in snrs if not SNR_MIN_DB <= x <= SNR_MAX_DB]
+    if far:
+        raise DatasetError(f"--snr {', '.join(far)}: give SNRs from {SNR_MIN_DB:g} to {SNR_MAX_DB:g} dB, "
+                           "e.g. 20,10,5")
+    return snrs
 
 
 def _default_workers() -> int:
@@ -138,8 +145,11 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
                         snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed)
+    from siftom.cli.speech import FOLDER_FIX, writing_audio
+
     t0 = time.perf_counter()
-    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar:
+    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar, \
+            writing_audio(out, "the dataset into", fix=FOLDER_FIX):
         ds = build_dataset(opts, out, progress=bar, backend=be)
     secs = time.perf_counter() - t0
     if as_json:

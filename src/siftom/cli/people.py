@@ -112,7 +112,8 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
               help="annotators per stimulus")
 @click.option("--per-annotator", type=click.IntRange(1, 100_000), default=None,
               help="stimuli per annotator (default: every stimulus once)")
-@click.option("--seed", type=int, default=0, show_default=True, help="seed of the order and the assignments")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="seed of the order and the assignments")
 @click.option("--consent", "consent", type=click.Path(dir_okay=False), default=None,
               help="a text file with the consent text to show (default: a generic one)")
 @_host
@@ -147,14 +148,17 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
               help="folder of noise WAVs named CATEGORY_NN.wav (default: the recordings shipped with siftom)")
 @click.option("--noises", default=None, help="comma-separated categories of the noise folder (default: all)")
 @click.option("--snr", "snr", default="20,10,5", show_default=True, help="one noisy copy per SNR (dB)")
-@click.option("--seed", type=int, default=0, show_default=True, help="seed of the noise excerpts")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed of the noise excerpts")
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def mix_cmd(folder: str, noise_dir: str | None, noises: str | None, snr: str, seed: int, as_json: bool) -> None:
     """Add noisy copies of every clean recording in a dataset FOLDER (clean + noisy: 130 -> 520)."""
     from siftom.bench.mix import MixOptions, mix_dataset
     from siftom.cli.bench import _csv, _snrs
+    from siftom.cli.speech import FOLDER_FIX, writing_audio
 
-    ds, written = mix_dataset(folder, MixOptions(noise_dir=noise_dir, noises=_csv(noises), snrs=_snrs(snr), seed=seed))
+    opts = MixOptions(noise_dir=noise_dir, noises=_csv(noises), snrs=_snrs(snr), seed=seed)
+    with writing_audio(folder, "the noisy copies into", fix=FOLDER_FIX):
+        ds, written = mix_dataset(folder, opts)
     clean = sum(1 for s in ds.stimuli if s.noise is None)
     if as_json:
         click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "clean": clean, "mixed": written}))

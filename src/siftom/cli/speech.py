@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -29,14 +31,39 @@ def _vocab(spec: str | None) -> list[str] | None:
     return items
 
 
+SNR_MIN_DB, SNR_MAX_DB = -50.0, 100.0  # the SNRs a command takes (beyond: silence or noise alone)
+WRITE_FIX = "a path in a folder you can write to, on a disk with free space"
+FOLDER_FIX = "make the folder writable and free disk space, then run the command again"
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return (text.splitlines()[0] if text else type(exc).__name__)[:200]
+
+
+@contextmanager
+def writing_audio(target: str | Path, what: str = "the WAV file",
+                  fix: str = f"give {WRITE_FIX}") -> Iterator[None]:
+    """A failure to write audio under ``target`` (a full disk, a device, a read-only folder)
+    becomes a one-line click error naming the path and ``fix``, not a traceback."""
+    import soundfile as sf
+
+    try:
+        yield
+    except (OSError, sf.SoundFileError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else _first_line(exc)
+        raise click.ClickException(f"cannot write {what} {str(target)!r} ({reason}); {fix}") from None
+
+
 @click.command("say")
 @click.argument("text")
 @click.option("--voice", "-v", default="flite-slt", show_default=True, help="voice name (siftom voices)")
 @click.option("--rate", type=float, default=1.0, show_default=True, help="speaking-rate multiplier")
 @click.option("--pitch", type=float, default=1.0, show_default=True, help="pitch multiplier")
 @click.option("--noise", default=None, help="white|pink|brown|babble|hum, recorded[:CATEGORY] (the shipped recordings), a WAV file or a folder of them")
-@click.option("--snr", type=float, default=10.0, show_default=True, help="SNR in dB over active speech")
-@click.option("--seed", type=int, default=0, show_default=True, help="seed for the noise excerpt")
+@click.option("--snr", type=click.FloatRange(SNR_MIN_DB, SNR_MAX_DB), default=10.0, show_default=True,
+              help="SNR in dB over active speech")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="seed for the noise excerpt")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True, help="output WAV")
 def say_cmd(text: str, voice: str, rate: float, pitch: float, noise: str | None, snr: float,
             seed: int, output: str) -> None:
@@ -48,7 +75,8 @@ def say_cmd(text: str, voice: str, rate: float, pitch: float, noise: str | None,
     x = synthesize(text, voice, rate=rate, pitch=pitch)
     if noise is not None:
         x = mix_at_snr(x, get_noise(noise), snr, seed)
-    path = write_wav(output, x)
+    with writing_audio(output, fix=f"give -o {WRITE_FIX}"):
+        path = write_wav(output, x)
     extra = f", {noise} at {snr:g} dB" if noise else ""
     click.echo(f"wrote {path} ({duration_s(x):.2f} s, {voice}{extra})")
 

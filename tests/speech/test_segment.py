@@ -137,3 +137,36 @@ def test_silero_cuts_a_spoken_instruction_fed_in_odd_chunks(tmp_path):
     n = len(clip) / 16000
     assert 0.4 < ends[0].start_s < 0.5 + n / 2 and ends[0].end_s < 0.5 + n + 0.1
     assert ends[1].start_s > 0.5 + n + 0.5
+
+
+def test_every_door_scores_frames_with_the_onnx_silero_when_the_whisper_extra_is_there():
+    from siftom.speech.segment import OnnxSileroFrames, SileroFrames, default_scorer, onnx_silero_path
+
+    expected = OnnxSileroFrames if onnx_silero_path() is not None else SileroFrames
+    assert isinstance(default_scorer(), expected)
+    assert isinstance(UtteranceSegmenter()._scorer, expected)
+
+
+def test_onnx_silero_frame_by_frame_equals_one_batch_and_finds_speech(tmp_path):
+    from support.streaming import say, silence
+
+    from siftom.speech.segment import CONTEXT, OnnxSileroFrames, onnx_silero_path
+
+    if onnx_silero_path() is None:
+        pytest.skip("the ONNX Silero graph ships with the whisper extra")
+    clip = say("pass me the cereal", tmp_path / "c.wav")
+    x = np.concatenate([silence(0.5), clip, silence(0.6)]).astype(np.float32)
+    x = x[: len(x) // FRAME * FRAME]
+    scorer = OnnxSileroFrames()
+    probs = np.array([scorer(x[k:k + FRAME]) for k in range(0, len(x), FRAME)])
+    # the same graph over every frame at once (each with the previous frame's last samples before it)
+    frames_ = x.reshape(-1, FRAME)
+    ctx = np.roll(frames_[:, -CONTEXT:], 1, axis=0)
+    ctx[0] = 0
+    h = np.zeros((1, 1, 128), np.float32)
+    batch, _, _ = scorer._session.run(None, {"input": np.concatenate([ctx, frames_], 1), "h": h, "c": h})
+    assert np.allclose(probs, np.asarray(batch).reshape(-1), atol=1e-5)
+    lead = int(0.5 / FRAME_S)
+    assert probs[: lead - 2].max() < 0.5 and probs[lead:lead + int(len(clip) / FRAME)].max() > 0.9
+    scorer.reset()  # a new stream starts from the same state
+    assert scorer(x[:FRAME]) == pytest.approx(probs[0], abs=1e-6)

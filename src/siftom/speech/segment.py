@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -60,6 +61,66 @@ class SileroFrames:
 
     def reset(self) -> None:
         self._vad.reset()
+
+
+CONTEXT = 64  # samples of the previous frame Silero v5/v6 reads before each 512-sample frame
+
+
+def onnx_silero_path() -> Path | None:
+    """The Silero VAD v6 ONNX graph that faster-whisper ships (``faster_whisper/assets``), or None
+    without faster-whisper or onnxruntime (found without importing either)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("faster_whisper")
+    if spec is None or spec.origin is None or importlib.util.find_spec("onnxruntime") is None:
+        return None
+    path = Path(spec.origin).parent / "assets" / "silero_vad_v6.onnx"
+    return path if path.is_file() else None
+
+
+class OnnxSileroFrames:
+    """Silero VAD v6 through onnxruntime (the graph in faster-whisper's wheel, installed with the
+    ``whisper`` extra): the same network family as :class:`SileroFrames` at about a tenth of the
+    cost per frame (0.1 ms against 1.3-1.7 ms on the 2-core dev machine), one thread, stateful
+    across frames exactly as when a whole clip is scored in one batch."""
+
+    def __init__(self, path: Path | None = None) -> None:
+        import onnxruntime
+
+        path = path or onnx_silero_path()
+        if path is None:
+            raise BackendUnavailableError("the ONNX Silero VAD needs the whisper extra: pip install 'siftom[whisper]'")
+        opts = onnxruntime.SessionOptions()
+        opts.inter_op_num_threads = 1
+        opts.intra_op_num_threads = 1
+        opts.enable_cpu_mem_arena = False
+        opts.log_severity_level = 4
+        self._session = onnxruntime.InferenceSession(str(path), providers=["CPUExecutionProvider"], sess_options=opts)
+        self._h = self._c = np.zeros((1, 1, 128), dtype=np.float32)
+        self._context = np.zeros(CONTEXT, dtype=np.float32)
+
+    def __call__(self, frame: np.ndarray) -> float:
+        x = np.concatenate([self._context, np.asarray(frame, dtype=np.float32).reshape(-1)])
+        out, h, c = self._session.run(None, {"input": x[None], "h": self._h, "c": self._c})
+        self._h, self._c = np.asarray(h, dtype=np.float32), np.asarray(c, dtype=np.float32)
+        self._context = x[-CONTEXT:]
+        return float(np.asarray(out).reshape(-1)[0])
+
+    def reset(self) -> None:
+        self._h = np.zeros((1, 1, 128), dtype=np.float32)
+        self._c = np.zeros((1, 1, 128), dtype=np.float32)
+        self._context = np.zeros(CONTEXT, dtype=np.float32)
+
+
+def default_scorer() -> FrameScorer:
+    """The frame scorer every door's segmenter uses: :class:`OnnxSileroFrames` where the whisper
+    extra is installed, else :class:`SileroFrames`."""
+    if onnx_silero_path() is not None:
+        try:
+            return OnnxSileroFrames()
+        except Exception:  # a broken onnxruntime install: the packaged detector still works
+            pass
+    return SileroFrames()
 
 
 @dataclass(frozen=True)
@@ -159,7 +220,7 @@ class UtteranceSegmenter:
     def __init__(self, options: SegmentOptions | None = None,
                  scorer: FrameScorer | None = None) -> None:
         self.options = options or SegmentOptions()
-        self._scorer: FrameScorer = scorer if scorer is not None else SileroFrames()
+        self._scorer: FrameScorer = scorer if scorer is not None else default_scorer()
         o = self.options
         self._min_speech = max(1, round(o.min_speech_s / FRAME_S))
         self._min_silence = max(1, round(o.min_silence_s / FRAME_S))

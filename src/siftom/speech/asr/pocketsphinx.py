@@ -41,7 +41,7 @@ _FILLERS = {"<s>", "</s>", "<sil>", "[noise]", "<unk>"}
 # as themselves, not forced onto the nearest object name (docs/speech.md, "Open vocabulary").
 OPEN_BACKGROUND_WORDS = 2000
 OPEN_BACKGROUND_WEIGHT = 0.1
-# The phrasing LMs decode in two passes (the lexicon-tree search, then the lattice's N-best) without
+# The phrasing LMs (not the open ones, not measured) decode in two passes (the lexicon-tree search, then the lattice's N-best) without
 # pocketsphinx's flat-lexicon rescoring pass: with a vocabulary of a few hundred words the flat pass
 # costs ~40 % of the decode and gains nothing measurable (docs/speech.md, "Decoder passes").
 FAST_PASSES: dict[str, Any] = {"fwdflat": False}
@@ -299,7 +299,7 @@ class PocketsphinxEngine:
                 write_dictionary(words, dict_path)
                 _atomic_write(lm_path, arpa)
             self._decoder = ps.Decoder(lm=str(lm_path), dict=str(dict_path), loglevel="FATAL",
-                                       **{**FAST_PASSES, **(decoder_options or {})})
+                                       **{**({} if open_vocab else FAST_PASSES), **(decoder_options or {})})
         self._logmath = self._decoder.get_logmath()
 
     @guarded

@@ -1,8 +1,10 @@
-"""``siftom bench inference|planner|latency``: speed of inference, planning and audio to command."""
+"""``siftom bench inference|planner|latency|robots``: speed of inference, planning, audio to command,
+and several robots streaming into one server."""
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import click
 
@@ -67,9 +69,51 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
                    f"ratio_p90 {r['ratio_p90']:.3f}  cpu_ratio_p50 {r['cpu_ratio_p50']:.3f}  commands {r['commands']}")
 
 
+@click.command("robots")
+@click.option("--streams", type=click.IntRange(1, 64), default=8, show_default=True,
+              help="sessions streaming real-time speech at once")
+@click.option("--instructions", type=click.IntRange(1, 8), default=4, show_default=True,
+              help="instructions per stream")
+@click.option("--http-rps", type=click.FloatRange(0, 100), default=2.0, show_default=True,
+              help="POST /v1/infer requests a second beside the streams")
+@click.option("--url", default=None, help="a running server (default: start siftom serve on loopback)")
+@click.option("--token", default=None, help="the running server's token")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="pauses and stream starts")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="also write the result as JSON here")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str | None, token: str | None,
+                    seed: int, out: Path | None, as_json: bool) -> None:
+    """Several robots: N sessions stream real-time speech while /v1/infer is polled; per stream the
+    delay from the end of speech to the decision, and the HTTP percentiles idle and under load."""
+    from siftom.bench.robots import ServeBenchOptions, run_serve_bench
+
+    res = run_serve_bench(ServeBenchOptions(streams=streams, instructions=instructions, http_rps=http_rps,
+                                            url=url, token=token, seed=seed))
+    data = res.to_json()
+    if out is not None:
+        from siftom.bench.speech import write_json
+
+        write_json(data, out)
+    if as_json:
+        click.echo(json.dumps(data, indent=2))
+        return
+    m = res.machine
+    click.echo(f"{streams} streams x {instructions} instructions, /v1/infer at {http_rps:g}/s; "
+               f"{m['cpus']} CPUs ({m['processor']}), load before {m['load_avg_before']}, after {res.load_avg_after}")
+    click.echo(f"decisions {res.answered}/{res.expected}; end of speech -> decision p50 {res.delay_p50_s} s, "
+               f"p90 {res.delay_p90_s} s")
+    click.echo(f"/v1/infer idle p50 {res.idle_infer_ms['p50']} ms p90 {res.idle_infer_ms['p90']} ms; under load "
+               f"p50 {res.load_infer_ms['p50']} ms p90 {res.load_infer_ms['p90']} ms ({res.infer_errors} errors)")
+    for st in res.streams:
+        click.echo(f"  {st['session'][:8]}  delays {st['delays_s']}  closed {st['closed']}")
+    click.echo("meets the floors (every decision, p90 <= 1 s, /v1/infer p90 <= 3x idle): "
+               + ("yes" if res.meets() else "no"))
+
+
 def register(root: click.Group) -> None:
     """Add the speed benchmarks to the ``bench`` group."""
     from siftom.cli.bench import bench_group
 
-    for cmd in (bench_inference_cmd, bench_planner_cmd, bench_latency_cmd):
+    for cmd in (bench_inference_cmd, bench_planner_cmd, bench_latency_cmd, bench_robots_cmd):
         bench_group.add_command(cmd)

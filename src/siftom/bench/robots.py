@@ -1,0 +1,289 @@
+"""``siftom bench robots``: several robots streaming into one server, with HTTP traffic beside them.
+
+A ``siftom serve`` process is started on a free loopback port (or ``url`` names a running one).
+First the idle ``POST /v1/infer`` latency is measured (transcripts, one at a time). Then ``streams``
+sessions are created over the kitchen scenario and each streams its own recording through
+``WS /v1/sessions/{id}/listen`` in 20 ms chunks at real-time pace (instructions from
+:mod:`siftom.bench.stream` with pauses drawn per stream, starts staggered over the first
+seconds), while ``/v1/infer`` is polled ``http_rps`` times a second. For every instruction the
+delay is the time from the end of its speech (known from the recording) to the arrival of its
+``decision`` (or ``no_speech``) event; an instruction without an event by the end of the stream
+(plus ``grace_s``) is missed. The result names the machine and the load average beside the
+figures; :meth:`ServeBenchResult.meets` checks the service's floors (every decision, p90 within
+1 s of the end of speech, ``/v1/infer`` p90 within 3x idle).
+
+The client is light (asyncio, no model), so it may run on the server's machine: its own CPU use is
+reported (``client_cpu_s``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from siftom.errors import OptionsError, SiftomError
+
+CHUNK_S = 0.02
+INFER_BODY = {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"}
+
+
+@dataclass(frozen=True)
+class ServeBenchOptions:
+    """What to run.
+
+    Attributes:
+        streams: sessions streaming at once.
+        instructions: instructions per stream (at most 8).
+        http_rps: ``/v1/infer`` requests a second during the streams.
+        idle_requests: ``/v1/infer`` requests timed before the streams start.
+        likelihood: the sessions' likelihood (None: the server's default).
+        url: a running server (None: start ``siftom serve`` here).
+        token: the server's token, if it has one.
+        seed: pauses and starts.
+        grace_s: how long after its stream ends an instruction may still be answered.
+    """
+
+    streams: int = 8
+    instructions: int = 4
+    http_rps: float = 2.0
+    idle_requests: int = 20
+    likelihood: str | None = None
+    url: str | None = None
+    token: str | None = None
+    seed: int = 0
+    grace_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.streams <= 64:
+            raise OptionsError(f"streams must be 1-64, got {self.streams}")
+        if not 1 <= self.instructions <= 8:
+            raise OptionsError(f"instructions must be 1-8, got {self.instructions}")
+        if not 0 <= self.http_rps <= 100 or self.idle_requests < 1 or self.grace_s <= 0:
+            raise OptionsError("http_rps must be 0-100, idle_requests >= 1 and grace_s > 0")
+
+
+@dataclass
+class StreamOutcome:
+    """One stream: each instruction's delay (s, None when missed) and what was decided."""
+
+    session: str
+    delays_s: list[float | None] = field(default_factory=list)
+    events: list[str] = field(default_factory=list)
+    closed: str = ""
+
+
+@dataclass
+class ServeBenchResult:
+    """Per stream and overall: decisions, delays, HTTP percentiles, machine and load."""
+
+    options: dict[str, Any]
+    machine: dict[str, Any]
+    idle_infer_ms: dict[str, float]
+    load_infer_ms: dict[str, float]
+    infer_errors: int
+    streams: list[dict[str, Any]]
+    expected: int
+    answered: int
+    delay_p50_s: float | None
+    delay_p90_s: float | None
+    load_avg_after: tuple[float, float, float]
+    client_cpu_s: float
+    wall_s: float
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def meets(self) -> bool:
+        """Every instruction answered, delay p90 <= 1 s, ``/v1/infer`` p90 <= 3x idle."""
+        return (self.answered == self.expected and self.delay_p90_s is not None and self.delay_p90_s <= 1.0
+                and self.load_infer_ms["p90"] <= 3 * self.idle_infer_ms["p90"])
+
+
+def _pcts(ms: list[float]) -> dict[str, float]:
+    if not ms:
+        return {"n": 0, "p50": float("nan"), "p90": float("nan"), "max": float("nan")}
+    a = np.asarray(ms)
+    return {"n": len(ms), "p50": round(float(np.percentile(a, 50)), 1), "p90": round(float(np.percentile(a, 90)), 1),
+            "max": round(float(a.max()), 1)}
+
+
+def machine() -> dict[str, Any]:
+    """Where the benchmark ran: CPUs, processor, Python and the load before it started."""
+    return {"cpus": os.cpu_count(), "processor": platform.processor() or platform.machine(),
+            "system": platform.platform(terse=True), "python": platform.python_version(),
+            "load_avg_before": tuple(round(x, 2) for x in os.getloadavg())}
+
+
+@contextlib.contextmanager
+def _server(token: str | None) -> Any:
+    """``siftom serve`` on a free loopback port; yields its URL once ``/healthz`` answers."""
+    import httpx
+
+    from siftom.service.loadtest import free_port
+
+    port = free_port()
+    cmd = [sys.executable, "-m", "siftom.cli", "serve", "--host", "127.0.0.1", "--port", str(port)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            if proc.poll() is not None:
+                err = proc.stderr.read().decode(errors="replace")[-400:] if proc.stderr else ""
+                raise SiftomError(f"siftom serve exited with {proc.returncode}: {err}")
+            with contextlib.suppress(httpx.HTTPError):
+                if httpx.get(f"{url}/healthz", timeout=1).status_code == 200:
+                    break
+            if time.monotonic() > deadline:
+                raise SiftomError("siftom serve did not answer /healthz within 120 s")
+            time.sleep(0.25)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+async def _infer_times(client: Any, n: int | None, rps: float, stop: asyncio.Event | None) -> tuple[list[float], int]:
+    """``n`` sequential requests (idle), or one every 1/rps seconds until ``stop`` (under load)."""
+    ms: list[float] = []
+    errors = 0
+    k = 0
+    while (n is not None and k < n) or (stop is not None and not stop.is_set()):
+        t0 = time.perf_counter()
+        try:
+            r = await client.post("/v1/infer", json=INFER_BODY)
+            errors += r.status_code != 200
+        except Exception:
+            errors += 1
+        ms.append((time.perf_counter() - t0) * 1000)
+        k += 1
+        if n is None:
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(stop.wait() if stop else asyncio.sleep(0), max(0.0, 1 / max(rps, 1e-9)
+                                                                                     - (time.perf_counter() - t0)))
+    return ms, errors
+
+
+async def _one_stream(url: str, headers: dict[str, str], session: str, audio: np.ndarray,
+                      truths: list[dict[str, Any]], start_delay: float, grace_s: float) -> StreamOutcome:
+    import websockets
+
+    out = StreamOutcome(session)
+    ends = [t["end_s"] for t in truths]
+    arrivals: list[float] = []
+    await asyncio.sleep(start_delay)
+    ws_url = url.replace("http://", "ws://") + f"/v1/sessions/{session}/listen"
+    pcm = (np.clip(audio, -1, 1) * 32767).astype("<i2").tobytes()
+    step = int(CHUNK_S * 16000) * 2
+    async with websockets.connect(ws_url, additional_headers=headers, max_size=2**22) as ws:
+        t0 = time.monotonic()
+
+        async def read() -> None:
+            async for msg in ws:
+                if isinstance(msg, bytes):
+                    continue
+                ev = json.loads(msg)
+                kind = ev.get("event", "")
+                if kind in ("decision", "no_speech", "error"):
+                    arrivals.append(time.monotonic() - t0)
+                    out.events.append(kind if kind != "decision" else f"{ev.get('action', '')}")
+
+        reader = asyncio.create_task(read())
+        for k in range(0, len(pcm), step):
+            due = t0 + (k // step + 1) * CHUNK_S
+            await asyncio.sleep(max(0.0, due - time.monotonic()))
+            await ws.send(pcm[k:k + step])
+        await ws.send(json.dumps({"type": "end"}))
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(reader, grace_s)
+        reader.cancel()
+        out.closed = str(ws.close_code) if ws.close_code is not None else "open"
+    out.delays_s = match_delays(ends, arrivals)
+    return out
+
+
+def match_delays(ends: list[float], arrivals: list[float]) -> list[float | None]:
+    """Each instruction's delay: an answer (stream seconds) goes to the earliest instruction that
+    ended before it and has none yet; an instruction left without one is missed (None)."""
+    free = list(range(len(ends)))
+    delays: list[float | None] = [None] * len(ends)
+    for t in sorted(arrivals):
+        cand = [i for i in free if ends[i] <= t]
+        if cand:
+            i = cand[0]
+            delays[i] = round(float(t - ends[i]), 3)
+            free.remove(i)
+    return delays
+
+
+async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dict[str, float], int,
+                                                           list[StreamOutcome], list[list[dict[str, Any]]]]:
+    import httpx
+
+    from siftom.bench.stream import CLIPS, StreamBenchOptions, build_stream
+
+    headers = {"Authorization": f"Bearer {opts.token}"} if opts.token else {}
+    rng = np.random.default_rng(opts.seed)
+    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=60) as client:
+        idle, _ = await _infer_times(client, opts.idle_requests, 0, None)
+        sessions, audios, truths = [], [], []
+        for k in range(opts.streams):
+            r = await client.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"})
+            if r.status_code != 201:
+                raise SiftomError(f"could not create a session: {r.status_code} {r.text[:200]}")
+            sessions.append(r.json()["id"])
+            x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k, quick=True))
+            keep = tr[:opts.instructions] if opts.instructions <= len(tr) else tr
+            if opts.instructions > 4:
+                x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k))
+                keep = tr[:min(opts.instructions, len(CLIPS))]
+            end = int((keep[-1]["end_s"] + 1.0) * 16000)
+            audios.append(x[:end])
+            truths.append(keep)
+        stop = asyncio.Event()
+        poll = asyncio.create_task(_infer_times(client, None, opts.http_rps, stop)) if opts.http_rps > 0 else None
+        starts = rng.uniform(0, 2.0, opts.streams)
+        outcomes = await asyncio.gather(*(_one_stream(url, headers, s, a, t, float(d), opts.grace_s)
+                                          for s, a, t, d in zip(sessions, audios, truths, starts, strict=True)))
+        stop.set()
+        load, errors = await poll if poll is not None else ([], 0)
+        for s in sessions:
+            with contextlib.suppress(httpx.HTTPError):
+                await client.delete(f"/v1/sessions/{s}")
+    return _pcts(idle), _pcts(load), errors, list(outcomes), truths
+
+
+def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
+    """Run the benchmark (module doc)."""
+    opts = opts or ServeBenchOptions()
+    where = machine()
+    t0, c0 = time.perf_counter(), time.process_time()
+    with contextlib.ExitStack() as stack:
+        url = opts.url or stack.enter_context(_server(opts.token))
+        idle, load, errors, outcomes, _ = asyncio.run(_run(opts, url))
+    delays = [d for o in outcomes for d in o.delays_s if d is not None]
+    expected = sum(len(o.delays_s) for o in outcomes)
+    return ServeBenchResult(
+        options=asdict(opts) | {"token": "set" if opts.token else None}, machine=where, idle_infer_ms=idle,
+        load_infer_ms=load, infer_errors=errors,
+        streams=[{"session": o.session, "delays_s": o.delays_s, "events": o.events, "closed": o.closed}
+                 for o in outcomes],
+        expected=expected, answered=len(delays),
+        delay_p50_s=round(statistics.median(delays), 3) if delays else None,
+        delay_p90_s=round(float(np.percentile(delays, 90)), 3) if delays else None,
+        load_avg_after=tuple(round(x, 2) for x in os.getloadavg()),  # type: ignore[arg-type]
+        client_cpu_s=round(time.process_time() - c0, 2), wall_s=round(time.perf_counter() - t0, 1))

@@ -1,0 +1,41 @@
+"""siftom bench robots: how answers are matched to instructions, its options, and (slow) a run
+against a real server."""
+
+from __future__ import annotations
+
+import pytest
+
+from siftom.bench.robots import ServeBenchOptions, ServeBenchResult, match_delays, run_serve_bench
+from siftom.errors import OptionsError
+
+
+def test_each_answer_goes_to_the_earliest_instruction_ended_before_it():
+    assert match_delays([2.0, 5.0, 9.0], [2.5, 5.25]) == [0.5, 0.25, None]  # the third one was missed
+    assert match_delays([2.0, 5.0], [1.0, 6.0, 6.5]) == [4.0, 1.5]  # an answer before any end answers nothing
+    assert match_delays([2.0, 5.0], []) == [None, None]
+
+
+@pytest.mark.parametrize("bad", [{"streams": 0}, {"streams": 65}, {"instructions": 9}, {"http_rps": -1},
+                                 {"idle_requests": 0}, {"grace_s": 0}])
+def test_options_out_of_range_say_which(bad):
+    with pytest.raises(OptionsError):
+        ServeBenchOptions(**bad)
+
+
+def _result(answered, p90, idle, load):
+    return ServeBenchResult({}, {}, {"p90": idle}, {"p90": load}, 0, [], 4, answered, 0.5, p90, (0, 0, 0), 0, 1)
+
+
+def test_the_floors_need_every_decision_p90_within_a_second_and_http_within_three_times_idle():
+    assert _result(4, 0.9, 10, 29).meets()
+    assert not _result(3, 0.9, 10, 29).meets()
+    assert not _result(4, 1.1, 10, 29).meets()
+    assert not _result(4, 0.9, 10, 31).meets()
+
+
+@pytest.mark.slow
+def test_two_robots_stream_into_a_real_server_and_every_instruction_is_answered():
+    res = run_serve_bench(ServeBenchOptions(streams=2, instructions=2, http_rps=1, idle_requests=3))
+    assert res.expected == 4 and res.answered == 4
+    assert all(st["closed"] == "1000" for st in res.streams)
+    assert res.machine["cpus"] and res.idle_infer_ms["n"] == 3

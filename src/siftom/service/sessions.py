@@ -448,16 +448,18 @@ class SessionManager:
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                 heard: Heard | None = None, idem: Idem | None = None, decide: str | None = None) -> dict[str, Any]:
+                 heard: Heard | None = None, idem: Idem | None = None, decide: str | None = None,
+                 likelihood: str | None = None) -> dict[str, Any]:
         """What the robot does about what was heard, given everything so far (the observer's answer);
-        ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`."""
+        ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`;
+        ``likelihood``: this answer's, instead of the session's (a server under load, admission.py)."""
         sess = self.get(sid)
         top = top or self.observer.settings.infer.top
         with sess.lock:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            ans = self.observer.answer(sess.online, instruction, likelihood=sess.options["likelihood"],
+            ans = self.observer.answer(sess.online, instruction, likelihood=likelihood or sess.options["likelihood"],
                                        decide=decide or sess.options.get("decide"), top=top, heard=heard,
                                        mode=sess.options["mode"], pending=_pending_of(sess.last))
             body: dict[str, Any] = {"session": sid, **ans.to_json(top=top)}

@@ -125,14 +125,19 @@ class Observer:
         offered: the instruction likelihoods this observer may run (default: any registered one);
             a service offers a subset.
         max_audio_seconds: the longest clip a recogniser accepts.
+        decode_in_worker: scene recognisers decode in a warm worker process (the same transcript;
+            a server's other threads keep the GIL meanwhile).
 
     Thread-safe: models and likelihoods keep nothing between calls; a recogniser holds one
     utterance at a time behind its lock; the caches create outside their locks.
     """
 
     def __init__(self, settings: Settings | None = None, *, offered: Sequence[str] | None = None,
-                 max_audio_seconds: float | None = None) -> None:
+                 max_audio_seconds: float | None = None, decode_in_worker: bool = False) -> None:
         self.settings = settings if settings is not None else Settings.load()
+        # a server: scene recognisers decode in a worker process, the same transcript without
+        # holding the GIL its other requests need (speech/asr/worker.py, WorkerEngine)
+        self.decode_in_worker = decode_in_worker
         self.offered = tuple(offered) if offered is not None else None
         self.max_audio_seconds = max_audio_seconds
         self._models: dict[Any, SIFToM] = {}
@@ -195,7 +200,16 @@ class Observer:
         if name != "pocketsphinx" and not is_scene_engine(name):  # pocketsphinx takes an optional vocabulary
             return self._recognisers.get((name,), lambda: Recogniser(get_engine(name, **opts)))
         vocab = tuple(sorted(command_vocabulary(world.classes, verb, lexicon=_lexicon_of(world))))
-        return self._recognisers.get((name, vocab), lambda: Recogniser(get_engine(name, vocabulary=list(vocab), **opts)))
+
+        def build() -> Recogniser:
+            engine = get_engine(name, vocabulary=list(vocab), **opts)
+            if self.decode_in_worker:
+                from siftom.speech.asr.worker import WorkerEngine
+
+                engine = WorkerEngine(engine, name, list(vocab), **opts)
+            return Recogniser(engine)
+
+        return self._recognisers.get((name, vocab), build)
 
     def online(self, scene: SceneInput, mode: str | None = None) -> OnlineInference:
         """The online inference of ``scene`` with its actions observed, built once per scene and

@@ -140,3 +140,46 @@ def test_a_process_keeps_at_most_the_allowed_number_of_workers(speech: np.ndarra
     finally:
         a.close()
         b.close()
+
+
+def _wait_in_worker(eng, seconds: float = 60.0) -> None:  # noqa: ANN001
+    import time
+
+    deadline = time.monotonic() + seconds
+    while not eng.in_worker:
+        assert time.monotonic() < deadline, "the worker did not become ready"
+        time.sleep(0.1)
+
+
+def test_a_server_recogniser_decodes_in_its_worker_exactly_as_here_and_survives_its_death(speech: np.ndarray) -> None:
+    from siftom.speech.asr.pocketsphinx import PocketsphinxEngine
+    from siftom.speech.asr.worker import WorkerEngine
+
+    here = PocketsphinxEngine(vocabulary=VOCAB)
+    eng = WorkerEngine(PocketsphinxEngine(vocabulary=VOCAB), "pocketsphinx-vocab", VOCAB)
+    try:
+        assert eng._worker is not None  # building from the start
+        _wait_in_worker(eng)
+        _same(eng.transcribe(speech, nbest=5), here.transcribe(speech, nbest=5))
+        assert eng.name == here.name and eng.unknown_words == here.unknown_words  # the local engine's attributes
+        eng._worker._proc.kill()
+        eng._worker._proc.wait()
+        _same(eng.transcribe(speech, nbest=5), here.transcribe(speech, nbest=5))  # decoded here from now on
+        assert not eng.in_worker
+    finally:
+        eng.close()
+
+
+def test_the_observer_of_a_server_decodes_in_a_worker_and_hears_what_any_other_observer_hears(
+        speech: np.ndarray) -> None:
+    from siftom.observer import Observer
+    from siftom.scenarios.base import get_scenario
+
+    sc = get_scenario("kitchen-cereal-v0")
+    server, here = Observer(decode_in_worker=True), Observer()
+    rec = server.recogniser(sc.world, sc.verb)
+    try:
+        _wait_in_worker(rec.engine)
+        _same(rec.transcribe(speech, 10), here.recogniser(sc.world, sc.verb).transcribe(speech, 10))
+    finally:
+        rec.engine.close()

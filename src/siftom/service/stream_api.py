@@ -31,6 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import SiftomError, UnknownNameError
+from siftom.service.admission import Admission
 from siftom.service.idempotency import idem_of
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import MAX_SCENARIO_ID
@@ -180,6 +181,9 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     open_streams: dict[str, OpenStream] = {}
     app.state.streams = open_streams
     admitted = [0]  # streams past the max_streams check (counted before any await: no race)
+    # one CPU budget for every stream's utterances (admission.py)
+    admission: Admission = getattr(app.state, "admission", None) or Admission()
+    app.state.admission = admission
 
     @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
               responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
@@ -238,7 +242,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                     raise StreamClosed(CLOSE_UNKNOWN_SESSION,
                                        exc.detail if exc.status == 404 else str(exc)) from None
                 me.task = asyncio.create_task(_stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits,
-                                                      partial, PcmIn(rate, channels)))
+                                                      partial, PcmIn(rate, channels), admission))
                 try:
                     await me.task
                 except asyncio.CancelledError:
@@ -265,12 +269,13 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
                   policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False,
-                  pcm: PcmIn | None = None) -> None:
+                  pcm: PcmIn | None = None, admission: Admission | None = None) -> None:
     from siftom.inference.stream import Recognised, StreamListener, recogniser
     from siftom.observer import Heard
     from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
 
     sid = sess.id
+    admission = admission or Admission()
     # the observer's recogniser for this world (pocketsphinx biased to its command phrasings)
     rec_eng = await run_cpu(rt.observer.recogniser, sess.scene.world, sess.scene.verb)
 
@@ -282,7 +287,9 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
             raise StreamGone(utt.index)
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
-        body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard)
+        with admission.slot() as slot:  # past the CPU budget: the cheaper likelihood, said in the answer
+            body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard, likelihood=slot.likelihood)
+        body["degraded"] = slot.reason
         body.pop("session", None)
         body["question"] = body["decision"].get("question", "") if body["action"] == "ask" else ""
         body["declined"] = body["decision"].get("declined", "")

@@ -23,6 +23,7 @@ recently used one is closed for a new one, its engine starts it again when next 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import subprocess
@@ -42,6 +43,8 @@ from siftom.speech.audio import SAMPLE_RATE
 
 if TYPE_CHECKING:
     from siftom.speech.asr.base import Transcript
+
+log = logging.getLogger(__name__)
 
 MAX_WORKERS = 2  # per process: the scene's decoder and one more (e.g. an answer grammar's)
 START_TIMEOUT_S = 120.0  # importing siftom + building a decoder; generous for a loaded machine
@@ -221,6 +224,98 @@ class EngineWorker:
             self.close()
             raise WorkerError(f"the ASR worker failed: {payload}")
         return payload
+
+
+class WorkerEngine:
+    """A scene engine that decodes in a warm :class:`EngineWorker`, so the calling process's other
+    threads keep running while pocketsphinx decodes (it holds the GIL for the whole utterance,
+    about 0.1 s for a 2 s request: a server's other requests would wait that long).
+
+    The transcript is the one ``local`` gives: the same engine, built with the same arguments, in
+    the child. The worker starts building at once; until it is ready, and for good after it fails
+    (or where worker processes are off), ``local`` decodes here. A worker closed to make room for
+    another (:data:`MAX_WORKERS` per process) is started again at most once a minute; meanwhile
+    ``local`` decodes.
+
+    Args:
+        local: the engine built in this process (also the fallback).
+        name: its registered name; vocabulary, options: what it was built with (must pickle).
+    """
+
+    RESTART_S = 60.0
+
+    def __init__(self, local: Any, name: str, vocabulary: Sequence[str] | None = None, **options: Any) -> None:
+        self.local = local
+        self._spec = (name, None if vocabulary is None else list(vocabulary), options)
+        self._worker: EngineWorker | None = None
+        self._off = not workers_enabled()
+        self._started = float("-inf")
+        self._lock = threading.Lock()
+        with self._lock:
+            self._ready()  # start building the worker now: a server's first utterance should find it ready
+
+    def __getattr__(self, attr: str) -> Any:  # name, unknown_words, phrases, max_seconds: the local engine's
+        return getattr(self.__dict__["local"], attr)
+
+    @property
+    def in_worker(self) -> bool:
+        """Whether the next decode would run in the worker process."""
+        with self._lock:
+            return self._ready() is not None
+
+    def transcribe(self, audio: Any, nbest: int = 1) -> Transcript:
+        """The local engine's transcript of ``audio``, decoded in the worker when it is ready."""
+        from siftom.speech.audio import DEFAULT_MAX_SECONDS, as_audio
+
+        x = as_audio(audio, max_seconds=getattr(self.local, "max_seconds", DEFAULT_MAX_SECONDS))  # refused here
+        with self._lock:
+            w = self._ready()
+        if w is None:
+            tr: Transcript = self.local.transcribe(x, nbest=nbest)
+            return tr
+        try:
+            return w.transcribe(x, nbest=nbest)
+        except WorkerError as exc:
+            with self._lock:
+                self._worker, self._off = None, True
+            log.warning("decoding in this process from now on: %s", exc)
+            tr = self.local.transcribe(x, nbest=nbest)
+            return tr
+
+    def close(self) -> None:
+        """End the worker process (decoding goes on here)."""
+        with self._lock:
+            if self._worker is not None:
+                self._worker.close()
+            self._worker, self._off = None, True
+
+    def _ready(self) -> EngineWorker | None:
+        """The worker when it can decode now; starts it when there is none (caller holds the lock)."""
+        import time
+
+        if self._off:
+            return None
+        w = self._worker
+        if w is not None and (w.evicted or not w.usable):
+            w.close()
+            self._worker = w = None
+        if w is None:
+            if time.monotonic() - self._started < self.RESTART_S:
+                return None
+            self._started = time.monotonic()
+            name, vocabulary, options = self._spec
+            try:
+                self._worker = EngineWorker(name, vocabulary, **options)
+            except WorkerError as exc:
+                self._off = True
+                log.warning("decoding in this process: %s", exc)
+            return None  # starting: decode here this time rather than wait
+        try:
+            return w if w.is_ready() else None
+        except WorkerError as exc:
+            self._worker, self._off = None, True
+            log.warning("decoding in this process: %s", exc)
+            return None
 
 
 def main() -> int:

@@ -269,6 +269,12 @@ def claim_data_dir(data_dir: str) -> RunLock:
               help="seconds without a message after which a stream is closed (4408)")
 @click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
               help="worker processes scoring audio requests in parallel (0: in the request thread)")
+@click.option("--header-timeout", type=click.FloatRange(0.1, 3600), default=None,
+              help="seconds a client may take to send a request's headers (then 408, connection closed); "
+                   "default 10")
+@click.option("--body-timeout", type=click.FloatRange(0.1, 3600), default=None,
+              help="seconds a client may take to send a request's body after its headers (then disconnected); "
+                   "default 60")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
 @with_access_options
@@ -276,7 +282,9 @@ def claim_data_dir(data_dir: str) -> RunLock:
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
               max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
               max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
-              audio_workers: int | None, config_file: Path | None, token: str | None, token_file: Path | None,
+              audio_workers: int | None, header_timeout: float | None, body_timeout: float | None,
+              config_file: Path | None,
+              token: str | None, token_file: Path | None,
               allow_host: tuple[str, ...], allow_origin: tuple[str, ...],
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
@@ -293,6 +301,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     from siftom.private import private_umask
     from siftom.service.app import create_app
     from siftom.service.runtime import ServiceSettings
+    from siftom.service.slow_clients import BODY_TIMEOUT_S, HEADER_TIMEOUT_S, deadline_protocol
     from siftom.settings import Settings
 
     flags: dict[str, object] = {
@@ -325,7 +334,9 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
                                 decode_in_worker=True)  # pocketsphinx off the GIL: other requests keep going
             app = create_app(data_dir, settings, observer)
             config = uvicorn.Config(app, host=host, port=port, log_level="info",
-                                    timeout_graceful_shutdown=STOP_GRACE_S)
+                                    timeout_graceful_shutdown=STOP_GRACE_S,
+                                    http=deadline_protocol(header_timeout or HEADER_TIMEOUT_S,
+                                                           body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
             server = uvicorn.Server(config)
             server.run(sockets=socks)
             if not server.started:  # the app failed to start (uvicorn logged why)

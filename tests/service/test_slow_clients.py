@@ -52,6 +52,22 @@ def _closed_within(conn: socket.socket, seconds: float) -> tuple[float, bytes]:
     return time.monotonic() - t0, got
 
 
+def _response(conn: socket.socket) -> bytes:
+    """One whole response (headers and a Content-Length body)."""
+    got = b""
+    while b"\r\n\r\n" not in got:
+        chunk = conn.recv(65536)
+        assert chunk, got
+        got += chunk
+    head, _, body = got.partition(b"\r\n\r\n")
+    length = next(int(ln.split(b":")[1]) for ln in head.lower().split(b"\r\n") if ln.startswith(b"content-length:"))
+    while len(body) < length:
+        chunk = conn.recv(65536)
+        assert chunk, got
+        body += chunk
+    return head + b"\r\n\r\n" + body
+
+
 def test_a_client_that_sends_nothing_is_closed(port: int) -> None:
     with socket.create_connection(("127.0.0.1", port)) as c:
         took, got = _closed_within(c, HEADER_S + 3)
@@ -94,7 +110,7 @@ def test_prompt_clients_are_served_and_kept_alive(port: int) -> None:
         c.settimeout(5)
         for _ in range(2):  # two requests on one connection, the second after the header deadline
             c.sendall(b"GET /healthz HTTP/1.1\r\nHost: localhost\r\n\r\n")
-            got = c.recv(65536)
+            got = _response(c)
             assert got.startswith(b"HTTP/1.1 200"), got[:200]
             time.sleep(HEADER_S * 1.5)
 

@@ -187,22 +187,22 @@ def stopped_by_signals() -> Iterator[None]:
         signal.raise_signal(signum)
 
 
-def bind_listeners(host: str, port: int) -> list[socket.socket]:
-    """Listening sockets on ``host:port`` (every address the host resolves to, as asyncio binds
-    them), made before anything else starts, so a port in use is a one-line error at once.
+def check_port(host: str, port: int) -> None:
+    """Bind ``host:port`` as the server will (every address the host resolves to, as asyncio
+    binds them) and let go again, before anything else starts: a port in use is a one-line error
+    at once, not a failure after the models began to load.
+
+    Other failures (a host that is no address here) are left to the server, which names them.
 
     Raises:
-        OptionsError: the port is in use or needs privileges, or the host is no address here;
-            the message names the port and the fix.
+        OptionsError: the port is in use or needs privileges; the message names the port and the fix.
     """
     from siftom.errors import OptionsError
 
-    where = f"{host}:{port}"
     try:
         infos = socket.getaddrinfo(host or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
-    except (socket.gaierror, UnicodeError) as exc:
-        raise OptionsError(f"cannot listen on {host!r}: it is no name or address of this machine ({exc}); give "
-                           "--host 127.0.0.1 (this machine only) or --host 0.0.0.0 (every interface)") from None
+    except (OSError, UnicodeError):
+        return
     socks: list[socket.socket] = []
     try:
         for family, kind, proto, _name, addr in dict.fromkeys((i[0], i[1], i[2], "", i[4]) for i in infos):
@@ -212,19 +212,16 @@ def bind_listeners(host: str, port: int) -> list[socket.socket]:
             if family == socket.AF_INET6 and hasattr(socket, "IPPROTO_IPV6"):
                 sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
             sock.bind(addr)
-            sock.set_inheritable(False)
     except OSError as exc:
-        for sock in socks:
-            sock.close()
         if exc.errno == errno.EADDRINUSE:
             raise OptionsError(f"port {port} on {host} is in use (another server, or a siftom serve still running); "
                                f"stop it, or give another port: --port {port + 1 if port < 65535 else 8000}") from None
         if exc.errno == errno.EACCES:
             raise OptionsError(f"port {port} on {host} needs privileges this user lacks; give a port above 1023: "
                                "--port 8000") from None
-        raise OptionsError(f"cannot listen on {where} ({exc.strerror or exc}); give --host 127.0.0.1 or "
-                           "--host 0.0.0.0, or another --port") from None
-    return socks
+    finally:
+        for sock in socks:
+            sock.close()
 
 
 def claim_data_dir(data_dir: str) -> RunLock:
@@ -323,7 +320,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
     private_umask()  # sessions, ratings, maps: 0600 files in 0700 folders
     # the port first: in use, it is a one-line error before any model loads (or starts loading)
-    socks = bind_listeners(host, port)
+    check_port(host, port)
     with stopped_by_signals():
         lock, app = None, None
         try:
@@ -333,17 +330,10 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
             observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds,
                                 decode_in_worker=True)  # pocketsphinx off the GIL: other requests keep going
             app = create_app(data_dir, settings, observer)
-            config = uvicorn.Config(app, host=host, port=port, log_level="info",
-                                    timeout_graceful_shutdown=STOP_GRACE_S,
-                                    http=deadline_protocol(header_timeout or HEADER_TIMEOUT_S,
-                                                           body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
-            server = uvicorn.Server(config)
-            server.run(sockets=socks)
-            if not server.started:  # the app failed to start (uvicorn logged why)
-                raise SystemExit(1)
+            uvicorn.run(app, host=host, port=port, log_level="info", timeout_graceful_shutdown=STOP_GRACE_S,
+                        http=deadline_protocol(header_timeout or HEADER_TIMEOUT_S,
+                                               body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
         finally:  # also on SIGTERM / SIGINT, during warm-up too: workers stopped, folder released
-            for sock in socks:
-                sock.close()
             if app is not None:
                 app.state.runtime.close()
             if lock is not None:

@@ -112,12 +112,16 @@ def install_handlers(app: FastAPI) -> None:
         return problem_response(501, "backend-unavailable", str(exc))
 
     @app.exception_handler(DiskFullError)
-    async def _disk_full(_: Request, exc: Exception) -> JSONResponse:
+    async def _disk_full(request: Request, exc: Exception) -> JSONResponse:
+        if request.scope["type"] != "http":  # a WebSocket: as if no handler were here
+            raise exc
         return problem_response(507, "insufficient-storage", DISK_FULL)
 
     for kind in (OSError, sqlite3.Error):  # a write elsewhere than the session store (e.g. the map cache)
         @app.exception_handler(kind)
         async def _write_failed(request: Request, exc: Exception) -> JSONResponse:
+            if request.scope["type"] != "http":  # a WebSocket: as if no handler were here
+                raise exc
             if is_disk_full(exc):
                 return problem_response(507, "insufficient-storage", DISK_FULL)
             return await _bug(request, exc)

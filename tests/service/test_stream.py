@@ -80,6 +80,10 @@ def test_streamed_instruction_in_real_time_gets_a_decision(server, clip):
     # the session recorded the answer like POST /instruction does
     view = httpx.get(f"{server}/v1/sessions/{sid}").json()
     assert view["last_instruction"]["command"] == "fetch(tomato)"
+    # prepared while the end of speech was being confirmed, stored once it was; as the server had
+    # CPUs to spare, with the session's own likelihood
+    assert decision["timings"]["answer_early"] and decision["degraded"] == ""
+    assert "_revision" not in view["last_instruction"] and "_degraded" not in decision
 
 
 def list_concat(*parts):

@@ -2,7 +2,8 @@
 
 A ``siftom serve`` process is started on a free loopback port (or ``url`` names a running one).
 First the idle ``POST /v1/infer`` latency is measured (transcripts, one at a time). Then ``streams``
-sessions are created over the kitchen scenario and each streams its own recording through
+sessions are created over the kitchen scenario (after one untimed instruction streamed to warm
+the server up) and each streams its own recording through
 ``WS /v1/sessions/{id}/listen`` in 20 ms chunks at real-time pace (instructions from
 :mod:`siftom.bench.stream` with pauses drawn per stream, starts staggered over the first
 seconds), while ``/v1/infer`` is polled ``http_rps`` times a second. For every instruction the
@@ -80,6 +81,7 @@ class StreamOutcome:
     session: str
     delays_s: list[float | None] = field(default_factory=list)
     events: list[str] = field(default_factory=list)
+    timings: list[dict[str, Any]] = field(default_factory=list)  # each answer's own timings and ``degraded``
     closed: str = ""
 
 
@@ -201,6 +203,7 @@ async def _one_stream(url: str, headers: dict[str, str], session: str, audio: np
                 if kind in ("decision", "no_speech", "error"):
                     arrivals.append(time.monotonic() - t0)
                     out.events.append(kind if kind != "decision" else f"{ev.get('action', '')}")
+                    out.timings.append({**ev.get("timings", {}), "degraded": ev.get("degraded", "")})
 
         reader = asyncio.create_task(read())
         for k in range(0, len(pcm), step):
@@ -254,6 +257,14 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
             end = int((keep[-1]["end_s"] + 1.0) * 16000)
             audios.append(x[:end])
             truths.append(keep)
+        # warm-up (not timed): one instruction streamed, so the recogniser, its worker and Whisper are
+        # built, as on a server that has been answering for a while
+        r = await client.post("/v1/sessions/from-scenario", json={"scenario": "kitchen-cereal-v0"})
+        if r.status_code == 201:
+            warm = r.json()["id"]
+            x, tr = build_stream(StreamBenchOptions(seed=opts.seed, quick=True))
+            await _one_stream(url, headers, warm, x[:int((tr[0]["end_s"] + 1.0) * 16000)], tr[:1], 0.0, opts.grace_s)
+            await client.delete(f"/v1/sessions/{warm}")
         stop = asyncio.Event()
         poll = asyncio.create_task(_infer_times(client, None, opts.http_rps, stop)) if opts.http_rps > 0 else None
         starts = rng.uniform(0, 2.0, opts.streams)
@@ -280,7 +291,8 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
     return ServeBenchResult(
         options=asdict(opts) | {"token": "set" if opts.token else None}, machine=where, idle_infer_ms=idle,
         load_infer_ms=load, infer_errors=errors,
-        streams=[{"session": o.session, "delays_s": o.delays_s, "events": o.events, "closed": o.closed}
+        streams=[{"session": o.session, "delays_s": o.delays_s, "events": o.events, "closed": o.closed,
+                  "timings": o.timings}
                  for o in outcomes],
         expected=expected, answered=len(delays),
         delay_p50_s=round(statistics.median(delays), 3) if delays else None,

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from siftom.errors import SiftomError
 from siftom.observation import Instruction
 from siftom.speech.segment import (
     Event,
@@ -86,13 +87,19 @@ class StreamListener:
         early: start recognising after ``post_roll_s`` of silence (module doc).
         version: with ``early``, answer early too while this token stays the same (module doc);
             ``answer`` must then have no side effects.
+        commit: where answering writes state (a session's last answer), ``answer`` prepares it
+            without side effects and ``commit(body)`` writes it once the end is declared: it returns
+            the answer to send, or None when the state changed after it was prepared (it is
+            prepared again, at most :data:`COMMIT_TRIES` times).
     """
 
     def __init__(self, recognise: Recognise, answer: Answer, options: SegmentOptions | None = None,
                  scorer: FrameScorer | None = None, early: bool = True,
-                 version: Callable[[], Any] | None = None) -> None:
+                 version: Callable[[], Any] | None = None,
+                 commit: Callable[[dict[str, Any]], dict[str, Any] | None] | None = None) -> None:
         self.segmenter = UtteranceSegmenter(options, scorer)
         self._recognise, self._answer, self.early, self._version = recognise, answer, early, version
+        self._commit = commit
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-early-asr") if early else None
         self._early: tuple[tuple[int, float, int], Future[EarlyResult]] | None = None
         self._lock = threading.Lock()
@@ -175,6 +182,8 @@ class StreamListener:
         else:  # nothing was answered early, or the state changed since (a new action)
             body = self._answer(rec, utterance)
             answer_s = time.perf_counter() - t1
+        if self._commit is not None:
+            body = self._committed(body, rec, utterance)
         t2 = time.perf_counter()
         self.utterances += 1
         heard = {
@@ -188,6 +197,22 @@ class StreamListener:
                 "timings": {"asr": round(rec.seconds, 4), "answer": round(answer_s, 4),
                             "wait": round(t2 - t0, 4),
                             "asr_early": early is not None, "answer_early": answered_early}}
+
+    def _committed(self, body: dict[str, Any], rec: Recognised, utterance: Utterance) -> dict[str, Any]:
+        """``body`` written by ``commit``; prepared again while the state moves under it."""
+        commit = self._commit
+        if commit is None:
+            return body
+        for _ in range(COMMIT_TRIES):
+            done = commit(body)
+            if done is not None:
+                return done
+            body = self._answer(rec, utterance)
+        raise SiftomError(f"the session changed under {COMMIT_TRIES} answers in a row (actions arriving faster than "
+                          "an answer); say it again")
+
+
+COMMIT_TRIES = 3  # a prepared answer made stale by an action: prepared again at most this often
 
 
 def recogniser(engine: Any, nbest: int, lock: Any = None) -> Recognise:

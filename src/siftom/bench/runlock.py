@@ -40,6 +40,10 @@ class RunLockedError(DatasetError):
     """Another live siftom process writes into the results folder."""
 
 
+class LockFileError(DatasetError):
+    """The folder or its lock file cannot be used (a directory, unreadable, not a siftom lock)."""
+
+
 class RunInterrupted(KeyboardInterrupt):
     """The run was stopped by a signal; ``signum`` is SIGINT or SIGTERM."""
 
@@ -62,9 +66,32 @@ def read_owner(folder: str | Path) -> dict[str, Any] | None:
     """The lock file's owner record, or None when there is none (or it is unreadable)."""
     try:
         d = json.loads((Path(folder) / LOCK).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
+    except (OSError, ValueError):  # ValueError: JSONDecodeError, UnicodeDecodeError
         return None
     return d if isinstance(d, dict) else None
+
+
+def _check_lock_text(path: Path) -> None:
+    """LockFileError when the file at ``path`` is not text siftom could have written (UTF-8)."""
+    try:
+        path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        return
+    except UnicodeDecodeError:
+        raise LockFileError(f"{path} is not a siftom lock file (not UTF-8 text); if no siftom run uses "
+                            f"{path.parent}, delete {path} and run again") from None
+    except OSError as exc:
+        raise LockFileError(f"cannot read the lock file {path} ({exc.strerror or type(exc).__name__}); "
+                            "make it readable, or delete it if no siftom run uses the folder") from None
+
+
+def _open_error(path: Path, exc: OSError) -> LockFileError:
+    """A one-line error for a lock path that cannot be opened."""
+    if isinstance(exc, IsADirectoryError) or path.is_dir():
+        return LockFileError(f"the lock file {path} is a directory; remove it (siftom keeps its lock file "
+                             "there) and run again")
+    return LockFileError(f"cannot open the lock file {path} ({exc.strerror or type(exc).__name__}); make "
+                         f"{path.parent} writable, or give another folder")
 
 
 def _describe(owner: dict[str, Any] | None) -> str:
@@ -107,7 +134,13 @@ class RunLock:
 
     def acquire(self) -> None:
         """Take the folder, or raise RunLockedError naming its owner."""
-        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise LockFileError(f"{self.folder} is a file, not a folder; give a folder (or a new name)") from None
+        except OSError as exc:
+            raise LockFileError(f"cannot create the folder {self.folder} "
+                                f"({exc.strerror or type(exc).__name__}); give a folder you can write to") from None
         self._key = (str(self.folder.resolve()), threading.get_ident())
         with _HELD_MUTEX:
             if self._key in _HELD:
@@ -119,7 +152,10 @@ class RunLock:
 
     def _take(self) -> int:
         for _ in range(20):  # retried only when a releasing owner unlinks the file under us
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+            except OSError as exc:
+                raise _open_error(self.path, exc) from None
             try:
                 if not self._flock(fd):
                     raise RunLockedError(
@@ -132,6 +168,7 @@ class RunLock:
                 if not same:
                     os.close(fd)
                     continue
+                _check_lock_text(self.path)
                 old = read_owner(self.folder)
                 if old and not (old.get("pid") == os.getpid() and old.get("host") == socket.gethostname()):
                     self.took_over = old

@@ -6,13 +6,23 @@ function that adds click commands to the root group), so this file only wires th
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 
-import click
 
-from siftom import __version__
-from siftom.errors import SiftomError
-from siftom.registry import Registry
+def _interrupted(signum: int, frame: object) -> None:
+    raise SystemExit(130)  # Ctrl-C while the commands load: leave quietly, no traceback
+
+
+# loading every command area takes a few tenths of a second; Ctrl-C then ends the process quietly
+_SIGINT = signal.signal(signal.SIGINT, _interrupted) if threading.current_thread() is threading.main_thread() else None
+
+import click  # noqa: E402
+
+from siftom import __version__  # noqa: E402
+from siftom.errors import SiftomError  # noqa: E402
+from siftom.registry import Registry  # noqa: E402
 
 # Command areas: each entry's ``register(root)`` adds its click commands to the root group.
 # Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
@@ -36,6 +46,8 @@ def _register_all() -> None:
 
 
 _register_all()
+if _SIGINT is not None:
+    signal.signal(signal.SIGINT, _SIGINT)  # from here on Ctrl-C is click's (Abort) or the command's own
 
 
 def main(argv: list[str] | None = None) -> int:

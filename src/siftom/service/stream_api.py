@@ -450,9 +450,11 @@ def _append(mgr: SessionManager, sid: str, lines: list[str]) -> tuple[list[str],
 
 def _command(text: str | None) -> dict[str, Any]:
     """A text message: ``{"type": "end"}`` or ``{"type": "actions", "actions": [lines]}``."""
+    from siftom.safejson import loads
+
     try:
-        obj = json.loads(text or "")
-    except ValueError:
+        obj = loads(text or "", "a text message")  # too deep, too long a number: not a command either
+    except SiftomError:
         obj = None
     if isinstance(obj, dict) and obj.get("type") == "end":
         return obj

@@ -1,0 +1,22 @@
+"""Ctrl-C while the command line is still loading ends it quietly (no traceback), exit status 130."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+
+def test_ctrl_c_in_the_first_tenths_of_a_second_prints_no_traceback():
+    interrupted = 0
+    for delay in (0.05, 0.1, 0.15, 0.2):
+        proc = subprocess.Popen([sys.executable, "-m", "siftom.cli", "--help"], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        assert "Traceback" not in err.decode(), err.decode()[-600:]
+        assert proc.returncode in (0, 130), (delay, proc.returncode)
+        interrupted += proc.returncode == 130
+    assert interrupted  # at least one signal landed while the commands loaded

@@ -15,6 +15,9 @@ asyncio transport), so nothing of ROS has to be installed next to siftom:
   (``heard``, ``command``, ``prob``, ``action`` act/ask/none, ``decision``, ``question``, ``commands``,
   ``timings``) on ``/siftom/decision``.
 
+A message that is not a JSON object (a list, a string, null), or whose ``data`` has the wrong
+type, is answered with an error line and otherwise ignored: nothing a robot sends stops the bridge.
+
 Bounded, whatever the robot sends: the audio waiting for the listener is at most
 :data:`AUDIO_QUEUE_S` seconds (the oldest is dropped first, with an error line); text messages
 are answered by :data:`TEXT_WORKERS` threads with at most :data:`TEXT_PENDING` waiting (more
@@ -32,7 +35,7 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -204,16 +207,32 @@ class RosBridge:
                 self._subs.append(topic)
 
     # ----- callbacks (roslibpy's thread) ----------------------------------------------------
-    def _on_actions(self, msg: dict[str, Any]) -> None:
-        lines = [ln.strip() for ln in str(msg.get("data", "")).splitlines() if ln.strip() and not ln.startswith("#")]
+    def _text_data(self, msg: Any, topic: str) -> str | None:
+        """The ``data`` text of a ``std_msgs/String`` message; None (and an error line) when ``msg``
+        is not one."""
+        data = msg.get("data", "") if isinstance(msg, Mapping) else None
+        if not isinstance(data, str):
+            got = type(msg).__name__ if not isinstance(msg, Mapping) else f"data of type {type(data).__name__}"
+            self._out({"event": "error", "topic": topic,
+                       "detail": f"ignored a message on {topic} that is not a std_msgs/String ({got}); "
+                                 "publish std_msgs/String messages there"})
+            return None
+        return data
+
+    def _on_actions(self, msg: Any) -> None:
+        data = self._text_data(msg, self.topics.actions)
+        if data is None:
+            return
+        lines = [ln.strip() for ln in data.splitlines() if ln.strip() and not ln.startswith("#")]
         try:
             added = self.home.observe(lines)
             self._out({"event": "actions", "added": added, "n_actions": len(self.home.actions)})
         except SiftomError as exc:
             self._out({"event": "error", "actions": lines, "detail": str(exc)})
 
-    def _on_text(self, msg: dict[str, Any]) -> None:
-        text = str(msg.get("data", "")).strip()
+    def _on_text(self, msg: Any) -> None:
+        data = self._text_data(msg, self.topics.text)
+        text = (data or "").strip()
         if not text:
             return
         with self._lock:
@@ -239,9 +258,15 @@ class RosBridge:
             with self._lock:
                 self._text_pending -= 1
 
-    def _on_audio(self, msg: dict[str, Any]) -> None:
+    def _on_audio(self, msg: Any) -> None:
+        if not isinstance(msg, Mapping):
+            topic = self.topics.audio
+            self._out({"event": "error", "topic": topic,
+                       "detail": f"ignored a message on {topic} that is not an audio_common_msgs/AudioData "
+                                 f"({type(msg).__name__}); publish AudioData (16 kHz mono 16-bit PCM) there"})
+            return
         try:
-            chunk = audio_bytes(msg)
+            chunk = audio_bytes(dict(msg))
         except AudioError as exc:
             self._out({"event": "error", "detail": str(exc)})
             return

@@ -39,3 +39,11 @@ def test_two_robots_stream_into_a_real_server_and_every_instruction_is_answered(
     assert res.expected == 4 and res.answered == 4
     assert all(st["closed"] == "1000" for st in res.streams)
     assert res.machine["cpus"] and res.idle_infer_ms["n"] == 3
+
+
+@pytest.mark.slow
+def test_every_hostile_request_is_a_4xx_naming_its_limit_against_a_real_server():
+    from siftom.bench.robots import run_hostile_bench
+
+    res = run_hostile_bench()
+    assert all(400 <= r["status"] < 500 and "allowed" in r["detail"] for r in res["rows"]), res["rows"]

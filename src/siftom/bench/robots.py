@@ -299,3 +299,70 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
         delay_p90_s=round(float(np.percentile(delays, 90)), 3) if delays else None,
         load_avg_after=tuple(round(x, 2) for x in os.getloadavg()),  # type: ignore[arg-type]
         client_cpu_s=round(time.process_time() - c0, 2), wall_s=round(time.perf_counter() - t0, 1))
+
+
+# ----- hostile inputs ---------------------------------------------------------------------------
+_PNG = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg=="
+
+
+def hostile_world(n_places: int = 3, cls: str = "tomato") -> dict[str, Any]:
+    """A world JSON with ``n_places`` places and one object of class ``cls``."""
+    places = [{"name": f"p{i}", "kind": "surface", "room": f"r{i % 7}", "pos": [i % 50, i // 50]}
+              for i in range(n_places)]
+    return {"places": places, "items": [{"name": "o0", "class": cls, "at": "p0"}], "target": "p0",
+            "goals": [{"name": "g", "counts": {cls: 1}}]}
+
+
+def hostile_requests() -> list[tuple[str, str, dict[str, Any]]]:
+    """(name, path, JSON body) of each hostile request the service must refuse at once."""
+    return [
+        ("3,000-place world", "/v1/sessions", {"world": hostile_world(3000)}),
+        ("1,000-place world", "/v1/sessions", {"world": hostile_world(1000)}),
+        ("100,000-letter class names", "/v1/sessions", {"world": hostile_world(4, "a" * 100_000)}),
+        ("6,000-node scene graph", "/v1/sessions",
+         {"world": {"nodes": [{"id": k, "class_name": "chair"} for k in range(6000)], "edges": []}}),
+        ("perceive, 1,000 places", "/v1/perceive", {"frames": [_PNG], "world": hostile_world(1000)}),
+        ("perceive, 100,000-letter class", "/v1/perceive", {"frames": [_PNG], "world": hostile_world(4, "b" * 100_000)}),
+    ]
+
+
+async def _hostile(url: str, headers: dict[str, str]) -> list[dict[str, Any]]:
+    import httpx
+
+    rows = []
+    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=120) as client:
+        await client.post("/v1/sessions", json={"world": hostile_world()})  # warm: the first request loads models
+        for name, path, body in hostile_requests():
+            health: list[float] = []
+            done = asyncio.Event()
+
+            async def poll(health: list[float] = health, done: asyncio.Event = done) -> None:
+                while not done.is_set():
+                    t0 = time.perf_counter()
+                    await client.get("/healthz")
+                    health.append((time.perf_counter() - t0) * 1000)
+                    await asyncio.sleep(0.01)
+
+            poller = asyncio.create_task(poll())
+            await asyncio.sleep(0.05)
+            t0 = time.perf_counter()
+            r = await client.post(path, json=body)
+            took = time.perf_counter() - t0
+            done.set()
+            await poller
+            detail = r.json().get("detail", "") if r.headers.get("content-type", "").endswith("json") else r.text
+            rows.append({"input": name, "path": path, "status": r.status_code, "seconds": round(took, 3),
+                         "detail": str(detail)[:160], "healthz_max_ms": round(max(health), 1) if health else None,
+                         "healthz_n": len(health)})
+    return rows
+
+
+def run_hostile_bench(url: str | None = None, token: str | None = None) -> dict[str, Any]:
+    """Each hostile request once, while ``/healthz`` is polled every 10 ms: status, seconds to the
+    refusal, what it said, and the slowest ``/healthz`` meanwhile."""
+    where = machine()
+    with contextlib.ExitStack() as stack:
+        base = url or stack.enter_context(_server(token))
+        rows = asyncio.run(_hostile(base, {"Authorization": f"Bearer {token}"} if token else {}))
+    ok = all(400 <= r["status"] < 500 and r["seconds"] < 1.0 and (r["healthz_max_ms"] or 0) < 100 for r in rows)
+    return {"machine": where, "rows": rows, "meets": ok}

@@ -111,9 +111,36 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
                + ("yes" if res.meets() else "no"))
 
 
+@click.command("hostile")
+@click.option("--url", default=None, help="a running server (default: start siftom serve on loopback)")
+@click.option("--token", default=None, help="the running server's token")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="also write the result as JSON here")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def bench_hostile_cmd(url: str | None, token: str | None, out: Path | None, as_json: bool) -> None:
+    """Hostile requests (huge worlds, huge names) against a server while /healthz is polled: each must
+    be a 4xx naming its limit within a second, /healthz within 100 ms meanwhile."""
+    from siftom.bench.robots import run_hostile_bench
+
+    res = run_hostile_bench(url, token)
+    if out is not None:
+        from siftom.bench.speech import write_json
+
+        write_json(res, out)
+    if as_json:
+        click.echo(json.dumps(res, indent=2))
+        return
+    m = res["machine"]
+    click.echo(f"{m['cpus']} CPUs ({m['processor']}), load before {m['load_avg_before']}")
+    for r in res["rows"]:
+        click.echo(f"  {r['input']:32s} {r['status']} in {r['seconds']:.3f} s, /healthz max {r['healthz_max_ms']} ms "
+                   f"({r['healthz_n']} polls): {r['detail'][:90]}")
+    click.echo("meets (4xx within 1 s, /healthz within 100 ms): " + ("yes" if res["meets"] else "no"))
+
+
 def register(root: click.Group) -> None:
     """Add the speed benchmarks to the ``bench`` group."""
     from siftom.cli.bench import bench_group
 
-    for cmd in (bench_inference_cmd, bench_planner_cmd, bench_latency_cmd, bench_robots_cmd):
+    for cmd in (bench_inference_cmd, bench_planner_cmd, bench_latency_cmd, bench_robots_cmd, bench_hostile_cmd):
         bench_group.add_command(cmd)

@@ -43,7 +43,8 @@ OPEN_BACKGROUND_WORDS = 2000
 OPEN_BACKGROUND_WEIGHT = 0.1
 # The phrasing LMs (not the open ones, not measured) decode in two passes (the lexicon-tree search, then the lattice's N-best) without
 # pocketsphinx's flat-lexicon rescoring pass: with a vocabulary of a few hundred words the flat pass
-# costs ~40 % of the decode and gains nothing measurable (docs/speech.md, "Decoder passes").
+# costs ~40 % of the decode and gains nothing measurable (docs/speech.md, "Decoder passes"); the
+# search is then reset before each utterance, so one utterance decodes the same after any other.
 FAST_PASSES: dict[str, Any] = {"fwdflat": False}
 # Default request templates used when a vocabulary is given as bare object words.
 REQUEST_TEMPLATES = (
@@ -252,6 +253,7 @@ class PocketsphinxEngine:
         ps = _ps()
         self.max_seconds = max_seconds
         self.unknown_words: tuple[str, ...] = ()
+        self._reset_search = False
         if vocabulary is None:
             self.name = "pocketsphinx"
             self.phrases: tuple[str, ...] = ()
@@ -298,8 +300,11 @@ class PocketsphinxEngine:
                 arpa = boost_unigrams(arpa, boosted, boost)
                 write_dictionary(words, dict_path)
                 _atomic_write(lm_path, arpa)
-            self._decoder = ps.Decoder(lm=str(lm_path), dict=str(dict_path), loglevel="FATAL",
-                                       **{**({} if open_vocab else FAST_PASSES), **(decoder_options or {})})
+            passes = {**({} if open_vocab else FAST_PASSES), **(decoder_options or {})}
+            self._decoder = ps.Decoder(lm=str(lm_path), dict=str(dict_path), loglevel="FATAL", **passes)
+            # without the flat pass the tree search carries score state from one utterance to the next
+            # (N-best scores shift by up to a few nats): reset the whole search per utterance (9 ms)
+            self._reset_search = passes.get("fwdflat") is False
         self._logmath = self._decoder.get_logmath()
 
     @guarded
@@ -312,6 +317,8 @@ class PocketsphinxEngine:
         t0 = time.perf_counter()
         # pocketsphinx carries feature (CMN) state from one utterance to the next, so the same
         # audio could give another transcript after other audio: reset it (0.1 ms)
+        if self._reset_search:
+            dec.reinit()
         dec.reinit_feat()
         dec.start_utt()
         dec.process_raw(to_pcm16(x), full_utt=True)

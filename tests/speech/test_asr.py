@@ -87,3 +87,4 @@ def test_same_audio_gives_the_same_transcript_whatever_was_decoded_before(tmp_pa
     again = eng.transcribe(noisy, nbest=3)
     assert again.text == first.text
     assert [h.text for h in again.nbest] == [h.text for h in first.nbest]
+    assert [h.score for h in again.nbest] == [h.score for h in first.nbest]  # the search state too, not only words

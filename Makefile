@@ -79,7 +79,8 @@ results: setup
 # docs/benchmark.md (from results/*.json) and the constants table (from the code)
 pages: setup
 	$(BIN)/siftom bench pages --results results/ --docs docs/results --readme README.md \
-	    --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md
+	    --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md \
+	    --fill docs/streaming.md
 
 lint: setup
 	$(BIN)/ruff check src tests

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.blocks import BLOCK, FILL, fill_page, fill_pages, load_trials, render
+from siftom.bench.blocks import BLOCK, FILL, fill_page, fill_pages, load_service, load_trials, render
 from siftom.bench.constants import (
     CONSTANTS,
     NOT_RECORDED,
@@ -73,11 +73,13 @@ def test_generated_docs_match_the_committed_results_and_code() -> None:
     """Every <!-- gen: --> block of docs/ is what the generator writes from results/*.json and the code."""
     results = load_results(ROOT / "results")
     trials = load_trials(ROOT / "results" / "trials")
+    service = load_service(ROOT / "results" / "service")
     pages = _pages_with_blocks()
     assert CONSTANTS_PAGE in pages and ROOT / "docs" / "benchmark.md" in pages and ROOT / "docs" / "decisions.md" in pages
+    assert ROOT / "docs" / "streaming.md" in pages
     for p in pages:
         text = p.read_text(encoding="utf-8")
-        assert fill_page(text, results, trials) == text, f"{p.relative_to(ROOT)} is stale; run: {FILL}"
+        assert fill_page(text, results, trials, service) == text, f"{p.relative_to(ROOT)} is stale; run: {FILL}"
 
 
 def test_the_trials_block_renders_the_rules_and_says_where_it_came_from() -> None:

@@ -47,3 +47,18 @@ def test_every_hostile_request_is_a_4xx_naming_its_limit_against_a_real_server()
 
     res = run_hostile_bench()
     assert all(400 <= r["status"] < 500 and "allowed" in r["detail"] for r in res["rows"]), res["rows"]
+
+
+def test_the_streaming_page_is_generated_from_the_service_results(tmp_path):
+    from siftom.bench.blocks import fill_page, load_service
+    from siftom.errors import DatasetError
+
+    res = _result(4, 0.9, 10, 29).to_json()
+    res.update(options={"streams": 2, "instructions": 2}, machine={"version": "9.9", "cpus": 2, "processor": "cpu",
+                                                                 "load_avg_before": [0.5, 0.5, 0.5]})
+    res["idle_infer_ms"], res["load_infer_ms"] = {"n": 3, "p90": 10.0}, {"n": 9, "p90": 29.0}
+    (tmp_path / "robots-2.json").write_text(__import__("json").dumps(res))
+    page = fill_page("x <!-- gen:service robots --><!-- /gen --> y", [], None, load_service(tmp_path))
+    assert "| robots-2 | 2 × 2 | 4/4 |" in page and "2.9×" in page and "siftom 9.9" in page
+    with pytest.raises(DatasetError, match="siftom bench hostile --out"):
+        fill_page("<!-- gen:service hostile --><!-- /gen -->", [], None, {})

@@ -30,7 +30,8 @@ from siftom.bench.constants import constants_table
 from siftom.bench.pages import _ci, _pct, load_results, model_order, set_table
 from siftom.errors import DatasetError
 
-FILL = "siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md"
+FILL = ("siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md "
+        "--fill docs/streaming.md")
 BLOCK = re.compile(r"<!-- gen:(?P<spec>.*?) -->(?P<body>.*?)<!-- /gen -->", re.DOTALL)
 SNR_ORDER = ("clean", "20 dB", "10 dB", "5 dB", "0 dB")
 
@@ -108,7 +109,57 @@ def load_trials(folder: str | Path) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
-def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list[dict[str, Any]]] | None = None) -> str:
+def load_service(folder: str | Path) -> dict[str, dict[str, Any]]:
+    """``NAME.json`` service benchmark results per NAME in ``folder`` (none when it does not exist)."""
+    import json
+
+    folder = Path(folder)
+    return {p.stem: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("*.json"))} \
+        if folder.is_dir() else {}
+
+
+def _stamp(results: Sequence[dict[str, Any]]) -> str:
+    ms = [r.get("machine", {}) for r in results]
+    versions = sorted({str(m.get("version", "?")) for m in ms})
+    where = sorted({f"{m.get('cpus')} CPUs ({m.get('processor')})" for m in ms})
+    return f"siftom {', '.join(versions)}; measured on {'; '.join(where)}"
+
+
+def service_block(kind: str, service: dict[str, dict[str, Any]]) -> str:
+    """A table of ``siftom bench robots`` (``robots``) or ``siftom bench hostile`` (``hostile``) results."""
+    if kind == "robots":
+        runs = [(n, r) for n, r in service.items() if n.startswith("robots-")]
+        if not runs:
+            raise DatasetError("gen:service robots: no results/service/robots-*.json; write them with "
+                               "siftom bench robots --out")
+        lines = ["| run | streams × instructions | decisions | delay p50 / p90 (s) | /v1/infer p90 idle → load (ms) "
+                 "| ratio | in-process p50 (s) | load before |", "|---|---|---|---|---|---|---|---|"]
+        for name, r in runs:
+            o = r["options"]
+            ratio = r["load_infer_ms"]["p90"] / r["idle_infer_ms"]["p90"] if r["load_infer_ms"].get("n") else None
+            local = r.get("in_process") or {}
+            loaded = r["load_infer_ms"]["p90"] if r["load_infer_ms"].get("n") else "–"
+            lines.append(f"| {name} | {o['streams']} × {o['instructions']} | {r['answered']}/{r['expected']} | "
+                         f"{r['delay_p50_s']} / {r['delay_p90_s']} | {r['idle_infer_ms']['p90']} → "
+                         f"{loaded} | {'–' if ratio is None else f'{ratio:.1f}×'} | "
+                         f"{local.get('p50_s', '–')} | {r['machine'].get('load_avg_before', ['?'])[0]} |")
+        return "\n" + "\n".join(lines) + f"\n\n{_stamp([r for _, r in runs])}. Regenerated from " \
+            "`results/service/robots-*.json` by `make pages`.\n"
+    if kind == "hostile":
+        if "hostile" not in service:
+            raise DatasetError("gen:service hostile: no results/service/hostile.json; write it with "
+                               "siftom bench hostile --out")
+        r = service["hostile"]
+        lines = ["| input | status | answered in (s) | slowest /healthz meanwhile (ms) | says |", "|---|---|---|---|---|"]
+        lines += [f"| {x['input']} | {x['status']} | {x['seconds']} | {x['healthz_max_ms']} | "
+                  f"{x['detail'][:70].replace('|', '/')}… |" for x in r["rows"]]
+        return "\n" + "\n".join(lines) + f"\n\n{_stamp([r])}. Regenerated from `results/service/hostile.json` " \
+            "by `make pages`.\n"
+    raise DatasetError(f"gen:service {kind}: use robots or hostile")
+
+
+def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list[dict[str, Any]]] | None = None,
+           service: dict[str, dict[str, Any]] | None = None) -> str:
     """What a block with ``spec`` holds."""
     args = shlex.split(spec)
     if not args:
@@ -119,6 +170,8 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
     if not rest:
         raise DatasetError(f"gen:{kind} needs a set name")
     name = rest[0]
+    if kind == "service":
+        return service_block(name, service or {})
     if kind == "trials":
         if not trials or name not in trials:
             raise DatasetError(f"gen:{spec}: no results/trials/{name}.jsonl (have: "
@@ -142,23 +195,26 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
 
 
 def fill_page(text: str, results: Sequence[dict[str, Any]],
-              trials: dict[str, list[dict[str, Any]]] | None = None) -> str:
+              trials: dict[str, list[dict[str, Any]]] | None = None,
+              service: dict[str, dict[str, Any]] | None = None) -> str:
     """``text`` with every generated block rewritten."""
     by_set = {r["set"]: r for r in results}
-    return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set, trials)}<!-- /gen -->", text)
+    return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set, trials, service)}<!-- /gen -->",
+                     text)
 
 
 def fill_pages(results_dir: str | Path, pages: Sequence[str | Path]) -> list[Path]:
     """Rewrite the generated blocks of ``pages`` in place; return the pages that hold any."""
     results = load_results(results_dir)
     trials = load_trials(Path(results_dir) / "trials")
+    service = load_service(Path(results_dir) / "service")
     out = []
     for page in pages:
         path = Path(page)
         text = path.read_text(encoding="utf-8")
         if not BLOCK.search(text):
             raise DatasetError(f"{path} has no <!-- gen:... --> ... <!-- /gen --> block to fill")
-        new = fill_page(text, results, trials)
+        new = fill_page(text, results, trials, service)
         if new != text:
             path.write_text(new, encoding="utf-8")
         out.append(path)

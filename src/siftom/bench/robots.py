@@ -53,6 +53,9 @@ class ServeBenchOptions:
         token: the server's token, if it has one.
         seed: pauses and starts.
         grace_s: how long after its stream ends an instruction may still be answered.
+        in_process: also stream the first stream's recording through an in-process listener
+            (``siftom bench stream``'s, the default likelihood) in the same run, for the ratio
+            of the WebSocket's delay to it.
     """
 
     streams: int = 8
@@ -64,6 +67,7 @@ class ServeBenchOptions:
     token: str | None = None
     seed: int = 0
     grace_s: float = 10.0
+    in_process: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.streams <= 64:
@@ -102,6 +106,7 @@ class ServeBenchResult:
     load_avg_after: tuple[float, float, float]
     client_cpu_s: float
     wall_s: float
+    in_process: dict[str, Any] | None = None  # the same recording through an in-process listener
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -122,7 +127,10 @@ def _pcts(ms: list[float]) -> dict[str, float]:
 
 def machine() -> dict[str, Any]:
     """Where the benchmark ran: CPUs, processor, Python and the load before it started."""
-    return {"cpus": os.cpu_count(), "processor": platform.processor() or platform.machine(),
+    from siftom import __version__
+    from siftom.bench.latency import _cpu_name
+
+    return {"version": __version__, "cpus": os.cpu_count(), "processor": _cpu_name() or platform.machine(),
             "system": platform.platform(terse=True), "python": platform.python_version(),
             "load_avg_before": tuple(round(x, 2) for x in os.getloadavg())}
 
@@ -234,7 +242,7 @@ def match_delays(ends: list[float], arrivals: list[float]) -> list[float | None]
 
 
 async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dict[str, float], int,
-                                                           list[StreamOutcome], list[list[dict[str, Any]]]]:
+                                                           list[StreamOutcome], tuple[np.ndarray, list[dict[str, Any]]]]:
     import httpx
 
     from siftom.bench.stream import CLIPS, StreamBenchOptions, build_stream
@@ -275,7 +283,7 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
         for s in sessions:
             with contextlib.suppress(httpx.HTTPError):
                 await client.delete(f"/v1/sessions/{s}")
-    return _pcts(idle), _pcts(load), errors, list(outcomes), truths
+    return _pcts(idle), _pcts(load), errors, list(outcomes), (audios[0], truths[0])
 
 
 def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
@@ -285,7 +293,13 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
     t0, c0 = time.perf_counter(), time.process_time()
     with contextlib.ExitStack() as stack:
         url = opts.url or stack.enter_context(_server(opts.token))
-        idle, load, errors, outcomes, _ = asyncio.run(_run(opts, url))
+        idle, load, errors, outcomes, (audio0, truths0) = asyncio.run(_run(opts, url))
+    local = None
+    if opts.in_process:
+        from siftom.bench.stream import _stream_delays
+
+        got = _stream_delays("auto", audio0, truths0)
+        local = {"p50_s": got["p50_s"], "p90_s": got["p90_s"], "answered": got["answered"]}
     delays = [d for o in outcomes for d in o.delays_s if d is not None]
     expected = sum(len(o.delays_s) for o in outcomes)
     return ServeBenchResult(
@@ -298,7 +312,7 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
         delay_p50_s=round(statistics.median(delays), 3) if delays else None,
         delay_p90_s=round(float(np.percentile(delays, 90)), 3) if delays else None,
         load_avg_after=tuple(round(x, 2) for x in os.getloadavg()),  # type: ignore[arg-type]
-        client_cpu_s=round(time.process_time() - c0, 2), wall_s=round(time.perf_counter() - t0, 1))
+        client_cpu_s=round(time.process_time() - c0, 2), wall_s=round(time.perf_counter() - t0, 1), in_process=local)
 
 
 # ----- hostile inputs ---------------------------------------------------------------------------

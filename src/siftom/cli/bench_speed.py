@@ -79,17 +79,19 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
 @click.option("--url", default=None, help="a running server (default: start siftom serve on loopback)")
 @click.option("--token", default=None, help="the running server's token")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="pauses and stream starts")
+@click.option("--in-process", is_flag=True,
+              help="also stream the first recording through an in-process listener, for the WebSocket's overhead")
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="also write the result as JSON here")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str | None, token: str | None,
-                    seed: int, out: Path | None, as_json: bool) -> None:
+                     seed: int, in_process: bool, out: Path | None, as_json: bool) -> None:
     """Several robots: N sessions stream real-time speech while /v1/infer is polled; per stream the
     delay from the end of speech to the decision, and the HTTP percentiles idle and under load."""
     from siftom.bench.robots import ServeBenchOptions, run_serve_bench
 
     res = run_serve_bench(ServeBenchOptions(streams=streams, instructions=instructions, http_rps=http_rps,
-                                            url=url, token=token, seed=seed))
+                                            url=url, token=token, seed=seed, in_process=in_process))
     data = res.to_json()
     if out is not None:
         from siftom.bench.speech import write_json
@@ -107,6 +109,10 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
                f"p50 {res.load_infer_ms['p50']} ms p90 {res.load_infer_ms['p90']} ms ({res.infer_errors} errors)")
     for st in res.streams:
         click.echo(f"  {st['session'][:8]}  delays {st['delays_s']}  closed {st['closed']}")
+    if res.in_process is not None and res.in_process["p50_s"] and res.delay_p50_s:
+        lp = res.in_process
+        click.echo(f"in-process listener on the first recording: p50 {lp['p50_s']} s, p90 {lp['p90_s']} s; "
+                   f"WebSocket / in-process p50 {res.delay_p50_s / lp['p50_s']:.2f}")
     click.echo("meets the floors (every decision, p90 <= 1 s, /v1/infer p90 <= 3x idle): "
                + ("yes" if res.meets() else "no"))
 

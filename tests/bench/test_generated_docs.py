@@ -7,7 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from siftom.bench.blocks import BLOCK, FILL, fill_page, fill_pages, load_service, load_trials, render
+from siftom.bench.blocks import (
+    BLOCK,
+    FILL,
+    fill_page,
+    fill_pages,
+    load_service,
+    load_trials,
+    render,
+)
 from siftom.bench.constants import (
     CONSTANTS,
     NOT_RECORDED,

@@ -140,7 +140,12 @@ def test_silero_cuts_a_spoken_instruction_fed_in_odd_chunks(tmp_path):
 
 
 def test_every_door_scores_frames_with_the_onnx_silero_when_the_whisper_extra_is_there():
-    from siftom.speech.segment import OnnxSileroFrames, SileroFrames, default_scorer, onnx_silero_path
+    from siftom.speech.segment import (
+        OnnxSileroFrames,
+        SileroFrames,
+        default_scorer,
+        onnx_silero_path,
+    )
 
     expected = OnnxSileroFrames if onnx_silero_path() is not None else SileroFrames
     assert isinstance(default_scorer(), expected)
@@ -148,9 +153,8 @@ def test_every_door_scores_frames_with_the_onnx_silero_when_the_whisper_extra_is
 
 
 def test_onnx_silero_frame_by_frame_equals_one_batch_and_finds_speech(tmp_path):
-    from support.streaming import say, silence
-
     from siftom.speech.segment import CONTEXT, OnnxSileroFrames, onnx_silero_path
+    from support.streaming import say, silence
 
     if onnx_silero_path() is None:
         pytest.skip("the ONNX Silero graph ships with the whisper extra")

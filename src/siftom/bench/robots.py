@@ -138,11 +138,13 @@ def machine() -> dict[str, Any]:
 @contextlib.contextmanager
 def _server(token: str | None) -> Any:
     """``siftom serve`` on a free loopback port; yields its URL once ``/healthz`` answers."""
+    import socket
+
     import httpx
 
-    from siftom.service.loadtest import free_port
-
-    port = free_port()
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:  # a port free right now
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
     cmd = [sys.executable, "-m", "siftom.cli", "serve", "--host", "127.0.0.1", "--port", str(port)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     url = f"http://127.0.0.1:{port}"

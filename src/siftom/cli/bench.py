@@ -27,7 +27,7 @@ def _csv(value: str | None) -> tuple[str, ...]:
 def _snrs(value: str) -> tuple[float, ...]:
     if value.strip().lower() in ("", "none"):
         return ()
-    from siftom.cli.speech import SNR_MAX_DB, SNR_MIN_DB
+    from siftom.cli.audio_out import SNR_MAX_DB, SNR_MIN_DB
 
     try:
         snrs = tuple(float(v) for v in _csv(value))
@@ -145,7 +145,7 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
                         snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed)
-    from siftom.cli.speech import FOLDER_FIX, writing_audio
+    from siftom.cli.audio_out import FOLDER_FIX, writing_audio
 
     t0 = time.perf_counter()
     with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar, \

@@ -153,8 +153,8 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
 def mix_cmd(folder: str, noise_dir: str | None, noises: str | None, snr: str, seed: int, as_json: bool) -> None:
     """Add noisy copies of every clean recording in a dataset FOLDER (clean + noisy: 130 -> 520)."""
     from siftom.bench.mix import MixOptions, mix_dataset
+    from siftom.cli.audio_out import FOLDER_FIX, writing_audio
     from siftom.cli.bench import _csv, _snrs
-    from siftom.cli.speech import FOLDER_FIX, writing_audio
 
     opts = MixOptions(noise_dir=noise_dir, noises=_csv(noises), snrs=_snrs(snr), seed=seed)
     with writing_audio(folder, "the noisy copies into", fix=FOLDER_FIX):

@@ -20,7 +20,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from siftom.errors import BackendUnavailableError, NotYoursError, SiftomError, UnknownNameError
-from siftom.service.store import DiskFullError, is_disk_full
+from siftom.service.diskfull import DiskFullError, is_disk_full
 from siftom.world.io import WorldTooLargeError
 
 log = logging.getLogger("siftom.service")

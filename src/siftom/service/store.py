@@ -24,7 +24,6 @@ deleted is reused by the next ones; the reserve is made again once the disk has 
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import logging
 import os
@@ -38,24 +37,12 @@ from pathlib import Path
 from typing import Any
 
 from siftom.private import FILE_MODE, create_private, private_dir
+from siftom.service.diskfull import RESERVE_BYTES
+from siftom.service.diskfull import SQLITE_FULL as SQLITE_FULL
+from siftom.service.diskfull import DiskFullError as DiskFullError
+from siftom.service.diskfull import is_disk_full as is_disk_full
 
 log = logging.getLogger("siftom.service")
-SQLITE_FULL = 13
-RESERVE_BYTES = 1024 * 1024  # a delete writes a few pages to the write-ahead log
-
-
-class DiskFullError(Exception):
-    """A write was refused because the disk (or the user's quota) is full."""
-
-
-def is_disk_full(exc: BaseException) -> bool:
-    """Whether ``exc`` says the disk or quota is full (OSError ENOSPC/EDQUOT, SQLite's SQLITE_FULL)."""
-    if isinstance(exc, OSError):
-        return exc.errno in (errno.ENOSPC, errno.EDQUOT)
-    if isinstance(exc, sqlite3.Error):
-        return (getattr(exc, "sqlite_errorcode", None) == SQLITE_FULL
-                or "database or disk is full" in str(exc))
-    return False
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (

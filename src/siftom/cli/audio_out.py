@@ -1,0 +1,32 @@
+"""What the commands that write audio share: the SNRs they take and one-line write errors."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import click
+
+SNR_MIN_DB, SNR_MAX_DB = -50.0, 100.0  # the SNRs a command takes (beyond: silence or noise alone)
+WRITE_FIX = "a path in a folder you can write to, on a disk with free space"
+FOLDER_FIX = "make the folder writable and free disk space, then run the command again"
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return (text.splitlines()[0] if text else type(exc).__name__)[:200]
+
+
+@contextmanager
+def writing_audio(target: str | Path, what: str = "the WAV file",
+                  fix: str = f"give {WRITE_FIX}") -> Iterator[None]:
+    """A failure to write audio under ``target`` (a full disk, a device, a read-only folder)
+    becomes a one-line click error naming the path and ``fix``, not a traceback."""
+    import soundfile as sf
+
+    try:
+        yield
+    except (OSError, sf.SoundFileError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else _first_line(exc)
+        raise click.ClickException(f"cannot write {what} {str(target)!r} ({reason}); {fix}") from None

@@ -216,6 +216,20 @@ def test_say_then_infer_from_audio(client):
 
     want = "acoustic" if whisper_available() else "phonetic"  # the default for a recording
     assert body["likelihood"] == want and body["evidence"]["likelihood"] == want
+    assert body["degraded"] == ""  # one request at a time: the server was not crowded
+    # past the CPU budget the default likelihood gives way to the phonetic one, and says so
+    rt = client.app.state.runtime
+    budget, rt.admission.budget = rt.admission.budget, 0
+    try:
+        with rt.admission.slot():
+            rt.admission.budget = 1  # one utterance is being answered on a 1-CPU budget
+            busy = client.post("/v1/infer", data={"scenario": KITCHEN},
+                               files={"audio": ("say.wav", r.content, "audio/wav")}).json()
+    finally:
+        rt.admission.budget = budget
+    assert busy["likelihood"] == "phonetic" and "1 utterances were being answered on 1 CPUs" in busy["degraded"]
+    assert busy["command"] == "fetch(cereal)"
+    assert client.get("/healthz").json()["admission"]["degraded"] >= 1
     text = client.post("/v1/infer", json={"scenario": KITCHEN, "transcript": "pass me the cereal"}).json()
     assert text["likelihood"] == "phonetic" and text["evidence"]["likelihood_reason"].startswith("no audio")
 

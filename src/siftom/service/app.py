@@ -179,6 +179,7 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
                        "stream": dataclasses.asdict(settings.stream)},
             "settings": settings_view,
             "caches": memo_stats(),  # the scorers' memos: hits, misses, size, bound
+            "admission": rt.admission.stats(),  # utterances answered, in flight, degraded (admission.py)
         }
 
     # ----- scenarios -------------------------------------------------------------------------

@@ -39,6 +39,7 @@ from siftom.options import (
 )
 from siftom.private import private_dir
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
+from siftom.service.admission import Admission
 from siftom.settings import Settings
 
 __all__ = ["SERVICE_LIKELIHOODS", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
@@ -93,6 +94,8 @@ class Runtime:
         self._plans = Cache(1024)
         self._render_lock = threading.Lock()
         self.requests = 0
+        # one CPU budget for every utterance this process answers: streams and audio requests
+        self.admission = Admission()
         self.audio_pool: Any = None
         if settings.audio_workers > 0:
             from siftom.service.audio_pool import AudioPool
@@ -262,7 +265,11 @@ class Runtime:
         sc = self.scenario(sid)
         x = self.decode_audio(data)
         heard = self.observer.hear(x, sc.world, sc.verb, nbest=asr_nbest)
-        return self.infer(sid, heard.instruction, mode, likelihood, n_actions, None, top, policy, decide, heard)
+        with self.admission.slot() as slot:  # past the CPU budget the default likelihood gives way
+            chosen = slot.likelihood if slot.likelihood is not None and likelihood in (None, "auto") else likelihood
+            body = self.infer(sid, heard.instruction, mode, chosen, n_actions, None, top, policy, decide, heard)
+        body["degraded"] = slot.reason if chosen != likelihood else ""
+        return body
 
     # ----- speech synthesis ----------------------------------------------------------------
     @staticmethod

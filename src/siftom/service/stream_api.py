@@ -185,8 +185,7 @@ def install_stream(app: FastAPI, rt: Any, mgr: SessionManager, run_cpu: RunCpu) 
     app.state.streams = open_streams
     admitted = [0]  # streams past the max_streams check (counted before any await: no race)
     # one CPU budget for every stream's utterances (admission.py)
-    admission: Admission = getattr(app.state, "admission", None) or Admission()
-    app.state.admission = admission
+    admission: Admission = getattr(rt, "admission", None) or Admission()
     # streams wait for their answers in threads of their own: HTTP requests never queue behind them
     stream_threads = anyio.CapacityLimiter(limits.max_streams)
     timeout_s = rt.settings.request_timeout_s
@@ -303,8 +302,11 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
             raise StreamGone(utt.index)
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
-        with admission.slot() as slot:  # past the CPU budget: the cheaper likelihood, said in the answer
-            body = mgr.prepare(sid, rec.instruction, top, policy, heard=heard, likelihood=slot.likelihood)
+        with admission.slot() as slot:  # past the CPU budget the default likelihood gives way, said in the answer
+            chosen = slot.likelihood if sess.options.get("likelihood") in (None, "auto") else None
+            body = mgr.prepare(sid, rec.instruction, top, policy, heard=heard, likelihood=chosen)
+        if chosen is None:
+            return {**body, DEGRADED: ""}
         return {**body, DEGRADED: slot.reason}
 
     def commit(prepared: dict[str, Any]) -> dict[str, Any] | None:

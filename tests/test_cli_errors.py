@@ -123,3 +123,27 @@ def test_dataset_build_that_cannot_write_is_a_one_line_error(capsys, monkeypatch
     assert code != 0
     line = _one_line_error(out)
     assert str(out_dir) in line and "No space left on device" in line
+
+
+@pytest.mark.parametrize("args", [("demo", "--seed", "-1"), ("demo", "--snr", "1e5"),
+                                  ("bench", "latency", "--snr", "1e5", "--quick", "--repeats", "1"),
+                                  ("bench", "stream", "--seed", "-1", "--quick", "--noise-seconds", "0"),
+                                  ("bench", "acoustic", "--snr", "1e5", "--quick")])
+def test_every_command_that_mixes_noise_refuses_a_bad_seed_or_snr_in_one_line(capsys, args):
+    code, out = _run(capsys, *args)
+    assert code != 0
+    line = _one_line_error(out)
+    assert ("seed" in line and ">= 0" in line) or ("SNR" in line and "-50 to 100 dB" in line), line
+
+
+def test_a_mix_refuses_what_no_command_should_pass_it():
+    from siftom.errors import AudioError
+    from siftom.speech.noise import make_rng, mix_at_snr
+
+    speech = np.sin(np.arange(16000) / 5.0)
+    for snr in (1e5, -1e5, float("nan")):
+        with pytest.raises(AudioError, match="outside -50 to 100 dB"):
+            mix_at_snr(speech, np.ones(100), snr, 0)
+    with pytest.raises(AudioError, match=">= 0"):
+        make_rng(-1)
+    assert mix_at_snr(speech, np.ones(100), 10, 0).shape == speech.shape

@@ -79,6 +79,8 @@ class StreamBenchOptions:
             raise OptionsError("give at least one likelihood")
         if self.noise_s < 0:
             raise OptionsError("noise_s must be >= 0")
+        if self.seed < 0:
+            raise OptionsError(f"a seed is a whole number >= 0, got {self.seed}; give e.g. --seed 2")
 
 
 @dataclass

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import click
 
-SNR_MIN_DB, SNR_MAX_DB = -50.0, 100.0  # the SNRs a command takes (beyond: silence or noise alone)
+from siftom.speech.noise import SNR_RANGE_DB
+
+SNR_MIN_DB, SNR_MAX_DB = SNR_RANGE_DB  # the SNRs a command takes (beyond: silence or noise alone)
 WRITE_FIX = "a path in a folder you can write to, on a disk with free space"
 FOLDER_FIX = "make the folder writable and free disk space, then run the command again"
 

@@ -38,9 +38,16 @@ RECORDED_NOISE_DIR = Path(str(resources.files("siftom.data").joinpath("noise")))
 Rng = np.random.Generator | int | None
 
 
+SNR_RANGE_DB = (-50.0, 100.0)  # the SNRs a mix takes (beyond: silence or noise alone, or float overflow)
+
+
 def make_rng(rng: Rng) -> np.random.Generator:
-    """A Generator from a seed, an existing Generator, or None (fresh entropy)."""
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    """A Generator from a seed (a whole number >= 0), an existing Generator, or None (fresh entropy)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if isinstance(rng, int | np.integer) and rng < 0:
+        raise AudioError(f"a seed is a whole number >= 0, got {rng}; give e.g. --seed 0")
+    return np.random.default_rng(rng)
 
 
 @runtime_checkable
@@ -111,6 +118,9 @@ def mix_at_snr(
         snr_db: target SNR in dB.
         rng: seed or Generator for the noise excerpt; the same seed gives identical output.
     """
+    if not SNR_RANGE_DB[0] <= snr_db <= SNR_RANGE_DB[1]:  # also NaN: no comparison holds
+        raise AudioError(f"an SNR of {snr_db} dB is outside {SNR_RANGE_DB[0]:g} to {SNR_RANGE_DB[1]:g} dB (beyond, "
+                         "the mix is the noise or the speech alone); give e.g. --snr 10")
     gen = make_rng(rng)
     s = np.asarray(speech, np.float64)
     if s.ndim != 1 or s.size == 0:

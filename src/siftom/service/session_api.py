@@ -177,8 +177,11 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
             # voice-activity detection first (silence or noise is not words), then the observer's
             # recogniser for this world (biased to its command phrasings)
             heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
-            return mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
-                                heard=heard, idem=idem)
+            with rt.admission.slot() as slot:  # the server's CPU budget, shared with streams (admission.py)
+                chosen = slot.likelihood if sess.options.get("likelihood") in (None, "auto") else None
+                body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
+                                    heard=heard, idem=idem, likelihood=chosen)
+            return {**body, "degraded": slot.reason if chosen is not None else ""}
 
         return JSONResponse(await run_cpu(work))
 

@@ -107,7 +107,7 @@ def _context(model: Any, sc: Any) -> Any:
     for a in sc.actions:
         on.observe(a)
     gi, ci, rows, unk, cmds = on.candidates()
-    return on._context(gi, ci, rows, unk, len(cmds))
+    return on._context(gi, ci, rows, unk, cmds)
 
 
 def fit(rows: list[dict[str, Any]]) -> dict[str, Any]:

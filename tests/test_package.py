@@ -31,3 +31,21 @@ def test_readme_shows_the_install_line_beside_the_two_make_commands():
     line = next((ln for ln in head.splitlines() if ln.startswith("pip install ")), None)
     assert line is not None, "no pip install line before the tour"
     assert "siftom demo" in line and "python -m build --wheel" in line
+
+
+def test_every_file_the_package_reads_is_in_its_package_data():
+    """A file beside the code (a grammar, a page, a model list) that the wheel leaves out breaks every
+    installed copy while the checkout works: each one must match a package-data pattern."""
+    import fnmatch
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    patterns = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"][
+        "package-data"]["siftom"]
+    src = root / "src" / "siftom"
+    files = [p.relative_to(src).as_posix() for p in src.rglob("*")
+             if p.is_file() and p.suffix not in (".py", ".pyc") and "__pycache__" not in p.parts]
+    left_out = [f for f in files if not any(fnmatch.fnmatch(f, pat) for pat in patterns)]
+    assert not left_out, f"add these to [tool.setuptools.package-data] in pyproject.toml: {left_out}"
+    assert "language/grammar.lark" in files

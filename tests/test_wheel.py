@@ -26,7 +26,8 @@ pytestmark = pytest.mark.slow
 
 NEEDED = ("siftom/__init__.py", "siftom/py.typed", "siftom/cli/__init__.py", "siftom/scenarios/kitchen.py",
           "siftom/service/static/index.html", "siftom/service/static/app.js", "siftom/service/static/collect.html",
-          "siftom/data/kitchen_recipes.json", "siftom/data/phrasings/free-v0.txt", "siftom/data/noise/MANIFEST.tsv")
+          "siftom/data/kitchen_recipes.json", "siftom/data/phrasings/free-v0.txt", "siftom/data/noise/MANIFEST.tsv",
+          "siftom/language/grammar.lark")
 
 
 def _run(cmd: list[str], cwd: Path, env: dict[str, str], timeout: float = 600) -> str:

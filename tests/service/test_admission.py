@@ -54,3 +54,11 @@ def test_slots_are_released_when_an_answer_fails_and_counted_across_threads():
     for t in threads:
         t.join()
     assert adm.stats()["in_flight"] == 0 and adm.stats()["answered"] == 9
+
+
+def test_a_likelihood_someone_chose_is_kept_even_past_the_budget():
+    adm = Admission(budget=1)
+    with adm.slot(), adm.slot("llm") as chosen, adm.slot("auto") as default:
+        assert chosen.likelihood is None and chosen.reason == ""
+        assert default.likelihood == DEGRADED_LIKELIHOOD
+    assert adm.stats()["degraded"] == 1

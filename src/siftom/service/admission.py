@@ -52,11 +52,12 @@ class Admission:
         self.degraded = 0
 
     @contextlib.contextmanager
-    def slot(self) -> Iterator[Slot]:
-        """Hold a place while one utterance is answered; the slot says how to score it."""
+    def slot(self, asked: str | None = None) -> Iterator[Slot]:
+        """Hold a place while one utterance is answered; the slot says how to score it. ``asked``:
+        the likelihood the request or session chose; only the default (None or ``auto``) gives way."""
         with self._lock:
             busy = self.in_flight
-            crowded = self.budget > 0 and busy >= self.budget
+            crowded = self.budget > 0 and busy >= self.budget and asked in (None, "auto")
             self.in_flight += 1
             self.answered += 1
             self.degraded += crowded

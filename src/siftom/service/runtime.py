@@ -265,10 +265,10 @@ class Runtime:
         sc = self.scenario(sid)
         x = self.decode_audio(data)
         heard = self.observer.hear(x, sc.world, sc.verb, nbest=asr_nbest)
-        with self.admission.slot() as slot:  # past the CPU budget the default likelihood gives way
-            chosen = slot.likelihood if slot.likelihood is not None and likelihood in (None, "auto") else likelihood
-            body = self.infer(sid, heard.instruction, mode, chosen, n_actions, None, top, policy, decide, heard)
-        body["degraded"] = slot.reason if chosen != likelihood else ""
+        with self.admission.slot(likelihood) as slot:  # past the CPU budget the default likelihood gives way
+            body = self.infer(sid, heard.instruction, mode, slot.likelihood or likelihood, n_actions, None, top, policy,
+                              decide, heard)
+        body["degraded"] = slot.reason
         return body
 
     # ----- speech synthesis ----------------------------------------------------------------

@@ -177,11 +177,11 @@ def install_sessions(app: FastAPI, rt: Any, run_cpu: RunCpu) -> SessionManager:
             # voice-activity detection first (silence or noise is not words), then the observer's
             # recogniser for this world (biased to its command phrasings)
             heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
-            with rt.admission.slot() as slot:  # the server's CPU budget, shared with streams (admission.py)
-                chosen = slot.likelihood if sess.options.get("likelihood") in (None, "auto") else None
+            # the server's CPU budget, shared with streams (admission.py)
+            with rt.admission.slot(sess.options.get("likelihood")) as slot:
                 body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
-                                    heard=heard, idem=idem, likelihood=chosen)
-            return {**body, "degraded": slot.reason if chosen is not None else ""}
+                                    heard=heard, idem=idem, likelihood=slot.likelihood)
+            return {**body, "degraded": slot.reason}
 
         return JSONResponse(await run_cpu(work))
 

@@ -302,11 +302,9 @@ async def _stream(ws: WebSocket, rt: Any, mgr: SessionManager, run_cpu: RunCpu, 
             raise StreamGone(utt.index)
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
-        with admission.slot() as slot:  # past the CPU budget the default likelihood gives way, said in the answer
-            chosen = slot.likelihood if sess.options.get("likelihood") in (None, "auto") else None
-            body = mgr.prepare(sid, rec.instruction, top, policy, heard=heard, likelihood=chosen)
-        if chosen is None:
-            return {**body, DEGRADED: ""}
+        # past the CPU budget the default likelihood gives way, and the answer says so
+        with admission.slot(sess.options.get("likelihood")) as slot:
+            body = mgr.prepare(sid, rec.instruction, top, policy, heard=heard, likelihood=slot.likelihood)
         return {**body, DEGRADED: slot.reason}
 
     def commit(prepared: dict[str, Any]) -> dict[str, Any] | None:

@@ -174,3 +174,26 @@ def test_onnx_silero_frame_by_frame_equals_one_batch_and_finds_speech(tmp_path):
     assert probs[: lead - 2].max() < 0.5 and probs[lead:lead + int(len(clip) / FRAME)].max() > 0.9
     scorer.reset()  # a new stream starts from the same state
     assert scorer(x[:FRAME]) == pytest.approx(probs[0], abs=1e-6)
+
+
+def test_a_recording_sent_whole_is_cut_as_its_stream_is():
+    from siftom.speech.segment import cut
+
+    probs = [0.0] * 20 + [0.9] * 30 + [0.0] * 25  # one utterance, room before and after it
+    events, _ = run(probs, chunk=320)
+    (streamed,) = [e.utterance for e in events if isinstance(e, SpeechEnded)]
+    x = np.arange(len(probs) * FRAME, dtype=np.float32) / 1e6
+    assert np.array_equal(cut(x, scorer=Scripted(probs)), streamed.samples)
+    assert cut(np.zeros(10 * FRAME, np.float32), scorer=Scripted([0.0] * 10)) is None
+
+
+def test_a_recording_of_two_utterances_is_one_request_from_the_first_start_to_the_last_end():
+    from siftom.speech.segment import cut
+
+    probs = [0.0] * 15 + [0.9] * 20 + [0.0] * 20 + [0.9] * 20 + [0.0] * 20
+    events, _ = run(probs)
+    first, second = [e.utterance for e in events if isinstance(e, SpeechEnded)]
+    x = np.arange(len(probs) * FRAME, dtype=np.float32) / 1e6
+    y = cut(x, scorer=Scripted(probs))
+    assert y[0] == first.samples[0] and y[-1] == second.samples[-1]
+    assert len(y) == round((second.samples[-1] - first.samples[0]) * 1e6) + 1  # everything between, once

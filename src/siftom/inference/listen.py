@@ -76,7 +76,11 @@ def with_likelihood(post: Posterior, name: str, why: str) -> Posterior:
 
 
 def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instruction | None, Any, Any, dict[str, float]]:
-    """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings)."""
+    """Detect speech, cut to it and recognise it: (instruction or None, transcript, vad, timings).
+
+    The recording is cut as a stream of it would be (:func:`siftom.speech.segment.cut`: the same
+    segmenter, pre- and post-roll), so a recording sent whole and streamed is heard the same."""
+    from siftom.speech.segment import cut
     from siftom.speech.vad import detect_speech, trim
 
     t0 = time.perf_counter()
@@ -85,7 +89,9 @@ def hear(x: np.ndarray, asr: Any, nbest: int = DEFAULT_NBEST) -> tuple[Instructi
     timings = {"vad": t1 - t0}
     if not vad.speech:
         return None, None, vad, timings
-    y = trim(x, vad)
+    y = cut(x)
+    if y is None:  # the same detector decided there was speech: cannot happen, but never lose a request
+        y = trim(x, vad)
     tr = asr.transcribe(y, nbest=nbest)
     timings["asr"] = time.perf_counter() - t1
     if not tr.text:

@@ -331,3 +331,23 @@ class UtteranceSegmenter:
         """The utterance as it will end if the current silence goes on (None when there is none):
         available after ``post_roll_s`` of silence, before the end is declared."""
         return self._preview
+
+
+def cut(x: np.ndarray, options: SegmentOptions | None = None, scorer: FrameScorer | None = None) -> np.ndarray | None:
+    """The samples a stream of ``x`` would answer, for a door that gets the recording whole: the
+    segmenter fed ``x`` and ended, exactly as when ``x`` is streamed in chunks of any size and then
+    ended; the utterance with its pre- and post-roll. A recording holding several utterances (a
+    stream would answer each) gives the span from the first one's start to the last one's end: a
+    recording sent whole is one request. None without speech."""
+    seg = UtteranceSegmenter(options, scorer)
+    x32 = np.ascontiguousarray(x, dtype=np.float32).reshape(-1)
+    utts = [e.utterance for e in seg.feed(x32) + seg.finish() if isinstance(e, SpeechEnded)]
+    if not utts:
+        return None
+    if len(utts) == 1:
+        return utts[0].samples
+
+    def first_sample(u: Utterance) -> int:  # where its samples begin: the pre-roll before its first frame
+        return max(0, round(u.start_s / FRAME_S) - seg._pre) * FRAME
+
+    return x32[first_sample(utts[0]):first_sample(utts[-1]) + len(utts[-1].samples)]

@@ -183,10 +183,9 @@ async def _infer_times(client: Any, n: int | None, rps: float, stop: asyncio.Eve
             errors += 1
         ms.append((time.perf_counter() - t0) * 1000)
         k += 1
-        if n is None:
-            with contextlib.suppress(asyncio.TimeoutError):
-                await asyncio.wait_for(stop.wait() if stop else asyncio.sleep(0), max(0.0, 1 / max(rps, 1e-9)
-                                                                                     - (time.perf_counter() - t0)))
+        if stop is not None:  # paced: the next request 1/rps seconds after this one began
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(stop.wait(), max(0.0, 1 / rps - (time.perf_counter() - t0)))
     return ms, errors
 
 
@@ -247,7 +246,7 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
                                                            list[StreamOutcome], tuple[np.ndarray, list[dict[str, Any]]]]:
     import httpx
 
-    from siftom.bench.stream import CLIPS, StreamBenchOptions, build_stream
+    from siftom.bench.stream import StreamBenchOptions, build_stream
 
     headers = {"Authorization": f"Bearer {opts.token}"} if opts.token else {}
     rng = np.random.default_rng(opts.seed)
@@ -259,11 +258,8 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
             if r.status_code != 201:
                 raise SiftomError(f"could not create a session: {r.status_code} {r.text[:200]}")
             sessions.append(r.json()["id"])
-            x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k, quick=True))
-            keep = tr[:opts.instructions] if opts.instructions <= len(tr) else tr
-            if opts.instructions > 4:
-                x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k))
-                keep = tr[:min(opts.instructions, len(CLIPS))]
+            x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k, quick=opts.instructions <= 4))
+            keep = tr[:opts.instructions]
             end = int((keep[-1]["end_s"] + 1.0) * 16000)
             audios.append(x[:end])
             truths.append(keep)

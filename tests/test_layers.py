@@ -36,15 +36,19 @@ def _part(module: str) -> str:
 
 
 def _imports(path: Path):
+    """(line, module) of every siftom import; the package root (``import siftom``, ``from siftom
+    import infer``) is the facade, the top of the house, and is reported as ``siftom``."""
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names] if node.module == "siftom" else [node.module]
-            for m in names:
-                if m.startswith("siftom."):
-                    yield node.lineno, m
+            if node.module == "siftom":
+                for a in node.names:
+                    sub = SRC / a.name
+                    yield node.lineno, f"siftom.{a.name}" if sub.is_dir() or sub.with_suffix(".py").is_file() else "siftom"
+            elif node.module.startswith("siftom."):
+                yield node.lineno, node.module
         elif isinstance(node, ast.Import):
             for a in node.names:
-                if a.name.startswith("siftom."):
+                if a.name == "siftom" or a.name.startswith("siftom."):
                     yield node.lineno, a.name
 
 
@@ -84,6 +88,13 @@ def test_no_registration_names_a_layer_above(path):
     up = [f"line {n}: {m} (layer {LAYER_OF[_part(m)]} > {own})"
           for n, m in _entry_points(path) if LAYER_OF.get(_part(m), -1) > own]
     assert not up, "registers an entry point from a higher layer: " + "; ".join(up)
+
+
+def test_the_layer_test_sees_the_package_root(tmp_path):
+    mod = tmp_path / "mod.py"
+    mod.write_text("import siftom\nfrom siftom import infer\nfrom siftom import errors\n")
+    assert list(_imports(mod)) == [(1, "siftom"), (2, "siftom"), (3, "siftom.errors")]
+    assert LAYER_OF[_part("siftom")] == LAYER_OF["__init__"]
 
 
 def test_the_layer_test_sees_registration_strings(tmp_path):

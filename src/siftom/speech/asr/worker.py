@@ -124,8 +124,6 @@ class EngineWorker:
 
     def __init__(self, name: str, vocabulary: Sequence[str] | None = None, **options: Any) -> None:
         """Start the child and send it the engine to build (does not wait for it)."""
-        import siftom
-
         self.name = name
         self.owner = os.getpid()
         self._lock = threading.Lock()
@@ -133,7 +131,7 @@ class EngineWorker:
         self._pending = False
         self._audio_s = 0.0
         env = dict(os.environ)
-        root = str(Path(siftom.__file__).resolve().parents[1])  # this siftom, wherever it was imported from
+        root = str(Path(__file__).resolve().parents[3])  # this siftom (src/siftom/speech/asr/worker.py), wherever it was imported from
         env["PYTHONPATH"] = os.pathsep.join([root, *([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])])
         try:
             self._proc = subprocess.Popen(

@@ -186,10 +186,60 @@ def _container(node: Node) -> Container:
     return Container(node.id, node.class_name, openable, "OPEN" in node.states or not openable)
 
 
-def derive(graph: SceneGraph) -> SymbolicScene:
-    by_id = graph._by_id
-    ordered = sorted(graph.nodes, key=lambda n: n.id)
+_Holders = dict[int, list[tuple[Relation, int]]]
 
+
+def _smaller(by_id: dict[int, Node], a: int, b: int) -> bool:
+    """Whether a's box is smaller than b's (both known)."""
+    box_a, box_b = by_id[a].bounding_box, by_id[b].bounding_box
+    return box_a is not None and box_b is not None and box_a.volume < box_b.volume
+
+
+def _holders(graph: SceneGraph) -> tuple[_Holders, dict[int, list[int]]]:
+    """Candidate holders: INSIDE/ON edges to non-room nodes other than the node itself; and the
+    rooms each node is directly INSIDE."""
+    by_id = graph._by_id
+    holders: _Holders = {}
+    direct_rooms: dict[int, list[int]] = {}
+    for e in graph.edges:
+        if e.relation_type not in _PLACEMENT or e.from_id == e.to_id:
+            continue
+        if by_id[e.to_id].is_room:
+            if e.relation_type is Relation.INSIDE:
+                direct_rooms.setdefault(e.from_id, []).append(e.to_id)
+        elif not (e.relation_type is Relation.INSIDE and _smaller(by_id, e.to_id, e.from_id)):
+            # Nothing fits inside a smaller box: such an INSIDE edge is an artefact of
+            # VirtualHome's box tests (apartment_graph_2: a kitchen counter INSIDE the
+            # dishwasher built into it), and would wrongly shut everything on the counter away.
+            holders.setdefault(e.from_id, []).append((e.relation_type, e.to_id))
+    return holders, direct_rooms
+
+
+def _innermost(holders: _Holders, targets: list[int]) -> list[int]:
+    # Drop every target that holds another target, directly or through other holders.
+    # ON cycles are tolerated (VirtualHome computes ON from bounding boxes and can make it
+    # mutual): if every target would go, keep them all. The search looks at no more than
+    # _HOLDS_SEARCH_LIMIT edges, so a pathological graph (thousands of nodes stacked on
+    # one another) stays linear instead of quadratic; real chains are a few edges long.
+    held_by_targets: set[int] = set()
+    expanded: set[int] = set()
+    queue = deque(targets)
+    budget = _HOLDS_SEARCH_LIMIT
+    while queue and budget > 0:
+        cur = queue.popleft()
+        if cur in expanded:
+            continue
+        expanded.add(cur)
+        above = holders.get(cur, ())
+        budget -= len(above) + 1
+        for _, t in above:
+            if t not in held_by_targets:
+                held_by_targets.add(t)
+                queue.append(t)
+    return [t for t in targets if t not in held_by_targets] or targets
+
+
+def _choose_parent(by_id: dict[int, Node], holders: _Holders, node_id: int) -> tuple[Relation, int] | None:
     def volume(node_id: int) -> float:
         box = by_id[node_id].bounding_box
         return box.volume if box is not None else math.inf
@@ -198,71 +248,32 @@ def derive(graph: SceneGraph) -> SymbolicScene:
         box = by_id[node_id].bounding_box
         return box.center[1] + box.size[1] / 2 if box is not None else -math.inf
 
-    def smaller(a: int, b: int) -> bool:  # a's box is smaller than b's (both known)
-        box_a, box_b = by_id[a].bounding_box, by_id[b].bounding_box
-        return box_a is not None and box_b is not None and box_a.volume < box_b.volume
+    cands = holders.get(node_id, ())
+    for rel in _PLACEMENT:  # INSIDE first: the container decides whether it can be reached
+        targets = sorted({t for r, t in cands if r is rel})
+        if len(targets) > 1:
+            targets = _innermost(holders, targets)
+        if targets and rel is Relation.INSIDE:  # the smallest container is the innermost
+            return rel, min(targets, key=lambda t: (volume(t), t))
+        if targets:  # the highest top is the support right under the object
+            return rel, min(targets, key=lambda t: (-top(t), t))
+    return None
 
-    # Candidate holders: INSIDE/ON edges to non-room nodes other than the node itself.
-    holders: dict[int, list[tuple[Relation, int]]] = {}
-    direct_rooms: dict[int, list[int]] = {}
-    for e in graph.edges:
-        if e.relation_type not in _PLACEMENT or e.from_id == e.to_id:
-            continue
-        if by_id[e.to_id].is_room:
-            if e.relation_type is Relation.INSIDE:
-                direct_rooms.setdefault(e.from_id, []).append(e.to_id)
-        elif not (e.relation_type is Relation.INSIDE and smaller(e.to_id, e.from_id)):
-            # Nothing fits inside a smaller box: such an INSIDE edge is an artefact of
-            # VirtualHome's box tests (apartment_graph_2: a kitchen counter INSIDE the
-            # dishwasher built into it), and would wrongly shut everything on the counter away.
-            holders.setdefault(e.from_id, []).append((e.relation_type, e.to_id))
 
-    def innermost(targets: list[int]) -> list[int]:
-        # Drop every target that holds another target, directly or through other holders.
-        # ON cycles are tolerated (VirtualHome computes ON from bounding boxes and can make it
-        # mutual): if every target would go, keep them all. The search looks at no more than
-        # _HOLDS_SEARCH_LIMIT edges, so a pathological graph (thousands of nodes stacked on
-        # one another) stays linear instead of quadratic; real chains are a few edges long.
-        held_by_targets: set[int] = set()
-        expanded: set[int] = set()
-        queue = deque(targets)
-        budget = _HOLDS_SEARCH_LIMIT
-        while queue and budget > 0:
-            cur = queue.popleft()
-            if cur in expanded:
-                continue
-            expanded.add(cur)
-            above = holders.get(cur, ())
-            budget -= len(above) + 1
-            for _, t in above:
-                if t not in held_by_targets:
-                    held_by_targets.add(t)
-                    queue.append(t)
-        return [t for t in targets if t not in held_by_targets] or targets
+def _pick_room(by_id: dict[int, Node], node: Node, candidates: list[int]) -> int:
+    # Several rooms (a door between two): the one whose box holds the node, else lowest id.
+    pos = node.position
+    if len(candidates) > 1 and pos is not None:
+        around = [r for r in candidates
+                  if (box := by_id[r].bounding_box) is not None and box.contains(pos)]
+        if around:
+            return min(around)
+    return min(candidates)
 
-    def choose_parent(node_id: int) -> tuple[Relation, int] | None:
-        cands = holders.get(node_id, ())
-        for rel in _PLACEMENT:  # INSIDE first: the container decides whether it can be reached
-            targets = sorted({t for r, t in cands if r is rel})
-            if len(targets) > 1:
-                targets = innermost(targets)
-            if targets and rel is Relation.INSIDE:  # the smallest container is the innermost
-                return rel, min(targets, key=lambda t: (volume(t), t))
-            if targets:  # the highest top is the support right under the object
-                return rel, min(targets, key=lambda t: (-top(t), t))
-        return None
 
-    def pick_room(node: Node, candidates: list[int]) -> int:
-        # Several rooms (a door between two): the one whose box holds the node, else lowest id.
-        pos = node.position
-        if len(candidates) > 1 and pos is not None:
-            around = [r for r in candidates
-                      if (box := by_id[r].bounding_box) is not None and box.contains(pos)]
-            if around:
-                return min(around)
-        return min(candidates)
-
-    parents = {n.id: choose_parent(n.id) for n in ordered if not n.is_room}
+def _rooms(by_id: dict[int, Node], ordered: list[Node], holders: _Holders, direct_rooms: dict[int, list[int]],
+           parents: dict[int, tuple[Relation, int] | None]) -> dict[int, int | None]:
+    """The room of every node: up its parent chain to a node INSIDE a room."""
     room: dict[int, int | None] = {}
     for node in ordered:
         # Follow the parent chain up to a node INSIDE a room; memoise along the way.
@@ -275,7 +286,7 @@ def derive(graph: SceneGraph) -> SymbolicScene:
                 found = room[cur]
                 break
             if cur in direct_rooms:
-                found = pick_room(by_id[cur], direct_rooms[cur])
+                found = _pick_room(by_id, by_id[cur], direct_rooms[cur])
                 break
             path.append(cur)
             on_path.add(cur)
@@ -290,7 +301,15 @@ def derive(graph: SceneGraph) -> SymbolicScene:
         if room.get(node.id) is None and not node.is_room:
             room[node.id] = next((room[t] for _, t in holders.get(node.id, ())
                                   if room.get(t) is not None), None)
+    return room
 
+
+def derive(graph: SceneGraph) -> SymbolicScene:
+    by_id = graph._by_id
+    ordered = sorted(graph.nodes, key=lambda n: n.id)
+    holders, direct_rooms = _holders(graph)
+    parents = {n.id: _choose_parent(by_id, holders, n.id) for n in ordered if not n.is_room}
+    room = _rooms(by_id, ordered, holders, direct_rooms, parents)
     placements = []
     for node in ordered:
         if node.is_room:
@@ -307,5 +326,3 @@ def derive(graph: SceneGraph) -> SymbolicScene:
         grabbables=tuple(n.id for n in ordered if not n.is_room and n.has_property("GRABBABLE")),
         placements=tuple(placements),
     )
-
-

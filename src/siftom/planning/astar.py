@@ -122,10 +122,37 @@ def plan_for_goal(
     kmax = max([n for _c, n in goal.counts] + [1])
     ctg = CostToGo(world, goal.target, kmax, agent=agent)
     N = goal_matrix(world, [goal])
+    successors = _successors(world, goal, agent, prune)
+    if heuristic not in ("admissible", "fast"):
+        raise unknown_name("heuristic", heuristic, ("admissible", "fast"))
+    fast = heuristic == "fast"
+    opens_lower_bound = _opens_lower_bound(world, goal, agent)
+
+    def h(s: State) -> float:
+        if fast:
+            return float(ctg.values(ctg.tables(s), N, s.agent_at[agent], s.held[agent])[0])
+        v = float(ctg.values(ctg.tables(s), N, s.agent_at[agent], s.held[agent], relaxed=True)[0])
+        return v + opens_lower_bound(s)
+
+    res = astar(start, lambda s: goal.satisfied(world, s), successors,
+                h if use_heuristic else None, max_nodes, max_time)
+    if not res.solved:  # no plan: the same result, its (empty) plan typed as single actions
+        return PlanResult(res.status, (), res.cost, res.nodes_expanded, res.seconds)
+    plan = tuple(a for macro in res.plan for a in macro)
+    states = [start]
+    for a in plan:
+        states.append(apply(states[-1], a))
+    return PlanResult(res.status, plan, res.cost, res.nodes_expanded, res.seconds, tuple(states))
+
+
+def _successors(world: World, goal: Goal, agent: int,
+                prune: bool) -> Callable[[State], Iterator[tuple[tuple[Action, ...], State, float]]]:
+    """The successor function of :func:`plan_for_goal`: single actions, or (``prune``) the
+    actions worth considering, walks expanded as walk+action macros (its docstring)."""
     needed = {c for c, _n in goal.counts}
 
     def acts_here(s: State) -> Iterator[Action]:
-        """Non-walk actions worth considering where the agent stands (pruned, see docstring)."""
+        """Non-walk actions worth considering where the agent stands (pruned, see plan_for_goal)."""
         h = s.held[agent]
         holding_spare = h >= 0 and world.items[h].cls not in needed
         for a in legal_actions(world, s, agent):
@@ -166,6 +193,10 @@ def plan_for_goal(
             for a in acts_here(s1):
                 yield (w, a), apply(s1, a), d + 1.0
 
+    return successors
+
+
+def _opens_lower_bound(world: World, goal: Goal, agent: int) -> Callable[[State], int]:
     counts = dict(goal.counts)
     closable = [p.closable for p in world.places]
 
@@ -193,22 +224,4 @@ def plan_for_goal(
         rest = any(not (v & forced) for v in short.values())
         return len(forced) + (1 if rest else 0)
 
-    if heuristic not in ("admissible", "fast"):
-        raise unknown_name("heuristic", heuristic, ("admissible", "fast"))
-    fast = heuristic == "fast"
-
-    def h(s: State) -> float:
-        if fast:
-            return float(ctg.values(ctg.tables(s), N, s.agent_at[agent], s.held[agent])[0])
-        v = float(ctg.values(ctg.tables(s), N, s.agent_at[agent], s.held[agent], relaxed=True)[0])
-        return v + opens_lower_bound(s)
-
-    res = astar(start, lambda s: goal.satisfied(world, s), successors,
-                h if use_heuristic else None, max_nodes, max_time)
-    if not res.solved:  # no plan: the same result, its (empty) plan typed as single actions
-        return PlanResult(res.status, (), res.cost, res.nodes_expanded, res.seconds)
-    plan = tuple(a for macro in res.plan for a in macro)
-    states = [start]
-    for a in plan:
-        states.append(apply(states[-1], a))
-    return PlanResult(res.status, plan, res.cost, res.nodes_expanded, res.seconds, tuple(states))
+    return opens_lower_bound

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from siftom.world.model import NOTHING, Item, Place, State, World
@@ -39,3 +41,12 @@ def three_room_house() -> tuple[World, State]:
     world = World(places, items, dist)
     s = State((1, 0), (NOTHING, NOTHING), (2, 2, 1, 3), 0)
     return world, s
+
+
+def phonetic_model() -> Any:
+    """The default model with the phonetic likelihood, built by the observer every door uses
+    (default settings, not the ``SIFTOM_*`` environment)."""
+    from siftom.observer import observer_for
+    from siftom.settings import Settings
+
+    return observer_for(Settings.load(env={})).model("full", "phonetic")

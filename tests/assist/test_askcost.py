@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from siftom.api import get_model
+from helpers import phonetic_model
 from siftom.assist.askcost import QuestionCost, n_words
 from siftom.assist.decide import AskOrActRule, Situation, best_questions, question_cost
 from siftom.assist.questions import count_question
@@ -32,7 +32,7 @@ def test_exchange_time_is_the_words_at_the_speaking_rate_plus_gaps_and_recogniti
 
 def test_ask_or_act_prices_each_question_by_its_spoken_length() -> None:
     sc = get_scenario("household-table-v0/3")
-    post = get_model().infer(Observation.from_scenario(sc, Instruction.from_text("get the spoons")))
+    post = phonetic_model().infer(Observation.from_scenario(sc, Instruction.from_text("get the spoons")))
     where = Situation.from_scenario(sc)
     tv = team_values(post.joint, sc.world, sc.target)
     rule = AskOrActRule()

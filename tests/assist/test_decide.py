@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import siftom
+from helpers import phonetic_model
 from siftom.agents.team import simulate_scenario
-from siftom.api import get_model
 from siftom.assist.decide import (
     DEFAULT_LOSS_AVERSION,
     RULES,
@@ -29,7 +29,7 @@ from siftom.scenarios.base import get_scenario
 def _posterior(sid: str, words: str | None):
     sc = get_scenario(sid)
     ins = Instruction.from_text(words) if words else None
-    return sc, get_model().infer(Observation.from_scenario(sc, ins))
+    return sc, phonetic_model().infer(Observation.from_scenario(sc, ins))
 
 
 def _certain(post, goal_name: str):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from siftom.api import get_model
+from helpers import phonetic_model
 from siftom.assist.decide import Situation, question_values, with_answer
 from siftom.assist.questions import (
     answer_log_likelihood_cells,
@@ -28,7 +28,7 @@ SPOONS = [f"deliver(spoon,{k})" for k in range(1, 5)]
 
 def _posterior(sid: str, words: str):
     sc = get_scenario(sid)
-    return sc, get_model().infer(Observation.from_scenario(sc, Instruction.from_text(words)))
+    return sc, phonetic_model().infer(Observation.from_scenario(sc, Instruction.from_text(words)))
 
 
 def test_cells_and_heard_answers():

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from helpers import phonetic_model
 from siftom.agents.team import simulate_scenario
-from siftom.api import get_model
 from siftom.assist.decide import Situation, decide
 from siftom.assist.teamvalue import NONE, team_values
 from siftom.inference.model import JointPosterior, Observation
@@ -16,7 +16,7 @@ from siftom.scenarios.base import get_scenario
 
 def _point_mass(sc):
     """The posterior's hypotheses reduced to one row: the scenario's true goal."""
-    post = get_model().infer(Observation.from_scenario(sc, Instruction.from_text("bring it")))
+    post = phonetic_model().infer(Observation.from_scenario(sc, Instruction.from_text("bring it")))
     j = post.joint
     gi = [g.name for g in j.goals].index(sc.goal.name)
     return post, JointPosterior(j.goals, j.commands, np.array([gi]), np.array([0]), np.array([0.0]), j.state)
@@ -65,7 +65,7 @@ def test_steps_already_spent_count_in_every_outcome():
     # after a question the team is 2 steps behind whatever the robot does; a loss-averse robot
     # then compares u(b - 2) across actions, doing nothing included (-2 is a loss)
     sc = get_scenario("household-table-v0/3")
-    post = get_model().infer(Observation.from_scenario(sc, Instruction.from_text("get the spoons")))
+    post = phonetic_model().infer(Observation.from_scenario(sc, Instruction.from_text("get the spoons")))
     where = Situation.from_scenario(sc)
     tv = team_values(post.joint, sc.world, sc.target, where.state)
     for spent in (0.0, 2.0, 6.0):

@@ -9,7 +9,7 @@ chance:
 with r the relative phoneme cost of :class:`~siftom.likelihood.background.MeaningVocabulary`
 (0 for an exact command word, ~1 for nothing alike) and t the chance level: the 1st percentile of
 r that random English words reach against the commands of the built-in scenes, per word length in
-phonemes (``python -m siftom.bench.nearness`` measures it; docs/speech.md). So a heard word
+phonemes (``python studies/nearness.py`` measures it; docs/speech.md). So a heard word
 names an object when it matches one better than 99 % of random words would.
 """
 
@@ -28,7 +28,7 @@ from siftom.likelihood.phonemes import normalize_text, word_phonemes
 from siftom.likelihood.phrasing import FILLER_WORDS, NUMBER_WORDS, content_prior
 
 # t(length in phonemes): the 1st percentile of r for random cmudict words (seed 0, 4000 words)
-# against the commands of every built-in scene; `python -m siftom.bench.nearness` (docs/speech.md)
+# against the commands of every built-in scene; `python studies/nearness.py` (docs/speech.md)
 CHANCE_R: dict[int, float] = {2: 0.076, 3: 0.181, 4: 0.147, 5: 0.21, 6: 0.256, 7: 0.35, 8: 0.406}
 CHANCE_QUANTILE = 0.01
 # the hypotheses that count as heard: those with at least this share of the N-best weight

@@ -21,7 +21,7 @@ network judged speech.
 The earlier detector, a hand-built rule on that excess level and a voicing measure, is kept as
 ``method="spectral"`` (for comparison and when the wheel cannot be installed). Measured false
 alarms on every recorded noise clip and misses on speech in noise for both: docs/speech.md,
-``python -m siftom.bench.vad``.
+``python studies/vad.py``.
 """
 
 from __future__ import annotations

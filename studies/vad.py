@@ -1,4 +1,4 @@
-"""Measure the voice-activity detectors and what the robot does with noise: ``python -m siftom.bench.vad [NOISE_DIR]``.
+"""Measure the voice-activity detectors and what the robot does with noise: ``python studies/vad.py [NOISE_DIR]``.
 
 False alarms: every recorded noise file whole, and 3 s excerpts (the first two) of each. Misses: four TTS
 sentences (four voices) mixed with every third noise file at 20, 10, 5 and 0 dB (fixed seeds).
@@ -31,12 +31,14 @@ class _Robot:
     """What ``siftom infer --audio`` does after the detector, in one scene (engine and model cached)."""
 
     def __init__(self, scenario: str) -> None:
-        from siftom.api import engine_for, get_model
+        from siftom.observer import observer_for
         from siftom.scenarios.base import get_scenario
+        from siftom.settings import Settings
 
         sc = get_scenario(scenario)
-        self.asr = engine_for(sc.world, sc.verb)
-        self.online = get_model("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb)
+        observer = observer_for(Settings.load(env={}))
+        self.asr = observer.recogniser(sc.world, sc.verb)
+        self.online = observer.model("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb)
         for a in sc.actions:
             self.online.observe(a)
 

@@ -1,4 +1,4 @@
-"""How near random words come to a scene's commands: ``python -m siftom.bench.nearness [N] [SEED]``.
+"""How near random words come to a scene's commands: ``python studies/nearness.py [N] [SEED]``.
 
 Draws N random words (alphabetic, 2+ letters, not filler or number words) from CMUdict with a
 seed, and rates each against the command words of every built-in scene (both domains) with
@@ -23,10 +23,11 @@ LENGTHS = (1, 2, 3, 4, 5, 6, 7, 8)
 
 def scene_command_sets() -> list[tuple[str, tuple[RobotCommand, ...]]]:
     """(scenario id, its commands) for every built-in scenario."""
-    from siftom.api import get_model
+    from siftom.observer import observer_for
     from siftom.scenarios.base import get_scenario, scenario_ids
+    from siftom.settings import Settings
 
-    model = get_model("full", "phonetic")
+    model = observer_for(Settings.load(env={})).model("full", "phonetic")
     out: list[tuple[str, tuple[RobotCommand, ...]]] = []
     for sid in scenario_ids():
         sc = get_scenario(sid)

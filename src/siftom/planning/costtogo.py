@@ -29,93 +29,23 @@ from __future__ import annotations
 import operator
 import weakref
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
-from siftom.errors import ObservationError
 from siftom.planning import _kernel
+from siftom.planning.ctgtables import F64, Bool, ClassRows
+from siftom.planning.ctgtables import INF as INF
+from siftom.planning.ctgtables import ClassTables as ClassTables
+from siftom.planning.ctgtables import SparseGoals as SparseGoals
+from siftom.planning.ctgtables import fetch_order as fetch_order
+from siftom.planning.ctgtables import goal_matrix as goal_matrix
 from siftom.world.model import HELD, NOTHING, Action, Goal, State, World, apply, cost
 
-INF = np.float64(1e9)
-
-F64 = npt.NDArray[np.float64]
-I64 = npt.NDArray[np.int64]
-Bool = npt.NDArray[np.bool_]
-# one class's table rows (``CostToGo._class_rows``): cum, opens, delta, fdelta, fmask, the number
-# already on the target, then the five arrays again with a leading axis of length one
-ClassRows = tuple[F64, I64, F64, F64, I64, int, F64, I64, F64, F64, I64]
 RowKey = tuple[int, tuple[int, ...], int]
 
 # per world: class rows by (target, kmax), tables by (target, kmax, agent, "tables")
 _ROW_CACHE: weakref.WeakKeyDictionary[World, dict[tuple[object, ...], dict[Any, Any]]] = weakref.WeakKeyDictionary()
-
-
-def goal_matrix(world: World, goals: Sequence[Goal]) -> np.ndarray:
-    """Required counts, shape (len(goals), len(world.classes)); all goals share one target."""
-    col = {c: k for k, c in enumerate(world.classes)}
-    out = np.zeros((len(goals), len(world.classes)), dtype=np.int64)
-    for g, goal in enumerate(goals):
-        for c, n in goal.counts:
-            if c not in col:
-                raise ObservationError(
-                    f"goal {goal.name!r} needs class {c!r}, which this world has no object of; "
-                    f"add such an object to the world or drop the goal (classes here: {', '.join(world.classes)})")
-            out[g, col[c]] = n
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class ClassTables:
-    """Per-class tables for one arrangement of objects (agent position enters via the deltas).
-
-    cum[c, k]       cost of the k cheapest round trips of class c (INF if fewer exist)
-    opens[c, k]     bitmask of closed containers among those k instances (ties in distance
-                    are broken towards open places, then towards the containers holding most)
-    delta[c, k, q]  first-trip correction when the agent starts at place q, opening costs left
-                    out (the relaxed problem: exact, used by the A* heuristic)
-    fdelta[c, k, q] first-trip correction with opening costs: the first object may come from a
-                    container the k cheapest round trips would not open (and then one of those
-                    is left out); the change in walking and grabbing, opening not included
-    fmask[c, k, q]  the closed containers that choice opens (replaces ``opens[c, k]``)
-    at_target[c]    objects of class c already on the target
-
-    Rows are stored so that (class, k) pairs index flat arrays: one ``take`` per table.
-    """
-
-    cum: np.ndarray
-    opens: np.ndarray
-    delta: np.ndarray
-    fdelta: np.ndarray
-    fmask: np.ndarray
-    at_target: np.ndarray
-
-    def extend(self, rows: Sequence[ClassRows], relaxed: bool = False) -> ClassTables:
-        """These tables with class rows (``CostToGo._class_rows`` results) appended after them.
-
-        Without ``relaxed`` the result serves full values only (its ``delta`` is left empty: one
-        copy less on the hot path)."""
-        if not rows:
-            return self
-        fields = ("cum", "opens", "delta", "fdelta", "fmask")
-        cum, opens, delta, fdelta, fmask = [
-            np.concatenate([getattr(self, f)] + [r[6 + k] for r in rows]) if relaxed or f != "delta"
-            else self.delta[:0] for k, f in enumerate(fields)]
-        return ClassTables(cum, opens, delta, fdelta, fmask,
-                           np.concatenate([self.at_target, np.array([r[5] for r in rows], dtype=np.int64)]))
-
-
-def fetch_order(sites: Sequence[int], size: dict[int, int], closed: dict[int, bool], dT: np.ndarray) -> list[int]:
-    """Locations of a class's objects (one entry per object) in the order the tables take them.
-
-    By round trip (distance to the target) first; within a distance, open places before closed
-    containers and bigger groups before smaller ones, so that every prefix opens as few
-    containers as possible.
-    """
-    order = sorted(sites, key=lambda u: (dT[u], closed[u], -size[u], u))
-    return [u for u in order for _ in range(size[u])]
 
 
 class CostToGo:
@@ -344,46 +274,6 @@ class CostToGo:
         return float(self.values(self.tables(s), N, s.agent_at[self.agent], s.held[self.agent], relaxed)[0])
 
 
-@dataclass(frozen=True, eq=False)
-class SparseGoals:
-    """Goals as (class index, count) lists padded to equal length (padding: count 0).
-
-    Goals name few classes each, so this is several times smaller than the dense matrix.
-    """
-
-    idx: np.ndarray
-    cnt: np.ndarray
-    n_classes: int
-
-    @classmethod
-    def from_dense(cls, N: np.ndarray) -> SparseGoals:
-        N = np.atleast_2d(N)
-        G, C = N.shape
-        nz = N > 0
-        m = max(int(nz.sum(axis=1).max()) if G else 0, 1)
-        # stable sort puts each row's nonzero columns first, in column order
-        order = np.argsort(~nz, axis=1, kind="stable")[:, :m]
-        cnt = np.take_along_axis(N, order, axis=1).astype(np.int64)
-        idx = np.where(cnt > 0, order, 0).astype(np.int64)  # padding: any class with count 0
-        return cls(idx, np.where(cnt > 0, cnt, 0), C)
-
-    @property
-    def all_rows(self) -> np.ndarray:
-        cache: dict[int | str, npt.NDArray[np.intp]] = self.__dict__.setdefault("_rows_naming", {})
-        if "all" not in cache:
-            cache["all"] = np.arange(len(self.idx))
-        return cache["all"]
-
-    def rows_naming(self, c: int) -> np.ndarray:
-        """Indices of the goals that ask for class ``c`` (cached per instance)."""
-        cache: dict[int | str, npt.NDArray[np.intp]] = self.__dict__.setdefault("_rows_naming", {})
-        if c not in cache:
-            cache[c] = np.flatnonzero(((self.idx == c) & (self.cnt > 0)).any(axis=1))
-        return cache[c]
-
-    def __len__(self) -> int:
-        return len(self.idx)
-
 
 def successor_values(
     ctg: CostToGo, s: State, tabs: ClassTables, actions: Sequence[Action], N: np.ndarray | SparseGoals
@@ -398,25 +288,9 @@ def successor_values(
     """
     sp = N if isinstance(N, SparseGoals) else SparseGoals.from_dense(N)
     world, agent, C = ctg.world, ctg.agent, ctg.C
-    here, held = s.agent_at[agent], s.held[agent]
-    held_cls = int(world.item_class_idx[held]) if held != NOTHING else -1
-    G = len(sp)
-    Q = np.empty((len(actions), G))
-    walk_rows = [r for r, a in enumerate(actions) if a.kind == "walk"]
-    places = np.array([here] + [actions[r].place for r in walk_rows])
-    # V at every place depends on the objects, containers and hand, not on where the agent
-    # came from: after a walk, the next state's walk successors are the same states again
-    key = (id(sp), s.held[agent], s.item_at, s.open_mask)
-    v_all = ctg._vcache.get(key)
-    if v_all is None or v_all[0] is not sp:
-        v_all = (sp, ctg._values(tabs, sp.idx, sp.cnt, np.arange(ctg.P), held_cls))
-        if len(ctg._vcache) > 256:
-            ctg._vcache.clear()
-        ctg._vcache[key] = v_all
-    v = v_all[1][places]
-    v_stay = v[0]
-    if walk_rows:
-        Q[walk_rows] = v[1:] + world.dist[here, places[1:]][:, None]
+    here = s.agent_at[agent]
+    Q = np.empty((len(actions), len(sp)))
+    v_stay = _walk_values(ctg, s, tabs, actions, sp, Q)
     others = [r for r, a in enumerate(actions) if a.kind != "walk"]
     if not others:
         return Q
@@ -469,14 +343,36 @@ def successor_values(
         parts_cnt.append(cnt)
         parts_held.append(np.full(len(idx), hc2, dtype=np.int64))
         owners.append((r, rows, float(cost(world, s, a))))
-    if not parts_idx:
-        return Q
-    big = tabs.extend(extra_rows)
-    vals = ctg._values(big, np.concatenate(parts_idx), np.concatenate(parts_cnt), np.array([here]),
-                       np.concatenate(parts_held))[0]
-    k = 0
-    for (r, rows, c_a), idx in zip(owners, parts_idx, strict=True):
-        n = len(idx)
-        Q[r, rows] = c_a + vals[k:k + n]
-        k += n
+    if parts_idx:
+        vals = ctg._values(tabs.extend(extra_rows), np.concatenate(parts_idx), np.concatenate(parts_cnt),
+                           np.array([here]), np.concatenate(parts_held))[0]
+        k = 0
+        for (r, rows, c_a), idx in zip(owners, parts_idx, strict=True):
+            n = len(idx)
+            Q[r, rows] = c_a + vals[k:k + n]
+            k += n
     return Q
+
+
+def _walk_values(ctg: CostToGo, s: State, tabs: ClassTables, actions: Sequence[Action], sp: SparseGoals,
+                 Q: np.ndarray) -> np.ndarray:
+    """Fill the rows of ``Q`` that are walks; returns V where the agent stands, per goal."""
+    world, agent = ctg.world, ctg.agent
+    here, held = s.agent_at[agent], s.held[agent]
+    held_cls = int(world.item_class_idx[held]) if held != NOTHING else -1
+    walk_rows = [r for r, a in enumerate(actions) if a.kind == "walk"]
+    places = np.array([here] + [actions[r].place for r in walk_rows])
+    # V at every place depends on the objects, containers and hand, not on where the agent
+    # came from: after a walk, the next state's walk successors are the same states again
+    key = (id(sp), s.held[agent], s.item_at, s.open_mask)
+    v_all = ctg._vcache.get(key)
+    if v_all is None or v_all[0] is not sp:
+        v_all = (sp, ctg._values(tabs, sp.idx, sp.cnt, np.arange(ctg.P), held_cls))
+        if len(ctg._vcache) > 256:
+            ctg._vcache.clear()
+        ctg._vcache[key] = v_all
+    v = v_all[1][places]
+    if walk_rows:
+        Q[walk_rows] = v[1:] + world.dist[here, places[1:]][:, None]
+    v_stay: np.ndarray = v[0]
+    return v_stay

@@ -274,7 +274,6 @@ class CostToGo:
         return float(self.values(self.tables(s), N, s.agent_at[self.agent], s.held[self.agent], relaxed)[0])
 
 
-
 def successor_values(
     ctg: CostToGo, s: State, tabs: ClassTables, actions: Sequence[Action], N: np.ndarray | SparseGoals
 ) -> np.ndarray:

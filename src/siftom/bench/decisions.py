@@ -137,43 +137,80 @@ def run_decision_model(
     from siftom.bench.models import eval_settings
     from siftom.bench.scoring import is_correct
     from siftom.inputs import resolve_scene
-    from siftom.observation import Instruction
     from siftom.observer import observer_for
 
     lk, rule = decision_models()[model]
     cm = cost_model or QuestionCost()
     reliability = _answers.answer_reliabilities(stimulus.snr_db)
-    opts: dict[str, Any] = {"loss_aversion": DEFAULT_LOSS_AVERSION}
-    if rule in ("ask-or-act", "teammate"):
-        opts.update(ask_cost=ask_cost, cost_model=cm)
-    chooser = get_rule(rule, **opts)
+    chooser = _rule(rule, cm, ask_cost)
     obs = observer_for(eval_settings("full"))
     online = obs.online(resolve_scene(scenario, None), "full")
     ans = obs.answer(online, instruction, likelihood=lk, decide=chooser, answer_reliability=reliability)
     d = ans.decision
 
-    def done(a: Any) -> tuple[str, float]:
-        """(the command carried out or "none", its probability)."""
-        if a.action != "act" or not a.carry_out:
-            return "none", 0.0
-        return str(a.carry_out[0]), float(a.prob(str(a.carry_out[0])))
-
-    def benefit(a: Any) -> float | None:
-        eb = float(a.decision.expected_benefit)
-        return round(eb, 3) if np.isfinite(eb) else None
-
     top = str(ans.top_command)
-    command, prob = (d.command, ans.prob(d.command)) if d.ask else done(ans)
+    command, prob = (d.command, ans.prob(d.command)) if d.ask else _done(ans)
     out: dict[str, Any] = {"command": command, "prob": prob, "asked": False, "action": ans.action,
-                           "reason": d.reason, "declined": d.declined, "expected_benefit": benefit(ans),
+                           "reason": d.reason, "declined": d.declined, "expected_benefit": _benefit(ans),
                            "map_command": top, "map_correct": is_correct(top, stimulus.gold_command, scenario.verb)}
     if rule in ("ask-or-act", "teammate"):
         out.update({"evi": round(d.evi, 3), "question_cost": round(d.ask_cost, 3),
                     "answer_reliability": {k: round(v, 4) for k, v in reliability.items()}})
     if not d.ask or d.asked is None:
         return out
-    # the exchange: the person answers each question; the robot may ask again (another question)
-    first_q, h0, spent, now = d.asked, None, 0.0, ans
+    h0, spent, said, now = _exchange(
+        ans, stimulus, scenario, dataset_root, transcribe,
+        lambda reply, pending: obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=pending,
+                                          answer_reliability=reliability),
+        lambda q, h: float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"]))
+    if h0 is None:  # (the loop runs at least once: the first answer asked)
+        return out
+    top2 = str(now.top_command)
+    command, prob = _done(now)
+    first_cell = h0["cell"]
+    out.update({"command": command, "prob": prob, "asked": True, "question": d.question,
+                "question_kind": d.asked.kind, "questions": len(said), "exchange": said,
+                "ask_cost": round(spent, 4), "command_before": d.command, "action_after": now.action,
+                "asked_again": len(said) > 1 or now.action == "ask",
+                "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
+                "answer": h0["answer"], "answer_heard": h0["answer_heard"], "map_command": top2,
+                **({"answer_cell_ok": h0["heard_cell"] == first_cell, "answer_unclear": h0["heard_cell"] is None}
+                   if first_cell is not None else {}),
+                "map_correct": is_correct(top2, stimulus.gold_command, scenario.verb),
+                "expected_benefit": _benefit(now)})
+    return out
+
+
+def _rule(rule: str, cm: QuestionCost, ask_cost: float | None) -> Any:
+    """The decision rule ``rule`` as the benchmark runs it (an asking rule with the exchange's cost)."""
+    opts: dict[str, Any] = {"loss_aversion": DEFAULT_LOSS_AVERSION}
+    if rule in ("ask-or-act", "teammate"):
+        opts.update(ask_cost=ask_cost, cost_model=cm)
+    return get_rule(rule, **opts)
+
+
+def _done(a: Any) -> tuple[str, float]:
+    """(the command carried out or "none", its probability)."""
+    if a.action != "act" or not a.carry_out:
+        return "none", 0.0
+    return str(a.carry_out[0]), float(a.prob(str(a.carry_out[0])))
+
+
+def _benefit(a: Any) -> float | None:
+    eb = float(a.decision.expected_benefit)
+    return round(eb, 3) if np.isfinite(eb) else None
+
+
+def _exchange(ans: Any, stimulus: Any, scenario: Any, dataset_root: str, transcribe: Callable[..., Any],
+              heard_as: Callable[[Any, Any], Any], cost: Callable[[Any, dict[str, Any]], float],
+              ) -> tuple[dict[str, Any] | None, float, list[str], Any]:
+    """The spoken exchange after a question: the person answers each question and the robot may
+    ask again (up to :data:`MAX_QUESTIONS`); (the first answer heard, the time spent, what was
+    asked and heard, the last answer)."""
+    from siftom.bench.scoring import is_correct
+    from siftom.observation import Instruction
+
+    h0, spent, now = None, 0.0, ans
     said: list[str] = []
     while now.action == "ask" and now.decision.asked is not None and len(said) < MAX_QUESTIONS:
         q = now.decision.asked
@@ -184,27 +221,11 @@ def run_decision_model(
                         q.n_cells - 1)
             h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe, salt=len(said))
         h0 = h0 or h
-        spent += float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"])
+        spent += cost(q, h)
         said.append(f"{q.text} -> {h['answer_heard']}")
         reply = Instruction.from_text(h["answer_heard"]) if str(h["answer_heard"]).strip() else None
-        now = obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=now.pending,
-                         answer_reliability=reliability)
-    if h0 is None:  # (the loop runs at least once: the first answer asked)
-        return out
-    top2 = str(now.top_command)
-    command, prob = done(now)
-    first_cell = h0["cell"]
-    out.update({"command": command, "prob": prob, "asked": True, "question": d.question,
-                "question_kind": first_q.kind, "questions": len(said), "exchange": said,
-                "ask_cost": round(spent, 4), "command_before": d.command, "action_after": now.action,
-                "asked_again": len(said) > 1 or now.action == "ask",
-                "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": h0["answer"], "answer_heard": h0["answer_heard"], "map_command": top2,
-                **({"answer_cell_ok": h0["heard_cell"] == first_cell, "answer_unclear": h0["heard_cell"] is None}
-                   if first_cell is not None else {}),
-                "map_correct": is_correct(top2, stimulus.gold_command, scenario.verb),
-                "expected_benefit": benefit(now)})
-    return out
+        now = heard_as(reply, now.pending)
+    return h0, spent, said, now
 
 
 def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:

@@ -133,22 +133,23 @@ def evaluate(
                 getattr(be, "shutdown", be.close)()
 
 
-def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bool,
-              progress: Callable[[int, int], None] | None) -> EvalRun:
-    run_info: dict[str, Any] = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
-                "options": opts.to_json(), "seed": opts.seed}
-    prov = provenance(opts.to_json(), ds.fingerprint)
-    run_path = root / RUN
-    old: dict[str, Any] = {}
-    if run_path.is_file():
-        try:
-            old = json.loads(run_path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError:
-            old = {}
-    if overwrite:
-        for name in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS):
-            (root / name).unlink(missing_ok=True)
-    t0 = time.perf_counter()
+def _old_run(run_path: Path) -> dict[str, Any]:
+    """The run.json of an earlier run in the folder ({} when there is none or it is torn)."""
+    if not run_path.is_file():
+        return {}
+    try:
+        old: dict[str, Any] = json.loads(run_path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError:
+        return {}
+    return old
+
+
+def _done_rows(root: Path, ds: Dataset, prov: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """The rows already in ``results.jsonl`` of stimuli of the dataset, by id.
+
+    Raises:
+        DatasetError: a row was made by another run (other options, data or code).
+    """
     old_rows = _read_jsonl(root / RESULTS, repair=True)
     check_unique(old_rows, root / RESULTS)
     for n, r in enumerate(old_rows, 1):  # every row says how it was made: another run's rows are refused
@@ -160,7 +161,77 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
             )
     done = {r["id"]: r for r in old_rows}
     valid = {s.id for s in ds.stimuli}
-    done = {k: v for k, v in done.items() if k in valid}
+    return {k: v for k, v in done.items() if k in valid}
+
+
+class _Sink:
+    """The run's appenders: each finished stimulus's caches, timing and row, written at once."""
+
+    def __init__(self, root: Path, prov: dict[str, Any], done: dict[str, dict[str, Any]], total: int,
+                 progress: Callable[[int, int], None] | None) -> None:
+        self.res_f, self.tr_f, self.team_f, self.tim_f = (
+            AtomicAppender(root / n) for n in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS))
+        self.prov = prov
+        self.done = done
+        self.n_done = len(done)
+        self.total = total
+        self.progress = progress
+
+    def consume(self, row: dict[str, Any], new_tr: dict[str, Any] | None, new_team: list[dict[str, Any]]) -> None:
+        if new_tr is not None:
+            self.tr_f.write(new_tr)
+        for t in new_team:
+            self.team_f.write(t)
+        row, timing = split_timings(row)
+        row["provenance"] = self.prov
+        self.tim_f.write(timing)
+        self.res_f.write(row)  # last: a stimulus counts as done once its caches are saved
+        self.done[row["id"]] = row
+        self.n_done += 1
+        if self.progress:
+            self.progress(self.n_done, self.total)
+
+    def close(self) -> None:
+        for f in (self.res_f, self.tr_f, self.team_f, self.tim_f):
+            f.close()
+
+
+def _run_tasks(be: Any, tasks: list[_Task], vocab: tuple[str, ...], sink: _Sink) -> None:
+    """Every task, in this process or on the backend's workers, each stimulus into ``sink``."""
+    try:
+        if sink.progress:
+            sink.progress(sink.n_done, sink.total)
+        if be.inline:
+            for task in tasks:
+                for item in _eval_stimuli(task):
+                    sink.consume(*item)
+        else:
+            # biggest groups first keeps every worker busy until the end
+            order = sorted(tasks, key=lambda t: -len(t.stimuli))
+            results = be.map_unordered(_run_task, order, shared=vocab)
+            try:
+                for _, items in results:
+                    for item in items:
+                        sink.consume(*item)
+            finally:
+                results.close()
+                be.close()
+    finally:
+        sink.close()
+
+
+def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bool,
+              progress: Callable[[int, int], None] | None) -> EvalRun:
+    run_info: dict[str, Any] = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
+                "options": opts.to_json(), "seed": opts.seed}
+    prov = provenance(opts.to_json(), ds.fingerprint)
+    run_path = root / RUN
+    old = _old_run(run_path)
+    if overwrite:
+        for name in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS):
+            (root / name).unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    done = _done_rows(root, ds, prov)
     cached_tr = {t["id"]: t for t in _read_jsonl(root / TRANSCRIPTS, repair=True) if t.get("engine") == opts.engine}
     cached_team: dict[str, dict[str, dict[str, Any]]] = {}
     for t in _read_jsonl(root / TEAM_CACHE, repair=True):
@@ -183,46 +254,8 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
     tasks = [_Task(str(ds.root), tuple(g), opts, vocab if be.inline else (),
                    {s.id: cached_tr[s.id] for s in g if s.id in cached_tr},
                    cached_team.get(k, {})) for k, g in groups.items()]
-    res_f, tr_f, team_f, tim_f = (AtomicAppender(root / n) for n in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS))
-    n_done = len(done)
     total = len(ds.stimuli)
-
-    def consume(row: dict[str, Any], new_tr: dict[str, Any] | None, new_team: list[dict[str, Any]]) -> None:
-        nonlocal n_done
-        if new_tr is not None:
-            tr_f.write(new_tr)
-        for t in new_team:
-            team_f.write(t)
-        row, timing = split_timings(row)
-        row["provenance"] = prov
-        tim_f.write(timing)
-        res_f.write(row)  # last: a stimulus counts as done once its caches are saved
-        done[row["id"]] = row
-        n_done += 1
-        if progress:
-            progress(n_done, total)
-
-    try:
-        if progress:
-            progress(n_done, total)
-        if be.inline:
-            for task in tasks:
-                for item in _eval_stimuli(task):
-                    consume(*item)
-        else:
-            # biggest groups first keeps every worker busy until the end
-            order = sorted(tasks, key=lambda t: -len(t.stimuli))
-            results = be.map_unordered(_run_task, order, shared=vocab)
-            try:
-                for _, items in results:
-                    for item in items:
-                        consume(*item)
-            finally:
-                results.close()
-                be.close()
-    finally:
-        for f in (res_f, tr_f, team_f, tim_f):
-            f.close()
+    _run_tasks(be, tasks, vocab, _Sink(root, prov, done, total, progress))
     seconds = time.perf_counter() - t0
     rows = [done[s.id] for s in ds.stimuli if s.id in done]
     if len(rows) == total:

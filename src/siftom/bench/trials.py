@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -31,11 +31,6 @@ from siftom.bench.scoring import is_correct, is_helpful
 from siftom.errors import SiftomError
 from siftom.people.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.world.commands import MAX_COUNT
-
-if TYPE_CHECKING:
-    pass
-
-
 
 # -- per-process state (engines, caches) -------------------------------------------------------
 
@@ -124,119 +119,161 @@ class _Task:
     team: dict[str, dict[str, Any]]
 
 
-def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
-    """Yield (results row, new transcript or None, new team simulations) per stimulus."""
+class _Heard:
+    """What one stimulus's models hear: its transcript, N-best and clip, with the posterior and the
+    decision models' input per likelihood computed once and shared by its models."""
+
+    def __init__(self, task: _Task, s: Stimulus, tr: dict[str, Any]) -> None:
+        self.task = task
+        self.tr = tr
+        self.instr = _instruction(tr["nbest"] or [{"text": tr["text"], "score": 0.0}], tr.get("engine"))
+        self.audio = Path(s.audio) if Path(s.audio).is_absolute() else Path(task.root) / s.audio
+        self._posts: dict[str, Any] = {}
+        self._hears: dict[str, Any] = {}
+
+    def engine(self, grammar: tuple[str, ...] | None = None) -> Any:
+        return _engine(self.task.options.engine, grammar or self.task.vocabulary)
+
+    def posterior(self, lk: str, sc: Any) -> Any:
+        if lk not in self._posts:
+            self._posts[lk] = decision_posterior(lk, sc, self.instr, self.audio, self.engine(),
+                                                 self.task.options.nbest)
+        return self._posts[lk]
+
+    def heard_by(self, lk: str) -> Any:
+        if lk not in self._hears:
+            self._hears[lk] = decision_heard(lk, self.instr, self.audio, self.engine(), self.task.options.nbest)
+        return self._hears[lk]
+
+
+def _transcript(task: _Task, s: Stimulus) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """(the stimulus's transcript, the same when it was made now, else None): cached or recognised."""
+    tr = task.transcripts.get(s.id)
+    if tr is not None:
+        return tr, None
+    opts = task.options
+    audio = Path(s.audio) if Path(s.audio).is_absolute() else Path(task.root) / s.audio
+    t = _engine(opts.engine, task.vocabulary).transcribe(audio, nbest=opts.nbest)
+    tr = {"id": s.id, "engine": opts.engine, "text": t.text,
+          "nbest": [{"text": h.text, "score": round(float(h.score), 4)} for h in t.nbest][: opts.nbest],
+          "rtf": round(t.rtf, 4), "audio_s": round(t.audio_s, 3)}
+    return tr, tr
+
+
+_Memo = dict[tuple[str, str, str], tuple[str, float, float]]
+
+
+def _memoised(memo: _Memo, mk: tuple[str, str, str], choose: Callable[[], tuple[str, float]]) -> tuple[str, float]:
+    if mk not in memo:
+        c_, p_ = choose()
+        memo[mk] = (c_, p_, 0.0)
+    return memo[mk][0], memo[mk][1]
+
+
+def _choose(m: str, task: _Task, s: Stimulus, sc: Any, skey: str, h: _Heard,
+            memo: _Memo) -> tuple[str, float, dict[str, Any]]:
+    """(command, its probability, a decision model's further fields) of model ``m`` for ``s``.
+
+    Raises:
+        AnswerUnavailableError: the trial cannot be evaluated for ``m`` (a decision model).
+    """
     from siftom.bench.literal import literal_command
 
     opts = task.options
-    root = Path(task.root)
+    tr = h.tr
+    spec = eval_model(m)
+    if spec.kind == "literal":
+        cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
+        return (str(cmd), 1.0, {}) if cmd is not None else ("none", 1.0, {})
+    if spec.kind == "acoustic" and spec.mode == "full" or (
+            spec.likelihood == "auto" and siftom_likelihood(opts) == "acoustic"):
+        # the MAP rule on the acoustic posterior (the product's default path for a recording)
+        post = h.posterior("acoustic", sc)
+        return post.command, float(post.commands[0][1]), {}
+    if spec.kind == "acoustic":  # siftom.api.listen's path without the actions
+        from siftom.bench.acoustic_models import acoustic_choice
+
+        return (*_memoised(memo, (skey, m, s.id), lambda: acoustic_choice(
+            "speech-only-acoustic", sc, h.audio, h.engine(), opts.nbest)), {})
+    if spec.kind == "llm-baseline":
+        from siftom.bench.llm_baselines import chooser, command_space
+
+        return (*_memoised(memo, (skey, m, tr["text"]), lambda: chooser(m, opts.llm).choose(
+            sc, tr["text"], command_space(sc, MAX_COUNT))), {})
+    if spec.kind == "decision":  # a decision rule on a likelihood's posterior: bench/decisions.py
+        extra = run_decision_model(m, s, sc, h.heard_by(str(spec.likelihood)), task.root,
+                                   lambda x, grammar=None: h.engine(grammar).transcribe(x, nbest=opts.nbest))
+        command, prob = extra.pop("command"), float(extra.pop("prob"))
+        return command, prob, extra
+    # "posterior": SIFToM's MAP command under the model's likelihood, on what it hears
+    command, prob = _posterior_choice(spec, opts, s, sc, skey, tr, h.instr, h.audio, memo, h.engine)
+    return command, prob, {}
+
+
+def _rounded(speedup: float | None) -> float | None:
+    return None if speedup is None else round(speedup, 6)
+
+
+def _model_row(s: Stimulus, sc: Any, command: str, prob: float, extra: dict[str, Any],
+               team: dict[str, Any], t0: float) -> dict[str, Any]:
+    """A model's entry of a results row: its choice, its score and the team's speedup with it."""
+    row = {
+        "command": command, "prob": round(prob, 4),
+        "correct": is_correct(command, s.gold_command, sc.verb),
+        "helpful": is_helpful(command, s.gold_goal["counts"]),
+        "l_single": team["l_single"], "l_team": team["l_team"],
+        "remedy_steps": team["remedy_steps"],
+        "speedup": _rounded(team["speedup"]),
+        "seconds": round(time.perf_counter() - t0, 4),
+    }
+    if extra:
+        row.update(decision_fields(extra, team))
+    if team.get("error"):  # no speedup: say why (summary.json counts these)
+        row["speedup_error"] = team["error"]
+    return row
+
+
+def _oracle(s: Stimulus, sc: Any, skey: str, oracles: dict[tuple[str, str], str]) -> tuple[str, dict[str, Any]]:
+    """The goal-known oracle: the best action for the true goal (the report's regret)."""
+    if (skey, s.gold_command) not in oracles:
+        oracles[(skey, s.gold_command)] = oracle_action(sc, s.gold_command)
+    return max(((c, _simulate(skey, sc, c)) for c in dict.fromkeys((oracles[(skey, s.gold_command)],
+                                                                     s.gold_command, "none"))),
+               key=lambda ct: -np.inf if ct[1]["speedup"] is None else ct[1]["speedup"])
+
+
+def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
+    """Yield (results row, new transcript or None, new team simulations) per stimulus."""
     for s in task.stimuli:
         skey = scenario_key(s)
         for c, r in task.team.items():
             _TEAM.setdefault((skey, c), r)
-    memo: dict[tuple[str, str, str], tuple[str, float, float]] = {}
+    memo: _Memo = {}
     oracles: dict[tuple[str, str], str] = {}
     for s in task.stimuli:
         sc = scenario_for(s)
         skey = scenario_key(s)
-        new_tr = None
-        tr = task.transcripts.get(s.id)
-        if tr is None:
-            audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
-            t = _engine(opts.engine, task.vocabulary).transcribe(audio, nbest=opts.nbest)
-            tr = {"id": s.id, "engine": opts.engine, "text": t.text,
-                  "nbest": [{"text": h.text, "score": round(float(h.score), 4)} for h in t.nbest][: opts.nbest],
-                  "rtf": round(t.rtf, 4), "audio_s": round(t.audio_s, 3)}
-            new_tr = tr
-        instr = _instruction(tr["nbest"] or [{"text": tr["text"], "score": 0.0}], tr.get("engine"))
-        audio = Path(s.audio) if Path(s.audio).is_absolute() else root / s.audio
-        posts: dict[str, Any] = {}  # this stimulus's posterior per likelihood, shared by its decision models
-
-        def posterior(lk: str, sc: Any = sc, instr: Any = instr, audio: Path = audio,
-                      posts: dict[str, Any] = posts) -> Any:
-            if lk not in posts:
-                posts[lk] = decision_posterior(lk, sc, instr, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
-            return posts[lk]
-
-        hears: dict[str, Any] = {}  # what this stimulus's decision models hear, per likelihood
-
-        def heard_by(lk: str, instr: Any = instr, audio: Path = audio, hears: dict[str, Any] = hears) -> Any:
-            if lk not in hears:
-                hears[lk] = decision_heard(lk, instr, audio, _engine(opts.engine, task.vocabulary), opts.nbest)
-            return hears[lk]
-
+        tr, new_tr = _transcript(task, s)
+        h = _Heard(task, s, tr)
         before = set(_TEAM)
         models: dict[str, Any] = {}
         not_evaluable: dict[str, str] = {}  # model -> why this trial could not be evaluated for it
-        for m in opts.models:
+        for m in task.options.models:
             t0 = time.perf_counter()
-            prob = float("nan")
-            extra: dict[str, Any] = {}
-            spec = eval_model(m)
-            if spec.kind == "literal":
-                cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
-                command, prob = (str(cmd), 1.0) if cmd is not None else ("none", 1.0)
-            elif spec.kind == "acoustic" and spec.mode == "full" or (
-                    spec.likelihood == "auto" and siftom_likelihood(opts) == "acoustic"):
-                # the MAP rule on the acoustic posterior (the product's default path for a recording)
-                post = posterior("acoustic")
-                command, prob = post.command, float(post.commands[0][1])
-            elif spec.kind == "acoustic":  # siftom.api.listen's path without the actions
-                from siftom.bench.acoustic_models import acoustic_choice
-                mk = (skey, m, s.id)
-                if mk not in memo:
-                    c_, p_ = acoustic_choice("speech-only-acoustic", sc, audio,
-                                             _engine(opts.engine, task.vocabulary), opts.nbest)
-                    memo[mk] = (c_, p_, 0.0)
-                command, prob, _ = memo[mk]
-            elif spec.kind == "llm-baseline":
-                from siftom.bench.llm_baselines import chooser, command_space
-
-                mk = (skey, m, tr["text"])
-                if mk not in memo:
-                    c_, p_ = chooser(m, opts.llm).choose(sc, tr["text"], command_space(sc, MAX_COUNT))
-                    memo[mk] = (c_, p_, 0.0)
-                command, prob, _ = memo[mk]
-            elif spec.kind == "decision":  # a decision rule on a likelihood's posterior: bench/decisions.py
-                try:
-                    extra = run_decision_model(m, s, sc, heard_by(str(spec.likelihood)), task.root,
-                                               lambda x, grammar=None: _engine(opts.engine, grammar or task.vocabulary)
-                                               .transcribe(x, nbest=opts.nbest))
-                except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on
-                    not_evaluable[m] = str(exc)
-                    continue
-                command, prob = extra.pop("command"), float(extra.pop("prob"))
-            else:  # "posterior": SIFToM's MAP command under the model's likelihood, on what it hears
-                command, prob = _posterior_choice(spec, opts, s, sc, skey, tr, instr, audio, memo,
-                                                  lambda: _engine(opts.engine, task.vocabulary))
-            team = _simulate(skey, sc, command)
-            models[m] = {
-                "command": command, "prob": round(prob, 4),
-                "correct": is_correct(command, s.gold_command, sc.verb),
-                "helpful": is_helpful(command, s.gold_goal["counts"]),
-                "l_single": team["l_single"], "l_team": team["l_team"],
-                "remedy_steps": team["remedy_steps"],
-                "speedup": None if team["speedup"] is None else round(team["speedup"], 6),
-                "seconds": round(time.perf_counter() - t0, 4),
-            }
-            if extra:
-                models[m].update(decision_fields(extra, team))
-            if team.get("error"):  # no speedup: say why (summary.json counts these)
-                models[m]["speedup_error"] = team["error"]
+            try:
+                command, prob, extra = _choose(m, task, s, sc, skey, h, memo)
+            except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on
+                not_evaluable[m] = str(exc)
+                continue
+            models[m] = _model_row(s, sc, command, prob, extra, _simulate(skey, sc, command), t0)
         gold = _simulate(skey, sc, s.gold_command)
-        # the goal-known oracle: the best action for the true goal (the report's regret)
-        if (skey, s.gold_command) not in oracles:
-            oracles[(skey, s.gold_command)] = oracle_action(sc, s.gold_command)
-        best = max(((c, _simulate(skey, sc, c)) for c in dict.fromkeys((oracles[(skey, s.gold_command)],
-                                                                          s.gold_command, "none"))),
-                   key=lambda ct: -np.inf if ct[1]["speedup"] is None else ct[1]["speedup"])
+        best = _oracle(s, sc, skey, oracles)
         row = {
             "id": s.id, "scenario": s.scenario, "speaker": s.speaker, "voice": s.voice,
             "noise": s.noise, "snr_db": s.snr_db, "condition": s.condition, "style": s.style,
             "reference": s.reference, "gold_command": s.gold_command, "gold_goal": s.gold_goal.get("name", ""),
-            "gold_speedup": None if gold["speedup"] is None else round(gold["speedup"], 6),
-            "oracle": {"command": best[0],
-                       "speedup": None if best[1]["speedup"] is None else round(best[1]["speedup"], 6)},
+            "gold_speedup": _rounded(gold["speedup"]),
+            "oracle": {"command": best[0], "speedup": _rounded(best[1]["speedup"])},
             "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
                            "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
             "models": models,

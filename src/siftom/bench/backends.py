@@ -139,7 +139,7 @@ class RayBackend:
                     raise DatasetError(f"cannot reach a Ray cluster at {address!r} ({exc}); start one with "
                                        "'ray start --head' or give --ray-address HOST:PORT") from None
             self.started = True
-        cpus = int(ray.cluster_resources().get("CPU", 1))
+        cpus = _cluster_cpus(ray)
         self.workers = min(workers, cpus) if workers and address is not None else (workers or cpus)
         self._pending: dict[Any, int] = {}
         self._remote = ray.remote(num_cpus=1, max_retries=1)(_ray_call)
@@ -186,6 +186,13 @@ class RayBackend:
         if self.started:
             self._ray.shutdown()
             self.started = False
+
+
+def _cluster_cpus(ray: Any) -> int:
+    """The CPUs of the Ray cluster (the module comes in as Any: ``cluster_resources`` is untyped in
+    Ray's own annotations, and Ray may not be installed where this is type-checked)."""
+    resources: dict[str, float] = ray.cluster_resources()
+    return int(resources.get("CPU", 1))
 
 
 def _probe(address: str) -> None:

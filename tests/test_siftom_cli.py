@@ -218,6 +218,18 @@ def test_infer_usage_errors_exit_2(capsys, args, message):
 def test_infer_on_the_virtualhome_apartment(cli):
     out = json.loads(cli("infer", "--scene", str(VIRTUALHOME), "--transcript", "bring me two forks", "--json"))
     assert out["command"] == "deliver(fork,2)"
+    assert len(out["warnings"]) > 2  # each one, with its fix, for programs
+
+
+@pytest.mark.skipif(not VIRTUALHOME.exists(), reason=f"VirtualHome apartment not found at {VIRTUALHOME}")
+def test_infer_on_the_virtualhome_apartment_warns_in_one_line(capsys):
+    # the README's command: what the graph leaves out is one line before the answer, not one per class
+    assert main(["infer", "--scene", str(VIRTUALHOME), "--transcript", "bring me two forks"]) == 0
+    got = capsys.readouterr()
+    lines = [ln for ln in got.err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("warning: "), got.err
+    assert "banana" in lines[0] and "--json" in lines[0]
+    assert "deliver(fork,2)" in got.out
 
 
 def test_bench_planner_json(cli):

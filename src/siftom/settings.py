@@ -8,7 +8,7 @@ Precedence, highest first: **flags > environment > file > defaults**. A setting 
 section    option class                                    environment variable
 =========  ==============================================  =====================================
 infer      ``siftom.options.InferOptions`` (likelihood ...)  ``SIFTOM_INFER_LIKELIHOOD`` ...
-model      ``siftom.inference.model.ModelConfig``          ``SIFTOM_MODEL_BETAS`` (comma list)
+model      ``siftom.options.ModelConfig``                  ``SIFTOM_MODEL_BETAS`` (comma list)
 service    ``siftom.options.ServiceSettings``              ``SIFTOM_SERVICE_WORKERS`` ...
 sessions   ``siftom.options.SessionLimits``                ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
 stream     ``siftom.options.StreamLimits``                 ``SIFTOM_STREAM_MAX_STREAMS`` ...
@@ -48,8 +48,7 @@ from siftom.options import InferOptions
 
 if TYPE_CHECKING:
     from siftom.backends.config import LLMConfig
-    from siftom.inference.model import ModelConfig
-    from siftom.options import ServiceSettings, SessionLimits, StreamLimits
+    from siftom.options import ModelConfig, ServiceSettings, SessionLimits, StreamLimits
 
 ENV_CONFIG = "SIFTOM_CONFIG"
 ENV_PREFIX = "SIFTOM_"
@@ -58,7 +57,7 @@ ENV_PREFIX = "SIFTOM_"
 # section -> "module:class"; imported only when the section is used
 SECTIONS: dict[str, str] = {
     "infer": "siftom.options:InferOptions",
-    "model": "siftom.inference.model:ModelConfig",
+    "model": "siftom.options:ModelConfig",
     "service": "siftom.options:ServiceSettings",
     "sessions": "siftom.options:SessionLimits",
     "stream": "siftom.options:StreamLimits",

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from siftom.backends.config import BACKENDS, LLMConfig
+from siftom.backends.config import LLM_BACKENDS, LLMConfig
 
 F = Callable[..., Any]
 
@@ -21,7 +21,7 @@ def llm_options(f: F) -> F:
     f = click.option("--llm-base-url", default=None,
                      help="OpenAI-compatible API root, e.g. http://127.0.0.1:8000/v1 (implies "
                           "--llm-backend openai) [env SIFTOM_LLM_BASE_URL]")(f)
-    f = click.option("--llm-backend", type=click.Choice(BACKENDS), default=None,
+    f = click.option("--llm-backend", type=click.Choice(LLM_BACKENDS.names()), default=None,
                      help="language model: llama (in process) or openai (HTTP endpoint) "
                           "[env SIFTOM_LLM_BACKEND]")(f)
     return f

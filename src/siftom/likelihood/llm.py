@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from siftom.backends.config import BACKENDS, LLM_BACKENDS, LLM_PROMPTS, LLMConfig
+from siftom.backends.config import LLM_BACKENDS, LLM_PROMPTS, LLMConfig
 from siftom.backends.scoring import TextScorer
 from siftom.errors import ObservationError, unknown_name
 from siftom.likelihood.base import Scores
@@ -156,8 +156,8 @@ def make_backend(backend: str | LLMConfig | None = None, **kwargs: object) -> Te
     ``timeout_s``, ``max_retries``, ``cache_dir``) or go to the backend (``model_path``,
     ``n_ctx``, ``n_threads``, ``batch_size`` ...). ``cache_dir=False`` turns the cache off.
     """
-    if isinstance(backend, str) and backend not in BACKENDS:
-        raise unknown_name("LLM backend", backend, BACKENDS)
+    if isinstance(backend, str) and backend not in LLM_BACKENDS:
+        raise unknown_name("LLM backend", backend, LLM_BACKENDS.names())
     cfg_kw: dict[str, Any] = {k: kwargs.pop(k) for k in _CONFIG_KEYS if k in kwargs and kwargs[k] is not False}
     if "timeout" in kwargs:
         cfg_kw["timeout_s"] = kwargs.pop("timeout")

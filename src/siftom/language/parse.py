@@ -21,7 +21,7 @@ grammar is read with lark's LALR parser: linear in the number of words.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -156,112 +156,140 @@ def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     return nxt in _NEW_PHRASE or (nxt == "DET" and words[at + 1] in _DEFINITE)
 
 
-def _roles(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]]], truncated: bool,
-           kinds_of_words: tuple[str, ...]) -> Reading:
-    slots: list[Slot] = []
-    pending = ""  # the role the next slot takes from a marker before it
-    asking = False  # a question word with no request frame since
-    frame = False
-    question = False
-    joined = False  # "and" since the last slot
-    told: set[int] = set()  # slots of a statement the speaker made ("I saw the egg ...")
-    related: set[int] = set()  # slots made context by a relation word or a copula
-    retract: int | None = None  # the target a correction takes back once another follows
-    said_count: int | None = None  # a count heard as its homophone ("to", "for")
-    kinds = [k for k, _ in pieces]
+_Pieces = list[tuple[str, list[tuple[str, int]]]]
+
+
+def _roles(words: tuple[str, ...], pieces: _Pieces, truncated: bool, kinds_of_words: tuple[str, ...]) -> Reading:
+    r = _RoleReader(words, pieces, [k for k, _ in pieces], kinds_of_words)
     for j, (kind, items) in enumerate(pieces):
         if kind != "np":
-            at = items[0][1]
-            if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
-                    and pending == "context":
-                pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
-            if kind == "NEG" and _rejects(words, kinds_of_words, at):
-                # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
-                # oats"): what came before is taken back, the next slot is asked for
-                retract = next((k for k in range(len(slots) - 1, -1, -1) if slots[k].role == "target"), None)
-                pending = "target"
-            elif kind == "NEG":
-                pending = "negated"
-            elif kind == "MEAN":
-                # "the jam, I mean the honey": the target before is taken back when another follows
-                retract = next((k for k in range(len(slots) - 1, -1, -1) if slots[k].role == "target"), None)
-                pending = "target"
-            elif kind == "CTX" and words[at] in _COUNT_LIKE and j > 0 and kinds[j - 1] in _ASKS_BEFORE \
-                    and (frame or pending == "target") and words_of(pieces, j + 1)[:1] == ("WORD",):
-                # "bring me to water glasses", "for bowls": with nothing asked for yet, a relation
-                # word before a bare noun is a count the recogniser wrote as its homophone
-                said_count = _COUNT_LIKE[words[at]]
-                pending = pending if pending == "negated" else ""
-            elif kind == "CTX" and pending != "negated":
-                pending = "context"
-            elif kind == "HAVE" and pending != "negated" and not _asks_to_have(kinds, j) \
-                    and not (at + 1 < len(words) and words[at + 1] == "to"):
-                pending = "context"  # "I already have the sugar"
-            elif kind == "COP" and slots and j > 0 and kinds[j - 1] == "np" and pending != "negated" \
-                    and words[at - 1] != "to":
-                pending = "context"  # the predicate of a statement about a slot ("the weather is nice")
-            elif kind == "WH":
-                asking, question = True, True
-            elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(words_of(pieces, j + 1)):
-                asking = True  # "I saw ...", "we bought ...": the speaker tells, nobody is asked
-            elif kind == "AND":
-                joined = True
-                continue
-            elif kind in _FRAME or kind == "ME":
-                frame = frame or _has_frame(kinds, j)
-                if kind in ("VERB", "MODAL") and pending == "context":
-                    pending = ""  # "I need to get the X": "to" before a verb relates nothing
-                if kind in ("VERB", "MODAL"):
-                    asking = False
-            joined = False if kind not in ("FILLER",) else joined
-            continue
+            r.marker(j, kind, items)
+        else:
+            r.slot(j, items)
+    return r.reading(truncated)
+
+
+@dataclass
+class _RoleReader:
+    """The left-to-right reading of :func:`_roles`: what a marker leaves for the slots after it."""
+
+    words: tuple[str, ...]
+    pieces: _Pieces
+    kinds: list[str]  # the kind of each piece ("np" or a marker)
+    kinds_of_words: tuple[str, ...]
+    slots: list[Slot] = field(default_factory=list)
+    pending: str = ""  # the role the next slot takes from a marker before it
+    asking: bool = False  # a question word with no request frame since
+    frame: bool = False
+    question: bool = False
+    joined: bool = False  # "and" since the last slot
+    told: set[int] = field(default_factory=set)  # slots of a statement the speaker made ("I saw the egg ...")
+    related: set[int] = field(default_factory=set)  # slots made context by a relation word or a copula
+    retract: int | None = None  # the target a correction takes back once another follows
+    said_count: int | None = None  # a count heard as its homophone ("to", "for")
+
+    def _last_target(self) -> int | None:
+        return next((k for k in range(len(self.slots) - 1, -1, -1) if self.slots[k].role == "target"), None)
+
+    def marker(self, j: int, kind: str, items: list[tuple[str, int]]) -> None:
+        words, kinds, pieces = self.words, self.kinds, self.pieces
+        at = items[0][1]
+        if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
+                and self.pending == "context":
+            self.pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
+        if kind == "NEG" and _rejects(words, self.kinds_of_words, at):
+            # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
+            # oats"): what came before is taken back, the next slot is asked for
+            self.retract = self._last_target()
+            self.pending = "target"
+        elif kind == "NEG":
+            self.pending = "negated"
+        elif kind == "MEAN":
+            # "the jam, I mean the honey": the target before is taken back when another follows
+            self.retract = self._last_target()
+            self.pending = "target"
+        elif kind == "CTX" and words[at] in _COUNT_LIKE and j > 0 and kinds[j - 1] in _ASKS_BEFORE \
+                and (self.frame or self.pending == "target") and words_of(pieces, j + 1)[:1] == ("WORD",):
+            # "bring me to water glasses", "for bowls": with nothing asked for yet, a relation
+            # word before a bare noun is a count the recogniser wrote as its homophone
+            self.said_count = _COUNT_LIKE[words[at]]
+            self.pending = self.pending if self.pending == "negated" else ""
+        elif kind == "CTX" and self.pending != "negated":
+            self.pending = "context"
+        elif kind == "HAVE" and self.pending != "negated" and not _asks_to_have(kinds, j) \
+                and not (at + 1 < len(words) and words[at + 1] == "to"):
+            self.pending = "context"  # "I already have the sugar"
+        elif kind == "COP" and self.slots and j > 0 and kinds[j - 1] == "np" and self.pending != "negated" \
+                and words[at - 1] != "to":
+            self.pending = "context"  # the predicate of a statement about a slot ("the weather is nice")
+        elif kind == "WH":
+            self.asking, self.question = True, True
+        elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(words_of(pieces, j + 1)):
+            self.asking = True  # "I saw ...", "we bought ...": the speaker tells, nobody is asked
+        elif kind == "AND":
+            self.joined = True
+            return
+        elif kind in _FRAME or kind == "ME":
+            self.frame = self.frame or _has_frame(kinds, j)
+            if kind in ("VERB", "MODAL") and self.pending == "context":
+                self.pending = ""  # "I need to get the X": "to" before a verb relates nothing
+            if kind in ("VERB", "MODAL"):
+                self.asking = False
+        self.joined = False if kind not in ("FILLER",) else self.joined
+
+    def slot(self, j: int, items: list[tuple[str, int]]) -> None:
+        words, kinds, slots = self.words, self.kinds, self.slots
         before = next((k for k in reversed(kinds[:j]) if k != "FILLER"), "")
         if before in ("SELF", "YOU", "MODAL") and items[0][0] == "WORD":
             # a bare word after a subject or a modal is a verb, not an object ("I'd love the tea",
             # "I saw eggs", "you know", "I should water the plants"); the words after it, if any,
             # are the slot
-            if before == "SELF" and words[_last(pieces, j, "SELF")] in _WISHING:
-                frame = True
+            if before == "SELF" and words[_last(self.pieces, j, "SELF")] in _WISHING:
+                self.frame = True
             items = items[1:]
             if not items:
-                continue
+                return
         nouns = tuple(p for k, p in items if k == "WORD")
         counts = [c for k, p in items if k in ("NUM", "DET") for c in [_count(words[p])] if c is not None]
-        if retract is not None:
-            s = slots[retract]
-            slots[retract] = Slot("retracted", s.start, s.end, s.nouns, s.count)
-            retract = None
-        if said_count is not None and not counts:
-            counts, said_count = [said_count], None
-        if joined and slots:
+        if self.retract is not None:
+            s = slots[self.retract]
+            slots[self.retract] = Slot("retracted", s.start, s.end, s.nouns, s.count)
+            self.retract = None
+        if self.said_count is not None and not counts:
+            counts, self.said_count = [self.said_count], None
+        if self.joined and slots:
             role = slots[-1].role
-        elif pending:
-            role = pending
-            if pending == "context":
-                related.add(len(slots))
-        elif asking:
+        elif self.pending:
+            role = self.pending
+            if self.pending == "context":
+                self.related.add(len(slots))
+        elif self.asking:
             role = "context"
-            if not question:
-                told.add(len(slots))
+            if not self.question:
+                self.told.add(len(slots))
         else:
             role = "target"
         # "the sugar is already here": the subject of a copula is context
         if role == "target" and _is_here(kinds, j):
             role = "context"
-            related.add(len(slots))
+            self.related.add(len(slots))
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
-        pending, joined = "", False
-    if frame and told:
-        # a statement before a request ("I think we're out of milk, could you bring some"): what
-        # it mentions is what the request is about
-        slots = [Slot("target", s.start, s.end, s.nouns, s.count) if k in told else s for k, s in enumerate(slots)]
-    if frame and related and not any(x.role == "target" for x in slots):
-        # a request asks for something: when every slot read as context, the first one related
-        # is the object ("can you get me peanut butter chicken it's already here" as heard)
-        k = min(related)
-        slots[k] = Slot("target", slots[k].start, slots[k].end, slots[k].nouns, slots[k].count)
-    slots = _anaphora(slots)
-    return Reading(words, tuple(slots), frame, question, truncated, kinds_of_words)
+        self.pending, self.joined = "", False
+
+    def reading(self, truncated: bool) -> Reading:
+        slots, frame = self.slots, self.frame
+        if frame and self.told:
+            # a statement before a request ("I think we're out of milk, could you bring some"): what
+            # it mentions is what the request is about
+            slots = [Slot("target", s.start, s.end, s.nouns, s.count) if k in self.told else s
+                     for k, s in enumerate(slots)]
+        if frame and self.related and not any(x.role == "target" for x in slots):
+            # a request asks for something: when every slot read as context, the first one related
+            # is the object ("can you get me peanut butter chicken it's already here" as heard)
+            k = min(self.related)
+            slots[k] = Slot("target", slots[k].start, slots[k].end, slots[k].nouns, slots[k].count)
+        slots = _anaphora(slots)
+        return Reading(self.words, tuple(slots), frame, self.question, truncated, self.kinds_of_words)
 
 
 def _anaphora(slots: list[Slot]) -> list[Slot]:

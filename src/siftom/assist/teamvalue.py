@@ -28,7 +28,7 @@ import numpy as np
 
 from siftom.inference.model import JointPosterior
 from siftom.planning.choice import chosen
-from siftom.planning.costtogo import CostToGo, SparseGoals
+from siftom.planning.costtogo import ClassTables, CostToGo, SparseGoals
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, State, World
 
@@ -149,10 +149,43 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     s = state if state is not None else joint.state
     if s is None:
         raise ValueError("team_values needs the state when the human spoke")
-    C = len(world.classes)
     col = {c: k for k, c in enumerate(world.classes)}
     rows, prob, kept = _keep_rows(joint)
-    # what is on the target and in the human's hands, per class
+    on_t, avail, held_h = _counts(world, s, target)
+    cmds = joint.commands
+    cmd_cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
+    cmd_n = np.array([c.count for c in cmds], dtype=np.int64)
+    c_of = joint.cmd_idx[rows]
+    N = _row_goals(joint, col, rows, cmd_cls, cmd_n, on_t + held_h)
+    uniq, u_of = np.unique(N, axis=0, return_inverse=True)
+    u_of = u_of.reshape(-1)
+    kmax = max(4, int(uniq.max()) if uniq.size else 4, int(cmd_n.max()) if len(cmd_n) else 4)
+    ctg_h = _ctg(world, target, kmax, HUMAN)
+    tabs = ctg_h.tables(s)
+    sp = SparseGoals.from_dense(uniq)
+    v_single = ctg_h.values(tabs, sp, s.agent_at[HUMAN], s.held[HUMAN])
+    # distinct robot deliveries (class, effective count)
+    n_eff = np.minimum(cmd_n, avail[cmd_cls])
+    deliveries: dict[tuple[int, int], int] = {}
+    act_col = np.empty(len(cmds), dtype=np.int64)
+    for a in range(len(cmds)):
+        key = (int(cmd_cls[a]), int(n_eff[a]))
+        act_col[a] = deliveries.setdefault(key, len(deliveries))
+    D = list(deliveries)
+    ben = np.zeros((len(uniq), len(D)))
+    live = [j for j, (_c, n) in enumerate(D) if n > 0]
+    if live:
+        need = np.maximum(uniq - on_t[None, :] - held_h[None, :], 0)  # (U, C)
+        l_team = _team_times(world, s, target, kmax, [D[j] for j in live], sp, need, on_t, tabs)
+        ben[:, live] = (v_single[None, :] - l_team).T
+    benefit = np.concatenate([ben[u_of][:, act_col], np.zeros((len(rows), 1))], axis=1)
+    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept,
+                      np.asarray(v_single, dtype=np.float64)[u_of], float(prefix))
+
+
+def _counts(world: World, s: State, target: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per class: objects on the target, objects elsewhere and not held, and in the human's hands."""
+    C = len(world.classes)
     on_t = np.zeros(C, dtype=np.int64)
     avail = np.zeros(C, dtype=np.int64)
     for i, loc in enumerate(s.item_at):
@@ -164,79 +197,60 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     held_h = np.zeros(C, dtype=np.int64)
     if s.held[HUMAN] != NOTHING:
         held_h[int(world.item_class_idx[s.held[HUMAN]])] = 1
-    # a goal vector per row: a known goal's counts, or (unknown goal) exactly the command asked for
+    return on_t, avail, held_h
+
+
+def _row_goals(joint: JointPosterior, col: dict[str, int], rows: np.ndarray, cmd_cls: np.ndarray,
+               cmd_n: np.ndarray, handled: np.ndarray) -> np.ndarray:
+    """A goal vector per kept row: a known goal's counts, or (unknown goal) exactly the command
+    asked for on top of what is handled (on the target or in the human's hands)."""
     G = len(joint.goals)
-    gmat = np.zeros((G + 1, C), dtype=np.int64)
+    gmat = np.zeros((G + 1, len(col)), dtype=np.int64)
     for g, goal in enumerate(joint.goals):
         for name, count in goal.counts:
             gmat[g, col[name]] = count
-    cmds = joint.commands
-    cmd_cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
-    cmd_n = np.array([c.count for c in cmds], dtype=np.int64)
     g_of, c_of = joint.goal_idx[rows], joint.cmd_idx[rows]
-    N = gmat[g_of].copy()
+    N: np.ndarray = gmat[g_of].copy()
     unk = np.flatnonzero(g_of == G)
     if len(unk):
         k = cmd_cls[c_of[unk]]
         N[unk] = 0
-        N[unk, k] = on_t[k] + held_h[k] + cmd_n[c_of[unk]]
-    uniq, u_of = np.unique(N, axis=0, return_inverse=True)
-    u_of = u_of.reshape(-1)
-    kmax = max(4, int(uniq.max()) if uniq.size else 4, int(cmd_n.max()) if len(cmd_n) else 4)
-    ctg_h = _ctg(world, target, kmax, HUMAN)
-    ctg_r = _ctg(world, target, kmax, ROBOT)
-    tabs = ctg_h.tables(s)
-    at_h, hold_h = s.agent_at[HUMAN], s.held[HUMAN]
-    sp = SparseGoals.from_dense(uniq)
-    v_single = ctg_h.values(tabs, sp, at_h, hold_h)
-    # distinct robot deliveries (class, effective count)
-    n_eff = np.minimum(cmd_n, avail[cmd_cls])
-    deliveries: dict[tuple[int, int], int] = {}
-    act_col = np.empty(len(cmds), dtype=np.int64)
-    for a in range(len(cmds)):
-        key = (int(cmd_cls[a]), int(n_eff[a]))
-        act_col[a] = deliveries.setdefault(key, len(deliveries))
-    D = list(deliveries)
-    U = len(uniq)
-    need = np.maximum(uniq - on_t[None, :] - held_h[None, :], 0)  # (U, C)
-    rem_steps = 2 + 2 * aside_distance(world, target)
-    ben = np.zeros((U, len(D)))
-    live = [j for j, (_c, n) in enumerate(D) if n > 0]
-    if live:
-        # robot: one batched call over the distinct deliveries
-        R_goals = np.zeros((len(live), C), dtype=np.int64)
-        for r, j in enumerate(live):
-            c, n = D[j]
-            R_goals[r, c] = on_t[c] + n
-        tabs_r = ctg_r.tables(s)
-        R = ctg_r.values(tabs_r, R_goals, s.agent_at[ROBOT], s.held[ROBOT])
-        # human: the goal minus the useful part, with the robot's objects out of play; the
-        # reserved rows of the changed class are appended to the tables (as successor_values does)
-        extra = []
-        idx_parts, cnt_parts, held_parts = [], [], []
-        hc = int(world.item_class_idx[hold_h]) if hold_h != NOTHING else -1
-        useful_all = np.zeros((len(live), U), dtype=np.int64)
-        for r, j in enumerate(live):
-            c, n = D[j]
-            taken = _taken(world, s, ctg_h, target, c, n, s.agent_at[ROBOT])
-            item_at = tuple(HELD if i in taken else loc for i, loc in enumerate(s.item_at))
-            extra.append(ctg_h._class_rows(c, item_at, s.open_mask))
-            useful = np.minimum(n, need[:, c])
-            useful_all[r] = useful
-            hit = (sp.idx == c) & (sp.cnt > 0)
-            idx_parts.append(np.where(sp.idx == c, C + r, sp.idx))
-            cnt_parts.append(sp.cnt - hit * useful[:, None])
-            held_parts.append(np.full(U, C + r if hc == c else hc, dtype=np.int64))
-        big = tabs.extend(extra)
-        H = ctg_h._values(big, np.concatenate(idx_parts), np.concatenate(cnt_parts), np.array([at_h]),
-                          np.concatenate(held_parts))[0].reshape(len(live), U)
-        n_live = np.array([D[j][1] for j in live])[:, None]
-        wrong = n_live - useful_all
-        l_team = np.maximum(H, R[:, None]) + wrong * rem_steps
-        ben[:, live] = (v_single[None, :] - l_team).T
-    benefit = np.concatenate([ben[u_of][:, act_col], np.zeros((len(rows), 1))], axis=1)
-    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept,
-                      np.asarray(v_single, dtype=np.float64)[u_of], float(prefix))
+        N[unk, k] = handled[k] + cmd_n[c_of[unk]]
+    return N
+
+
+def _team_times(world: World, s: State, target: int, kmax: int, live: list[tuple[int, int]], sp: SparseGoals,
+                need: np.ndarray, on_t: np.ndarray, tabs: ClassTables) -> np.ndarray:
+    """``max(H, R) + remedy`` per robot delivery (class, count > 0) and distinct goal row."""
+    C, U = len(world.classes), len(sp)
+    ctg_h, ctg_r = _ctg(world, target, kmax, HUMAN), _ctg(world, target, kmax, ROBOT)
+    # robot: one batched call over the distinct deliveries
+    R_goals = np.zeros((len(live), C), dtype=np.int64)
+    for r, (c, n) in enumerate(live):
+        R_goals[r, c] = on_t[c] + n
+    R = ctg_r.values(ctg_r.tables(s), R_goals, s.agent_at[ROBOT], s.held[ROBOT])
+    # human: the goal minus the useful part, with the robot's objects out of play; the
+    # reserved rows of the changed class are appended to the tables (as successor_values does)
+    extra = []
+    idx_parts, cnt_parts, held_parts = [], [], []
+    hold_h = s.held[HUMAN]
+    hc = int(world.item_class_idx[hold_h]) if hold_h != NOTHING else -1
+    useful_all = np.zeros((len(live), U), dtype=np.int64)
+    for r, (c, n) in enumerate(live):
+        taken = _taken(world, s, ctg_h, target, c, n, s.agent_at[ROBOT])
+        item_at = tuple(HELD if i in taken else loc for i, loc in enumerate(s.item_at))
+        extra.append(ctg_h._class_rows(c, item_at, s.open_mask))
+        useful = np.minimum(n, need[:, c])
+        useful_all[r] = useful
+        hit = (sp.idx == c) & (sp.cnt > 0)
+        idx_parts.append(np.where(sp.idx == c, C + r, sp.idx))
+        cnt_parts.append(sp.cnt - hit * useful[:, None])
+        held_parts.append(np.full(U, C + r if hc == c else hc, dtype=np.int64))
+    H = ctg_h._values(tabs.extend(extra), np.concatenate(idx_parts), np.concatenate(cnt_parts),
+                      np.array([s.agent_at[HUMAN]]), np.concatenate(held_parts))[0].reshape(len(live), U)
+    wrong = np.array([n for _c, n in live])[:, None] - useful_all
+    out: np.ndarray = np.maximum(H, R[:, None]) + wrong * (2 + 2 * aside_distance(world, target))
+    return out
 
 
 def _taken(world: World, s: State, ctg: CostToGo, target: int, c: int, n: int, start: int | None = None) -> set[int]:

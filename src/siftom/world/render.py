@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import FancyBboxPatch, Rectangle  # noqa: E402
 
-from siftom.world.model import HELD, HUMAN, ROBOT  # noqa: E402
+from siftom.world.model import HELD, HUMAN, ROBOT, State, World  # noqa: E402
 
 ROOM_COLOURS = ("#f3efe6", "#e8f1f8", "#eef6ea", "#f8ecef", "#f1ecf8", "#f8f5e6")
 
@@ -40,7 +40,6 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
             the frames a camera would have seen (``siftom scenarios show ID --step K``); object
             lists are then wrapped instead of shortened, so every object can be read.
     """
-    w = scenario.world
     states = scenario.states()
     if step is not None:
         if not 0 <= step < len(states):
@@ -48,7 +47,6 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
 
             raise ObservationError(f"step must be between 0 and {len(states) - 1} for {scenario.id}, got {step}")
         states = states[: step + 1]
-    now = states[-1]
     ncols = 2 if posterior is not None else 1
     fig, axes = plt.subplots(1, ncols, figsize=(11 if ncols == 2 else 7.5, 6),
                              gridspec_kw={"width_ratios": [1.6, 1]} if ncols == 2 else None)
@@ -57,12 +55,37 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fc=ROOM_COLOURS[k % len(ROOM_COLOURS)], ec="#888", lw=1))
         ax.text(x0 + 0.15, y1 - 0.2, room.replace("_", " "), fontsize=9, va="top", color="#555", style="italic")
     highlight = command or (posterior.command if posterior is not None else None)
-    hl_cls = None
-    if highlight:
-        try:
-            hl_cls = scenario.parse_command(highlight).obj_class
-        except Exception:  # a free-form or invalid command: nothing to ring
-            hl_cls = None
+    _draw_places(ax, scenario, states[-1], _class_of(scenario, highlight), step is not None)
+    _draw_agents(ax, scenario.world, states, show_path)
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.axis("off")
+    ax.set_title(title or f"{scenario.id}: {scenario.description}", fontsize=9)
+    if posterior is not None:
+        _draw_posterior(axes[1], posterior)
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def _class_of(scenario: Any, command: Any) -> str | None:
+    """The object class of the command to highlight (None: none, or not a command)."""
+    if not command:
+        return None
+    try:
+        cls: str = scenario.parse_command(command).obj_class
+    except Exception:  # a free-form or invalid command: nothing to ring
+        return None
+    return cls
+
+
+def _draw_places(ax: Any, scenario: Any, now: State, hl_cls: str | None, wrap: bool) -> None:
+    """Each place with its name and the objects on it (those of ``hl_cls`` in red); ``wrap``:
+    object lists are wrapped instead of shortened (a camera frame: every object must stay readable)."""
+    w = scenario.world
     by_place: dict[int, list[int]] = defaultdict(list)
     for i, loc in enumerate(now.item_at):
         if loc != HELD:
@@ -80,7 +103,7 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
         for it in items:
             counts[w.items[it].cls] += 1
         label = ", ".join(f"{n}×{c}" if n > 1 else c for c, n in sorted(counts.items()))
-        if step is not None:  # a camera frame: every object must stay readable
+        if wrap:
             import textwrap
 
             label = "\n".join(textwrap.wrap(label, 44))
@@ -90,6 +113,11 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
             ring = hl_cls is not None and hl_cls in counts
             ax.text(x, y + 0.45, label, ha="center", va="bottom", fontsize=6,
                     color="#b00020" if ring else "#222", weight="bold" if ring else "normal")
+
+
+def _draw_agents(ax: Any, w: World, states: list[State], show_path: bool) -> None:
+    """The human's walking trajectory (``show_path``), both agents and what they hold."""
+    now = states[-1]
     if show_path and len(states) > 1:
         xs = [w.places[s.agent_at[HUMAN]].pos[0] for s in states]
         ys = [w.places[s.agent_at[HUMAN]].pos[1] for s in states]
@@ -102,25 +130,17 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
         if now.held[agent] >= 0:
             ax.text(x + 1.0, y + dy, f"holds {w.items[now.held[agent]].cls}", color=colour, va="center",
                     fontsize=6.5, zorder=6)
-    ax.set_aspect("equal")
-    ax.autoscale_view()
-    ax.axis("off")
-    ax.set_title(title or f"{scenario.id}: {scenario.description}", fontsize=9)
-    if posterior is not None:
-        bx = axes[1]
-        top = list(posterior.commands[:8])[::-1]
-        names = [c for c, _ in top]
-        probs = [p for _, p in top]
-        colours = ["#2ca02c" if c == posterior.command else "#9ecae1" for c in names]
-        bx.barh(names, probs, color=colours)
-        bx.set_xlim(0, 1)
-        bx.set_xlabel("P(command | actions, words)")
-        heard = f'heard: "{posterior.transcript}"' if posterior.transcript else "no instruction"
-        bx.set_title(f"{heard}\nchosen: {posterior.command}", fontsize=9)
-        bx.tick_params(axis="y", labelsize=8)
-    fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+
+
+def _draw_posterior(bx: Any, posterior: Any) -> None:
+    """The posterior's top commands as a bar chart, the chosen one in green."""
+    top = list(posterior.commands[:8])[::-1]
+    names = [c for c, _ in top]
+    probs = [p for _, p in top]
+    colours = ["#2ca02c" if c == posterior.command else "#9ecae1" for c in names]
+    bx.barh(names, probs, color=colours)
+    bx.set_xlim(0, 1)
+    bx.set_xlabel("P(command | actions, words)")
+    heard = f'heard: "{posterior.transcript}"' if posterior.transcript else "no instruction"
+    bx.set_title(f"{heard}\nchosen: {posterior.command}", fontsize=9)
+    bx.tick_params(axis="y", labelsize=8)

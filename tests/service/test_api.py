@@ -205,7 +205,7 @@ def test_oversized_body_is_413_by_length_and_by_stream(client, app):
 def test_say_then_infer_from_audio(client):
     r = client.post("/v1/say", json={"text": "can you pass me the cereal"})
     assert r.status_code == 200 and r.headers["content-type"] == "audio/wav" and r.content[:4] == b"RIFF"
-    client.app.state.runtime._warm.join()  # the default audio model loads at start (slow on a loaded machine)
+    client.app.state.runtime.wait_warm()  # the default audio model loads at start (slow on a loaded machine)
     res = client.post("/v1/infer", data={"scenario": KITCHEN, "asr_nbest": "3"},
                       files={"audio": ("say.wav", r.content, "audio/wav")})
     body = res.json()

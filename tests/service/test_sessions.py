@@ -216,7 +216,7 @@ def test_spoken_instruction_is_transcribed_with_the_session_world(folder):
     wav = c.post("/v1/say", json={"text": "can you get me the tomato"})
     if wav.status_code != 200:
         pytest.skip(f"no TTS voice: {wav.text[:200]}")
-    c.app.state.runtime._warm.join()  # the default audio model loads at start (slow on a loaded machine)
+    c.app.state.runtime.wait_warm()  # the default audio model loads at start (slow on a loaded machine)
     r = c.post(f"/v1/sessions/{sid}/instruction", data={"asr_nbest": "3"},
                files={"audio": ("say.wav", wav.content, "audio/wav")})
     assert r.status_code == 200, r.text

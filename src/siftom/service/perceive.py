@@ -8,27 +8,28 @@ fails or keeps answering wrongly a 502 (docs/perception.md).
 from __future__ import annotations
 
 import functools
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import anyio
 import anyio.to_thread
-from fastapi import FastAPI, Request
+from fastapi import APIRouter, Request
+from fastapi import Path as PathParam
+from fastapi.encoders import jsonable_encoder
 from fastapi.responses import JSONResponse
 from pydantic import Field
 
 from siftom.errors import BackendUnavailableError, PerceptionError
+from siftom.service.context import Ctx
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import Strict
+from siftom.service.session_schemas import SESSION_ID, ActionsResponse
 from siftom.world.io import check_world_bounds
 
-
-async def _to_thread(fn: Callable[..., Any], *args: Any) -> Any:
-    return await anyio.to_thread.run_sync(functools.partial(fn, *args))
-
+router = APIRouter()
+R = TypeVar("R")
 MAX_FRAMES = 32
-RunCpu = Callable[..., Awaitable[Any]]
 PERCEIVE_TIMEOUT_S = 300.0  # a vision model takes tens of seconds per frame, far over the infer limit
 
 
@@ -46,7 +47,7 @@ class PerceiveRequest(Strict):
     propose_goals: bool = Field(default=True, description="ask the model for goals")
 
 
-def vision_model(app: FastAPI, folder: Path) -> Any:
+def vision_model(llm: Any, folder: Path) -> Any:
     """The vision model at the server's LLM endpoint (``siftom serve --llm-base-url/--llm-model``,
     else ``SIFTOM_LLM_*``); ``SIFTOM_VLM_MODEL`` names a different model at that endpoint."""
     import os
@@ -54,54 +55,64 @@ def vision_model(app: FastAPI, folder: Path) -> Any:
     from siftom.perception import VisionModel
     from siftom.perception.vlm import ENV_VLM_MODEL
 
-    llm = app.state.runtime.settings.llm
     if llm is not None and llm.backend == "openai":
         return VisionModel(model=os.environ.get(ENV_VLM_MODEL) or llm.model, cache_dir=folder, base_url=llm.base_url,
                            api_key=llm.api_key, timeout_s=llm.timeout_s, max_retries=llm.max_retries)
     return VisionModel(cache_dir=folder)
 
 
-def install(app: FastAPI, folder: Path, run_cpu: RunCpu | None = None) -> None:
-    """Add the route; accepted answers are cached under ``folder/perception``. ``run_cpu`` runs
-    the checks of the frames and the world in a worker thread (default: a plain worker thread)."""
-    cpu: RunCpu = run_cpu or _to_thread
+def _vision(ctx: Ctx) -> Any:
+    """The server's vision model; a 501 when none is configured."""
+    try:
+        return vision_model(ctx.settings.llm, ctx.folder)
+    except BackendUnavailableError as exc:
+        raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
 
-    @app.post("/v1/perceive", tags=["perception"],
-              responses={c: {"description": d} for c, d in ((422, "bad frames or world"), (501, "no vision model "
-                         "configured"), (502, "the vision model failed or its answers were rejected"))})
-    async def perceive_route(req: PerceiveRequest) -> dict[str, Any]:
-        """Turn camera frames into a world, the person's actions and a goal space with a vision model."""
-        from siftom.perception import Frame, perceive
-        from siftom.perception.pipeline import known_world
 
-        if req.world is not None:  # a 422 at once, before anything is decoded or built
-            check_world_bounds(req.world, max_items=app.state.runtime.settings.sessions.max_world_items)
+async def _ask_model(work: Callable[[], R]) -> R:
+    """The vision model's work in a worker thread: a 504 past PERCEIVE_TIMEOUT_S, a 502 when it fails."""
+    try:
+        with anyio.fail_after(PERCEIVE_TIMEOUT_S):
+            return await anyio.to_thread.run_sync(work, abandon_on_cancel=True)
+    except TimeoutError:
+        raise ProblemError(504, "timeout", f"perception took longer than {PERCEIVE_TIMEOUT_S:g} s; send fewer "
+                           "frames") from None
+    except (PerceptionError, BackendUnavailableError) as exc:
+        raise ProblemError(502, "vision-model-failed", str(exc)) from None
 
-        def check() -> list[Any]:
-            decoded = [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)]
-            if req.world is not None:
-                known_world(req.world)
-            return decoded
 
-        try:
-            frames = await cpu(check)  # decoding and the world's walking costs: off the event loop
-        except PerceptionError as exc:
-            raise ProblemError(422, "invalid-observation", str(exc)) from None
-        try:
-            model = vision_model(app, folder)
-        except BackendUnavailableError as exc:
-            raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
-        work = functools.partial(perceive, frames, world=req.world, goal_space=req.goal_space, target=req.target,
-                                 propose_goals=req.propose_goals, model=model)
-        try:
-            with anyio.fail_after(PERCEIVE_TIMEOUT_S):
-                result = await anyio.to_thread.run_sync(work, abandon_on_cancel=True)
-        except TimeoutError:
-            raise ProblemError(504, "timeout", f"perception took longer than {PERCEIVE_TIMEOUT_S:g} s; send fewer "
-                               "frames") from None
-        except (PerceptionError, BackendUnavailableError) as exc:
-            raise ProblemError(502, "vision-model-failed", str(exc)) from None
-        return result.to_json()
+def _decoded(frames: list[str]) -> list[Any]:
+    """The frames as images; a PerceptionError naming the first that is not one."""
+    from siftom.perception import Frame
+
+    return [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(frames)]
+
+
+@router.post("/v1/perceive", tags=["perception"], response_model=dict[str, Any],
+             responses={c: {"description": d} for c, d in ((422, "bad frames or world"), (501, "no vision model "
+                        "configured"), (502, "the vision model failed or its answers were rejected"))})
+async def perceive_route(req: PerceiveRequest, ctx: Ctx) -> JSONResponse:
+    """Turn camera frames into a world, the person's actions and a goal space with a vision model."""
+    from siftom.perception import perceive
+    from siftom.perception.pipeline import known_world
+
+    if req.world is not None:  # a 422 at once, before anything is decoded or built
+        check_world_bounds(req.world, max_items=ctx.settings.sessions.max_world_items)
+
+    def check() -> list[Any]:
+        decoded = _decoded(req.frames)
+        if req.world is not None:
+            known_world(req.world)
+        return decoded
+
+    try:
+        frames = await ctx.run_cpu(check)  # decoding and the world's walking costs: off the event loop
+    except PerceptionError as exc:
+        raise ProblemError(422, "invalid-observation", str(exc)) from None
+    model = _vision(ctx)
+    result = await _ask_model(functools.partial(perceive, frames, world=req.world, goal_space=req.goal_space,
+                                                target=req.target, propose_goals=req.propose_goals, model=model))
+    return JSONResponse(jsonable_encoder(result.to_json()))
 
 
 class SessionFramesRequest(Strict):
@@ -112,52 +123,33 @@ class SessionFramesRequest(Strict):
                               "between each pair are perceived and appended to the session")
 
 
-def install_session_frames(app: FastAPI, folder: Path) -> None:
-    """``POST /v1/sessions/{id}/frames``: perceive the person's actions and append them (all or none)."""
-    from fastapi import Path as PathParam
+@router.post("/v1/sessions/{session_id}/frames", tags=["sessions", "perception"],
+             responses={200: {"model": ActionsResponse},
+                        **{c: {"description": d} for c, d in ((404, "no such session"), (422, "bad frames, or "
+                           "perceived actions impossible in the session's state"), (501, "no vision model configured"),
+                           (502, "the vision model failed or its answers were rejected"))}})
+async def session_frames(req: SessionFramesRequest, request: Request, ctx: Ctx,
+                         session_id: str = PathParam(pattern=SESSION_ID)) -> JSONResponse:
+    """Frames instead of action lines: the vision model reads the person's actions between
+    consecutive frames (checked against the session's world and state), and they are appended."""
+    from siftom.perception.pipeline import perceive_actions
+    from siftom.service.idempotency import REPLAYED, idem_of
 
-    from siftom.service.session_schemas import SESSION_ID, ActionsResponse
-
-    mgr = app.state.sessions
-
-    @app.post("/v1/sessions/{session_id}/frames", tags=["sessions", "perception"],
-              responses={200: {"model": ActionsResponse},
-                         **{c: {"description": d} for c, d in ((404, "no such session"), (422, "bad frames, or "
-                            "perceived actions impossible in the session's state"), (501, "no vision model configured"),
-                            (502, "the vision model failed or its answers were rejected"))}})
-    async def session_frames(req: SessionFramesRequest, request: Request,
-                             session_id: str = PathParam(pattern=SESSION_ID)) -> JSONResponse:
-        """Frames instead of action lines: the vision model reads the person's actions between
-        consecutive frames (checked against the session's world and state), and they are appended."""
-        from siftom.perception import Frame
-        from siftom.perception.pipeline import perceive_actions
-        from siftom.service.idempotency import REPLAYED, idem_of
-
-        idem = idem_of(request.headers, "frames", req.model_dump())
-        first = await anyio.to_thread.run_sync(mgr.replayed, session_id, idem)  # 404 before any model call
-        if first is not None:
-            return JSONResponse(first, headers={REPLAYED: "true"})
-        try:
-            frames = await anyio.to_thread.run_sync(
-                lambda: [Frame.from_data_url(f, f"frames[{k}]") for k, f in enumerate(req.frames)])
-        except PerceptionError as exc:
-            raise ProblemError(422, "invalid-observation", str(exc)) from None
-        sess = await anyio.to_thread.run_sync(mgr.get, session_id)  # 404 before any model call (rebuilt off the loop)
-        try:
-            model = vision_model(app, folder)
-        except BackendUnavailableError as exc:
-            raise ProblemError(501, "vision-model-not-configured", str(exc)) from None
-        work = functools.partial(perceive_actions, sess.scene.world, sess.online.state, frames, model)
-        try:
-            with anyio.fail_after(PERCEIVE_TIMEOUT_S):
-                lines, _state = await anyio.to_thread.run_sync(work, abandon_on_cancel=True)
-        except TimeoutError:
-            raise ProblemError(504, "timeout", f"perception took longer than {PERCEIVE_TIMEOUT_S:g} s; send fewer "
-                               "frames") from None
-        except (PerceptionError, BackendUnavailableError) as exc:
-            raise ProblemError(502, "vision-model-failed", str(exc)) from None
-        # checked again at the session's state now: another producer may have added actions meanwhile;
-        # the answer is the state right after these actions
-        body = await anyio.to_thread.run_sync(
-            functools.partial(mgr.append_reply, session_id, lines, None, idem, "perceive"))
-        return JSONResponse(body)
+    mgr = ctx.sessions
+    idem = idem_of(request.headers, "frames", req.model_dump())
+    first = await anyio.to_thread.run_sync(mgr.replayed, session_id, idem)  # 404 before any model call
+    if first is not None:
+        return JSONResponse(first, headers={REPLAYED: "true"})
+    try:
+        frames = await anyio.to_thread.run_sync(_decoded, req.frames)
+    except PerceptionError as exc:
+        raise ProblemError(422, "invalid-observation", str(exc)) from None
+    sess = await anyio.to_thread.run_sync(mgr.get, session_id)  # 404 before any model call (rebuilt off the loop)
+    model = _vision(ctx)
+    lines, _state = await _ask_model(functools.partial(perceive_actions, sess.scene.world, sess.online.state,
+                                                       frames, model))
+    # checked again at the session's state now: another producer may have added actions meanwhile;
+    # the answer is the state right after these actions
+    body = await anyio.to_thread.run_sync(
+        functools.partial(mgr.append_reply, session_id, lines, None, idem, "perceive"))
+    return JSONResponse(body)

@@ -10,21 +10,23 @@ from __future__ import annotations
 
 import json
 import secrets
-import threading
 import time
 from typing import Any
 
-from fastapi import FastAPI, Request
+from fastapi import APIRouter, Request
 from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
 from siftom.people.ratings import RATINGS, SCALE, STATEMENTS, session_model
 from siftom.private import append_private
-from siftom.service.idempotency import REPLAYED, idem_of
+from siftom.service.context import Ctx, ServiceContext
+from siftom.service.idempotency import REPLAYED, Idem, idem_of
 from siftom.service.people import STATIC
 from siftom.service.problems import PROBLEM_JSON, ProblemError
 from siftom.service.session_schemas import SESSION_ID
+
+router = APIRouter()
 
 
 class RatingRequest(BaseModel):
@@ -38,51 +40,54 @@ class RatingRequest(BaseModel):
                               description="a label for the condition (default: the session's model, e.g. siftom)")
 
 
-def install_ratings(app: FastAPI, rt: Any, run_cpu: Any) -> None:
-    """Add the rating page and endpoints; ratings go to ``rt.data_dir / 'ratings.jsonl'``."""
-    lock = threading.Lock()
-    problems: dict[int | str, dict[str, Any]] = {c: {"content": {PROBLEM_JSON: {}}} for c in (404, 422)}
+_PROBLEMS: dict[int | str, dict[str, Any]] = {c: {"content": {PROBLEM_JSON: {}}} for c in (404, 422)}
 
-    @app.get("/rate", include_in_schema=False)
-    async def page() -> FileResponse:
-        return FileResponse(STATIC / "rate.html", media_type="text/html")
 
-    @app.get("/v1/ratings/statements", tags=["sessions"])
-    async def statements() -> dict[str, Any]:
-        """The statements to rate after a trial and the scale."""
-        return {"statements": list(STATEMENTS), "scale": list(SCALE),
-                "labels": {"1": "strongly disagree", "4": "neither agree nor disagree", "7": "strongly agree"}}
+@router.get("/rate", include_in_schema=False)
+async def page() -> FileResponse:
+    return FileResponse(STATIC / "rate.html", media_type="text/html")
 
-    @app.post("/v1/sessions/{session_id}/rating", tags=["sessions"], status_code=201, responses=problems)
-    async def rate(req: RatingRequest, request: Request,
-                   session_id: str = PathParam(pattern=SESSION_ID, description="the session that was rated")
-                   ) -> JSONResponse:
-        """Store the participant's ratings of the robot in this session's last trial; a retry with
-        the same Idempotency-Key returns the first answer and stores nothing."""
-        lo, hi = SCALE
-        if not all(lo <= x <= hi for x in req.scores):
-            raise ProblemError(422, "validation", f"scores: each rating is a whole number from {lo} to {hi}")
-        mgr = app.state.sessions
-        idem = idem_of(request.headers, "rating", req.model_dump())
 
-        def work() -> tuple[dict[str, Any], bool]:
-            sess = mgr.get(session_id)  # an unknown id is a 404
-            with lock:
-                first = mgr.replayed(session_id, idem)
-                if first is not None:
-                    return first, True
-                last = sess.last or {}
-                rec = {"id": secrets.token_hex(8), "session": session_id,
-                       "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
-                       "command": last.get("command"), "action": last.get("action"),
-                       "top_command": last.get("top_command"), "n_actions": len(sess.actions),
-                       "scores": list(req.scores), "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-                with append_private(rt.data_dir / RATINGS) as f:
-                    f.write(json.dumps(rec) + "\n")
-                rec = {**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}
-                if idem is not None:
-                    mgr.store.put_reply(session_id, idem.key, idem.request, rec)
-            return rec, False
+@router.get("/v1/ratings/statements", tags=["sessions"], response_model=dict[str, Any])
+async def statements() -> JSONResponse:
+    """The statements to rate after a trial and the scale."""
+    return JSONResponse({"statements": list(STATEMENTS), "scale": list(SCALE),
+                         "labels": {"1": "strongly disagree", "4": "neither agree nor disagree",
+                                    "7": "strongly agree"}})
 
-        rec, replayed = await run_cpu(work)
-        return JSONResponse(rec, status_code=201, headers={REPLAYED: "true"} if replayed else None)
+
+@router.post("/v1/sessions/{session_id}/rating", tags=["sessions"], status_code=201, responses=_PROBLEMS)
+async def rate(req: RatingRequest, request: Request, ctx: Ctx,
+               session_id: str = PathParam(pattern=SESSION_ID, description="the session that was rated")
+               ) -> JSONResponse:
+    """Store the participant's ratings of the robot in this session's last trial; a retry with
+    the same Idempotency-Key returns the first answer and stores nothing."""
+    lo, hi = SCALE
+    if not all(lo <= x <= hi for x in req.scores):
+        raise ProblemError(422, "validation", f"scores: each rating is a whole number from {lo} to {hi}")
+    idem = idem_of(request.headers, "rating", req.model_dump())
+    rec, replayed = await ctx.run_cpu(_store_rating, ctx, session_id, req, idem)
+    return JSONResponse(rec, status_code=201, headers={REPLAYED: "true"} if replayed else None)
+
+
+def _store_rating(ctx: ServiceContext, session_id: str, req: RatingRequest,
+                  idem: Idem | None) -> tuple[dict[str, Any], bool]:
+    """Append the rating to the ratings file; its JSON and whether it was a retry's first answer."""
+    mgr = ctx.sessions
+    sess = mgr.get(session_id)  # an unknown id is a 404
+    with ctx.ratings_lock:  # one rating written at a time (the file, and the key's first answer)
+        first = mgr.replayed(session_id, idem)
+        if first is not None:
+            return first, True
+        last = sess.last or {}
+        rec = {"id": secrets.token_hex(8), "session": session_id,
+               "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
+               "command": last.get("command"), "action": last.get("action"),
+               "top_command": last.get("top_command"), "n_actions": len(sess.actions),
+               "scores": list(req.scores), "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        with append_private(ctx.folder / RATINGS) as f:
+            f.write(json.dumps(rec) + "\n")
+        rec = {**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}
+        if idem is not None:
+            mgr.store.put_reply(session_id, idem.key, idem.request, rec)
+    return rec, False

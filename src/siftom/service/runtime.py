@@ -101,8 +101,19 @@ class Runtime:
             from siftom.service.audio_pool import AudioPool
 
             self.audio_pool = AudioPool(settings, self.observer.settings, worker_runtime)
-        self._warm = threading.Thread(target=self._load_default_audio_model, daemon=True)
-        self._warm.start()
+        self._warm: threading.Thread | None = None
+
+    def warm_up(self) -> None:
+        """Start loading the default audio model in the background (once), so that the first
+        recording does not wait for it; the app's start-up calls this."""
+        if self._warm is None:
+            self._warm = threading.Thread(target=self._load_default_audio_model, daemon=True)
+            self._warm.start()
+
+    def wait_warm(self, timeout: float | None = None) -> None:
+        """Wait for :meth:`warm_up`'s loading to finish (at once when it was not started)."""
+        if self._warm is not None:
+            self._warm.join(timeout)
 
     def close(self) -> None:
         """Stop the audio worker processes, if any, close the stores and remove the data folder
@@ -313,4 +324,6 @@ def worker_runtime(settings: ServiceSettings, full: Settings) -> Runtime:
     from siftom.observer import Observer
 
     observer = Observer(full, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
-    return Runtime(settings, default_data_dir(), observer)
+    rt = Runtime(settings, default_data_dir(), observer)
+    rt.warm_up()  # the worker's start-up
+    return rt

@@ -1,0 +1,145 @@
+"""The inference endpoints: :data:`router`.
+
+* ``POST /v1/infer``: JSON (transcript, N-best or actions alone) or multipart with an audio
+  file -> the posterior, what was heard, the clarifying decision and the robot's plan.
+* ``GET /v1/scenarios``, ``GET /v1/scenarios/{id}``, ``GET /v1/scenarios/{id}.png``.
+* ``POST /v1/say``: synthesised speech, optionally with noise at an SNR -> ``audio/wav``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from fastapi import APIRouter, Query, Request
+from fastapi import Path as PathParam
+from fastapi.encoders import jsonable_encoder
+from fastapi.responses import FileResponse, JSONResponse, Response
+
+from siftom.api import make_instruction
+from siftom.assist.clarify import ClarifyPolicy
+from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
+from siftom.service.problems import ProblemError, read_audio_form
+from siftom.service.runtime import timeline
+from siftom.service.schemas import (
+    MAX_SCENARIO_ID,
+    AudioFields,
+    InferRequest,
+    InferResponse,
+    SayRequest,
+)
+
+router = APIRouter()
+
+SID_PARAM = PathParam(min_length=1, max_length=MAX_SCENARIO_ID,
+                      description="scenario id, e.g. kitchen-cereal-v0 or household-table-v0/3 "
+                                  "(the slash may be written as %2F)")
+INFER_BODY = {
+    "required": True,
+    "content": {
+        "application/json": {"schema": {"$ref": "#/components/schemas/InferRequest"}},
+        "multipart/form-data": {"schema": {"$ref": "#/components/schemas/AudioInferForm"}},
+    },
+}
+
+
+@dataclass(frozen=True)
+class ScenarioRow:
+    """One line of ``GET /v1/scenarios``."""
+
+    id: str
+    domain: str
+    description: str
+    num_actions: int
+    verb: str
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _scenario_rows(ctx: ServiceContext) -> list[ScenarioRow]:
+    rt = ctx.runtime
+    rows = []
+    for sid in rt.scenario_ids():
+        sc = rt.scenario(sid)
+        rows.append(ScenarioRow(sid, sc.domain, sc.description, len(sc.actions), sc.verb))
+    return rows
+
+
+def _scenario_json(ctx: ServiceContext, scenario_id: str) -> dict[str, Any]:
+    sc = ctx.runtime.scenario(scenario_id)
+    return {**sc.summary(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": timeline(sc)}
+
+
+@router.get("/v1/scenarios", tags=["scenarios"], response_model=dict[str, Any])
+async def list_scenarios(ctx: Ctx) -> JSONResponse:
+    """Every registered scenario: id, domain, one-line description, number of actions."""
+    rows = await ctx.run_cpu(_scenario_rows, ctx)
+    return JSONResponse({"scenarios": [row.to_json() for row in rows]})
+
+
+@router.get("/v1/scenarios/{scenario_id:path}.png", tags=["scenarios"], response_class=FileResponse,
+            responses={200: {"content": {"image/png": {}}}, **problems(404, 422)})
+async def scenario_map(ctx: Ctx, scenario_id: str = SID_PARAM,
+                       command: str | None = Query(default=None, max_length=80,
+                                                   description="a command to highlight, e.g. fetch(cereal)")
+                       ) -> FileResponse:
+    """The scenario's map when the human spoke (matplotlib PNG)."""
+    ctx.lookup(scenario_id, 404)
+    path = await ctx.run_cpu(ctx.runtime.map_png, scenario_id, command)
+    return FileResponse(path, media_type="image/png")
+
+
+@router.get("/v1/scenarios/{scenario_id:path}", tags=["scenarios"], responses=problems(404, 422),
+            response_model=dict[str, Any])
+async def scenario_detail(ctx: Ctx, scenario_id: str = SID_PARAM) -> JSONResponse:
+    """A scenario: places with positions, objects, agents, actions and a step-by-step timeline."""
+    ctx.lookup(scenario_id, 404)
+    return JSONResponse(jsonable_encoder(await ctx.run_cpu(_scenario_json, ctx, scenario_id)))
+
+
+@router.post("/v1/infer", tags=["inference"], openapi_extra={"requestBody": INFER_BODY},
+             responses={200: {"model": InferResponse}, **problems(400, 404, 413, 415, 422, 501, 503)})
+async def infer(request: Request, ctx: Ctx) -> JSONResponse:
+    """Infer the robot command from the human's actions and what was heard.
+
+    Send JSON (InferRequest) with a transcript or an N-best list, or multipart/form-data
+    (AudioInferForm) with an ``audio`` file that the server transcribes first.
+    """
+    media = media_type(request)
+    if is_json(media):
+        req = InferRequest.model_validate_json(await request.body())
+        ctx.lookup(req.scenario, 422)
+        return JSONResponse(await ctx.run_cpu(_infer_json, ctx, req))
+    if media == "multipart/form-data":
+        return JSONResponse(await _infer_audio(request, ctx))
+    raise ProblemError(415, "media-type", "send application/json (a transcript) or multipart/form-data "
+                       f"(an audio file), not {media or 'no Content-Type'}")
+
+
+def _infer_json(ctx: ServiceContext, req: InferRequest) -> dict[str, Any]:
+    policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
+    nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
+    ins = make_instruction(transcript=req.transcript, nbest=nbest)
+    return ctx.runtime.infer(req.scenario, ins, req.mode, req.likelihood, req.n_actions, req.actions,
+                             req.top, policy, req.decide)
+
+
+async def _infer_audio(request: Request, ctx: ServiceContext) -> dict[str, Any]:
+    fields, data = await read_audio_form(request, max_fields=16, max_part_size=ctx.settings.max_body_bytes)
+    opts = AudioFields.model_validate(fields)
+    ctx.lookup(opts.scenario, 422)
+    policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
+    body: dict[str, Any] = await ctx.run_cpu(ctx.runtime.infer_audio, opts.scenario, data, opts.mode,
+                                             opts.likelihood, opts.n_actions, opts.asr_nbest, opts.top, policy,
+                                             opts.decide)
+    return body
+
+
+@router.post("/v1/say", tags=["speech"], response_class=Response,
+             responses={200: {"content": {"audio/wav": {}}, "description": "16 kHz mono 16-bit WAV"},
+                        **problems(413, 422, 501, 503)})
+async def say(req: SayRequest, ctx: Ctx) -> Response:
+    """Speak an instruction with a TTS voice, optionally mixed with synthetic noise at an SNR."""
+    wav = await ctx.run_cpu(ctx.runtime.say, req.text, req.voice, req.rate, req.noise, req.snr, req.seed)
+    return Response(wav, media_type="audio/wav", headers={"Content-Disposition": 'inline; filename="say.wav"'})

@@ -71,7 +71,7 @@ def _opts(args: Sequence[str]) -> tuple[list[str], dict[str, str]]:
     return pos, kw
 
 
-def snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -> str:
+def _snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -> str:
     """Accuracy per condition (rows) and model (columns), with the 1-best WER."""
     snr = result["summary"]["breakdowns"]["snr"]
     conds = [c for c in SNR_ORDER if c in snr] + sorted(c for c in snr if c not in SNR_ORDER)
@@ -85,7 +85,7 @@ def snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -
     return "\n".join(lines)
 
 
-def trials_block(rows: Sequence[dict[str, Any]], name: str) -> str:
+def _trials_block(rows: Sequence[dict[str, Any]], name: str) -> str:
     """The whole-trial summary of ``rows`` as a table, stamped with the version and machine."""
     from siftom.bench.wholetrial import markdown, summarise
 
@@ -125,7 +125,7 @@ def _stamp(results: Sequence[dict[str, Any]]) -> str:
     return f"siftom {', '.join(versions)}; measured on {'; '.join(where)}"
 
 
-def service_block(kind: str, service: dict[str, dict[str, Any]]) -> str:
+def _service_block(kind: str, service: dict[str, dict[str, Any]]) -> str:
     """A table of ``siftom bench robots`` (``robots``) or ``siftom bench hostile`` (``hostile``) results."""
     if kind == "robots":
         runs = [(n, r) for n, r in service.items() if n.startswith("robots-")]
@@ -171,12 +171,12 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
         raise DatasetError(f"gen:{kind} needs a set name")
     name = rest[0]
     if kind == "service":
-        return service_block(name, service or {})
+        return _service_block(name, service or {})
     if kind == "trials":
         if not trials or name not in trials:
             raise DatasetError(f"gen:{spec}: no results/trials/{name}.jsonl (have: "
                                f"{', '.join(sorted(trials or {})) or 'none'}); write it with siftom bench trials --out")
-        return trials_block(trials[name], name)
+        return _trials_block(trials[name], name)
     if name not in results:
         raise DatasetError(f"gen:{spec}: no results/{name}.json (have: {', '.join(sorted(results)) or 'none'})")
     r = results[name]
@@ -186,7 +186,7 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
         sub = dict(r, summary=dict(r["summary"], models={m: r["summary"]["models"][m] for m in models}))
         return "\n" + set_table(sub) + "\n"
     if kind == "snr":
-        return "\n" + snr_table(r, models, wer="wer" in pos) + "\n"
+        return "\n" + _snr_table(r, models, wer="wer" in pos) + "\n"
     if kind == "value" and len(pos) == 2:
         return _fmt(_get(r, pos[0]), pos[1])
     if kind == "diff" and len(pos) == 3:

@@ -54,6 +54,7 @@ from siftom.bench.results_io import (
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.bench.trials import (
     _eval_stimuli,
+    _Finished,
     _run_task,
     _Task,
     dataset_vocabulary,
@@ -177,12 +178,12 @@ class _Sink:
         self.total = total
         self.progress = progress
 
-    def consume(self, row: dict[str, Any], new_tr: dict[str, Any] | None, new_team: list[dict[str, Any]]) -> None:
-        if new_tr is not None:
-            self.tr_f.write(new_tr)
-        for t in new_team:
+    def consume(self, done: _Finished) -> None:
+        if done.transcript is not None:
+            self.tr_f.write(done.transcript)
+        for t in done.team:
             self.team_f.write(t)
-        row, timing = split_timings(row)
+        row, timing = split_timings(done.row)
         row["provenance"] = self.prov
         self.tim_f.write(timing)
         self.res_f.write(row)  # last: a stimulus counts as done once its caches are saved
@@ -204,7 +205,7 @@ def _run_tasks(be: Any, tasks: list[_Task], vocab: tuple[str, ...], sink: _Sink)
         if be.inline:
             for task in tasks:
                 for item in _eval_stimuli(task):
-                    sink.consume(*item)
+                    sink.consume(item)
         else:
             # biggest groups first keeps every worker busy until the end
             order = sorted(tasks, key=lambda t: -len(t.stimuli))
@@ -212,7 +213,7 @@ def _run_tasks(be: Any, tasks: list[_Task], vocab: tuple[str, ...], sink: _Sink)
             try:
                 for _, items in results:
                     for item in items:
-                        sink.consume(*item)
+                        sink.consume(item)
             finally:
                 results.close()
                 be.close()

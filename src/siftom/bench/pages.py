@@ -94,7 +94,7 @@ def voice_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def summary_table(results: Sequence[dict[str, Any]], models: Sequence[str] = README_MODELS) -> str:
+def _summary_table(results: Sequence[dict[str, Any]], models: Sequence[str] = README_MODELS) -> str:
     """Accuracy per set (rows) and model (columns): the README's table."""
     present = [m for m in models if any(m in r["summary"]["models"] for r in results)]
     lines = ["| set | stimuli | " + " | ".join(present) + " |", "|---|---|" + "---|" * len(present)]
@@ -116,7 +116,7 @@ def _worlds(ds: dict[str, Any]) -> str:
     return "" if ds.get("world_seed") is None else f", world seed {ds['world_seed']} (generated worlds, none tuned on)"
 
 
-def set_page(result: dict[str, Any]) -> str:
+def _set_page(result: dict[str, Any]) -> str:
     """The Markdown page of one set."""
     ds = result["dataset"]
     cmds = "\n".join(result["commands"])
@@ -136,21 +136,21 @@ def _voice_section(result: dict[str, Any]) -> str:
             f"n: stimuli per model.\n\n{table}\n")
 
 
-def index_page(results: Sequence[dict[str, Any]]) -> str:
+def _index_page(results: Sequence[dict[str, Any]]) -> str:
     """The results overview page."""
     if not results:
         return (f"# Results for this version\n\nNo results files yet. Run `{REPRODUCE}`, then `{PAGES}`.\n")
     links = "\n".join(f"* [{r['title']}]({r['set']}.md)" for r in results)
     return (f"# Results for this version\n\n{_stamp(results)}\n\nAccuracy (the command executed is the one "
-            f"asked for), mean over every condition of the set:\n\n{summary_table(results)}\n\n"
+            f"asked for), mean over every condition of the set:\n\n{_summary_table(results)}\n\n"
             f"Each set, with confidence intervals, speedup and the exact commands:\n\n{links}\n")
 
 
-def readme_block(results: Sequence[dict[str, Any]]) -> str:
+def _readme_block(results: Sequence[dict[str, Any]]) -> str:
     """The README's results block (between the markers)."""
     if not results:
         return f"{START}\nNo results yet: run `make results`.\n{END}"
-    return f"{START}\n{summary_table(results)}\n\n{_stamp(results)}\n{END}"
+    return f"{START}\n{_summary_table(results)}\n\n{_stamp(results)}\n{END}"
 
 
 def write_pages(results_dir: str | Path, docs_dir: str | Path, readme: str | Path | None = None) -> list[Path]:
@@ -159,10 +159,10 @@ def write_pages(results_dir: str | Path, docs_dir: str | Path, readme: str | Pat
     docs = Path(docs_dir)
     docs.mkdir(parents=True, exist_ok=True)
     written = [docs / "index.md"]
-    written[0].write_text(index_page(results), encoding="utf-8")
+    written[0].write_text(_index_page(results), encoding="utf-8")
     for r in results:
         p = docs / f"{r['set']}.md"
-        p.write_text(set_page(r), encoding="utf-8")
+        p.write_text(_set_page(r), encoding="utf-8")
         written.append(p)
     if readme is not None:
         path = Path(readme)
@@ -170,6 +170,6 @@ def write_pages(results_dir: str | Path, docs_dir: str | Path, readme: str | Pat
         pattern = re.compile(re.escape(START) + r".*?" + re.escape(END), re.DOTALL)
         if not pattern.search(text):
             raise DatasetError(f"{path} has no {START} ... {END} markers to fill")
-        path.write_text(pattern.sub(lambda _m: readme_block(results), text), encoding="utf-8")
+        path.write_text(pattern.sub(lambda _m: _readme_block(results), text), encoding="utf-8")
         written.append(path)
     return written

@@ -43,7 +43,7 @@ PAPER = {
 }
 
 
-def models_in(rows: Sequence[dict[str, Any]]) -> list[str]:
+def _models_in(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Model names present in the rows, known models first in their standard order."""
     seen: dict[str, None] = {}
     for r in rows:
@@ -53,11 +53,11 @@ def models_in(rows: Sequence[dict[str, Any]]) -> list[str]:
     return [m for m in known if m in seen] + [m for m in seen if m not in known]
 
 
-def summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any]:
+def _summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any]:
     """The summary.json content: per-model metrics with CIs, breakdowns, ASR word error rates."""
     if not rows:
         raise DatasetError("no evaluated stimuli to summarise; run 'siftom eval' first")
-    models = models_in(rows)
+    models = _models_in(rows)
     out: dict[str, Any] = {"n_stimuli": len({r["id"] for r in rows}), "bootstrap": {"resamples": n_boot, "seed": seed, "level": 0.95},
                            "models": {}}
     for m in models:
@@ -112,7 +112,7 @@ def main_table(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def decision_table(summary: dict[str, Any]) -> str:
+def _decision_table(summary: dict[str, Any]) -> str:
     """What decisions are for, one row per model and the goal-known oracle: speedup (CI), negative
     share, questions, confident errors, MAP accuracy, regret; executed-command accuracy labelled."""
     lines = ["| model | mean speedup [95 % CI] | negative speedup | questions / trial | confident wrong (P >= 0.8) "
@@ -151,7 +151,7 @@ def _breakdown_table(bd: dict[str, dict[str, dict[str, Any]]], models: Sequence[
     return "\n".join(lines)
 
 
-def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequence[Path]) -> str:
+def _render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequence[Path]) -> str:
     """The Markdown report."""
     models = list(summary["models"])
     opts = run.get("options", {})
@@ -187,7 +187,7 @@ def render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequenc
               "a command it gave probability >= 0.8 and was wrong. MAP accuracy (decision-rule models): the most "
               "probable command after the answer is right, whatever the robot executed. No speedup: trials whose team simulation "
               "ran out of planning budget; they are left out of the speedup mean and the negative share.", "",
-              decision_table(summary), ""]
+              _decision_table(summary), ""]
     if FIG_PARETO in names:
         parts += [f"![mean speedup vs negative-speedup share]({FIG_PARETO})", ""]
     if FIG_ASK in names:
@@ -238,7 +238,7 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
 
     human = load_human(root)  # people's answers as trials of the model "human" (bench/human.py)
     ratings = read_jsonl(root / RATINGS)
-    summary = summarise(rows + human, seed=seed)
+    summary = _summarise(rows + human, seed=seed)
     if human:
         summary["human"] = human_summary(human, seed)
     if ratings:
@@ -251,7 +251,7 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     summary["reliability"] = rel
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     rel_fig = reliability.render(rel, root) if figures else None
-    _write(root / "report.md", render_report(summary, run, figs) + "\n" + people_section(summary)
+    _write(root / "report.md", _render_report(summary, run, figs) + "\n" + people_section(summary)
            + reliability.section(rel, rel_fig))
     return summary
 

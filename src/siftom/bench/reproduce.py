@@ -139,7 +139,7 @@ def machine() -> dict[str, Any]:
             "machine": platform.machine(), "python": platform.python_version()}
 
 
-def run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+def _run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Build and evaluate one set; return the stamped result (also written to ``out/NAME.json``)."""
     from siftom import __version__
     from siftom.bench.dataset import build_dataset
@@ -209,4 +209,4 @@ def reproduce(plan: Plan, out: str | Path, backend: Any, only: tuple[str, ...] =
     if missing:
         raise DatasetError(f"no set named {', '.join(missing)} in {plan.path}; sets: "
                            + ", ".join(s.name for s in plan.sets))
-    return [run_set(s, root, backend, progress) for s in chosen]
+    return [_run_set(s, root, backend, progress) for s in chosen]

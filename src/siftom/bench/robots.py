@@ -317,7 +317,7 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
 _PNG = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg=="
 
 
-def hostile_world(n_places: int = 3, cls: str = "tomato") -> dict[str, Any]:
+def _hostile_world(n_places: int = 3, cls: str = "tomato") -> dict[str, Any]:
     """A world JSON with ``n_places`` places and one object of class ``cls``."""
     places = [{"name": f"p{i}", "kind": "surface", "room": f"r{i % 7}", "pos": [i % 50, i // 50]}
               for i in range(n_places)]
@@ -325,16 +325,16 @@ def hostile_world(n_places: int = 3, cls: str = "tomato") -> dict[str, Any]:
             "goals": [{"name": "g", "counts": {cls: 1}}]}
 
 
-def hostile_requests() -> list[tuple[str, str, dict[str, Any]]]:
+def _hostile_requests() -> list[tuple[str, str, dict[str, Any]]]:
     """(name, path, JSON body) of each hostile request the service must refuse at once."""
     return [
-        ("3,000-place world", "/v1/sessions", {"world": hostile_world(3000)}),
-        ("1,000-place world", "/v1/sessions", {"world": hostile_world(1000)}),
-        ("100,000-letter class names", "/v1/sessions", {"world": hostile_world(4, "a" * 100_000)}),
+        ("3,000-place world", "/v1/sessions", {"world": _hostile_world(3000)}),
+        ("1,000-place world", "/v1/sessions", {"world": _hostile_world(1000)}),
+        ("100,000-letter class names", "/v1/sessions", {"world": _hostile_world(4, "a" * 100_000)}),
         ("6,000-node scene graph", "/v1/sessions",
          {"world": {"nodes": [{"id": k, "class_name": "chair"} for k in range(6000)], "edges": []}}),
-        ("perceive, 1,000 places", "/v1/perceive", {"frames": [_PNG], "world": hostile_world(1000)}),
-        ("perceive, 100,000-letter class", "/v1/perceive", {"frames": [_PNG], "world": hostile_world(4, "b" * 100_000)}),
+        ("perceive, 1,000 places", "/v1/perceive", {"frames": [_PNG], "world": _hostile_world(1000)}),
+        ("perceive, 100,000-letter class", "/v1/perceive", {"frames": [_PNG], "world": _hostile_world(4, "b" * 100_000)}),
     ]
 
 
@@ -343,8 +343,8 @@ async def _hostile(url: str, headers: dict[str, str]) -> list[dict[str, Any]]:
 
     rows = []
     async with httpx.AsyncClient(base_url=url, headers=headers, timeout=120) as client:
-        await client.post("/v1/sessions", json={"world": hostile_world()})  # warm: the first request loads models
-        for name, path, body in hostile_requests():
+        await client.post("/v1/sessions", json={"world": _hostile_world()})  # warm: the first request loads models
+        for name, path, body in _hostile_requests():
             health: list[float] = []
             done = asyncio.Event()
 

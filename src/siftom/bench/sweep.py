@@ -200,7 +200,7 @@ def run_sweep(config: str | Path, out: str | Path, backend: Any,
         (root / "sweep.json").write_text(json.dumps(result, indent=2, default=list) + "\n", encoding="utf-8")
         rows = table_rows(result)
         (root / "table.md").write_text(markdown_table(rows) + "\n", encoding="utf-8")
-        (root / "table.csv").write_text(csv_table(rows), encoding="utf-8")
+        (root / "table.csv").write_text(_csv_table(rows), encoding="utf-8")
         figure(rows, root / "sweep.png")
     return result
 
@@ -240,7 +240,7 @@ def markdown_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def csv_table(rows: list[dict[str, Any]]) -> str:
+def _csv_table(rows: list[dict[str, Any]]) -> str:
     """The same table as CSV (fractions, not percent)."""
     buf = io.StringIO()
     if rows:

@@ -119,6 +119,16 @@ class _Task:
     team: dict[str, dict[str, Any]]
 
 
+@dataclass(frozen=True)
+class _Finished:
+    """One stimulus evaluated: its results row, its transcript when made now (None: it was cached)
+    and the team simulations run for it now (the lines of the run's cache files)."""
+
+    row: dict[str, Any]
+    transcript: dict[str, Any] | None
+    team: list[dict[str, Any]]
+
+
 class _Heard:
     """What one stimulus's models hear: its transcript, N-best and clip, with the posterior and the
     decision models' input per likelihood computed once and shared by its models."""
@@ -242,8 +252,8 @@ def _oracle(s: Stimulus, sc: Any, skey: str, oracles: dict[tuple[str, str], str]
                key=lambda ct: -np.inf if ct[1]["speedup"] is None else ct[1]["speedup"])
 
 
-def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
-    """Yield (results row, new transcript or None, new team simulations) per stimulus."""
+def _eval_stimuli(task: _Task) -> Iterator[_Finished]:
+    """Yield what each stimulus's evaluation leaves, stimulus by stimulus."""
     for s in task.stimuli:
         skey = scenario_key(s)
         for c, r in task.team.items():
@@ -280,7 +290,7 @@ def _eval_stimuli(task: _Task) -> Iterator[tuple[dict[str, Any], dict[str, Any] 
             **({"not_evaluable": not_evaluable} if not_evaluable else {}),
         }
         new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]
-        yield row, new_tr, new_team
+        yield _Finished(row, new_tr, new_team)
 
 
 def _heard_by(spec: EvalModel, opts: EvalOptions, s: Stimulus, instr: Any, audio: Path,
@@ -328,6 +338,6 @@ def _posterior_choice(spec: EvalModel, opts: EvalOptions, s: Stimulus, sc: Any, 
     return command, prob
 
 
-def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[tuple[dict[str, Any], dict[str, Any] | None, list[dict[str, Any]]]]:
+def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[_Finished]:
     """One scenario group on a worker; the vocabulary is shipped once per worker, not per task."""
     return list(_eval_stimuli(replace(task, vocabulary=vocabulary)))

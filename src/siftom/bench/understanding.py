@@ -59,7 +59,7 @@ __all__ = [
     "CONDITIONS", "CONFUSIONS", "COUNTED", "DEFAULT_WORLDS", "DOMAINS", "HOUSEHOLD", "KINDS", "KITCHEN",
     "MAX_COUNT", "NOISE", "NUMBER_WORDS", "PER_KIND", "SETS", "SNR_DB", "TEMPLATES", "VOICES", "WORLD_SEEDS",
     "Expect", "Item", "Run", "add_noise", "as_recorded", "generate_items", "record", "run_benchmark",
-    "run_item", "scene_for", "speak", "summarize", "summary_path", "table", "understood", "voices_available",
+    "scene_for", "speak", "summary_path", "table", "understood", "voices_available",
 ]
 
 CONDITIONS = ("text", "clean", "10dB")
@@ -90,7 +90,7 @@ def scene_for(item: Item) -> Any:
     return resolve_scene(resolve_scenario(item.scenario, item.domain, item.scenario_seed))
 
 
-def run_item(observer: Any, item: Item, scene: Any, heard: str | np.ndarray, *,
+def _run_item(observer: Any, item: Item, scene: Any, heard: str | np.ndarray, *,
              condition: str = "text", voice: str | None = None) -> dict[str, Any]:
     """Ask ``observer`` about what was ``heard`` (a transcript or 16 kHz samples) of ``item`` in
     ``scene``; the result row (``understood`` by :func:`understood`)."""
@@ -211,7 +211,7 @@ def _share(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return {"n": n, "understood": ok, "share": round(ok / n, 4) if n else None}
 
 
-def summarize(rows: Sequence[dict[str, Any]], meta: dict[str, Any] | None = None) -> dict[str, Any]:
+def _summarize(rows: Sequence[dict[str, Any]], meta: dict[str, Any] | None = None) -> dict[str, Any]:
     """Share understood per condition: overall, per kind, per domain and per kind and domain."""
     conds = [c for c in CONDITIONS if any(r["condition"] == c for r in rows)]
     out: dict[str, Any] = {**(meta or {}), "rows": len(rows), "overall": {}, "by_kind": {}, "by_domain": {},
@@ -283,7 +283,7 @@ def run_benchmark(items: Sequence[Item], conditions: Sequence[str] = ("text",), 
             for c in conditions:
                 voice = voices[i % len(voices)] if c != "text" else None
                 heard: str | np.ndarray = item.text if voice is None else rec(item, c, voice)
-                row = run_item(ob, item, scene, heard, condition=c, voice=voice)
+                row = _run_item(ob, item, scene, heard, condition=c, voice=voice)
                 rows.append(row)
                 if sink is not None:
                     sink.write(json.dumps(row) + "\n")
@@ -296,7 +296,7 @@ def run_benchmark(items: Sequence[Item], conditions: Sequence[str] = ("text",), 
     secs = time.perf_counter() - t0
     info = {**(meta or {}), "items": len(items), "conditions": list(conditions), "voices": list(voices),
             "noise": NOISE if "10dB" in conditions else None, "seconds": round(secs, 1)}
-    summary = summarize(rows, info)
+    summary = _summarize(rows, info)
     files: list[str] = []
     if out_path is not None:
         sp = summary_path(out_path)
@@ -316,17 +316,17 @@ def table(summary: dict[str, Any]) -> Any:
     for c in conds:
         t.add_column(c, justify="right")
 
-    def cell(s: dict[str, Any] | None) -> str:
+    def _cell(s: dict[str, Any] | None) -> str:
         if not s or not s["n"]:
             return "-"
         return f"{s['understood']}/{s['n']} {100 * s['share']:.0f} %"
 
     for k in KINDS:
         if any(k in summary["by_kind"][c] for c in conds):
-            t.add_row(k, *(cell(summary["by_kind"][c].get(k)) for c in conds))
+            t.add_row(k, *(_cell(summary["by_kind"][c].get(k)) for c in conds))
     t.add_section()
     for d in DOMAINS:
         if any(d in summary["by_domain"][c] for c in conds):
-            t.add_row(d, *(cell(summary["by_domain"][c].get(d)) for c in conds))
-    t.add_row("all", *(cell(summary["overall"][c]) for c in conds), style="bold")
+            t.add_row(d, *(_cell(summary["by_domain"][c].get(d)) for c in conds))
+    t.add_row("all", *(_cell(summary["overall"][c]) for c in conds), style="bold")
     return t

@@ -14,14 +14,15 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "siftom"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors", "registry", "observation", "logspace", "concurrency", "safejson", "memo", "private", "jsonlines"),
     ("world",),
+    ("options", "settings"),  # the option classes of every stage and door, and settings: every SIFTOM_* variable
     ("planning",),
     ("agents",),
     ("scenarios",),
-    ("backends", "speech", "options"),  # options: the option classes of every stage and door
+    ("backends", "speech"),
     ("likelihood", "language"),  # language: the utterance model (the words' slots and roles)
     ("inference",),
     ("assist", "perception"),
-    ("inputs", "settings", "answer"),  # the resolved settings and the one answer shape
+    ("inputs", "answer"),  # the scene a door was given and the one answer shape
     ("observer", "listener"),  # the one path behind every door; a home listening through it
     ("people",),  # participants: the dataset format, recording, annotation, ratings (bench and service)
     ("api", "bench", "service", "__init__"),  # the package root is the public facade
@@ -249,3 +250,50 @@ def test_the_never_rules_see_lazy_and_type_only_imports(tmp_path):
     assert never_edges(import_graph(pkg)) == [("siftom.service.app", "siftom.bench.stuff"),
                                               ("siftom.settings", "siftom.service.app"),
                                               ("siftom.speech.asr", "siftom.likelihood")]
+
+
+# -- the environment: read in one place -------------------------------------------------------
+
+def _environment_reads(path: Path):
+    """(line, key) of every read of the process environment: ``os.environ.get(K)``,
+    ``os.getenv(K)``, ``os.environ[K]`` (a write, ``os.environ[K] = v``, is not a read)."""
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        key = None
+        if isinstance(node, ast.Call) and node.args:
+            f = node.func
+            if isinstance(f, ast.Attribute) and (
+                    (f.attr == "get" and isinstance(f.value, ast.Attribute) and f.value.attr == "environ")
+                    or f.attr == "getenv"):
+                key = node.args[0]
+        elif isinstance(node, ast.Subscript) and isinstance(node.ctx, ast.Load) and \
+                isinstance(node.value, ast.Attribute) and node.value.attr == "environ":
+            key = node.slice
+        if key is not None:
+            yield node.lineno, key.value if isinstance(key, ast.Constant) else ast.unparse(key)
+
+
+@pytest.mark.parametrize("path", [p for p in _modules() if p.relative_to(SRC).parts[0] != "settings"],
+                         ids=lambda p: str(p.relative_to(SRC)))
+def test_siftom_variables_are_read_only_by_the_settings(path):
+    """Every ``SIFTOM_*`` variable is read by ``siftom.settings`` (its ``environment`` module lists
+    them all); elsewhere only other programs' variables (``PYTHONPATH``, ``OMP_NUM_THREADS``)."""
+    bad = [f"line {n}: {k}" for n, k in _environment_reads(path)
+           if not (isinstance(k, str) and k.isupper() and not k.startswith("SIFTOM_") and " " not in k)]
+    assert not bad, ("reads the environment outside siftom.settings (ask siftom.settings.environment, "
+                     "which lists every variable): " + "; ".join(bad))
+
+
+def test_the_environment_check_sees_reads(tmp_path):
+    mod = tmp_path / "mod.py"
+    mod.write_text('import os\nos.environ.get("SIFTOM_X")\nos.getenv(NAME)\nos.environ["A"]\nos.environ["B"] = "1"\n')
+    assert list(_environment_reads(mod)) == [(2, "SIFTOM_X"), (3, "NAME"), (4, "A")]
+
+
+def test_every_variable_the_settings_read_is_listed():
+    from siftom.settings import environment
+
+    text = "\n".join(p.read_text(encoding="utf-8") for p in SRC.rglob("*.py"))
+    import re
+
+    named = set(re.findall(r'"(SIFTOM_[A-Z0-9_]+)"', text)) - {environment.PREFIX}
+    assert named <= set(environment.VARIABLES), f"list these in environment.VARIABLES: {sorted(named - set(environment.VARIABLES))}"

@@ -1,7 +1,8 @@
 """The option classes of every stage and door, below all of them (they import nothing above
-``siftom.errors`` and ``siftom.backends.config``): how a call hears and decides
-(:class:`InferOptions`), the HTTP service's limits (:class:`ServiceSettings`), the session API's
-(:class:`SessionLimits`) and the streaming endpoint's (:class:`StreamLimits`).
+``siftom.world.commands`` and ``siftom.settings.llm``): the model's (:class:`ModelConfig`), how a
+call hears and decides (:class:`InferOptions`), the HTTP service's limits
+(:class:`ServiceSettings`), the session API's (:class:`SessionLimits`) and the streaming
+endpoint's (:class:`StreamLimits`).
 
 ``siftom.settings`` resolves them from a file, ``SIFTOM_*`` variables and flags; each field is a
 setting (``siftom config show``).
@@ -12,8 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError, OptionsError, SettingsError, SiftomError
+from siftom.settings.llm import LLMConfig
 from siftom.world.commands import MAX_COUNT
 
 MIN_TOKEN = 16

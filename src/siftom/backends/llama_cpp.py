@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -26,21 +25,15 @@ from siftom.backends.config import LLMConfig
 from siftom.backends.scoring import ScoreCache, default_cache_dir
 from siftom.concurrency import guarded
 from siftom.errors import BackendUnavailableError, missing_extra, unknown_name
+from siftom.settings.environment import LLM_GGUF_OLD, LLM_THREADS, llm_threads, read
 
-ENV_MODEL_PATH = "SIFTOM_LLM_GGUF"  # deprecated: SIFTOM_LLM_MODEL takes a path too
-ENV_THREADS = "SIFTOM_LLM_THREADS"  # CPU threads of the in-process model (default: llama.cpp's)
+ENV_MODEL_PATH = LLM_GGUF_OLD  # deprecated: SIFTOM_LLM_MODEL takes a path too
+ENV_THREADS = LLM_THREADS  # CPU threads of the in-process model (default: llama.cpp's)
 
 
 def threads_from_env() -> int | None:
     """``$SIFTOM_LLM_THREADS`` as a positive whole number, or None when unset."""
-    value = os.environ.get(ENV_THREADS, "").strip()
-    if not value:
-        return None
-    if not value.isdigit() or int(value) < 1:
-        raise BackendUnavailableError(
-            f"{ENV_THREADS} must be a whole number >= 1 (CPU threads), got {value!r}; fix or unset it"
-        )
-    return int(value)
+    return llm_threads()
 
 # name -> (PyPI package, importable module names that may hold the .gguf)
 PACKAGED_MODELS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -84,7 +77,7 @@ def find_smollm2_gguf() -> Path:
 
 def resolve_model_path(model: str | Path | None) -> Path:
     """A .gguf path from a path, a packaged model name, ``$SIFTOM_LLM_GGUF`` or the default."""
-    model = model or os.environ.get(ENV_MODEL_PATH) or DEFAULT_MODEL
+    model = model or read(ENV_MODEL_PATH) or DEFAULT_MODEL
     if str(model) in PACKAGED_MODELS:
         return find_packaged_gguf(str(model))
     path = Path(model).expanduser()

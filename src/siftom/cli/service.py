@@ -16,6 +16,7 @@ import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
 from siftom.errors import missing_extra
+from siftom.settings.environment import TOKEN, read
 from siftom.speech.cli_options import whisper_model_option
 
 if TYPE_CHECKING:
@@ -41,7 +42,6 @@ def resolve_token(host: str, token: str | None, token_file: Path | None, configu
     Raises:
         OptionsError: both flags, an unreadable or empty token file, an unusable token.
     """
-    import os
 
     from siftom.errors import OptionsError
     from siftom.options import check_token
@@ -58,9 +58,9 @@ def resolve_token(host: str, token: str | None, token_file: Path | None, configu
             raise OptionsError(f"cannot read the token file {str(token_file)!r} ({type(exc).__name__}); give a "
                                "UTF-8 text file holding the token on one line") from None
         return check_token(text, f"the token file {str(token_file)!r}"), False
-    env = os.environ.get("SIFTOM_TOKEN")
+    env = read(TOKEN)
     if env is not None:
-        return check_token(env, "SIFTOM_TOKEN"), False
+        return check_token(env, TOKEN), False
     if configured is not None:
         return configured, False
     if is_loopback(host):

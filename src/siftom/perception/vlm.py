@@ -30,9 +30,10 @@ from siftom.perception.frames import Frame
 from siftom.perception.prompts import SYSTEM
 from siftom.perception.schemas import SCHEMAS, check_schema
 from siftom.safejson import loads
+from siftom.settings.environment import VLM_MODEL, read
 
 T = TypeVar("T")
-ENV_VLM_MODEL = "SIFTOM_VLM_MODEL"
+ENV_VLM_MODEL = VLM_MODEL
 RETRY = ("Your answer was rejected: {error}\nAnswer the same question again with corrected JSON only, "
          "matching the schema.")
 _FENCE = re.compile(r"^\s*```(?:json)?\s*\n(.*)\n\s*```\s*$", re.DOTALL)
@@ -99,7 +100,7 @@ class VisionModel:
             from siftom.backends.config import LLMConfig
             from siftom.backends.openai_compat import OpenAIClient
 
-            name = model or os.environ.get(ENV_VLM_MODEL) or None
+            name = model or read(ENV_VLM_MODEL)
             config = LLMConfig.from_env(backend="openai", model=name, **overrides)
             client = OpenAIClient(config, use_cache=False)
         self.client = client

@@ -7,18 +7,19 @@ Both paths compute the same numbers; the tests run them against each other.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
 
+from siftom.settings.environment import numba_disabled
+
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 _njit: Callable[..., Any] | None
 try:  # optional dependency
-    if os.environ.get("SIFTOM_NO_NUMBA"):
+    if numba_disabled():
         raise ImportError("disabled by SIFTOM_NO_NUMBA")
     from numba import njit as _njit
 except ImportError:  # pragma: no cover - exercised when numba is absent

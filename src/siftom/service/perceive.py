@@ -50,13 +50,11 @@ class PerceiveRequest(Strict):
 def vision_model(llm: Any, folder: Path) -> Any:
     """The vision model at the server's LLM endpoint (``siftom serve --llm-base-url/--llm-model``,
     else ``SIFTOM_LLM_*``); ``SIFTOM_VLM_MODEL`` names a different model at that endpoint."""
-    import os
-
     from siftom.perception import VisionModel
-    from siftom.perception.vlm import ENV_VLM_MODEL
+    from siftom.settings.environment import VLM_MODEL, read
 
     if llm is not None and llm.backend == "openai":
-        return VisionModel(model=os.environ.get(ENV_VLM_MODEL) or llm.model, cache_dir=folder, base_url=llm.base_url,
+        return VisionModel(model=read(VLM_MODEL) or llm.model, cache_dir=folder, base_url=llm.base_url,
                            api_key=llm.api_key, timeout_s=llm.timeout_s, max_retries=llm.max_retries)
     return VisionModel(cache_dir=folder)
 

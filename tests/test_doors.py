@@ -26,7 +26,7 @@ from siftom.cli import root  # noqa: E402
 from siftom.listener import HomeListener, load_home  # noqa: E402
 from siftom.observer import Observer  # noqa: E402
 from siftom.service.app import create_app  # noqa: E402
-from siftom.service.loadtest import serve_in_thread  # noqa: E402
+from siftom.service.local_server import serve_in_thread  # noqa: E402
 from siftom.settings import Settings  # noqa: E402
 from support.streaming import Collector, pcm16, say, silence, stream  # noqa: E402
 

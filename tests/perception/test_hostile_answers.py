@@ -40,7 +40,7 @@ def test_over_http_a_hostile_answer_is_a_problem_and_the_connection_survives(vlm
     import httpx
 
     from siftom.service.app import create_app
-    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.local_server import serve_in_thread
 
     vlm_env.on("chat/completions", lambda req: Reply.json(chat_answer(HUGE_INT)))
     with serve_in_thread(create_app(tmp_path / "serve")) as url, httpx.Client(base_url=url, timeout=60) as c:

@@ -12,7 +12,7 @@ import soundfile as sf
 import siftom
 from siftom.inference.model import MODES
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 from siftom.service.schemas import Mode
 from support.client import local_client

@@ -28,7 +28,7 @@ from siftom.people.annotate import AnnotateOptions
 from siftom.people.collect import CollectOptions
 from siftom.service.annotate_app import create_annotate_app
 from siftom.service.collect_app import create_collect_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 
 CHROMIUM = "/usr/bin/chromium"  # as in test_browser.py
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 
 CHROMIUM = "/usr/bin/chromium"  # as in test_browser.py
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -16,7 +16,7 @@ import pytest
 import soundfile as sf
 
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 from support.streaming import say, silence
 
 CHROMIUM = "/usr/bin/chromium"

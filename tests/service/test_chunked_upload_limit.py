@@ -5,7 +5,7 @@ from __future__ import annotations
 import httpx
 
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 
 LIMIT = 64 * 1024

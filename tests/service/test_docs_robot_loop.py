@@ -10,7 +10,7 @@ from pathlib import Path
 import httpx
 
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 
 ROOT = Path(__file__).parents[2]
 

@@ -76,7 +76,7 @@ def test_concurrent_replies_report_their_own_request(folder):
 
     import httpx
 
-    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.local_server import serve_in_thread
 
     places = ["fridge", "counter", "cabinet", "pantry_shelf"]
     with serve_in_thread(create_app(folder)) as url, \

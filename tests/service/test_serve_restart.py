@@ -14,7 +14,7 @@ import pytest
 
 httpx = pytest.importorskip("httpx")
 
-from siftom.service.loadtest import free_port  # noqa: E402
+from siftom.service.local_server import free_port  # noqa: E402
 from support.server import kill_server as _kill  # noqa: E402
 from support.server import start_server as _start  # noqa: E402
 

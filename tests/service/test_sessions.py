@@ -286,7 +286,7 @@ def test_concurrent_robots_get_the_answers_they_would_get_alone(folder):
 
     import httpx
 
-    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.local_server import serve_in_thread
 
     heard = ["can you get me the potato", "the tomato please", "get me a bowl"]
     with serve_in_thread(create_app(folder)) as url, httpx.Client(base_url=url, timeout=60) as c:
@@ -314,7 +314,7 @@ def test_concurrent_robots_get_the_answers_they_would_get_alone(folder):
 
 
 def test_session_load_test_counts_requests_and_checks_nothing_was_lost(folder):
-    from siftom.service.loadtest import serve_in_thread
+    from siftom.service.local_server import serve_in_thread
     from siftom.service.session_load import run_session_load
 
     app = create_app(folder)

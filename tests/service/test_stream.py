@@ -12,7 +12,7 @@ import httpx
 import pytest
 
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 from siftom.service.stream_settings import StreamLimits
 from support.streaming import Collector, noise_clip, pcm16, say, silence, stream

@@ -14,7 +14,7 @@ import pytest
 
 from siftom.options import SessionLimits
 from siftom.service.app import create_app
-from siftom.service.loadtest import serve_in_thread
+from siftom.service.local_server import serve_in_thread
 from siftom.service.runtime import ServiceSettings
 from siftom.service.stream_settings import StreamLimits
 from support.streaming import Collector, pcm16, say, silence, stream

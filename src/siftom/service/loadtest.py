@@ -9,17 +9,15 @@ throughput and latency percentiles. Budgets in (requests, concurrency, timeout),
 from __future__ import annotations
 
 import asyncio
-import contextlib
-import socket
-import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
 from siftom.errors import SiftomError
+from siftom.service.local_server import serve_in_thread
 
 DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
     {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"},
@@ -91,37 +89,6 @@ class LoadResult:
         return self.errors == 0 and self.rps >= min_rps and self.p99_ms < max_p99_ms
 
 
-def free_port(host: str = "127.0.0.1") -> int:
-    """A TCP port that is free right now on ``host``."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((host, 0))
-        return int(s.getsockname()[1])
-
-
-@contextlib.contextmanager
-def serve_in_thread(app: Any, host: str = "127.0.0.1", port: int | None = None,
-                    startup_timeout: float = 30.0) -> Iterator[str]:
-    """Run ``app`` with uvicorn in a daemon thread; yield its base URL; stop it on exit."""
-    import uvicorn
-
-    port = port or free_port(host)
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False, lifespan="off")
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, name="siftom-serve", daemon=True)
-    thread.start()
-    deadline = time.monotonic() + startup_timeout
-    while not server.started:
-        if not thread.is_alive() or time.monotonic() > deadline:
-            server.should_exit = True
-            raise SiftomError(f"the server did not start on {host}:{port} within {startup_timeout:g} s")
-        time.sleep(0.02)
-    try:
-        yield f"http://{host}:{port}"
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
-
-
 async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int, concurrency: int,
                  timeout: float) -> tuple[list[float], int, float]:
     import httpx
@@ -174,6 +141,7 @@ def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
 
         app = create_app(settings=settings)
         rt = app.state.runtime
+        rt.warm_up()  # what the served app's start-up does
         try:
             if rt.audio_pool is not None:
                 rt.audio_pool.warm()

@@ -121,7 +121,7 @@ def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]
 
     import httpx
 
-    from siftom.service.loadtest import free_port
+    from siftom.service.local_server import free_port
 
     port = free_port()
     folder = tempfile.mkdtemp(prefix="siftom-sessions-")

@@ -14,6 +14,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from siftom.service.app import create_app
+from siftom.service.session_records import SessionOptions, SessionSpec
 from siftom.service.store import SessionStore
 from support.client import local_client
 
@@ -100,7 +101,7 @@ def test_the_reserve_comes_back_when_the_disk_has_room(tmp_path: Path) -> None:
     try:
         assert store.reserve.stat().st_size > 0
         store.reserve.unlink()
-        store.create("a", {"world": {}}, {})
+        store.create("a", SessionSpec(world={}), SessionOptions())
         assert store.reserve.exists()
     finally:
         store.close()

@@ -12,6 +12,7 @@ def test_a_session_commit_checks_under_its_lock_and_stores_nothing_for_a_closed_
     from siftom.assist.clarify import ClarifyPolicy
     from siftom.options import SessionLimits
     from siftom.scenarios.base import get_scenario
+    from siftom.service.session_records import SessionOptions
     from siftom.service.sessions import SessionManager
     from siftom.service.store import SessionStore
     from siftom.service.stream_api import scenario_spec
@@ -24,7 +25,7 @@ def test_a_session_commit_checks_under_its_lock_and_stores_nothing_for_a_closed_
 
     mgr = SessionManager(SessionStore(tmp_path / "sessions.sqlite3"), SessionLimits())
     sc = get_scenario("kitchen-cereal-v0")
-    sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": "phonetic"}, None, actions=list(sc.actions[:3]))
+    sess = mgr.create(scenario_spec(sc), SessionOptions(likelihood="phonetic"), None, actions=list(sc.actions[:3]))
     said = Instruction(nbest=(Hypothesis("pass me the cereal", 0.0),))
     body = mgr.prepare(sess.id, said, None, ClarifyPolicy())
     assert mgr.get(sess.id).last is None  # preparing stores nothing
@@ -35,5 +36,5 @@ def test_a_session_commit_checks_under_its_lock_and_stores_nothing_for_a_closed_
     assert mgr.commit(sess.id, body) is None  # an action came after it was prepared
     body = mgr.prepare(sess.id, said, None, ClarifyPolicy())
     stored = mgr.commit(sess.id, body)
-    assert stored is not None and "_revision" not in stored and mgr.get(sess.id).last == stored
+    assert stored is not None and stored == body.reply and mgr.get(sess.id).last == stored
     assert mgr.commit(sess.id, body) is None  # written once: the session moved on

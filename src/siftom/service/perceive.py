@@ -131,13 +131,14 @@ async def session_frames(req: SessionFramesRequest, request: Request, ctx: Ctx,
     """Frames instead of action lines: the vision model reads the person's actions between
     consecutive frames (checked against the session's world and state), and they are appended."""
     from siftom.perception.pipeline import perceive_actions
-    from siftom.service.idempotency import REPLAYED, idem_of
+    from siftom.service.idempotency import idem_of
+    from siftom.service.session_api import reply_response
 
     mgr = ctx.sessions
     idem = idem_of(request.headers, "frames", req.model_dump())
     first = await anyio.to_thread.run_sync(mgr.replayed, session_id, idem)  # 404 before any model call
     if first is not None:
-        return JSONResponse(first, headers={REPLAYED: "true"})
+        return reply_response(first, replayed=True)
     try:
         frames = await anyio.to_thread.run_sync(_decoded, req.frames)
     except PerceptionError as exc:
@@ -150,4 +151,4 @@ async def session_frames(req: SessionFramesRequest, request: Request, ctx: Ctx,
     # the answer is the state right after these actions
     body = await anyio.to_thread.run_sync(
         functools.partial(mgr.append_reply, session_id, lines, None, idem, "perceive"))
-    return JSONResponse(body)
+    return reply_response(body)

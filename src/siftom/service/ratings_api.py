@@ -24,6 +24,7 @@ from siftom.service.context import Ctx, ServiceContext
 from siftom.service.idempotency import REPLAYED, Idem, idem_of
 from siftom.service.people import STATIC
 from siftom.service.problems import PROBLEM_JSON, ProblemError
+from siftom.service.session_records import SessionReply
 from siftom.service.session_schemas import SESSION_ID
 
 router = APIRouter()
@@ -78,10 +79,12 @@ def _store_rating(ctx: ServiceContext, session_id: str, req: RatingRequest,
     with ctx.ratings_lock:  # one rating written at a time (the file, and the key's first answer)
         first = mgr.replayed(session_id, idem)
         if first is not None:
-            return first, True
-        last = sess.last or {}
+            return first.to_json(), True
+        last = sess.last.to_json() if sess.last is not None else {}
+        mode, likelihood = sess.options.mode, sess.options.likelihood
+        assert mode is not None and likelihood is not None  # resolved when the session was created
         rec = {"id": secrets.token_hex(8), "session": session_id,
-               "model": req.model or session_model(sess.options["mode"], sess.options["likelihood"]),
+               "model": req.model or session_model(mode, likelihood),
                "command": last.get("command"), "action": last.get("action"),
                "top_command": last.get("top_command"), "n_actions": len(sess.actions),
                "scores": list(req.scores), "rater": req.rater, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
@@ -89,5 +92,5 @@ def _store_rating(ctx: ServiceContext, session_id: str, req: RatingRequest,
             f.write(json.dumps(rec) + "\n")
         rec = {**rec, "mean": round(sum(req.scores) / len(req.scores), 3)}
         if idem is not None:
-            mgr.store.put_reply(session_id, idem.key, idem.request, rec)
+            mgr.store.put_reply(session_id, idem.key, idem.request, SessionReply(rec))
     return rec, False

@@ -23,6 +23,7 @@ from siftom.assist.clarify import ClarifyPolicy
 from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
 from siftom.service.idempotency import REPLAYED, Idem, idem_of
 from siftom.service.problems import ProblemError, read_audio_form
+from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.service.session_schemas import (
     AUDIO_INSTRUCTION_SCHEMA,
     SESSION_ID,
@@ -46,15 +47,16 @@ def _need_json(request: Request) -> None:
         raise ProblemError(415, "media-type", f"send application/json, not {media or 'no Content-Type'}")
 
 
-def _replay(first: dict[str, Any], status_code: int = 200) -> JSONResponse:
-    """The first answer to a retried Idempotency-Key, marked as replayed."""
-    return JSONResponse(first, status_code=status_code, headers={REPLAYED: "true"})
+def reply_response(reply: SessionReply, replayed: bool = False) -> JSONResponse:
+    """200 with a session request's answer (``replayed``: the first answer to a retried Idempotency-Key)."""
+    return JSONResponse(reply.to_json(), headers={REPLAYED: "true"} if replayed else None)
 
 
-def created_response(view: dict[str, Any], replayed: bool = False) -> JSONResponse:
+def created_response(view: SessionReply, replayed: bool = False) -> JSONResponse:
     """201 with a new session's state and its Location (``replayed``: a retried Idempotency-Key's)."""
-    headers = {"Location": f"/v1/sessions/{view['id']}", **({REPLAYED: "true"} if replayed else {})}
-    return JSONResponse(view, status_code=201, headers=headers)
+    body = view.to_json()
+    headers = {"Location": f"/v1/sessions/{body['id']}", **({REPLAYED: "true"} if replayed else {})}
+    return JSONResponse(body, status_code=201, headers=headers)
 
 
 def _json_body(ref: str) -> dict[str, Any]:
@@ -80,14 +82,15 @@ async def create_session(request: Request, ctx: Ctx) -> JSONResponse:
     if first is not None:
         return created_response(first, replayed=True)
     ctx.runtime.check_likelihood(req.likelihood)  # 422 naming those this server offers
-    spec = {"world": req.world, "goals": [g.model_dump() for g in req.goals] if req.goals else None,
-            "goal_space": req.goal_space, "target": req.target}
+    spec = SessionSpec(world=req.world, goals=[g.model_dump() for g in req.goals] if req.goals else None,
+                       goal_space=req.goal_space, target=req.target)
+    options = SessionOptions(mode=req.mode, likelihood=req.likelihood, decide=req.decide)
+    return created_response(await ctx.run_cpu(_create, ctx, spec, options, idem))
 
-    def work() -> dict[str, Any]:
-        options = {"mode": req.mode, "likelihood": req.likelihood, "decide": req.decide}
-        return mgr.created(idem, mgr.view(mgr.create(spec, options, idem)))
 
-    return created_response(await ctx.run_cpu(work))
+def _create(ctx: ServiceContext, spec: SessionSpec, options: SessionOptions, idem: Idem | None) -> SessionReply:
+    mgr = ctx.sessions
+    return mgr.created(idem, mgr.view(mgr.create(spec, options, idem)))
 
 
 @router.get("/v1/sessions/{session_id}", tags=["sessions"], response_model=None,
@@ -95,7 +98,7 @@ async def create_session(request: Request, ctx: Ctx) -> JSONResponse:
 async def get_session(ctx: Ctx, session_id: str = SID_PARAM) -> JSONResponse:
     """The session's state: actions so far, where everything is, the belief, the last answer."""
     mgr = ctx.sessions
-    return JSONResponse(await ctx.run_cpu(lambda: mgr.view(mgr.get(session_id))))
+    return reply_response(await ctx.run_cpu(lambda: mgr.view(mgr.get(session_id))))
 
 
 @router.delete("/v1/sessions/{session_id}", tags=["sessions"], status_code=204, response_class=Response,
@@ -118,12 +121,12 @@ async def add_actions(request: Request, ctx: Ctx, session_id: str = SID_PARAM) -
     idem = idem_of(request.headers, "actions", req.model_dump())
     first = await ctx.run_cpu(mgr.replayed, session_id, idem)
     if first is not None:
-        return _replay(first)
+        return reply_response(first, replayed=True)
     if req.executed is not None:
         lines = await ctx.run_cpu(mgr.executed_actions, session_id, req.executed)
     else:
         lines = list(req.actions or [])
-    return JSONResponse(await ctx.run_cpu(mgr.append_reply, session_id, lines, req.after, idem))
+    return reply_response(await ctx.run_cpu(mgr.append_reply, session_id, lines, req.after, idem))
 
 
 INSTRUCTION_BODY = {"required": True, "content": {
@@ -151,11 +154,11 @@ async def _instruction_json(request: Request, ctx: Ctx, session_id: str) -> JSON
     idem = idem_of(request.headers, "instruction", req.model_dump())
     first = await ctx.run_cpu(mgr.replayed, session_id, idem)
     if first is not None:
-        return _replay(first)
+        return reply_response(first, replayed=True)
     policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
     nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
     ins = make_instruction(transcript=req.transcript, nbest=nbest)
-    return JSONResponse(await ctx.run_cpu(mgr.instruct, session_id, ins, req.top, policy, None, idem))
+    return reply_response(await ctx.run_cpu(mgr.instruct, session_id, ins, req.top, policy, None, idem))
 
 
 async def _instruction_audio(request: Request, ctx: ServiceContext, session_id: str) -> JSONResponse:
@@ -164,12 +167,12 @@ async def _instruction_audio(request: Request, ctx: ServiceContext, session_id: 
     idem = idem_of(request.headers, "instruction-audio", {k: str(v) for k, v in fields.items()}, data)
     first = await ctx.run_cpu(ctx.sessions.replayed, session_id, idem)
     if first is not None:
-        return _replay(first)
-    return JSONResponse(await ctx.run_cpu(_answer_audio, ctx, session_id, data, opts, idem))
+        return reply_response(first, replayed=True)
+    return reply_response(await ctx.run_cpu(_answer_audio, ctx, session_id, data, opts, idem))
 
 
 def _answer_audio(ctx: ServiceContext, session_id: str, data: bytes, opts: AudioInstructionFields,
-                  idem: Idem | None) -> dict[str, Any]:
+                  idem: Idem | None) -> SessionReply:
     rt, mgr = ctx.runtime, ctx.sessions
     sess = mgr.get(session_id)  # an unknown id fails before decoding
     x = rt.decode_audio(data)
@@ -177,10 +180,10 @@ def _answer_audio(ctx: ServiceContext, session_id: str, data: bytes, opts: Audio
     # recogniser for this world (biased to its command phrasings)
     heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
     # the server's CPU budget, shared with streams (admission.py)
-    with rt.admission.slot(sess.options.get("likelihood")) as slot:
+    with rt.admission.slot(sess.options.likelihood) as slot:
         body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
                             heard=heard, idem=idem, likelihood=slot.likelihood)
-    return {**body, "degraded": slot.reason}
+    return SessionReply({**body.to_json(), "degraded": slot.reason})
 
 
 def session_schemas(likelihoods: tuple[str, ...]) -> dict[str, Any]:

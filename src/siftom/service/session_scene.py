@@ -9,6 +9,7 @@ from typing import Any
 
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
+from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.world.io import (
     LoadedScene,
     check_world_bounds,
@@ -25,20 +26,21 @@ class Session:
 
     id: str
     created: float
-    spec: dict[str, Any]
-    options: dict[str, Any]
+    spec: SessionSpec
+    options: SessionOptions
     scene: LoadedScene
     online: OnlineInference
     actions: list[str]
     warnings: list[str]
-    last: dict[str, Any] | None = None
+    last: SessionReply | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
     belief: tuple[int, dict[str, Any]] | None = None  # (n_actions, belief) of the last view
     revision: int = 0  # answers stored (SessionManager.revision)
 
-def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list[str]]:
+
+def build_scene(spec: SessionSpec, max_items: int) -> tuple[LoadedScene, list[str]]:
     """The session's scene from a create request's spec (world, goals, goal_space, target), and warnings."""
-    world = spec["world"]
+    world = spec.world
     check_world_bounds(world, max_items=max_items)  # before anything is built
     ignored = _ignored_goal_space(spec)
     try:
@@ -46,21 +48,21 @@ def build_scene(spec: dict[str, Any], max_items: int) -> tuple[LoadedScene, list
             from siftom.world.io import scene_from_scenegraph
             from siftom.world.scenegraph import SceneGraph
 
-            space = (None if ignored else spec.get("goal_space")) or world.get("goal_space") or "household-table-v0"
-            goals = spec.get("goals") or world.get("goals")
-            scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.get("target") or world.get("target"),
+            space = (None if ignored else spec.goal_space) or world.get("goal_space") or "household-table-v0"
+            goals = spec.goals or world.get("goals")
+            scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.target or world.get("target"),
                                           goal_space=space, goals=goals)
             lib_spec: dict[str, Any] = {"goals": goals} if goals else {"goal_space": space}
         else:
             obj = dict(world)
-            if spec.get("goal_space") and not ignored:  # the world's own goals come first (docs/service.md)
-                obj["goal_space"] = spec["goal_space"]
-            if spec.get("target"):
-                obj["target"] = spec["target"]
+            if spec.goal_space and not ignored:  # the world's own goals come first (docs/service.md)
+                obj["goal_space"] = spec.goal_space
+            if spec.target:
+                obj["target"] = spec.target
             scene = scene_from_json(obj)
             lib_spec = obj
-        if spec.get("goals"):
-            lib_spec = {"goals": spec["goals"]}
+        if spec.goals:
+            lib_spec = {"goals": spec.goals}
             scene = replace(scene, goals=feasible_goals(lib_spec, scene.world, scene.goals[0].target))
     except SiftomError:
         raise
@@ -95,12 +97,12 @@ def check_speakable(world: Any) -> None:
                                    f"letters and underscores only (e.g. {fix!r})") from None
 
 
-def _ignored_goal_space(spec: dict[str, Any]) -> str | None:
+def _ignored_goal_space(spec: SessionSpec) -> str | None:
     """The warning when a request's ``goal_space`` loses to its ``goals`` or the world's own goals."""
-    space, world = spec.get("goal_space"), spec["world"]
+    space, world = spec.goal_space, spec.world
     if not space:
         return None
-    if spec.get("goals"):
+    if spec.goals:
         return f"goal_space {space!r} was ignored: the request's goals are used (goals come before goal_space)"
     if isinstance(world, dict) and world.get("goals"):
         return (f"goal_space {space!r} was ignored: the world lists its own goals, which come first; leave "

@@ -13,16 +13,17 @@ from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
 from siftom.observer import Heard, Observer
+from siftom.service.session_records import SessionReply
 from siftom.service.session_scene import Session
 from siftom.world.model import AGENT_NAMES, HELD, NOTHING, apply
 
 BELIEF_TOP = 5
 
 
-def _pending_of(last: dict[str, Any] | None) -> Pending | None:
+def _pending_of(last: SessionReply | None) -> Pending | None:
     """The question the session's last answer left waiting (None: none, or a record this version
     cannot read, which is then forgotten rather than failing the instruction)."""
-    got = (last or {}).get("awaiting")
+    got = last.body.get("awaiting") if last is not None else None
     if not isinstance(got, dict):
         return None
     try:
@@ -95,7 +96,7 @@ def _plan_json(sess: Session, command: str) -> dict[str, Any] | None:
 def _belief_json(sess: Session, online: OnlineInference | None = None) -> dict[str, Any]:
     """The top goals and commands from the actions alone (none before words in speech-only mode);
     the session's own belief is kept until its next action."""
-    if sess.options["mode"] == "speech-only":
+    if sess.options.mode == "speech-only":
         return {"goals": [], "commands": []}
     if online is None or online is sess.online:
         n = len(sess.actions)
@@ -110,21 +111,22 @@ def _belief_json(sess: Session, online: OnlineInference | None = None) -> dict[s
     return belief
 
 
-def actions_json(sess: Session, online: OnlineInference, n: int, added: list[str], replayed: bool
-                  ) -> dict[str, Any]:
-    return {"id": sess.id, "added": list(added), "n_actions": n,
-            "state": _state_json(sess.scene.world, online.state),
-            "belief": _belief_json(sess, online), "replayed": replayed}
+def actions_reply(sess: Session, online: OnlineInference, n: int, added: list[str], replayed: bool
+                  ) -> SessionReply:
+    """The answer to an actions request: what it added and the state after them (``online``)."""
+    return SessionReply({"id": sess.id, "added": list(added), "n_actions": n,
+                         "state": _state_json(sess.scene.world, online.state),
+                         "belief": _belief_json(sess, online), "replayed": replayed})
 
 
-def answer_json(observer: Observer, sess: Session, instruction: Instruction | None, top: int | None,
+def answer_reply(observer: Observer, sess: Session, instruction: Instruction | None, top: int | None,
                  policy: ClarifyPolicy, heard: Heard | None, decide: str | None,
-                 likelihood: str | None) -> dict[str, Any]:
+                 likelihood: str | None) -> SessionReply:
     """The observer's answer as the session's JSON (its lock held)."""
     top = top or observer.settings.infer.top
-    ans = observer.answer(sess.online, instruction, likelihood=likelihood or sess.options["likelihood"],
-                          decide=decide or sess.options.get("decide"), top=top, heard=heard,
-                          mode=sess.options["mode"], pending=_pending_of(sess.last))
+    ans = observer.answer(sess.online, instruction, likelihood=likelihood or sess.options.likelihood,
+                          decide=decide or sess.options.decide, top=top, heard=heard,
+                          mode=sess.options.mode, pending=_pending_of(sess.last))
     body: dict[str, Any] = {"session": sess.id, **ans.to_json(top=top)}
     # the question the robot waits on an answer to, kept with the session (assist/reply.py)
     body["awaiting"] = ans.pending.to_json() if ans.pending is not None else None
@@ -134,18 +136,17 @@ def answer_json(observer: Observer, sess: Session, instruction: Instruction | No
         body["clarification"] = Clarification(False, "none", "", (), 0.0, 0.0, policy.threshold, policy.cost,
                                               ans.message).to_json()
     body["plan"] = _plan_json(sess, str(ans.command)) if ans.command is not None else None
-    loaded: dict[str, Any] = json.loads(json.dumps(body))  # exactly what the store gives back after a restart
-    return loaded
+    return SessionReply(json.loads(json.dumps(body)))  # exactly what the store gives back after a restart
 
 
-def view_json(sess: Session) -> dict[str, Any]:
-    """The session's state as JSON (the same before and after a restart; its lock held)."""
+def view_reply(sess: Session) -> SessionReply:
+    """The session's state (the same before and after a restart; its lock held)."""
     w = sess.scene.world
-    return {
+    return SessionReply({
         "id": sess.id,
         "created": sess.created,
-        "mode": sess.options["mode"],
-        "likelihood": sess.options["likelihood"],
+        "mode": sess.options.mode,
+        "likelihood": sess.options.likelihood,
         "verb": sess.scene.verb,
         "target": w.places[sess.scene.goals[0].target].name,
         "num_goals": len(sess.scene.goals),
@@ -155,6 +156,6 @@ def view_json(sess: Session) -> dict[str, Any]:
         "actions": list(sess.actions),
         "state": _state_json(w, sess.online.state),
         "belief": _belief_json(sess),
-        "last_instruction": sess.last,
+        "last_instruction": sess.last.to_json() if sess.last is not None else None,
         "warnings": list(sess.warnings),
-    }
+    })

@@ -21,7 +21,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import ObservationError
@@ -31,13 +31,14 @@ from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
+from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.service.session_scene import Session, build_scene, check_speakable
 from siftom.service.session_views import (
     BELIEF_TOP,
-    actions_json,
-    answer_json,
+    actions_reply,
+    answer_reply,
     executed_plan,
-    view_json,
+    view_reply,
 )
 from siftom.service.store import DiskFullError, KeyTaken, SessionStore
 from siftom.world.io import LoadedScene
@@ -46,7 +47,14 @@ from siftom.world.model import HUMAN, Action, apply, check
 # "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
 SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
-REVISION = "_revision"  # a prepared answer's session revision (SessionManager.prepare/commit)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """An answer :meth:`SessionManager.prepare` made and the session's revision it was made at."""
+
+    reply: SessionReply
+    revision: tuple[int, int, int]
 
 
 class SessionManager:
@@ -61,9 +69,9 @@ class SessionManager:
         self._last_sweep = 0.0
         self._held: dict[str, int] = {}  # sessions in use by an open stream (how many)
 
-    def _online(self, scene: LoadedScene, options: dict[str, Any]) -> OnlineInference:
+    def _online(self, scene: LoadedScene, options: SessionOptions) -> OnlineInference:
         """A new online inference of the session's world (the observer's model for its mode)."""
-        return self.observer.fresh(scene.world, scene.start, scene.goals, scene.verb, options.get("mode"))
+        return self.observer.fresh(scene.world, scene.start, scene.goals, scene.verb, options.mode)
 
     # ----- lifecycle ---------------------------------------------------------------------------
     def sweep(self, force: bool = False) -> None:
@@ -84,9 +92,9 @@ class SessionManager:
             with self._lock:
                 self._live.pop(sid, None)
 
-    def create(self, spec: dict[str, Any], options: dict[str, Any], idem: Idem | None = None,
+    def create(self, spec: SessionSpec, options: SessionOptions, idem: Idem | None = None,
                actions: list[Action] | None = None, source: str = "actions") -> Session:
-        """A new session over ``spec['world']``, having seen ``actions`` (from ``source``); written
+        """A new session over ``spec.world``, having seen ``actions`` (from ``source``); written
         to the store before returning. ``idem``: the request's Idempotency-Key, claimed with the
         session (a request that lost the race for the key gets the session the winner made, its
         actions not added again; :meth:`created_reply` answers the retries)."""
@@ -98,17 +106,17 @@ class SessionManager:
                                f"finished sessions, or wait for idle ones to expire after {self.limits.idle_s:g} s",
                                headers={"Retry-After": "60"})
         st = self.observer.settings
-        options = {**options, "mode": options.get("mode") or st.model.mode,
-                   "likelihood": options.get("likelihood") or st.infer.likelihood}
-        if options["likelihood"] not in SESSION_LIKELIHOODS:
+        options = options.model_copy(update={"mode": options.mode or st.model.mode,
+                                             "likelihood": options.likelihood or st.infer.likelihood})
+        if options.likelihood not in SESSION_LIKELIHOODS:
             raise ObservationError(f"sessions infer with the {' or '.join(SESSION_LIKELIHOODS)} likelihood, not "
-                                   f"{options['likelihood']!r}; for the acoustic likelihood use POST /v1/infer")
-        self.observer.check_likelihood(options["likelihood"])
+                                   f"{options.likelihood!r}; for the acoustic likelihood use POST /v1/infer")
+        self.observer.check_likelihood(options.likelihood)
         scene, warnings = build_scene(spec, self.limits.max_world_items)
         check_speakable(scene.world)  # now, not at the first instruction
         online = self._online(scene, options)
         sid = secrets.token_urlsafe(12)
-        options = {**options, "warnings": warnings}
+        options = options.model_copy(update={"warnings": tuple(warnings)})
         try:
             created = self.store.create(sid, spec, options, None if idem is None else (idem.key, idem.request))
         except KeyTaken:
@@ -140,7 +148,7 @@ class SessionManager:
                 self._held.pop(sid, None)
         self.store.touch(sid)
 
-    def created_reply(self, idem: Idem | None) -> dict[str, Any] | None:
+    def created_reply(self, idem: Idem | None) -> SessionReply | None:
         """The first answer of the session-creating request with ``idem``'s key, or None (422
         when the key asked otherwise; the session's state now while the first has not finished)."""
         if idem is None:
@@ -151,7 +159,7 @@ class SessionManager:
         check_same(idem, first.request)
         return first.reply if first.reply is not None else self.view(self.get(first.session))
 
-    def created(self, idem: Idem | None, view: dict[str, Any]) -> dict[str, Any]:
+    def created(self, idem: Idem | None, view: SessionReply) -> SessionReply:
         """Record ``view`` as the first answer to a session-creating request; returns it."""
         if idem is not None:
             self.store.set_creation_reply(idem.key, view)
@@ -196,7 +204,7 @@ class SessionManager:
         for text in row.actions:
             online.observe(scene.world.parse_action(text, online.state))
         return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
-                       list(row.options.get("warnings", [])), row.last)
+                       list(row.options.warnings), row.last)
 
     def delete(self, sid: str, key: str | None = None) -> None:
         """End a session; a retry with the ``key`` that ended it succeeds again."""
@@ -209,15 +217,15 @@ class SessionManager:
     def append(self, sid: str, lines: list[str], source: str = "actions") -> list[str]:
         """Parse, check and add action lines (siftom or VirtualHome format), all or none; returns
         the actions added, in siftom's form (a script line may stand for none, one or two)."""
-        added: list[str] = self.append_reply(sid, lines, None, None, source)["added"]
+        added: list[str] = self.append_reply(sid, lines, None, None, source).body["added"]
         return added
 
     def append_once(self, sid: str, lines: list[str], after: int | None) -> tuple[list[str], bool]:
         """:meth:`append`, safe to retry with ``after`` (see :meth:`append_reply`)."""
-        body = self.append_reply(sid, lines, after)
+        body = self.append_reply(sid, lines, after).body
         return body["added"], body["replayed"]
 
-    def replayed(self, sid: str, idem: Idem | None) -> dict[str, Any] | None:
+    def replayed(self, sid: str, idem: Idem | None) -> SessionReply | None:
         """The first answer to ``idem``'s key in this session, or None (422 if the key asked otherwise)."""
         if idem is None:
             return None
@@ -225,7 +233,7 @@ class SessionManager:
         with sess.lock:
             return self._replayed(sess, idem)
 
-    def _replayed(self, sess: Session, idem: Idem | None) -> dict[str, Any] | None:
+    def _replayed(self, sess: Session, idem: Idem | None) -> SessionReply | None:
         if idem is None:
             return None
         got = self.store.reply(sess.id, idem.key)
@@ -233,14 +241,14 @@ class SessionManager:
             return None
         check_same(idem, got.request)
         reply = got.reply
-        if "pending" in reply:  # the service stopped between storing the actions and their answer
-            n, added = reply["pending"]
-            reply = self._actions_reply(sess, n, added, False)
+        pending = reply.pending_actions
+        if pending is not None:  # the service stopped between storing the actions and their answer
+            reply = self._actions_reply(sess, *pending, False)
             self.store.put_reply(sess.id, idem.key, idem.request, reply)
         return reply
 
     def append_reply(self, sid: str, lines: list[str], after: int | None, idem: Idem | None = None,
-                     source: str = "actions") -> dict[str, Any]:
+                     source: str = "actions") -> SessionReply:
         """Append action lines and answer with the session's state right after them.
 
         ``after`` is the action count the client saw before it first sent ``lines``: if those
@@ -296,10 +304,10 @@ class SessionManager:
                 if why is not None:
                     raise ObservationError(f"{source} action {k} is impossible here: {why}")
                 s = apply(s, a)
-            added: list[str] = self._add(sess, actions, source)["added"]
+            added: list[str] = self._add(sess, actions, source).body["added"]
             return added
 
-    def _add(self, sess: Session, acts: list[Action], source: str, idem: Idem | None = None) -> dict[str, Any]:
+    def _add(self, sess: Session, acts: list[Action], source: str, idem: Idem | None = None) -> SessionReply:
         """Store and observe ``acts`` (the session's lock held); the answer to the request."""
         if len(sess.actions) + len(acts) > self.limits.max_actions:
             raise ObservationError(f"a session may observe at most {self.limits.max_actions} actions "
@@ -307,7 +315,7 @@ class SessionManager:
         texts = [sess.scene.world.format_action(a) for a in acts]
         n = len(sess.actions) + len(texts)
         # the key is stored with the actions (one transaction); its full answer once it is known
-        pending = None if idem is None else (idem.key, idem.request, {"pending": [n, texts]})
+        pending = None if idem is None else (idem.key, idem.request, SessionReply.pending(n, texts))
         if texts:
             try:
                 self.store.append(sess.id, len(sess.actions), texts, source, pending)  # durable before the reply
@@ -324,19 +332,19 @@ class SessionManager:
             self.store.put_reply(sess.id, idem.key, idem.request, reply)
         return reply
 
-    def _actions_reply(self, sess: Session, n: int, added: list[str], replayed: bool) -> dict[str, Any]:
+    def _actions_reply(self, sess: Session, n: int, added: list[str], replayed: bool) -> SessionReply:
         """The answer to an actions request: what it added and the state after its ``n``-th action."""
         online = sess.online
         if n != len(sess.actions):  # an older request: replay the actions up to it
             online = self._online(sess.scene, sess.options)
             for text in sess.actions[:n]:
                 online.observe(sess.scene.world.parse_action(text, online.state))
-        return actions_json(sess, online, n, added, replayed)
+        return actions_reply(sess, online, n, added, replayed)
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
                  heard: Heard | None = None, idem: Idem | None = None, decide: str | None = None,
-                 likelihood: str | None = None) -> dict[str, Any]:
+                 likelihood: str | None = None) -> SessionReply:
         """What the robot does about what was heard, given everything so far (the observer's answer);
         ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`;
         ``likelihood``: this answer's, instead of the session's (a server under load, admission.py)."""
@@ -349,16 +357,14 @@ class SessionManager:
             return self._store_last(sess, body, idem)
 
     def prepare(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                heard: Heard | None = None, likelihood: str | None = None) -> dict[str, Any]:
+                heard: Heard | None = None, likelihood: str | None = None) -> Prepared:
         """:meth:`instruct`'s answer, not stored: :meth:`commit` stores it unless the session changed
         meanwhile (a stream answers while the end of speech is still being confirmed)."""
         sess = self.get(sid)
         with sess.lock:
-            body = self._answer(sess, instruction, top, policy, heard, None, likelihood)
-            body[REVISION] = self.revision(sid)
-        return body
+            return Prepared(self._answer(sess, instruction, top, policy, heard, None, likelihood), self.revision(sid))
 
-    def commit(self, sid: str, body: dict[str, Any], check: Callable[[], None] | None = None) -> dict[str, Any] | None:
+    def commit(self, sid: str, prepared: Prepared, check: Callable[[], None] | None = None) -> SessionReply | None:
         """Store a :meth:`prepare`'d answer as the session's last; None when an action or another
         answer came after it was prepared (prepare it again). ``check`` runs under the session's
         lock first and may raise to store nothing (a stream that closed meanwhile)."""
@@ -366,9 +372,9 @@ class SessionManager:
         with sess.lock:
             if check is not None:
                 check()
-            if body.get(REVISION) != self.revision(sid):
+            if prepared.revision != self.revision(sid):
                 return None
-            return self._store_last(sess, {k: v for k, v in body.items() if k != REVISION}, None)
+            return self._store_last(sess, prepared.reply, None)
 
     def revision(self, sid: str) -> tuple[int, int, int]:
         """A token that changes whenever the session's next answer could: its actions, its last answer."""
@@ -376,22 +382,22 @@ class SessionManager:
         return id(sess), len(sess.actions), sess.revision
 
     def _answer(self, sess: Session, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                heard: Heard | None, decide: str | None, likelihood: str | None) -> dict[str, Any]:
+                heard: Heard | None, decide: str | None, likelihood: str | None) -> SessionReply:
         """The observer's answer as the session's JSON (its lock held)."""
-        return answer_json(self.observer, sess, instruction, top, policy, heard, decide, likelihood)
+        return answer_reply(self.observer, sess, instruction, top, policy, heard, decide, likelihood)
 
-    def _store_last(self, sess: Session, body: dict[str, Any], idem: Idem | None) -> dict[str, Any]:
+    def _store_last(self, sess: Session, body: SessionReply, idem: Idem | None) -> SessionReply:
         """Keep ``body`` as the session's last answer (its lock held)."""
         self.store.set_last(sess.id, body, None if idem is None else (idem.key, idem.request))
         sess.last = body
         sess.revision += 1
         return body
 
-    def view(self, sess: Session) -> dict[str, Any]:
-        """The session's state as JSON (the same before and after a restart)."""
+    def view(self, sess: Session) -> SessionReply:
+        """The session's state (the same before and after a restart)."""
         with sess.lock:
-            return view_json(sess)
+            return view_reply(sess)
 
 
-__all__ = ["BELIEF_TOP", "SESSION_LIKELIHOODS", "Session", "SessionLimits", "SessionManager", "build_scene",
-           "check_speakable"]
+__all__ = ["BELIEF_TOP", "SESSION_LIKELIHOODS", "Prepared", "Session", "SessionLimits", "SessionManager",
+           "SessionOptions", "SessionReply", "SessionSpec", "build_scene", "check_speakable"]

@@ -34,13 +34,13 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from siftom.private import FILE_MODE, create_private, private_dir
 from siftom.service.diskfull import RESERVE_BYTES
 from siftom.service.diskfull import SQLITE_FULL as SQLITE_FULL
 from siftom.service.diskfull import DiskFullError as DiskFullError
 from siftom.service.diskfull import is_disk_full as is_disk_full
+from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 
 log = logging.getLogger("siftom.service")
 
@@ -88,7 +88,7 @@ class Reply:
     """The first answer to an idempotent request: ``request`` fingerprints what was asked."""
 
     request: str
-    reply: dict[str, Any]
+    reply: SessionReply
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ class Creation:
 
     request: str
     session: str
-    reply: dict[str, Any] | None
+    reply: SessionReply | None
 
 
 class KeyTaken(Exception):
@@ -112,10 +112,10 @@ class StoredSession:
     id: str
     created: float
     updated: float
-    spec: dict[str, Any]
-    options: dict[str, Any]
+    spec: SessionSpec
+    options: SessionOptions
     actions: list[str]
-    last: dict[str, Any] | None
+    last: SessionReply | None
 
 
 class SessionStore:
@@ -204,7 +204,7 @@ class SessionStore:
         with self._lock:
             self._db.close()
 
-    def create(self, sid: str, spec: dict[str, Any], options: dict[str, Any],
+    def create(self, sid: str, spec: SessionSpec, options: SessionOptions,
                claim: tuple[str, str] | None = None) -> float:
         """Store a new session; ``claim`` (key, request): the Idempotency-Key that created it,
         recorded in the same transaction (:class:`KeyTaken` when another request claimed it)."""
@@ -217,7 +217,7 @@ class SessionStore:
                     raise
                 return self._create(sid, spec, options, claim)
 
-    def _create(self, sid: str, spec: dict[str, Any], options: dict[str, Any], claim: tuple[str, str] | None
+    def _create(self, sid: str, spec: SessionSpec, options: SessionOptions, claim: tuple[str, str] | None
                 ) -> float:
         now = time.time()
         with self._full():
@@ -227,7 +227,8 @@ class SessionStore:
                     self._db.execute("INSERT INTO created (key, request, session, at) VALUES (?, ?, ?, ?)",
                                      (*claim, sid, now))
                 self._db.execute("INSERT INTO sessions (id, created, updated, spec, options) VALUES (?, ?, ?, ?, ?)",
-                                 (sid, now, now, json.dumps(spec, separators=(",", ":")), json.dumps(options)))
+                                 (sid, now, now, json.dumps(spec.model_dump(), separators=(",", ":")),
+                                  json.dumps(options.model_dump(mode="json"))))
                 self._db.execute("COMMIT")
             except sqlite3.IntegrityError:
                 self._rollback()
@@ -241,15 +242,16 @@ class SessionStore:
         """What the session-creating request with this Idempotency-Key made, or None."""
         with self._lock:
             row = self._db.execute("SELECT request, session, reply FROM created WHERE key = ?", (key,)).fetchone()
-        return None if row is None else Creation(row[0], row[1], json.loads(row[2]) if row[2] else None)
+        return None if row is None else Creation(row[0], row[1], _reply(row[2]))
 
-    def set_creation_reply(self, key: str, answer: dict[str, Any]) -> None:
+    def set_creation_reply(self, key: str, answer: SessionReply) -> None:
         """Record the first answer of the request that claimed ``key`` (kept if one is there)."""
         with self._lock, self._full():
-            self._db.execute("UPDATE created SET reply = ? WHERE key = ? AND reply IS NULL", (json.dumps(answer), key))
+            self._db.execute("UPDATE created SET reply = ? WHERE key = ? AND reply IS NULL",
+                             (json.dumps(answer.to_json()), key))
 
     def append(self, sid: str, first_seq: int, texts: list[str], source: str,
-               reply: tuple[str, str, dict[str, Any]] | None = None) -> float:
+               reply: tuple[str, str, SessionReply] | None = None) -> float:
         """Append actions ``first_seq, first_seq+1, ...`` in one transaction; ``reply`` (key,
         request, answer): the idempotency record written in the same transaction."""
         now = time.time()
@@ -277,20 +279,20 @@ class SessionStore:
                 raise
         return now
 
-    def set_last(self, sid: str, last: dict[str, Any], reply: tuple[str, str] | None = None) -> float:
+    def set_last(self, sid: str, last: SessionReply, reply: tuple[str, str] | None = None) -> float:
         """Store the last instruction's answer; ``reply`` (key, request): it is also that key's answer."""
         now = time.time()
         with self._lock, self._tx():  # one transaction
-            self._db.execute("UPDATE sessions SET last = ?, updated = ? WHERE id = ?", (json.dumps(last), now, sid))
+            self._db.execute("UPDATE sessions SET last = ?, updated = ? WHERE id = ?", (json.dumps(last.to_json()), now, sid))
             if reply is not None:
                 self._put_reply(sid, *reply, last)
         return now
 
-    def _put_reply(self, sid: str, key: str, request: str, answer: dict[str, Any]) -> None:
+    def _put_reply(self, sid: str, key: str, request: str, answer: SessionReply) -> None:
         self._db.execute("INSERT OR REPLACE INTO replies (session, key, request, reply) VALUES (?, ?, ?, ?)",
-                         (sid, key, request, json.dumps(answer)))
+                         (sid, key, request, json.dumps(answer.to_json())))
 
-    def put_reply(self, sid: str, key: str, request: str, answer: dict[str, Any]) -> None:
+    def put_reply(self, sid: str, key: str, request: str, answer: SessionReply) -> None:
         """Record (or complete) the first answer to ``key``."""
         with self._lock, self._tx():
             self._put_reply(sid, key, request, answer)
@@ -300,7 +302,7 @@ class SessionStore:
         with self._lock:
             row = self._db.execute("SELECT request, reply FROM replies WHERE session = ? AND key = ?",
                                    (sid, key)).fetchone()
-        return None if row is None else Reply(row[0], json.loads(row[1]))
+        return None if row is None else Reply(row[0], SessionReply(json.loads(row[1])))
 
     def closed_by(self, sid: str, key: str) -> bool:
         """Whether session ``sid`` was deleted by a request with this Idempotency-Key."""
@@ -320,8 +322,8 @@ class SessionStore:
             if row is None:
                 return None
             acts = [r[0] for r in self._db.execute("SELECT text FROM actions WHERE session = ? ORDER BY seq", (sid,))]
-        return StoredSession(row[0], row[1], row[2], json.loads(row[3]), json.loads(row[4]), acts,
-                             json.loads(row[5]) if row[5] else None)
+        return StoredSession(row[0], row[1], row[2], SessionSpec.model_validate_json(row[3]),
+                             SessionOptions.model_validate_json(row[4]), acts, _reply(row[5]))
 
     def delete(self, sid: str, key: str | None = None) -> bool:
         """Delete a session; with ``key``, remember that this key closed it (one transaction). On
@@ -366,3 +368,7 @@ class SessionStore:
                 self._db.execute("DELETE FROM sessions WHERE updated < ?", (before,))
             self._db.execute("DELETE FROM closed WHERE at < ?", (before,))
             self._db.execute("DELETE FROM created WHERE at < ?", (before,))
+
+
+def _reply(text: str | None) -> SessionReply | None:
+    return SessionReply(json.loads(text)) if text else None

@@ -31,10 +31,11 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 from siftom.service.context import Ctx, ServiceContext, problems
-from siftom.service.idempotency import idem_of
+from siftom.service.idempotency import Idem, idem_of
 from siftom.service.problems import ProblemError
 from siftom.service.schemas import MAX_SCENARIO_ID
 from siftom.service.session_api import created_response
+from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.service.session_schemas import SESSION_ID, SessionView
 from siftom.service.stream_params import StreamClosed, StreamParams
 from siftom.service.stream_run import StreamRun
@@ -58,14 +59,13 @@ class ScenarioSession(BaseModel):
                                   description="the scenario's recorded actions already seen (default: all)")
 
 
-def scenario_spec(sc: Any) -> dict[str, Any]:
-    """The world JSON of a registered scenario (its domain's doors included), for a session."""
+def scenario_spec(sc: Any) -> SessionSpec:
+    """A registered scenario's world (its domain's doors included), for a session."""
     from siftom.world.domains import household, kitchen
     from siftom.world.io import scene_to_json
 
     doors = {"household-table-v0": household.DOORS, "kitchen-v0": kitchen.DOORS}.get(sc.domain)
-    return {"world": scene_to_json(sc.world, sc.start, sc.goals, sc.verb, doors), "goals": None,
-            "goal_space": None, "target": None}
+    return SessionSpec(world=scene_to_json(sc.world, sc.start, sc.goals, sc.verb, doors))
 
 
 @router.post("/v1/sessions/from-scenario", tags=["sessions"], status_code=201,
@@ -84,13 +84,13 @@ async def session_from_scenario(req: ScenarioSession, request: Request, ctx: Ctx
     n = len(sc.actions) if req.n_actions is None else req.n_actions
     if n > len(sc.actions):
         raise ProblemError(422, "n-actions", f"{req.scenario} has {len(sc.actions)} recorded actions, not {n}")
+    return created_response(await ctx.run_cpu(_create, ctx, sc, n, idem))
 
-    def work() -> dict[str, Any]:
-        sess = mgr.create(scenario_spec(sc), {"mode": None, "likelihood": None}, idem,
-                          actions=list(sc.actions[:n]), source="scenario")
-        return mgr.created(idem, mgr.view(sess))
 
-    return created_response(await ctx.run_cpu(work))
+def _create(ctx: ServiceContext, sc: Any, n: int, idem: Idem | None) -> SessionReply:
+    mgr = ctx.sessions
+    sess = mgr.create(scenario_spec(sc), SessionOptions(), idem, actions=list(sc.actions[:n]), source="scenario")
+    return mgr.created(idem, mgr.view(sess))
 
 
 @router.websocket("/v1/sessions/{session_id}/listen")

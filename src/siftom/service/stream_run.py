@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 
 PARTIAL_EVERY_S = 1.0  # with ?partial=1, a "heard" event per second of speech
 DEGRADED = "_degraded"  # a prepared answer's admission note, sent as ``degraded`` (never stored)
+PREPARED = "_prepared"  # the answer prepared (SessionManager.prepare), for the commit
 
 
 class StreamRun:
@@ -67,10 +68,10 @@ class StreamRun:
         # the stream's detector found the speech: the clip is the utterance it cut
         heard = Heard(rec.instruction, rec.transcript, None, {"asr": rec.seconds})
         # past the CPU budget the default likelihood gives way, and the answer says so
-        with self.ctx.runtime.admission.slot(self.sess.options.get("likelihood")) as slot:
-            body = self.mgr.prepare(self.sid, rec.instruction, self.params.top, self.params.policy,
-                                    heard=heard, likelihood=slot.likelihood)
-        return {**body, DEGRADED: slot.reason}
+        with self.ctx.runtime.admission.slot(self.sess.options.likelihood) as slot:
+            prepared = self.mgr.prepare(self.sid, rec.instruction, self.params.top, self.params.policy,
+                                        heard=heard, likelihood=slot.likelihood)
+        return {PREPARED: prepared, DEGRADED: slot.reason}
 
     def _commit(self, prepared: dict[str, Any]) -> dict[str, Any] | None:
         """Store the answer as the session's last (None: the session changed since it was prepared)."""
@@ -78,10 +79,10 @@ class StreamRun:
             if self.gone.is_set():
                 raise StreamGone(-1)
 
-        body = self.mgr.commit(self.sid, {k: v for k, v in prepared.items() if k != DEGRADED}, still_open)
-        if body is None:
+        reply = self.mgr.commit(self.sid, prepared[PREPARED], still_open)
+        if reply is None:
             return None
-        out = {k: v for k, v in body.items() if k != "session"}
+        out = {k: v for k, v in reply.to_json().items() if k != "session"}
         out["question"] = out["decision"].get("question", "") if out["action"] == "ask" else ""
         out["declined"] = out["decision"].get("declined", "")
         out["degraded"] = prepared[DEGRADED]

@@ -21,7 +21,6 @@ prior over commands; ``action-only`` drops the instruction term.
 from __future__ import annotations
 
 import time
-import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -30,8 +29,13 @@ from typing import Any
 import numpy as np
 
 from siftom.errors import ObservationError
+from siftom.inference.goalspace import changed_classes
+from siftom.inference.goalspace import goal_space as _goal_space
+from siftom.inference.joint import JointHypothesis as JointHypothesis
+from siftom.inference.joint import JointPosterior as JointPosterior
 from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
-from siftom.language.record import NOBODY_ASKED, Understanding
+from siftom.inference.understood import understanding_of as understanding_of
+from siftom.language.record import Understanding
 from siftom.likelihood.base import Instruction, InstructionLikelihood, as_scores
 from siftom.likelihood.registry import LIKELIHOODS, check_instruction
 from siftom.logspace import group_logsumexp, logsumexp
@@ -39,13 +43,14 @@ from siftom.options import MODES as MODES
 from siftom.options import (
     ModelConfig as ModelConfig,  # re-exported: the option classes live in siftom.options
 )
-from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
+from siftom.planning.costtogo import successor_values
 from siftom.world.commands import RobotCommand
 from siftom.world.model import HUMAN, Action, Goal, State, World, apply, check, legal_actions
 
 OnStep = Callable[[str, "OnlineInference", Any], None]
 UNKNOWN = "unknown"
 OFF_PLAN = "off-plan"  # a request for something outside the person's plan (hypotheses only)
+_changed_classes = changed_classes  # the name the speed benchmark imports
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,35 +96,6 @@ class Observation:
 
 
 @dataclass(frozen=True)
-class JointHypothesis:
-    """One (goal, command) pair with its posterior and each term's contribution (log)."""
-
-    goal: str
-    command: RobotCommand
-    prob: float
-    log_prior: float
-    log_action: float
-    log_instruction: float
-
-
-@dataclass(frozen=True, eq=False)
-class JointPosterior:
-    """Every (goal, command) hypothesis with its probability, as arrays (for decision rules).
-
-    ``goal_idx[i]`` indexes ``goals`` (``len(goals)`` is the unknown goal), ``cmd_idx[i]``
-    indexes ``commands``; ``log_joint[i]`` is the unnormalised log probability, so another
-    factor that depends on the command alone (a second utterance) can be added exactly.
-    """
-
-    goals: tuple[Goal, ...]
-    commands: tuple[RobotCommand, ...]
-    goal_idx: np.ndarray
-    cmd_idx: np.ndarray
-    log_joint: np.ndarray
-    state: State | None = None
-
-
-@dataclass(frozen=True)
 class Posterior:
     """The result of inference. ``to_json`` gives the documented JSON shape."""
 
@@ -162,42 +138,6 @@ class Posterior:
             **({"decision": self.decision.to_json()} if self.decision is not None else {}),
         }
 
-
-def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand], also_heard: Sequence[str] = (),
-                     lexicon: Any = None) -> tuple[Understanding, dict[str, Any]]:
-    """What was understood (siftom.language) and the evidence it adds: ``understanding``, and
-    ``no_instruction`` with its reason when nobody asked the robot for anything.
-
-    ``also_heard``: what an open-vocabulary recogniser heard in the same audio (Whisper's own
-    words). When it heard words, they are read: the scene-biased recogniser that made the N-best
-    can only write the scene's phrasings, so it writes command words into any speech ("my phone
-    battery is dead" comes out as "i some can cereal some lettuce"), and its words say little
-    about whether a request was made (docs/speech.md, "Was it a request?"). The N-best is read,
-    with its weights, when nothing else heard words.
-    """
-    from siftom.language.understand import understand
-    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
-
-    classes = sorted({c.obj_class for c in commands})
-    open_words = [t for t in also_heard if t and t.strip()]
-    if open_words:
-        texts, weights = open_words[:1], [1.0]
-        by, who = "whisper", "Whisper"
-    else:
-        hyps = [h for h in instruction.nbest if h.text.strip()]
-        if not hyps:
-            return NOBODY_ASKED, {}
-        sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
-        w = np.exp(sc - sc.max())
-        w /= w.sum()
-        keep = [k for k in range(len(hyps)) if w[k] >= MIN_WEIGHT]
-        texts, weights = [hyps[k].text for k in keep], list(w[keep] / w[keep].sum())
-        by, who = "nbest", "the recogniser"
-    u = understand(texts, weights, classes, lexicon)
-    evidence: dict[str, Any] = {"understanding": u.to_json(), "instruction_check": by}
-    if not u.request:
-        evidence.update(no_instruction=True, no_instruction_reason=f"{who} heard {texts[0]!r}: {u.reason}")
-    return u, evidence
 
 
 class SIFToM:
@@ -285,7 +225,7 @@ class OnlineInference:
 
     def _advance(self, action: Action) -> None:
         s2 = apply(self.state, action)
-        self._tabs = self.ctg.retable(self._tabs, s2, _changed_classes(self.world, self.state, action))
+        self._tabs = self.ctg.retable(self._tabs, s2, changed_classes(self.world, self.state, action))
         self.state = s2
         self.n_actions += 1
 
@@ -447,73 +387,6 @@ class OnlineInference:
         saved: np.ndarray = np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
         return saved
 
-
-def _changed_classes(world: World, s: State, action: Action) -> list[int]:
-    """Object classes whose cost tables an action changes."""
-    if action.kind in ("grab", "put", "handover"):
-        return [int(world.item_class_idx[action.obj])]
-    if action.kind in ("open", "close"):
-        return sorted({int(world.item_class_idx[i]) for i, loc in enumerate(s.item_at) if loc == action.place})
-    return []
-
-
-@dataclass(frozen=True, eq=False)
-class _GoalSpace:
-    """What depends only on the world and the goal space: built once, shared by inferences."""
-
-    N: np.ndarray
-    sp_goal: SparseGoals
-    sp: SparseGoals
-    pair_goal: np.ndarray
-    pair_cls: np.ndarray
-    pair_row: np.ndarray
-    class_total: np.ndarray
-    ctg: CostToGo
-
-
-_GOAL_SPACES: weakref.WeakKeyDictionary[World, dict[Any, Any]] = weakref.WeakKeyDictionary()
-
-
-def _goal_space(world: World, goals: tuple[Goal, ...], max_count: int) -> _GoalSpace:
-    per_world = _GOAL_SPACES.setdefault(world, {})
-    # identity first: hashing 150 goals costs more than the rest of the lookup
-    fast = per_world.get((id(goals), max_count))
-    if fast is not None and fast[0] is goals:
-        hit: _GoalSpace = fast[1]
-        return hit
-    key = (goals, max_count)
-    gs: _GoalSpace | None = per_world.get(key)
-    if gs is None:
-        N = goal_matrix(world, goals)
-        G, C = N.shape
-        uniq, (gi, ci, pair_row) = _subgoal_rows(N.tobytes(), G, C)
-        kmax = max(int(N.max()), max_count)
-        gs = _GoalSpace(N, SparseGoals.from_dense(N), SparseGoals.from_dense(uniq), gi, ci, pair_row,
-                        np.bincount(world.item_class_idx, minlength=C),
-                        CostToGo(world, goals[0].target, kmax, agent=HUMAN))
-        if len(per_world) > 32:
-            per_world.clear()
-        per_world[key] = gs
-    per_world[(id(goals), max_count)] = (goals, gs)
-    return gs
-
-
-@lru_cache(maxsize=64)
-def _subgoal_rows(key: bytes, G: int, C: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Distinct human subgoals: every goal minus one of its classes (the robot's part), cached.
-
-    Only these rows enter the action likelihood; the full goals are needed once, for the
-    help prior, when the posterior is asked for.
-    """
-    N = np.frombuffer(key, dtype=np.int64).reshape(G, C)
-    gi, ci = np.nonzero(N)
-    minus = N[gi].copy()
-    minus[np.arange(len(gi)), ci] = 0
-    uniq, inv = np.unique(minus, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    for a in (uniq, inv, gi, ci):
-        a.setflags(write=False)
-    return uniq, (gi, ci, inv)
 
 
 @lru_cache(maxsize=65536)

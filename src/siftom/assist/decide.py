@@ -22,28 +22,32 @@ Rules are registered by name in :data:`RULES`; :func:`get_rule` builds one.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from itertools import combinations
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
+from siftom.assist.answerupdate import answer_log_likelihood as answer_log_likelihood
+from siftom.assist.answerupdate import with_answer as with_answer
 from siftom.assist.askcost import QuestionCost
-from siftom.assist.questions import KINDS, Question, candidate_questions, evi, reliability_for
+from siftom.assist.asking import QUESTION_POOL as QUESTION_POOL
+from siftom.assist.asking import best_questions as best_questions
+from siftom.assist.asking import lexicon_of as _lexicon
+from siftom.assist.asking import question_cost as question_cost
+from siftom.assist.asking import question_values as question_values
+from siftom.assist.decision import DEFAULT_ASK_COST as DEFAULT_ASK_COST
+from siftom.assist.decision import Decision as Decision
+from siftom.assist.decision import DecisionRule as DecisionRule
+from siftom.assist.decision import Situation as Situation
+from siftom.assist.decision import joint_of as _joint
+from siftom.assist.questions import KINDS, Question
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.errors import ObservationError, unknown_name
-from siftom.inference.model import JointPosterior, Posterior
-from siftom.logspace import logsumexp
+from siftom.inference.model import Posterior
 from siftom.registry import Registry
 from siftom.world.commands import RobotCommand
-from siftom.world.model import State, World
 
-# The time of one spoken exchange when a caller fixes it (``ask_cost=``) and for the simple pair
-# questions of question_values; ``ask-or-act`` prices each question by its words instead
-# (assist/askcost.py: speaking rate, turn gaps, the robot's recognition; docs/decisions.md).
-DEFAULT_ASK_COST = 2.0
 # An interruption cost in steps on top of the exchange's time: none by default (a question is
 # worth asking when its value beats its time); a deployment whose people should be asked less
 # may set one.
@@ -58,114 +62,6 @@ UTILITIES = ("steps", "speedup")
 # which commands expected-benefit weighs against doing nothing: the one asked for, or any
 SCOPES = ("asked", "any")
 DEFAULT_UTILITY = "steps"
-# pair questions are drawn from the most probable commands
-QUESTION_POOL = 4
-
-
-@dataclass(frozen=True)
-class Decision:
-    """What the robot does.
-
-    Attributes:
-        rule: the rule's name.
-        action: the command to execute, ``none`` (do nothing) or ``ask``.
-        command: the command it executes when it does not ask (or before the answer).
-        prob: posterior probability of ``command`` (0 for ``none``).
-        expected_benefit: expected steps saved by ``command`` (nan for ``map`` without values).
-        question: the spoken question when ``action == 'ask'``, else ''.
-        options: the commands the question contrasts.
-        evi: expected value of information of the best question, in steps (question_values).
-        ask_cost: the cost of asking, in steps.
-        reason: one line saying why.
-        benefits: the best few actions with their expected benefit, best first.
-        declined: when the robot turns a request down, what it says to the person ("the honey
-            is already with you"); '' otherwise.
-    """
-
-    rule: str
-    action: str
-    command: str
-    prob: float
-    expected_benefit: float
-    question: str = ""
-    options: tuple[str, ...] = ()
-    evi: float = 0.0
-    ask_cost: float = DEFAULT_ASK_COST
-    reason: str = ""
-    benefits: tuple[tuple[str, float], ...] = field(default=(), compare=False)
-    question_kind: str = ""
-    asked: Question | None = field(default=None, compare=False)
-    declined: str = ""
-
-    @property
-    def ask(self) -> bool:
-        return self.action == "ask"
-
-    def to_json(self) -> dict[str, Any]:
-        """Plain dict for JSON output."""
-        eb = self.expected_benefit
-        return {"rule": self.rule, "action": self.action, "command": self.command, "prob": self.prob,
-                "expected_benefit": None if not np.isfinite(eb) else round(eb, 4), "question": self.question,
-                "options": list(self.options), "evi": round(self.evi, 4), "ask_cost": self.ask_cost,
-                "reason": self.reason, "question_kind": self.question_kind, "declined": self.declined,
-                "answers": list(self.asked.grammar()) if self.asked is not None else [],
-                "benefits": [{"action": a, "expected_benefit": round(b, 4)} for a, b in self.benefits]}
-
-
-@dataclass(frozen=True)
-class Situation:
-    """Where the decision is taken: the world, the state when the human spoke, the target."""
-
-    world: World
-    state: State
-    target: int
-    # probability that a spoken answer is heard as the cell it names (1: perfectly), one number
-    # or one per question kind ({"confirm": 0.95, ...}); the noise is part of the situation
-    # (docs/decisions.md)
-    answer_reliability: float | Mapping[str, float] = 1.0
-    # steps the human spent before speaking (part of L_single and L_team; only the speedup
-    # utility depends on it)
-    prefix: float = 0.0
-    # the questions already answered about this request (a reply was weighed): neither they nor
-    # a question only about their options is asked again ("How many bowls?" -- "four": not
-    # "Shall I bring four bowls?")
-    answered: tuple[Question, ...] = ()
-
-    def settled(self, q: Question) -> bool:
-        """Whether ``q`` asks again what an answered question asked (the same text, or options
-        all among one answered question's options)."""
-        return any(q.text == a.text or (q.options and set(q.options) <= set(a.options)) for a in self.answered)
-
-    def __post_init__(self) -> None:
-        r = self.answer_reliability
-        for v in (r.values() if isinstance(r, Mapping) else (r,)):
-            if isinstance(v, bool) or not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
-                raise ObservationError(f"answer_reliability must be a probability in [0, 1] (or a mapping "
-                                       f"question kind -> probability), got {r!r}")
-
-    def reliability(self, kind: str) -> float:
-        """How reliably an answer to a question of ``kind`` is heard here."""
-        return reliability_for(self.answer_reliability, kind)
-
-    @classmethod
-    def from_scenario(cls, scenario: Any, n_actions: int | None = None,
-                      answer_reliability: float | Mapping[str, float] = 1.0) -> Situation:
-        from siftom.world.model import cost
-
-        states = scenario.states()
-        k = len(scenario.actions) if n_actions is None else n_actions
-        prefix = float(sum(cost(scenario.world, s, a) for s, a in zip(states[:k], scenario.actions[:k], strict=True)))
-        return cls(scenario.world, states[k], scenario.target, answer_reliability, prefix)
-
-
-DecisionRule = Callable[[Posterior, Situation], Decision]
-
-
-def _joint(post: Posterior) -> JointPosterior:
-    if post.joint is None:
-        raise ObservationError("this posterior carries no hypotheses; decision rules other than 'map' need one "
-                               "from SIFToM.infer (siftom.inference)")
-    return post.joint
 
 
 def _values(post: Posterior, where: Situation) -> TeamValues:
@@ -268,81 +164,6 @@ class ExpectedBenefitRule:
         return Decision(self.name, a, a, p, float(eb[best]), reason=why, benefits=_top(tv.actions, eb))
 
 
-def question_values(tv: TeamValues, post: Posterior, pool: int = QUESTION_POOL, loss_aversion: float = 0.0,
-                    reliability: float = 1.0, ask_cost: float = 0.0) -> list[tuple[float, tuple[str, str]]]:
-    """EVI (steps) of "Did you mean A or B?" for every pair among the ``pool`` most probable commands.
-
-    The truthful answer names a cell of {A}, {B}, {anything else}; it is heard as its own cell
-    with probability ``reliability`` and as each of the two others with ``(1 - reliability) / 2``
-    (a symmetric channel: 1 = heard perfectly, 1/3 = the answer says nothing). The robot then
-    acts by expected utility given what it heard, the question's time ``ask_cost`` counted in
-    the outcome (so a question followed by doing nothing is a loss, weighed as losses are):
-
-        EVI = sum_heard max_a sum_cells P(heard | cell) E[u(b(a) - ask_cost) ; cell]
-              - max_a E[u(b(a))] + ask_cost.
-
-    Risk-neutral (``loss_aversion = 0``) this is the classic EVI, whatever ``ask_cost``; a
-    question pays when ``EVI > ask_cost`` (plus any interruption penalty).
-    """
-    cands = [c for c, _p in post.commands[:pool] if c in tv.actions]
-    v0 = float((tv.prob @ tv.utility(loss_aversion)).max())
-    w = tv.prob[:, None] * tv.utility(loss_aversion, ask_cost)  # (rows, actions), after the question
-    r = float(np.clip(reliability, 1.0 / 3.0, 1.0))
-    conf = np.full((3, 3), (1.0 - r) / 2.0)
-    np.fill_diagonal(conf, r)
-    row_cmd = np.array([tv.actions[i] for i in tv.row_cmd]) if len(tv.row_cmd) else np.array([], dtype=str)
-    out: list[tuple[float, tuple[str, str]]] = []
-    for a, b in combinations(cands, 2):
-        in_a, in_b = row_cmd == a, row_cmd == b
-        cells = np.stack([w[m].sum(axis=0) for m in (in_a, in_b, ~(in_a | in_b))])  # (3, actions)
-        v = float((conf @ cells).max(axis=1).sum())
-        out.append((v - v0 + ask_cost, (a, b)))
-    out.sort(key=lambda t: -t[0])
-    return out
-
-
-def question_cost(q: Question, ask_cost: float | None = None, cost_model: QuestionCost | None = None) -> float:
-    """Steps a question costs the team: ``ask_cost`` when given, else its spoken length (askcost)."""
-    if ask_cost is not None:
-        return float(ask_cost)
-    return (cost_model or QuestionCost()).expected_steps(q.text, q.answers)
-
-
-def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_aversion: float = 0.0,
-                   ask_cost: float | None = 0.0, kinds: Sequence[str] = KINDS,
-                   pool: int = QUESTION_POOL, unit: str = "steps",
-                   cost_model: QuestionCost | None = None,
-                   time_as_loss: bool = True, spent: float = 0.0) -> list[tuple[float, Question]]:
-    """EVI (steps) of every candidate question (assist/questions.py), best net value first.
-
-    Each question's answer is heard with its kind's reliability here
-    (``where.reliability(kind)``); see :func:`siftom.assist.questions.evi`. Its time is
-    ``ask_cost`` steps, or (``ask_cost=None``) its spoken length under ``cost_model``; the
-    list is ordered by EVI minus that time. ``time_as_loss``: the time is inside the
-    loss-averse utility of every outcome after the question (a question followed by doing
-    nothing is a loss, weighed ``1 + loss_aversion``); otherwise it is a sure price paid at
-    face value, the outcomes after the answer valued from there (the classic EVI). ``spent``:
-    steps already spent on earlier questions about this request (in every outcome).
-    """
-    qs = [q for q in candidate_questions([c for c, _p in post.commands], tv.actions, pool, kinds,
-                                         _lexicon(where.world)) if not where.settled(q)]
-    if not qs:
-        return []
-    v0 = float((tv.prob @ tv.utility(loss_aversion, spent, unit)).max())
-    out = []
-    for q in qs:
-        c = question_cost(q, ask_cost, cost_model)
-        u_after = tv.utility(loss_aversion, spent + (c if time_as_loss else 0.0), unit)
-        # the gain of asking over acting now, in the utility's unit (the time inside it, or paid after)
-        net = evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), 0.0)
-        if not time_as_loss:
-            net -= c if unit == "steps" else float(tv.prob @ (tv.speedup() - tv.speedup(c)).max(axis=1))
-        out.append((net, c, q))
-    out.sort(key=lambda t: -t[0])
-    # reported as EVI in steps beside the question's time: the question pays when EVI > time
-    return [(net + c, q) for net, c, q in out]
-
-
 @dataclass(frozen=True)
 class AskOrActRule:
     """Ask the best question when its EVI exceeds its cost; otherwise act by expected utility.
@@ -436,13 +257,6 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
 
 
 OPEN_QUESTION = "Sorry, what do you need?"
-
-
-def _lexicon(world: World) -> Any:
-    """How ``world`` names its classes (its own names, else the built-in lexicon)."""
-    from siftom.likelihood.lexicon import lexicon_for
-
-    return lexicon_for(world)
 
 
 def _sentence(text: str) -> str:
@@ -567,51 +381,3 @@ def decide(post: Posterior, where: Situation, rule: str = "map", **options: Any)
         return Decision(rule, NONE, NONE, 0.0, 0.0,
                         reason=f"no instruction heard ({post.evidence.get('no_instruction_reason', '')})")
     return chosen(post, where)
-
-
-def answer_log_likelihood(log_lik: Sequence[float] | np.ndarray, reliability: float = 1.0) -> np.ndarray:
-    """The answer's log-likelihood per command when it is heard only with probability ``reliability``.
-
-    With probability ``reliability`` the answer was heard and the instruction likelihood
-    ``log_lik`` applies; otherwise what was heard is noise and says nothing about the command:
-    ``P(heard | c) ∝ reliability * softmax(log_lik)(c) + (1 - reliability) / K`` over the K
-    commands. The same channel the question's EVI assumes (question_values); at 1 the
-    likelihood is used as it is.
-    """
-    ll = np.asarray(log_lik, dtype=np.float64)
-    if not 0.0 <= reliability <= 1.0:
-        raise ObservationError(f"reliability must be a probability in [0, 1], got {reliability!r}")
-    if reliability >= 1.0 or len(ll) == 0:
-        return ll
-    p = np.exp(ll - logsumexp(ll))
-    out: npt.NDArray[np.float64] = np.log(reliability * p + (1.0 - reliability) / len(ll))
-    return out
-
-
-def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcript: str = "") -> Posterior:
-    """The posterior after a second utterance (the answer): ``log_lik`` per ``post.joint.commands``.
-
-    The answer depends on the command alone, so adding its log-likelihood to every hypothesis
-    and renormalising is the exact Bayesian update.
-    """
-    j = _joint(post)
-    ll = np.asarray(log_lik, dtype=np.float64)
-    if ll.shape != (len(j.commands),) or not np.all(np.isfinite(ll)):
-        raise ObservationError("the answer's likelihood must give one finite score per command")
-    lj = j.log_joint + ll[j.cmd_idx]
-    p = np.exp(lj - logsumexp(lj))
-    cm = np.bincount(j.cmd_idx, weights=p, minlength=len(j.commands))
-    ng = len(j.goals) + 1
-    gm = np.bincount(j.goal_idx, weights=p, minlength=ng)
-    names = [g.name for g in j.goals] + ["unknown"]
-    corder = np.lexsort((np.arange(len(cm)), -cm))
-    corder = corder[cm[corder] > 0]
-    gorder = np.argsort(-gm, kind="stable")
-    gorder = gorder[gm[gorder] > 0]
-    commands = tuple((j.commands[k], float(cm[k])) for k in corder)
-    goals = tuple((names[k], float(gm[k])) for k in gorder)
-    from dataclasses import replace
-
-    return replace(post, command=commands[0][0], commands=commands, goals=goals, hypotheses=(),
-                   transcript=(post.transcript + " | " + transcript).strip(" |"),
-                   joint=JointPosterior(j.goals, j.commands, j.goal_idx, j.cmd_idx, lj, j.state))

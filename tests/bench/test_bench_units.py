@@ -239,5 +239,5 @@ def test_answers_are_said_from_the_cell_and_heard_by_the_first_hypothesis_naming
     stim = SimpleNamespace(id="x")
     h = answers.ask_and_hear(q, 2, stim, ".", listen)
     assert heard_grammar == [q.grammar()]  # the recogniser listens for this question's answers
-    assert h["heard_cell"] == 2 and h["answer_heard"] == "three please"
+    assert h.heard_cell == 2 and h.answer_heard == "three please"
     assert set(answers.answer_reliabilities(5.0)) == {"confirm", "choose", "count"}

@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -93,8 +94,25 @@ class AnswerUnavailableError(DatasetError):
     """The human's answer cannot be synthesised: its voice or its noise is not available here."""
 
 
+@dataclass(frozen=True)
+class HeardAnswer:
+    """The simulated person's spoken answer and what the robot heard of it.
+
+    Attributes:
+        answer: what the person said.
+        answer_heard: the transcript the robot heard.
+        heard_cell: the question's cell the heard text names (None: none, or an open question).
+        cell: the cell the person meant (None for an open question).
+    """
+
+    answer: str
+    answer_heard: str
+    heard_cell: int | None
+    cell: int | None
+
+
 def ask_and_hear(question: Question, cell: int, stimulus: Any, dataset_root: str, listen: Listen,
-                 salt: int = 0) -> dict[str, Any]:
+                 salt: int = 0) -> HeardAnswer:
     """Say the answer of ``cell`` to ``question`` and hear it with the question's grammar.
 
     Raises:
@@ -116,10 +134,10 @@ def ask_and_hear(question: Question, cell: int, stimulus: Any, dataset_root: str
         if hc is not None:
             heard = t
             break
-    return {"answer": text, "answer_heard": heard, "heard_cell": hc, "cell": cell}
+    return HeardAnswer(text, heard, hc, cell)
 
 
-def repeat_and_hear(stimulus: Any, dataset_root: str, listen: Callable[..., Any], salt: int = 0) -> dict[str, Any]:
+def repeat_and_hear(stimulus: Any, dataset_root: str, listen: Callable[..., Any], salt: int = 0) -> HeardAnswer:
     """The person's answer to an open question ("Sorry, what do you need?"): the request said
     again in the stimulus's voice and noise, heard with the evaluator's own vocabulary.
 
@@ -133,7 +151,7 @@ def repeat_and_hear(stimulus: Any, dataset_root: str, listen: Callable[..., Any]
         raise AnswerUnavailableError(f"cannot say the answer in voice {stimulus.voice!r} with noise "
                                      f"{stimulus.noise!r}: {exc}") from None
     tr = listen(audio)
-    return {"answer": text, "answer_heard": tr.text, "heard_cell": None, "cell": None}
+    return HeardAnswer(text, tr.text, None, None)
 
 
 def probe_questions(scenario: Any, gold: str, stimulus_id: str) -> list[tuple[Question, int]]:
@@ -187,7 +205,7 @@ def reliability_by_kind(dataset: str, engine: str = "pocketsphinx-vocab", limit:
         snr = float("inf") if s.snr_db is None else float(s.snr_db)
         for k, (q, cell) in enumerate(probe_questions(sc, s.gold_command, s.id)):
             h = ask_and_hear(q, cell, s, str(ds.root), listen, salt=k)
-            out[q.kind].setdefault(snr, []).append(h["heard_cell"] == cell)
+            out[q.kind].setdefault(snr, []).append(h.heard_cell == cell)
     return out
 
 

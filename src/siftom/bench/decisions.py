@@ -30,7 +30,6 @@ import numpy as np
 
 from siftom.assist.askcost import QuestionCost
 from siftom.assist.decide import (
-    DEFAULT_ASK_COST,
     DEFAULT_LOSS_AVERSION,
     Situation,
     get_rule,
@@ -162,19 +161,19 @@ def run_decision_model(
         ans, stimulus, scenario, dataset_root, transcribe,
         lambda reply, pending: obs.answer(online, reply, likelihood="phonetic", decide=chooser, pending=pending,
                                           answer_reliability=reliability),
-        lambda q, h: float(ask_cost) if ask_cost is not None else cm.steps(q.text, h["answer"]))
+        lambda q, h: float(ask_cost) if ask_cost is not None else cm.steps(q.text, h.answer))
     if h0 is None:  # (the loop runs at least once: the first answer asked)
         return out
     top2 = str(now.top_command)
     command, prob = _done(now)
-    first_cell = h0["cell"]
+    first_cell = h0.cell
     out.update({"command": command, "prob": prob, "asked": True, "question": d.question,
                 "question_kind": d.asked.kind, "questions": len(said), "exchange": said,
                 "ask_cost": round(spent, 4), "command_before": d.command, "action_after": now.action,
                 "asked_again": len(said) > 1 or now.action == "ask",
                 "correct_before": is_correct(d.command, stimulus.gold_command, scenario.verb),
-                "answer": h0["answer"], "answer_heard": h0["answer_heard"], "map_command": top2,
-                **({"answer_cell_ok": h0["heard_cell"] == first_cell, "answer_unclear": h0["heard_cell"] is None}
+                "answer": h0.answer, "answer_heard": h0.answer_heard, "map_command": top2,
+                **({"answer_cell_ok": h0.heard_cell == first_cell, "answer_unclear": h0.heard_cell is None}
                    if first_cell is not None else {}),
                 "map_correct": is_correct(top2, stimulus.gold_command, scenario.verb),
                 "expected_benefit": _benefit(now)})
@@ -202,8 +201,8 @@ def _benefit(a: Any) -> float | None:
 
 
 def _exchange(ans: Any, stimulus: Any, scenario: Any, dataset_root: str, transcribe: Callable[..., Any],
-              heard_as: Callable[[Any, Any], Any], cost: Callable[[Any, dict[str, Any]], float],
-              ) -> tuple[dict[str, Any] | None, float, list[str], Any]:
+              heard_as: Callable[[Any, Any], Any], cost: Callable[[Any, _answers.HeardAnswer], float],
+              ) -> tuple[_answers.HeardAnswer | None, float, list[str], Any]:
     """The spoken exchange after a question: the person answers each question and the robot may
     ask again (up to :data:`MAX_QUESTIONS`); (the first answer heard, the time spent, what was
     asked and heard, the last answer)."""
@@ -222,20 +221,10 @@ def _exchange(ans: Any, stimulus: Any, scenario: Any, dataset_root: str, transcr
             h = _answers.ask_and_hear(q, cell, stimulus, dataset_root, transcribe, salt=len(said))
         h0 = h0 or h
         spent += cost(q, h)
-        said.append(f"{q.text} -> {h['answer_heard']}")
-        reply = Instruction.from_text(h["answer_heard"]) if str(h["answer_heard"]).strip() else None
+        said.append(f"{q.text} -> {h.answer_heard}")
+        reply = Instruction.from_text(h.answer_heard) if str(h.answer_heard).strip() else None
         now = heard_as(reply, now.pending)
     return h0, spent, said, now
-
-
-def decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:
-    """Fields a decision model adds to its results entry; a question's cost is added to L_team."""
-    out = dict(extra)
-    if extra.get("asked") and team.get("l_team") is not None:
-        l_team = team["l_team"] + float(extra.get("ask_cost", DEFAULT_ASK_COST))
-        out["l_team"] = l_team
-        out["speedup"] = round(team["l_single"] / l_team - 1.0, 6) if l_team > 0 else 0.0
-    return out
 
 
 def reliability_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

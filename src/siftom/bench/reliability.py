@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +29,36 @@ def _bins(probs: np.ndarray, correct: np.ndarray) -> list[tuple[float, float, in
             for b in range(BINS) if (idx == b).any()]
 
 
-def reliability(rows: Sequence[dict[str, Any]], models: Sequence[str]) -> dict[str, dict[str, dict[str, Any]]]:
-    """model -> SNR label (and 'all') -> {n, confidence, accuracy, ece, bins}."""
-    out: dict[str, dict[str, dict[str, Any]]] = {}
+@dataclass(frozen=True)
+class Calibration:
+    """One model's calibration in one group of trials: mean P(chosen command) against accuracy.
+
+    Attributes:
+        n: trials.
+        confidence: mean probability of the chosen command.
+        accuracy: share of the trials that were right.
+        ece: expected calibration error over the bins.
+        bins: (mean probability, accuracy, trials) per non-empty bin.
+    """
+
+    n: int
+    confidence: float
+    accuracy: float
+    ece: float
+    bins: tuple[tuple[float, float, int], ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``summary.json`` entry (``reliability``)."""
+        return {"n": self.n, "confidence": self.confidence, "accuracy": self.accuracy, "ece": self.ece,
+                "bins": [list(b) for b in self.bins]}
+
+
+Reliability = dict[str, dict[str, Calibration]]  # model -> SNR label (and 'all') -> its calibration
+
+
+def reliability(rows: Sequence[dict[str, Any]], models: Sequence[str]) -> Reliability:
+    """model -> SNR label (and 'all') -> :class:`Calibration` (trials with a probability)."""
+    out: Reliability = {}
     for m in models:
         groups: dict[str, list[tuple[float, bool]]] = defaultdict(list)
         for r in rows:
@@ -45,13 +73,13 @@ def reliability(rows: Sequence[dict[str, Any]], models: Sequence[str]) -> dict[s
             c = np.array([b for _, b in groups[g]], dtype=float)
             bins = _bins(p, c)
             ece = sum(n / len(p) * abs(acc - conf) for conf, acc, n in bins)
-            res[g] = {"n": len(p), "confidence": round(float(p.mean()), 4), "accuracy": round(float(c.mean()), 4),
-                      "ece": round(float(ece), 4), "bins": [[round(a, 4), round(b, 4), n] for a, b, n in bins]}
+            res[g] = Calibration(len(p), round(float(p.mean()), 4), round(float(c.mean()), 4), round(float(ece), 4),
+                                 tuple((round(a, 4), round(b, 4), n) for a, b, n in bins))
         out[m] = res
     return out
 
 
-def render(rel: dict[str, dict[str, dict[str, Any]]], out: Path) -> Path | None:
+def render(rel: Reliability, out: Path) -> Path | None:
     """reliability.png: one panel per SNR, one line per model, the diagonal for reference."""
     if not rel:
         return None
@@ -68,8 +96,8 @@ def render(rel: dict[str, dict[str, dict[str, Any]]], out: Path) -> Path | None:
         for (m, res), col in zip(rel.items(), colors, strict=True):
             if g not in res:
                 continue
-            b = np.array(res[g]["bins"], dtype=float)
-            ax.plot(b[:, 0], b[:, 1], marker="o", ms=3, color=col, label=f"{m} (ECE {res[g]['ece']:.2f})")
+            b = np.array(res[g].bins, dtype=float)
+            ax.plot(b[:, 0], b[:, 1], marker="o", ms=3, color=col, label=f"{m} (ECE {res[g].ece:.2f})")
         ax.set_title(g)
         ax.set_xlim(0, 1)
         ax.set_ylim(0, 1)
@@ -83,7 +111,7 @@ def render(rel: dict[str, dict[str, dict[str, Any]]], out: Path) -> Path | None:
     return path
 
 
-def section(rel: dict[str, dict[str, dict[str, Any]]], figure: Path | None) -> str:
+def section(rel: Reliability, figure: Path | None) -> str:
     """Markdown: ECE and confidence vs accuracy per model and SNR, and the figure."""
     if not rel:
         return ""
@@ -92,7 +120,7 @@ def section(rel: dict[str, dict[str, dict[str, Any]]], figure: Path | None) -> s
              "Per SNR: mean P(chosen command) / accuracy, and ECE (10 bins; 0 = calibrated).", "",
              "| model | " + " | ".join(groups) + " |", "|---" * (len(groups) + 1) + "|"]
     for m, res in rel.items():
-        cells = [f"{res[g]['confidence']:.2f} / {res[g]['accuracy']:.2f}, ECE {res[g]['ece']:.2f}" if g in res else "—"
+        cells = [f"{res[g].confidence:.2f} / {res[g].accuracy:.2f}, ECE {res[g].ece:.2f}" if g in res else "—"
                  for g in groups]
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
     if figure is not None:

@@ -248,7 +248,7 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     from siftom.bench import reliability
 
     rel = reliability.reliability(rows, list(summary["models"]))
-    summary["reliability"] = rel
+    summary["reliability"] = {m: {g: c.to_json() for g, c in res.items()} for m, res in rel.items()}
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     rel_fig = reliability.render(rel, root) if figures else None
     _write(root / "report.md", _render_report(summary, run, figs) + "\n" + people_section(summary)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Container
 
 
 def is_correct(command: str, gold: str, verb: str) -> bool:
@@ -17,7 +17,7 @@ def is_correct(command: str, gold: str, verb: str) -> bool:
     return c.obj_class == g.obj_class and c.count == g.count
 
 
-def is_helpful(command: str, goal_counts: dict[str, Any]) -> bool:
+def is_helpful(command: str, goal_counts: Container[str]) -> bool:
     """A command whose class is part of the human's goal."""
     if command == "none":
         return False

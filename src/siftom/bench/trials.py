@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from siftom.assist.decide import DEFAULT_ASK_COST
 from siftom.bench.answers import AnswerUnavailableError
 from siftom.bench.decisions import (
-    decision_fields,
     decision_heard,
     decision_posterior,
     oracle_action,
@@ -237,10 +237,20 @@ def _model_row(s: Stimulus, sc: Any, command: str, prob: float, extra: dict[str,
         "seconds": round(time.perf_counter() - t0, 4),
     }
     if extra:
-        row.update(decision_fields(extra, team))
+        row.update(_decision_fields(extra, team))
     if team.get("error"):  # no speedup: say why (summary.json counts these)
         row["speedup_error"] = team["error"]
     return row
+
+
+def _decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:
+    """Fields a decision model adds to its results entry; a question's cost is added to L_team."""
+    out = dict(extra)
+    if extra.get("asked") and team.get("l_team") is not None:
+        l_team = team["l_team"] + float(extra.get("ask_cost", DEFAULT_ASK_COST))
+        out["l_team"] = l_team
+        out["speedup"] = round(team["l_single"] / l_team - 1.0, 6) if l_team > 0 else 0.0
+    return out
 
 
 def _oracle(s: Stimulus, sc: Any, skey: str, oracles: dict[tuple[str, str], str]) -> tuple[str, dict[str, Any]]:
@@ -313,7 +323,6 @@ def _posterior_choice(spec: EvalModel, opts: EvalOptions, s: Stimulus, sc: Any, 
                       instr: Any, audio: Path, memo: dict[tuple[str, str, str], tuple[str, float, float]],
                       engine: Callable[[], Any]) -> tuple[str, float]:
     """The MAP command and its probability for a ``posterior`` model (the paper's metric)."""
-    from siftom.api import get_model
     from siftom.observer import observer_for
 
     heard, key = _heard_by(spec, opts, s, instr, audio, engine)
@@ -330,9 +339,9 @@ def _posterior_choice(spec: EvalModel, opts: EvalOptions, s: Stimulus, sc: Any, 
             lk = opts.likelihood
         # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not change
         # a benchmark); the LLM likelihood comes configured by the run's options
-        lik: Any = get_model("full", lk, opts.llm).likelihood if lk == "llm" else lk
+        settings = eval_settings(spec.mode, opts.llm if lk == "llm" else None)
         # the paper's metric scores the inferred command (the MAP rule, the words' posterior)
-        post = observer_for(eval_settings(spec.mode)).infer(sc, None, heard, likelihood=lik, decide="map", gate=False)
+        post = observer_for(settings).infer(sc, None, heard, likelihood=lk, decide="map", gate=False)
         command, prob = str(post.top_command), post.top_prob
     memo[mk] = (command, prob, 0.0)
     return command, prob

@@ -44,8 +44,7 @@ the commands of one call.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,6 +52,10 @@ import numpy as np
 
 from siftom.concurrency import make_once as _once
 from siftom.errors import ObservationError, SiftomError
+from siftom.likelihood.alignscores import FAILED as FAILED
+from siftom.likelihood.alignscores import RawScores as RawScores
+from siftom.likelihood.alignscores import combine_scores
+from siftom.likelihood.alignscores import temperature_for_snr as temperature_for_snr
 from siftom.likelihood.base import Scores, as_scores
 from siftom.likelihood.keyphrases import (  # re-exported: the acoustic likelihood's words
     closest_phrasing as closest_phrasing,
@@ -80,7 +83,6 @@ if TYPE_CHECKING:
     from siftom.likelihood.lexicon import Lexicon
     from siftom.speech.acoustic import ForcedAligner
 
-FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
 Phrasings = Callable[[RobotCommand], Sequence[tuple[str, float]]]
 # calibrated on a dataset built with another seed than the benchmark (docs/likelihoods.md)
 DEFAULT_TEMPERATURE = 75.0
@@ -90,35 +92,6 @@ DEFAULT_GAP_SCALE = 4.0
 DEFAULT_WHISPER_TEMPERATURE = 3.0
 DEFAULT_WHISPER_PAD_S = 3.0
 DEFAULT_WHISPER_PRIOR = 0.0
-
-
-
-
-def temperature_for_snr(snr_db: float | None) -> float:
-    """A temperature in nats for a known SNR: 12 at >= 20 dB (or clean) rising to 30 at <= 0 dB."""
-    if snr_db is None or not np.isfinite(snr_db):
-        return 12.0
-    s = float(np.clip(snr_db, 0.0, 20.0))
-    return 30.0 - 0.9 * s
-
-
-@dataclass(frozen=True)
-class RawScores:
-    """Alignment scores before the temperature: per kept command, (score in nats, log prior) items."""
-
-    keep: np.ndarray
-    items: tuple[list[tuple[float, float]], ...]
-    mode: str
-    phonetic: np.ndarray | None = None  # the N-best phonetic log-likelihood of every command, when known
-    gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
-    whisper: np.ndarray | None = None  # the Whisper factor w of each kept command (nats), when used
-    evidence: Mapping[str, Any] = field(default_factory=dict)  # how this call scored (Scores.evidence)
-
-    def temperature(self, T: float, scale: float) -> float:
-        """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
-        if self.gap is None or not np.isfinite(self.gap) or scale == 0:
-            return T
-        return T * float(np.exp(scale * max(self.gap, 0.0)))
 
 
 class AcousticLikelihood:
@@ -298,37 +271,8 @@ class AcousticLikelihood:
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
-        if n == 0:
-            return np.zeros(0)
-        if not raw.items:  # no alignment (the Whisper factor replaces it): the N-best and w only
-            out = raw.phonetic.copy() if self.with_phonetic and raw.phonetic is not None else np.zeros(n)
-            return out + self._whisper_term(raw, n)
-        T = raw.temperature(self.temperature if temperature is None else temperature, self.gap_scale)
-        # a failed alignment (the decoder found no path) says nothing about the command: it gets
-        # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
-        ok = [sc for items in raw.items for sc, _ in items if sc > FAILED]
-        worst = min(ok) if ok else 0.0
-        vals = np.array([logsumexp([(sc if sc > FAILED else worst) / T + lp for sc, lp in items])
-                         for items in raw.items])
-        floor = float(np.min(vals))
-        out = np.full(n, floor)
-        if raw.phonetic is not None and len(raw.keep) < n and not self.with_phonetic:
-            # a pruned command is at most as likely as the worst aligned one, and less so by as much
-            # as the N-best says it is less likely than that one
-            ref = float(np.min(raw.phonetic[raw.keep]))
-            out = floor + np.minimum(raw.phonetic - ref, 0.0)
-        out[raw.keep] = vals
-        if self.with_phonetic and raw.phonetic is not None:
-            out = out + raw.phonetic
-        return out + self._whisper_term(raw, n)
-
-    def _whisper_term(self, raw: RawScores, n: int) -> np.ndarray | float:
-        """w / T_w per command; a pruned command gets the worst kept w (it held almost no mass)."""
-        if raw.whisper is None or not len(raw.whisper):
-            return 0.0
-        w = np.full(n, float(np.min(raw.whisper)))
-        w[raw.keep] = raw.whisper
-        return w / self.whisper_temperature
+        return combine_scores(raw, n, self.temperature if temperature is None else temperature, self.gap_scale,
+                              self.with_phonetic, self.whisper_temperature)
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:

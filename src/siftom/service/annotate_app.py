@@ -16,7 +16,7 @@ from typing import Any
 
 from fastapi import FastAPI
 from fastapi import Path as PathParam
-from fastapi.responses import FileResponse
+from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
 from siftom.people.annotate import AnnotateOptions, Annotation, answer_form
@@ -24,6 +24,7 @@ from siftom.people.collect import action_words
 from siftom.people.stimuli import scenario_for
 from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
+from siftom.service.people import json_response as _json
 
 KEY = PathParam(pattern=r"^[A-Za-z0-9_-]{16,100}$", description="the key POST /api/annotators gave")
 
@@ -51,7 +52,7 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
     app, run_cpu = page_app("siftom annotate", "annotate.html", access=access)
     app.state.annotation = ann
 
-    def view(aid: str) -> dict[str, Any]:
+    def _view(aid: str) -> dict[str, Any]:
         ids = ann.assignment(aid)
         pos = ann.next_position(aid)
         base = {"annotator": aid, "total": len(ids), "answered": len(ann.answered(aid))}
@@ -63,28 +64,27 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
                 "form": answer_form(sc)}
 
     @app.get("/api/annotation")
-    async def info() -> dict[str, Any]:
-        return {"consent": options.consent, "per_stimulus": options.per_stimulus,
-                "assignments": len(ann.assignments), "stimuli": len(ann.ds.stimuli)}
+    async def info() -> JSONResponse:
+        return _json({"consent": options.consent, "per_stimulus": options.per_stimulus,
+                      "assignments": len(ann.assignments), "stimuli": len(ann.ds.stimuli)})
 
     @app.post("/api/annotators")
-    async def join(req: Join) -> dict[str, Any]:
+    async def join(req: Join) -> JSONResponse:
         from siftom.service.problems import ProblemError
 
         if not req.agree:
             raise ProblemError(422, "no-consent", "annotating needs your agreement to the text above; tick the box "
                                "to agree, or close the page to stop")
         who = await run_cpu(ann.join, req.annotator or None, req.key)
-        return {**await run_cpu(view, who["annotator"]), "key": who["key"]}
+        return _json({**await run_cpu(_view, who["annotator"]), "key": who["key"]})
 
     async def whose(key: str) -> str:
         aid: str = await run_cpu(ann.annotator_for, key)
         return aid
 
     @app.get("/api/annotators/{key}/next")
-    async def next_(key: str = KEY) -> dict[str, Any]:
-        shown: dict[str, Any] = await run_cpu(view, await whose(key))
-        return shown
+    async def next_(key: str = KEY) -> JSONResponse:
+        return _json(await run_cpu(_view, await whose(key)))
 
     @app.get("/api/annotators/{key}/{pos}/audio.wav", response_class=FileResponse)
     async def audio(pos: int, key: str = KEY) -> FileResponse:
@@ -97,10 +97,9 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
         return png_response(await run_cpu(frames.png, sc, step))
 
     @app.post("/api/annotators/{key}/answers", status_code=201)
-    async def answer(req: Answer, key: str = KEY) -> dict[str, Any]:
+    async def answer(req: Answer, key: str = KEY) -> JSONResponse:
         aid = await whose(key)
         await run_cpu(ann.answer, aid, req.position, req.typed, req.item, req.count, req.seconds)
-        shown: dict[str, Any] = await run_cpu(view, aid)
-        return shown
+        return _json(await run_cpu(_view, aid), status_code=201)
 
     return app

@@ -15,15 +15,15 @@ without it is a 403 (the experimenter gives a new key with ``siftom collect --pa
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from fastapi import FastAPI, Request
-from fastapi.responses import FileResponse
+from fastapi.responses import FileResponse, JSONResponse
 from pydantic import BaseModel, Field
 
 from siftom.people.collect import Collection, CollectOptions
 from siftom.service.access import Access
 from siftom.service.people import Frames, page_app, png_response
+from siftom.service.people import json_response as _json
 from siftom.service.problems import ProblemError, read_audio_form
 
 
@@ -53,23 +53,23 @@ def create_collect_app(out: str | Path, options: CollectOptions, access: Access 
                                "start siftom collect without --participant (or with this id) for another one")
 
     @app.get("/api/collection")
-    async def info() -> dict[str, Any]:
-        return {"domain": options.domain, "scenarios": len(coll.prompts), "consent": options.consent,
-                "participant": options.participant, "max_seconds": options.max_seconds}
+    async def info() -> JSONResponse:
+        return _json({"domain": options.domain, "scenarios": len(coll.prompts), "consent": options.consent,
+                "participant": options.participant, "max_seconds": options.max_seconds})
 
     @app.post("/api/participants")
-    async def agree(req: Agreement) -> dict[str, Any]:
+    async def agree(req: Agreement) -> JSONResponse:
         if not req.agree:
             raise ProblemError(422, "no-consent", "recording needs your agreement to the text above; "
                                "tick the box to agree, or close the page to stop")
         only(req.participant)
         rec = await run_cpu(coll.agree, req.participant, req.key)
-        return {"participant": req.participant, "key": rec["key"], "done": coll.done(req.participant),
-                "scenarios": len(coll.prompts)}
+        return _json({"participant": req.participant, "key": rec["key"], "done": coll.done(req.participant),
+                      "scenarios": len(coll.prompts)})
 
     @app.get("/api/prompts/{k}")
-    async def prompt(k: int) -> dict[str, Any]:
-        return coll.prompt(index_of(k)).to_json()
+    async def prompt(k: int) -> JSONResponse:
+        return _json(coll.prompt(index_of(k)).to_json())
 
     @app.get("/api/prompts/{k}/frames/{step}.png", response_class=FileResponse)
     async def frame(k: int, step: int) -> FileResponse:
@@ -77,7 +77,7 @@ def create_collect_app(out: str | Path, options: CollectOptions, access: Access 
         return png_response(await run_cpu(frames.png, sc, step))
 
     @app.post("/api/recordings", status_code=201)
-    async def record(request: Request) -> dict[str, Any]:
+    async def record(request: Request) -> JSONResponse:
         fields, data = await read_audio_form(request, max_fields=5, max_part_size=8 * 2**20)
         try:
             k = int(fields.get("index", ""))
@@ -86,6 +86,7 @@ def create_collect_app(out: str | Path, options: CollectOptions, access: Access 
         pid = fields.get("participant", "")
         only(pid)
         stim = await run_cpu(coll.save, pid, index_of(k), data, fields.get("reference", ""), fields.get("key", ""))
-        return {"id": stim.id, "audio": stim.audio, "duration_s": stim.duration_s, "done": coll.done(pid)}
+        return _json({"id": stim.id, "audio": stim.audio, "duration_s": stim.duration_s, "done": coll.done(pid)},
+                     status_code=201)
 
     return app

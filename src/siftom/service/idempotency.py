@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from pydantic import BaseModel
 
 from siftom.service.problems import ProblemError
 
@@ -32,17 +35,23 @@ class Idem:
     request: str
 
 
-def fingerprint(route: str, *parts: bytes | str | dict[str, Any]) -> str:
-    """A digest of the route and the request's content (dicts in a canonical JSON form)."""
+Part = bytes | str | BaseModel | Mapping[str, str]
+
+
+def fingerprint(route: str, *parts: Part) -> str:
+    """A digest of the route and the request's content (a request model's fields, or form
+    fields, in a canonical JSON form)."""
     h = hashlib.sha256(route.encode())
     for p in parts:
-        if isinstance(p, dict):
-            p = json.dumps(p, sort_keys=True, separators=(",", ":"))
+        if isinstance(p, BaseModel):
+            p = p.model_dump()
+        if isinstance(p, Mapping):
+            p = json.dumps(dict(p), sort_keys=True, separators=(",", ":"))
         h.update(b"\0" + (p.encode() if isinstance(p, str) else p))
     return f"{route} {h.hexdigest()}"
 
 
-def idem_of(headers: Any, route: str, *parts: bytes | str | dict[str, Any]) -> Idem | None:
+def idem_of(headers: Any, route: str, *parts: Part) -> Idem | None:
     """The request's :class:`Idem`, None without the header; 422 for a malformed key."""
     key = headers.get(HEADER)
     if key is None:

@@ -8,19 +8,19 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
 from typing import Any
 
 from fastapi import APIRouter, Query, Request
 from fastapi import Path as PathParam
 from fastapi.encoders import jsonable_encoder
 from fastapi.responses import FileResponse, JSONResponse, Response
+from pydantic import BaseModel, ConfigDict
 
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
+from siftom.scenarios.base import Scenario
 from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
 from siftom.service.problems import ProblemError, read_audio_form
-from siftom.service.runtime import timeline
 from siftom.service.schemas import (
     MAX_SCENARIO_ID,
     AudioFields,
@@ -28,6 +28,7 @@ from siftom.service.schemas import (
     InferResponse,
     SayRequest,
 )
+from siftom.world.model import AGENT_NAMES, HELD, NOTHING
 
 router = APIRouter()
 
@@ -43,18 +44,35 @@ INFER_BODY = {
 }
 
 
-@dataclass(frozen=True)
-class ScenarioRow:
+class ScenarioRow(BaseModel):
     """One line of ``GET /v1/scenarios``."""
 
+    model_config = ConfigDict(frozen=True)
     id: str
     domain: str
     description: str
     num_actions: int
     verb: str
 
-    def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+
+def _timeline(scenario: Scenario) -> list[dict[str, Any]]:
+    """Per observed step: the action that led there, where each agent is, what is where."""
+    w = scenario.world
+    out = []
+    for t, s in enumerate(scenario.states()):
+        items: dict[str, list[str]] = {}
+        for i, loc in enumerate(s.item_at):
+            if loc != HELD:
+                items.setdefault(w.places[loc].name, []).append(w.items[i].name)
+        out.append({
+            "t": t,
+            "action": w.format_action(scenario.actions[t - 1]) if t else None,
+            "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
+            "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
+            "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
+            "items": items,
+        })
+    return out
 
 
 def _scenario_rows(ctx: ServiceContext) -> list[ScenarioRow]:
@@ -62,20 +80,21 @@ def _scenario_rows(ctx: ServiceContext) -> list[ScenarioRow]:
     rows = []
     for sid in rt.scenario_ids():
         sc = rt.scenario(sid)
-        rows.append(ScenarioRow(sid, sc.domain, sc.description, len(sc.actions), sc.verb))
+        rows.append(ScenarioRow(id=sid, domain=sc.domain, description=sc.description, num_actions=len(sc.actions),
+                                verb=sc.verb))
     return rows
 
 
 def _scenario_json(ctx: ServiceContext, scenario_id: str) -> dict[str, Any]:
     sc = ctx.runtime.scenario(scenario_id)
-    return {**sc.summary(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": timeline(sc)}
+    return {**sc.summary(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": _timeline(sc)}
 
 
 @router.get("/v1/scenarios", tags=["scenarios"], response_model=dict[str, Any])
 async def list_scenarios(ctx: Ctx) -> JSONResponse:
     """Every registered scenario: id, domain, one-line description, number of actions."""
     rows = await ctx.run_cpu(_scenario_rows, ctx)
-    return JSONResponse({"scenarios": [row.to_json() for row in rows]})
+    return JSONResponse({"scenarios": [row.model_dump() for row in rows]})
 
 
 @router.get("/v1/scenarios/{scenario_id:path}.png", tags=["scenarios"], response_class=FileResponse,

@@ -20,6 +20,12 @@ from fastapi.responses import FileResponse, JSONResponse
 from siftom.service.access import authenticated
 from siftom.service.context import Ctx, ServiceContext
 from siftom.service.schemas import AUDIO_FORM_SCHEMA, InferRequest
+from siftom.service.session_schemas import (
+    AUDIO_INSTRUCTION_SCHEMA,
+    ActionsRequest,
+    InstructionRequest,
+    SessionCreate,
+)
 
 STATIC = Path(__file__).parent / "static"
 
@@ -93,8 +99,6 @@ def _health(ctx: ServiceContext) -> dict[str, Any]:
 def openapi_for(app: FastAPI, offered: tuple[str, ...]) -> Any:
     """``/openapi.json`` of ``app``, built once: the routes' schema plus the request bodies read by
     hand (JSON or multipart), with the likelihoods this server offers (``offered``)."""
-    from siftom.service.session_api import session_schemas
-
     if app.openapi_schema:
         return app.openapi_schema
     schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
@@ -106,6 +110,19 @@ def openapi_for(app: FastAPI, offered: tuple[str, ...]) -> Any:
     form = {**AUDIO_FORM_SCHEMA, "properties": dict(AUDIO_FORM_SCHEMA["properties"])}
     form["properties"]["likelihood"] = {"type": "string", "enum": ["auto", *offered], "default": "auto"}
     comps["AudioInferForm"] = form
-    comps.update(session_schemas(offered))
+    comps.update(_session_schemas(offered))
     app.openapi_schema = schema
     return schema
+
+
+def _session_schemas(likelihoods: tuple[str, ...]) -> dict[str, Any]:
+    """The request schemas to add to /openapi.json's components (``likelihoods``: those offered)."""
+    comps: dict[str, Any] = {}
+    for model in (SessionCreate, ActionsRequest, InstructionRequest):
+        js = model.model_json_schema(ref_template="#/components/schemas/{model}")
+        comps.update(js.pop("$defs", {}))
+        comps[model.__name__] = js
+    offered = ["auto", *(lk for lk in likelihoods if lk in ("phonetic", "llm"))]
+    comps["SessionCreate"]["properties"]["likelihood"] = {"type": "string", "enum": offered, "default": "auto"}
+    comps["AudioInstructionForm"] = AUDIO_INSTRUCTION_SCHEMA
+    return comps

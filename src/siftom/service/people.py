@@ -19,7 +19,8 @@ from typing import Any, TypeVar
 import anyio
 import anyio.to_thread
 from fastapi import FastAPI
-from fastapi.responses import FileResponse
+from fastapi.encoders import jsonable_encoder
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from siftom.service.access import Access, AccessGuard
@@ -107,3 +108,8 @@ def _crop(path: Path, margin: int = 12) -> None:
 
 def png_response(path: Path) -> FileResponse:
     return FileResponse(path, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
+
+
+def json_response(body: Any, status_code: int = 200) -> JSONResponse:
+    """``body`` (the page API's answer) as JSON, encoded as FastAPI encodes a returned value."""
+    return JSONResponse(jsonable_encoder(body), status_code=status_code)

@@ -135,7 +135,7 @@ async def session_frames(req: SessionFramesRequest, request: Request, ctx: Ctx,
     from siftom.service.session_api import reply_response
 
     mgr = ctx.sessions
-    idem = idem_of(request.headers, "frames", req.model_dump())
+    idem = idem_of(request.headers, "frames", req)
     first = await anyio.to_thread.run_sync(mgr.replayed, session_id, idem)  # 404 before any model call
     if first is not None:
         return reply_response(first, replayed=True)

@@ -66,7 +66,7 @@ async def rate(req: RatingRequest, request: Request, ctx: Ctx,
     lo, hi = SCALE
     if not all(lo <= x <= hi for x in req.scores):
         raise ProblemError(422, "validation", f"scores: each rating is a whole number from {lo} to {hi}")
-    idem = idem_of(request.headers, "rating", req.model_dump())
+    idem = idem_of(request.headers, "rating", req)
     rec, replayed = await ctx.run_cpu(_store_rating, ctx, session_id, req, idem)
     return JSONResponse(rec, status_code=201, headers={REPLAYED: "true"} if replayed else None)
 

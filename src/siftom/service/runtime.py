@@ -43,8 +43,7 @@ from siftom.service.admission import Admission
 from siftom.settings import Settings
 
 __all__ = ["SERVICE_LIKELIHOODS", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
-           "scenario_vocabulary", "service_llm_config", "timeline"]
-from siftom.world.model import AGENT_NAMES, HELD, NOTHING
+           "scenario_vocabulary", "service_llm_config"]
 
 T = TypeVar("T")
 
@@ -53,26 +52,6 @@ def scenario_vocabulary(scenario: Scenario) -> list[str]:
     from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
-
-
-def timeline(scenario: Scenario) -> list[dict[str, Any]]:
-    """Per observed step: the action that led there, where each agent is, what is where."""
-    w = scenario.world
-    out = []
-    for t, s in enumerate(scenario.states()):
-        items: dict[str, list[str]] = {}
-        for i, loc in enumerate(s.item_at):
-            if loc != HELD:
-                items.setdefault(w.places[loc].name, []).append(w.items[i].name)
-        out.append({
-            "t": t,
-            "action": w.format_action(scenario.actions[t - 1]) if t else None,
-            "agents": {AGENT_NAMES[k]: w.places[p].name for k, p in enumerate(s.agent_at)},
-            "held": {AGENT_NAMES[k]: (w.items[h].name if h != NOTHING else None) for k, h in enumerate(s.held)},
-            "open": [p.name for i, p in enumerate(w.places) if p.closable and s.is_open(i)],
-            "items": items,
-        })
-    return out
 
 
 class Runtime:

@@ -25,7 +25,6 @@ from siftom.service.idempotency import REPLAYED, Idem, idem_of
 from siftom.service.problems import ProblemError, read_audio_form
 from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.service.session_schemas import (
-    AUDIO_INSTRUCTION_SCHEMA,
     SESSION_ID,
     ActionsRequest,
     ActionsResponse,
@@ -118,7 +117,7 @@ async def add_actions(request: Request, ctx: Ctx, session_id: str = SID_PARAM) -
     mgr = ctx.sessions
     raw = await request.body()
     req = ActionsRequest.model_validate_json(raw)
-    idem = idem_of(request.headers, "actions", req.model_dump())
+    idem = idem_of(request.headers, "actions", req)
     first = await ctx.run_cpu(mgr.replayed, session_id, idem)
     if first is not None:
         return reply_response(first, replayed=True)
@@ -151,7 +150,7 @@ async def instruction(request: Request, ctx: Ctx, session_id: str = SID_PARAM) -
 async def _instruction_json(request: Request, ctx: Ctx, session_id: str) -> JSONResponse:
     mgr = ctx.sessions
     req = InstructionRequest.model_validate_json(await request.body())
-    idem = idem_of(request.headers, "instruction", req.model_dump())
+    idem = idem_of(request.headers, "instruction", req)
     first = await ctx.run_cpu(mgr.replayed, session_id, idem)
     if first is not None:
         return reply_response(first, replayed=True)
@@ -184,16 +183,3 @@ def _answer_audio(ctx: ServiceContext, session_id: str, data: bytes, opts: Audio
         body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
                             heard=heard, idem=idem, likelihood=slot.likelihood)
     return SessionReply({**body.to_json(), "degraded": slot.reason})
-
-
-def session_schemas(likelihoods: tuple[str, ...]) -> dict[str, Any]:
-    """The request schemas to add to /openapi.json's components (``likelihoods``: those offered)."""
-    comps: dict[str, Any] = {}
-    for model in (SessionCreate, ActionsRequest, InstructionRequest):
-        js = model.model_json_schema(ref_template="#/components/schemas/{model}")
-        comps.update(js.pop("$defs", {}))
-        comps[model.__name__] = js
-    offered = ["auto", *(lk for lk in likelihoods if lk in ("phonetic", "llm"))]
-    comps["SessionCreate"]["properties"]["likelihood"] = {"type": "string", "enum": offered, "default": "auto"}
-    comps["AudioInstructionForm"] = AUDIO_INSTRUCTION_SCHEMA
-    return comps

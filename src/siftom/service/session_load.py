@@ -77,7 +77,16 @@ def _vh(world: Any, a: Any) -> str:
     return f"[PutBack] <{world.items[a.obj].name}> (0) <{world.places[a.place].name}> (0)"
 
 
-def workload(sessions: int, actions: int) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class SessionWork:
+    """What one session of the load test sends: its world JSON, action lines and transcript."""
+
+    world: dict[str, Any]
+    actions: tuple[str, ...]
+    transcript: str
+
+
+def workload(sessions: int, actions: int) -> list[SessionWork]:
     """Per session: the world JSON, the action lines and the transcript."""
     from siftom.scenarios.base import get_scenario
     from siftom.world.domains import household
@@ -93,8 +102,8 @@ def workload(sessions: int, actions: int) -> list[dict[str, Any]]:
         acts = sc.actions[:actions]
         lines = [_vh(sc.world, a) if k % 2 else sc.world.format_action(a) for a in acts]
         cls = sc.command.obj_class
-        out.append({"world": scene_to_json(sc.world, sc.start, sc.goals, sc.verb, household.DOORS),
-                    "actions": lines, "transcript": f"could you bring me the {cls}s"})
+        out.append(SessionWork(scene_to_json(sc.world, sc.start, sc.goals, sc.verb, household.DOORS),
+                               tuple(lines), f"could you bring me the {cls}s"))
     return out
 
 
@@ -149,16 +158,16 @@ def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]
             proc.kill()
 
 
-async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: float, pid: int | None = None,
+async def _run(url: str, work: list[SessionWork], interval: float, timeout: float, pid: int | None = None,
                seed: int = 0) -> tuple[list[tuple[str, float]], list[float], int, int, float, float | None]:
     import httpx
 
     n = len(work)
     limits = httpx.Limits(max_connections=n, max_keepalive_connections=n)
     async with httpx.AsyncClient(base_url=url, timeout=timeout, limits=limits) as client:
-        async def create(w: dict[str, Any]) -> tuple[str | None, float]:
+        async def create(w: SessionWork) -> tuple[str | None, float]:
             t0 = time.perf_counter()
-            r = await client.post("/v1/sessions", json={"world": w["world"]})
+            r = await client.post("/v1/sessions", json={"world": w.world})
             return (r.json()["id"] if r.status_code == 201 else None), time.perf_counter() - t0
 
         made = await asyncio.gather(*(create(w) for w in work))
@@ -169,10 +178,10 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
 
         offsets = np.random.default_rng(seed).uniform(0.0, interval, size=len(work))
 
-        async def stream(sid: str, w: dict[str, Any], offset: float) -> None:
+        async def stream(sid: str, w: SessionWork, offset: float) -> None:
             nonlocal errors
-            reqs = [("actions", {"actions": [line]}) for line in w["actions"]]
-            reqs.append(("instruction", {"transcript": w["transcript"]}))
+            reqs: list[tuple[str, dict[str, Any]]] = [("actions", {"actions": [line]}) for line in w.actions]
+            reqs.append(("instruction", {"transcript": w.transcript}))
             await asyncio.sleep(offset)
             for k, (path, body) in enumerate(reqs):
                 if interval and k:
@@ -201,7 +210,7 @@ async def _run(url: str, work: list[dict[str, Any]], interval: float, timeout: f
                 continue
             view = (await client.get(f"/v1/sessions/{sid}")).json()
             last = view.get("last_instruction") or {}
-            lost += (view.get("n_actions", 0) < len(w["actions"])) + (last.get("command") != answers.get(sid))
+            lost += (view.get("n_actions", 0) < len(w.actions)) + (last.get("command") != answers.get(sid))
             await client.delete(f"/v1/sessions/{sid}")
         return lat, create_lat, errors, lost, secs, cpu
 

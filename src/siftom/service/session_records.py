@@ -57,3 +57,12 @@ class SessionReply:
             return None
         n, added = got
         return int(n), list(added)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """An answer prepared but not stored (``SessionManager.prepare``) and the session's revision
+    it was made at: ``SessionManager.commit`` stores it only while that revision holds."""
+
+    reply: SessionReply
+    revision: tuple[int, int, int]

@@ -21,7 +21,6 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import ObservationError
@@ -31,7 +30,7 @@ from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
-from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
+from siftom.service.session_records import Prepared, SessionOptions, SessionReply, SessionSpec
 from siftom.service.session_scene import Session, build_scene, check_speakable
 from siftom.service.session_views import (
     BELIEF_TOP,
@@ -47,14 +46,6 @@ from siftom.world.model import HUMAN, Action, apply, check
 # "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
 SESSION_LIKELIHOODS = ("auto", "phonetic", "llm")
-
-
-@dataclass(frozen=True)
-class Prepared:
-    """An answer :meth:`SessionManager.prepare` made and the session's revision it was made at."""
-
-    reply: SessionReply
-    revision: tuple[int, int, int]
 
 
 class SessionManager:

@@ -75,7 +75,7 @@ async def session_from_scenario(req: ScenarioSession, request: Request, ctx: Ctx
     already observed (the web page streams its microphone into it); a retry with the same
     Idempotency-Key returns the first answer and creates nothing."""
     mgr = ctx.sessions
-    idem = idem_of(request.headers, "from-scenario", req.model_dump())
+    idem = idem_of(request.headers, "from-scenario", req)
     first = await ctx.run_cpu(mgr.created_reply, idem)
     if first is not None:
         return created_response(first, replayed=True)

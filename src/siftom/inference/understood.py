@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -12,8 +12,17 @@ from siftom.likelihood.base import Instruction
 from siftom.world.commands import RobotCommand
 
 
+class UnderstandingEvidence(TypedDict, total=False):
+    """What understanding adds to a posterior's evidence (all keys absent when nothing was heard)."""
+
+    understanding: dict[str, Any]  # Understanding.to_json()
+    instruction_check: str  # whose words were read: "whisper" or "nbest"
+    no_instruction: bool  # nobody asked the robot for anything
+    no_instruction_reason: str
+
+
 def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand], also_heard: Sequence[str] = (),
-                     lexicon: Any = None) -> tuple[Understanding, dict[str, Any]]:
+                     lexicon: Any = None) -> tuple[Understanding, UnderstandingEvidence]:
     """What was understood (siftom.language) and the evidence it adds: ``understanding``, and
     ``no_instruction`` with its reason when nobody asked the robot for anything.
 
@@ -43,7 +52,8 @@ def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand],
         texts, weights = [hyps[k].text for k in keep], list(w[keep] / w[keep].sum())
         by, who = "nbest", "the recogniser"
     u = understand(texts, weights, classes, lexicon)
-    evidence: dict[str, Any] = {"understanding": u.to_json(), "instruction_check": by}
+    evidence: UnderstandingEvidence = {"understanding": u.to_json(), "instruction_check": by}
     if not u.request:
-        evidence.update(no_instruction=True, no_instruction_reason=f"{who} heard {texts[0]!r}: {u.reason}")
+        evidence["no_instruction"] = True
+        evidence["no_instruction_reason"] = f"{who} heard {texts[0]!r}: {u.reason}"
     return u, evidence

@@ -34,7 +34,7 @@ import itertools
 import json
 import tomllib
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -209,15 +209,41 @@ def _label(v: Any) -> str:
     return ",".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v) if isinstance(v, list | tuple) else str(v)
 
 
-def table_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
-    """One row per cell and model: the axis values, n, accuracy and speedup with their CIs."""
+@dataclasses.dataclass(frozen=True)
+class SweepRow:
+    """One model in one cell of the sweep's table: the cell's axis values (as labels), n, and
+    accuracy and speedup with their 95 % CIs (None where there is no value)."""
+
+    values: tuple[tuple[str, str], ...]
+    model: str
+    n: int
+    accuracy: float | None
+    accuracy_lo: float | None
+    accuracy_hi: float | None
+    speedup: float | None
+    speedup_lo: float | None
+    speedup_hi: float | None
+
+    @property
+    def cell(self) -> str:
+        """The cell's label: its axis values joined."""
+        return " / ".join(v for _, v in self.values)
+
+    def to_json(self) -> dict[str, Any]:
+        """The row of ``table.csv``: the axis values, then the model and its numbers."""
+        return {**dict(self.values), "model": self.model, "n": self.n, "accuracy": self.accuracy,
+                "accuracy_lo": self.accuracy_lo, "accuracy_hi": self.accuracy_hi, "speedup": self.speedup,
+                "speedup_lo": self.speedup_lo, "speedup_hi": self.speedup_hi}
+
+
+def table_rows(result: dict[str, Any]) -> list[SweepRow]:
+    """One row per cell and model (of ``sweep.json``): the axis values, n, accuracy and speedup with their CIs."""
     rows = []
     for c in result["cells"]:
         for m, s in c["models"].items():
-            rows.append({**{k: _label(v) for k, v in c["values"].items()}, "model": m, "n": s["n"],
-                         "accuracy": s["accuracy"], "accuracy_lo": s["accuracy_ci"][0],
-                         "accuracy_hi": s["accuracy_ci"][1], "speedup": s["speedup"],
-                         "speedup_lo": s["speedup_ci"][0], "speedup_hi": s["speedup_ci"][1]})
+            rows.append(SweepRow(tuple((k, _label(v)) for k, v in c["values"].items()), m, s["n"],
+                                 s["accuracy"], s["accuracy_ci"][0], s["accuracy_ci"][1],
+                                 s["speedup"], s["speedup_ci"][0], s["speedup_ci"][1]))
     return rows
 
 
@@ -225,32 +251,36 @@ def _f(x: float | None, pct: bool) -> str:
     return "–" if x is None else (f"{100 * x:.1f}" if pct else f"{x:+.3f}")
 
 
-def markdown_table(rows: list[dict[str, Any]]) -> str:
+def markdown_table(rows: Sequence[SweepRow]) -> str:
     """The Markdown table (accuracy in %, speedup, 95 % CIs in brackets)."""
     if not rows:
         return "(no cells)"
-    keys = [k for k in rows[0] if k not in {"n", "accuracy", "accuracy_lo", "accuracy_hi", "speedup",
-                                               "speedup_lo", "speedup_hi"}]
-    head = [*keys, "n", "accuracy % [95 % CI]", "speedup [95 % CI]"]
+    head = [*(k for k, _ in rows[0].values), "model", "n", "accuracy % [95 % CI]", "speedup [95 % CI]"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        acc = f"{_f(r['accuracy'], True)} [{_f(r['accuracy_lo'], True)}, {_f(r['accuracy_hi'], True)}]"
-        sp = f"{_f(r['speedup'], False)} [{_f(r['speedup_lo'], False)}, {_f(r['speedup_hi'], False)}]"
-        lines.append("| " + " | ".join([*(str(r[k]) for k in keys), str(r["n"]), acc, sp]) + " |")
+        acc = f"{_f(r.accuracy, True)} [{_f(r.accuracy_lo, True)}, {_f(r.accuracy_hi, True)}]"
+        sp = f"{_f(r.speedup, False)} [{_f(r.speedup_lo, False)}, {_f(r.speedup_hi, False)}]"
+        lines.append("| " + " | ".join([*(v for _, v in r.values), r.model, str(r.n), acc, sp]) + " |")
     return "\n".join(lines)
 
 
-def _csv_table(rows: list[dict[str, Any]]) -> str:
+def _csv_table(rows: Sequence[SweepRow]) -> str:
     """The same table as CSV (fractions, not percent)."""
     buf = io.StringIO()
     if rows:
-        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        w = csv.DictWriter(buf, fieldnames=list(rows[0].to_json()))
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(r.to_json() for r in rows)
     return buf.getvalue()
 
 
-def figure(rows: list[dict[str, Any]], path: Path) -> Path:
+def _stat(row: SweepRow | None, name: str) -> float:
+    """A number of a table row (NaN where the row or the number is missing)."""
+    v = None if row is None else getattr(row, name)
+    return float("nan") if v is None else float(v)
+
+
+def figure(rows: Sequence[SweepRow], path: Path) -> Path:
     """Accuracy and speedup per cell (groups) and model (bars), with 95 % CI error bars."""
     import matplotlib
 
@@ -258,20 +288,19 @@ def figure(rows: list[dict[str, Any]], path: Path) -> Path:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    keys = [k for k in rows[0] if k not in {"model", "n"} and not k.startswith(("accuracy", "speedup"))]
-    cells = list(dict.fromkeys(" / ".join(str(r[k]) for k in keys) for r in rows))
-    models = list(dict.fromkeys(r["model"] for r in rows))
+    keys = [k for k, _ in rows[0].values]
+    cells = list(dict.fromkeys(r.cell for r in rows))
+    models = list(dict.fromkeys(r.model for r in rows))
     width = 0.8 / max(1, len(models))
     fig, axes = plt.subplots(2, 1, figsize=(max(6.0, 1.2 * len(cells) * max(1, len(models)) ** 0.5), 7))
     colors = plt.get_cmap("tab10")(np.arange(len(models)) % 10)
     for ax, key, label, scale in ((axes[0], "accuracy", "accuracy (%)", 100.0),
                                   (axes[1], "speedup", "speedup (L_single / L_team − 1)", 1.0)):
         for j, m in enumerate(models):
-            mine = {" / ".join(str(r[k]) for k in keys): r for r in rows if r["model"] == m}
+            mine = {r.cell: r for r in rows if r.model == m}
             x = np.arange(len(cells)) + (j - (len(models) - 1) / 2) * width
-            v = np.array([np.nan if mine.get(c, {}).get(key) is None else mine[c][key] for c in cells]) * scale
-            lo = np.array([np.nan if mine.get(c, {}).get(f"{key}_lo") is None else mine[c][f"{key}_lo"] for c in cells]) * scale
-            hi = np.array([np.nan if mine.get(c, {}).get(f"{key}_hi") is None else mine[c][f"{key}_hi"] for c in cells]) * scale
+            v, lo, hi = (np.array([_stat(mine.get(c), f"{key}{end}") for c in cells]) * scale
+                         for end in ("", "_lo", "_hi"))
             ax.bar(x, v, width, yerr=np.abs(np.stack([v - lo, hi - v])), capsize=3, color=colors[j],
                    edgecolor="black", linewidth=0.4, label=m)
         ax.set_xticks(np.arange(len(cells)), cells, rotation=20, ha="right", fontsize=8)

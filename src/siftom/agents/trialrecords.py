@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 from siftom.world.model import State
 
@@ -59,6 +59,28 @@ class TrialEvent:
         return dict(self.__dict__)
 
 
+class TrialMetrics(TypedDict):
+    """The numbers of a trial (:meth:`TrialResult.metrics`)."""
+
+    scenario: str
+    goal: str
+    rule: str
+    seed: int
+    l_single: float
+    l_team: float
+    speedup: float
+    requests: int
+    acted: int
+    wrong_fetches: int
+    questions: int
+    refusals: int
+    answered: int
+    ignored: int
+    human_actions: int
+    robot_actions: int
+    remedy_steps: float
+
+
 @dataclass(frozen=True)
 class TrialResult:
     """The outcome of a whole trial (docs/team-simulation.md, "Whole trials")."""
@@ -105,7 +127,7 @@ class TrialResult:
     def ignored(self) -> int:
         return sum(r.ignored for r in self.requests)
 
-    def metrics(self) -> dict[str, Any]:
+    def metrics(self) -> TrialMetrics:
         """The numbers of the trial, without the log."""
         return {"scenario": self.scenario, "goal": self.goal, "rule": self.rule, "seed": self.seed,
                 "l_single": self.l_single, "l_team": self.l_team, "speedup": self.speedup,
@@ -115,7 +137,7 @@ class TrialResult:
                 "robot_actions": self.robot_actions, "remedy_steps": self.remedy_steps}
 
     def to_json(self, events: bool = True) -> dict[str, Any]:
-        out = self.metrics()
+        out: dict[str, Any] = dict(self.metrics())
         out["request_log"] = [r.to_json() for r in self.requests]
         if events:
             out["events"] = [e.to_json() for e in self.events]

@@ -26,6 +26,7 @@ from siftom.errors import SiftomError
 
 if TYPE_CHECKING:
     from siftom.options import ServiceSettings
+    from siftom.service.runtime import InferReply
     from siftom.settings import Settings
 
 # builds a worker's runtime from the service's settings (a module-level function: it is pickled
@@ -40,11 +41,11 @@ def _start(factory: WorkerFactory, settings: ServiceSettings, full: Settings) ->
     _WORKER = factory(settings, full)
 
 
-def _infer_audio(args: tuple[Any, ...]) -> dict[str, Any]:
+def _infer_audio(args: tuple[Any, ...]) -> InferReply:
     if _WORKER is None:
         raise SiftomError("the audio worker did not start")
-    body: dict[str, Any] = _WORKER.infer_audio_here(*args)
-    return body
+    reply: InferReply = _WORKER.infer_audio_here(*args)
+    return reply
 
 
 def _ready() -> bool:
@@ -76,7 +77,7 @@ class AudioPool:
         for f in [ex.submit(_ready) for _ in range(self.size)]:
             f.result()
 
-    def infer_audio(self, *args: Any) -> dict[str, Any]:
+    def infer_audio(self, *args: Any) -> InferReply:
         """``Runtime.infer_audio_here(*args)`` in a worker; its SiftomError is raised here."""
         try:
             return self._executor().submit(_infer_audio, args).result()

@@ -21,6 +21,7 @@ from siftom.assist.clarify import ClarifyPolicy
 from siftom.scenarios.base import Scenario
 from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
 from siftom.service.problems import ProblemError, read_audio_form
+from siftom.service.runtime import InferReply
 from siftom.service.schemas import (
     MAX_SCENARIO_ID,
     AudioFields,
@@ -129,14 +130,15 @@ async def infer(request: Request, ctx: Ctx) -> JSONResponse:
     if is_json(media):
         req = InferRequest.model_validate_json(await request.body())
         ctx.lookup(req.scenario, 422)
-        return JSONResponse(await ctx.run_cpu(_infer_json, ctx, req))
+        reply = await ctx.run_cpu(_infer_json, ctx, req)
+        return JSONResponse(reply.to_json())
     if media == "multipart/form-data":
-        return JSONResponse(await _infer_audio(request, ctx))
+        return JSONResponse((await _infer_audio(request, ctx)).to_json())
     raise ProblemError(415, "media-type", "send application/json (a transcript) or multipart/form-data "
                        f"(an audio file), not {media or 'no Content-Type'}")
 
 
-def _infer_json(ctx: ServiceContext, req: InferRequest) -> dict[str, Any]:
+def _infer_json(ctx: ServiceContext, req: InferRequest) -> InferReply:
     policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
     nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
     ins = make_instruction(transcript=req.transcript, nbest=nbest)
@@ -144,15 +146,15 @@ def _infer_json(ctx: ServiceContext, req: InferRequest) -> dict[str, Any]:
                              req.top, policy, req.decide)
 
 
-async def _infer_audio(request: Request, ctx: ServiceContext) -> dict[str, Any]:
+async def _infer_audio(request: Request, ctx: ServiceContext) -> InferReply:
     fields, data = await read_audio_form(request, max_fields=16, max_part_size=ctx.settings.max_body_bytes)
     opts = AudioFields.model_validate(fields)
     ctx.lookup(opts.scenario, 422)
     policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
-    body: dict[str, Any] = await ctx.run_cpu(ctx.runtime.infer_audio, opts.scenario, data, opts.mode,
+    reply: InferReply = await ctx.run_cpu(ctx.runtime.infer_audio, opts.scenario, data, opts.mode,
                                              opts.likelihood, opts.n_actions, opts.asr_nbest, opts.top, policy,
                                              opts.decide)
-    return body
+    return reply
 
 
 @router.post("/v1/say", tags=["speech"], response_class=Response,

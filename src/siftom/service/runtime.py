@@ -13,18 +13,20 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import io
 import tempfile
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
 from siftom.answer import Answer
-from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.errors import AudioError, ObservationError, SiftomError
 from siftom.inference.listen import Cache
@@ -42,7 +44,7 @@ from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.admission import Admission
 from siftom.settings import Settings
 
-__all__ = ["SERVICE_LIKELIHOODS", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
+__all__ = ["SERVICE_LIKELIHOODS", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
            "scenario_vocabulary", "service_llm_config"]
 
 T = TypeVar("T")
@@ -52,6 +54,29 @@ def scenario_vocabulary(scenario: Scenario) -> list[str]:
     from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
+
+
+@dataclass(frozen=True)
+class InferReply:
+    """The answer of ``POST /v1/infer``: the observer's answer (its JSON, at the request's ``top``),
+    the N-best list it heard, the clarifying decision, the robot's plan and, for a recording,
+    why the likelihood gave way under load (``degraded``: '' when it did not)."""
+
+    scenario: str
+    answer: dict[str, Any]
+    nbest: tuple[tuple[str, float], ...]
+    clarification: Clarification
+    plan: RobotPlan | None
+    degraded: str | None = None  # None: not a recording (no ``degraded`` field)
+
+    def to_json(self) -> dict[str, Any]:
+        body: dict[str, Any] = {"scenario": self.scenario, **self.answer}
+        body["nbest"] = [{"text": text, "score": score} for text, score in self.nbest]
+        body["clarification"] = self.clarification.to_json()
+        body["plan"] = self.plan.to_json() if self.plan is not None else None
+        if self.degraded is not None:
+            body["degraded"] = self.degraded
+        return body
 
 
 class Runtime:
@@ -189,16 +214,14 @@ class Runtime:
 
     def infer(self, sid: str, instruction: Instruction | None, mode: str | None, likelihood: str | None,
               n_actions: int | None, actions: list[str] | None, top: int | None, policy: ClarifyPolicy,
-              decide: str | None = None, heard: Heard | None = None) -> dict[str, Any]:
-        """The response body of ``POST /v1/infer``."""
+              decide: str | None = None, heard: Heard | None = None) -> InferReply:
+        """The answer of ``POST /v1/infer``."""
         ans = self.answer(sid, instruction, mode, likelihood, n_actions, actions, top, decide, heard)
         top = top or self.observer.settings.infer.top
-        body: dict[str, Any] = {"scenario": sid, **ans.to_json(top=top)}
-        body["nbest"] = [{"text": h.text, "score": h.score} for h in (instruction.nbest if instruction else ())]
-        body["clarification"] = clarify(ans.commands, policy).to_json()
         plan = self.plan(sid, n_actions, actions, str(ans.command) if ans.command is not None else None)
-        body["plan"] = plan.to_json() if plan is not None else None
-        return body
+        return InferReply(sid, ans.to_json(top=top),
+                          tuple((h.text, h.score) for h in (instruction.nbest if instruction else ())),
+                          clarify(ans.commands, policy), plan)
 
     # ----- audio -------------------------------------------------------------------------
     def decode_audio(self, data: bytes) -> np.ndarray:
@@ -234,7 +257,7 @@ class Runtime:
 
     def infer_audio(self, sid: str, data: bytes, mode: str | None, likelihood: str | None, n_actions: int | None,
                     asr_nbest: int | None, top: int | None, policy: ClarifyPolicy,
-                    decide: str | None = None) -> dict[str, Any]:
+                    decide: str | None = None) -> InferReply:
         """Detect speech in an uploaded recording, recognise it and infer (the observer's path),
         in an audio worker process when ``audio_workers`` > 0.
 
@@ -244,22 +267,21 @@ class Runtime:
         self.scenario(sid)  # an unknown id fails before decoding
         args = (sid, data, mode, likelihood, n_actions, asr_nbest, top, policy, decide)
         if self.audio_pool is not None:
-            body: dict[str, Any] = self.audio_pool.infer_audio(*args)
-            return body
+            reply: InferReply = self.audio_pool.infer_audio(*args)
+            return reply
         return self.infer_audio_here(*args)
 
     def infer_audio_here(self, sid: str, data: bytes, mode: str | None, likelihood: str | None,
                          n_actions: int | None, asr_nbest: int | None, top: int | None, policy: ClarifyPolicy,
-                         decide: str | None = None) -> dict[str, Any]:
+                         decide: str | None = None) -> InferReply:
         """:meth:`infer_audio` in this process."""
         sc = self.scenario(sid)
         x = self.decode_audio(data)
         heard = self.observer.hear(x, sc.world, sc.verb, nbest=asr_nbest)
         with self.admission.slot(likelihood) as slot:  # past the CPU budget the default likelihood gives way
-            body = self.infer(sid, heard.instruction, mode, slot.likelihood or likelihood, n_actions, None, top, policy,
-                              decide, heard)
-        body["degraded"] = slot.reason
-        return body
+            reply = self.infer(sid, heard.instruction, mode, slot.likelihood or likelihood, n_actions, None, top,
+                               policy, decide, heard)
+        return dataclasses.replace(reply, degraded=slot.reason)
 
     # ----- speech synthesis ----------------------------------------------------------------
     @staticmethod

@@ -7,10 +7,10 @@ from types import SimpleNamespace
 
 import pytest
 
-from siftom.bench.stream import StreamBenchOptions, _score, noise_files
+from siftom.bench.stream import SpokenInstruction, StreamBenchOptions, _score, noise_files
 
-TRUTHS = [{"text": "a", "start_s": 1.0, "end_s": 2.0}, {"text": "b", "start_s": 3.0, "end_s": 4.0},
-          {"text": "c", "start_s": 5.0, "end_s": 6.0}, {"text": "d", "start_s": 7.0, "end_s": 8.0}]
+TRUTHS = [SpokenInstruction("a", "", 1.0, 2.0), SpokenInstruction("b", "", 3.0, 4.0),
+          SpokenInstruction("c", "", 5.0, 6.0), SpokenInstruction("d", "", 7.0, 8.0)]
 
 
 def answer(start, end, at, event="decision"):

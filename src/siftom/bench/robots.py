@@ -28,12 +28,16 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from siftom.errors import OptionsError, SiftomError
+
+if TYPE_CHECKING:
+    from siftom.bench.stream import SpokenInstruction
 
 CHUNK_S = 0.02
 INFER_BODY = {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"}
@@ -190,11 +194,11 @@ async def _infer_times(client: Any, n: int | None, rps: float, stop: asyncio.Eve
 
 
 async def _one_stream(url: str, headers: dict[str, str], session: str, audio: np.ndarray,
-                      truths: list[dict[str, Any]], start_delay: float, grace_s: float) -> StreamOutcome:
+                      truths: Sequence[SpokenInstruction], start_delay: float, grace_s: float) -> StreamOutcome:
     import websockets
 
     out = StreamOutcome(session)
-    ends = [t["end_s"] for t in truths]
+    ends = [t.end_s for t in truths]
     arrivals: list[float] = []
     await asyncio.sleep(start_delay)
     ws_url = url.replace("http://", "ws://") + f"/v1/sessions/{session}/listen"
@@ -243,7 +247,7 @@ def match_delays(ends: list[float], arrivals: list[float]) -> list[float | None]
 
 
 async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dict[str, float], int,
-                                                           list[StreamOutcome], tuple[np.ndarray, list[dict[str, Any]]]]:
+                                                           list[StreamOutcome], tuple[np.ndarray, list[SpokenInstruction]]]:
     import httpx
 
     from siftom.bench.stream import StreamBenchOptions, build_stream
@@ -260,7 +264,7 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
             sessions.append(r.json()["id"])
             x, tr = build_stream(StreamBenchOptions(seed=opts.seed * 1000 + k, quick=opts.instructions <= 4))
             keep = tr[:opts.instructions]
-            end = int((keep[-1]["end_s"] + 1.0) * 16000)
+            end = int((keep[-1].end_s + 1.0) * 16000)
             audios.append(x[:end])
             truths.append(keep)
         # warm-up (not timed): one instruction streamed, so the recogniser, its worker and Whisper are
@@ -269,7 +273,7 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
         if r.status_code == 201:
             warm = r.json()["id"]
             x, tr = build_stream(StreamBenchOptions(seed=opts.seed, quick=True))
-            await _one_stream(url, headers, warm, x[:int((tr[0]["end_s"] + 1.0) * 16000)], tr[:1], 0.0, opts.grace_s)
+            await _one_stream(url, headers, warm, x[:int((tr[0].end_s + 1.0) * 16000)], tr[:1], 0.0, opts.grace_s)
             await client.delete(f"/v1/sessions/{warm}")
         stop = asyncio.Event()
         poll = asyncio.create_task(_infer_times(client, None, opts.http_rps, stop)) if opts.http_rps > 0 else None

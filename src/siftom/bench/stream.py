@@ -83,11 +83,22 @@ class StreamBenchOptions:
             raise OptionsError(f"a seed is a whole number >= 0, got {self.seed}; give e.g. --seed 2")
 
 
+@dataclass(frozen=True)
+class SpokenInstruction:
+    """An instruction of the benchmark's stream: its text, its voice, and where its speech starts
+    and ends (seconds from the start of the stream)."""
+
+    text: str
+    voice: str
+    start_s: float
+    end_s: float
+
+
 @dataclass
 class StreamBenchResult:
     options: dict[str, Any]
     stream_s: float
-    utterances: list[dict[str, Any]]
+    utterances: list[SpokenInstruction]
     likelihoods: dict[str, dict[str, Any]] = field(default_factory=dict)
     noise: list[dict[str, Any]] = field(default_factory=list)
 
@@ -110,16 +121,17 @@ def _speech_extent(x: np.ndarray) -> tuple[float, float]:
     return on[0] / RATE, on[-1] / RATE
 
 
-def build_stream(opts: StreamBenchOptions) -> tuple[np.ndarray, list[dict[str, Any]]]:
+def build_stream(opts: StreamBenchOptions) -> tuple[np.ndarray, list[SpokenInstruction]]:
     """The instructions with pauses (and the bed), and each one's text and true speech extent."""
     from siftom.speech.tts import synthesize
 
     rng = np.random.default_rng(opts.seed)
-    parts, truths, t = [np.zeros(int(0.8 * RATE), np.float32)], [], 0.8
+    parts, t = [np.zeros(int(0.8 * RATE), np.float32)], 0.8
+    truths: list[SpokenInstruction] = []
     for text, voice in CLIPS[:4] if opts.quick else CLIPS:
         x = synthesize(text, voice)
         a, b = _speech_extent(x)
-        truths.append({"text": text, "voice": voice, "start_s": round(t + a, 3), "end_s": round(t + b, 3)})
+        truths.append(SpokenInstruction(text, voice, round(t + a, 3), round(t + b, 3)))
         gap = float(rng.uniform(1.0, 1.6))
         parts += [x, np.zeros(int(gap * RATE), np.float32)]
         t += len(x) / RATE + int(gap * RATE) / RATE
@@ -141,16 +153,16 @@ def _home(likelihood: str) -> Any:
     return HomeListener(load_home(SCENARIO), likelihood=likelihood)
 
 
-def _warm(home: Any, x: np.ndarray, truth: dict[str, Any]) -> None:
+def _warm(home: Any, x: np.ndarray, truth: SpokenInstruction) -> None:
     """One answer before timing: the recogniser, Whisper and the caches are built, as in a robot
     that has been listening for a while."""
     from siftom.speech.segment import Utterance
 
-    a, b = int(truth["start_s"] * RATE) - 4800, int(truth["end_s"] * RATE) + 2400
-    home.respond(Utterance(-1, x[max(0, a):b], truth["start_s"], truth["end_s"], truth["end_s"], "silence"))
+    a, b = int(truth.start_s * RATE) - 4800, int(truth.end_s * RATE) + 2400
+    home.respond(Utterance(-1, x[max(0, a):b], truth.start_s, truth.end_s, truth.end_s, "silence"))
 
 
-def _stream_delays(likelihood: str, x: np.ndarray, truths: list[dict[str, Any]]) -> dict[str, Any]:
+def _stream_delays(likelihood: str, x: np.ndarray, truths: Sequence[SpokenInstruction]) -> dict[str, Any]:
     """Stream ``x`` in real time; per true utterance: segments, decision, delay."""
     from siftom.speech.segment import SpeechEnded
 
@@ -179,20 +191,20 @@ def _stream_delays(likelihood: str, x: np.ndarray, truths: list[dict[str, Any]])
     return _score(answers, truths, t0)
 
 
-def _score(answers: Sequence[tuple[Any, dict[str, Any], float]], truths: list[dict[str, Any]],
+def _score(answers: Sequence[tuple[Any, dict[str, Any], float]], truths: Sequence[SpokenInstruction],
            t0: float) -> dict[str, Any]:
     rows, delays, cut, merged, missed = [], [], 0, 0, 0
     segs = [(u.start_s, u.end_s) for u, _, _ in answers]
     for tr in truths:
-        hits = [j for j, (a, b) in enumerate(segs) if a < tr["end_s"] and b > tr["start_s"]]
-        row: dict[str, Any] = {"text": tr["text"], "segments": [[round(v, 3) for v in segs[j]] for j in hits]}
+        hits = [j for j, (a, b) in enumerate(segs) if a < tr.end_s and b > tr.start_s]
+        row: dict[str, Any] = {"text": tr.text, "segments": [[round(v, 3) for v in segs[j]] for j in hits]}
         if not hits:
             missed += 1
             row["outcome"] = "missed"
-        elif any(sum(1 for t2 in truths if segs[j][0] < t2["end_s"] and segs[j][1] > t2["start_s"]) > 1 for j in hits):
+        elif any(sum(1 for t2 in truths if segs[j][0] < t2.end_s and segs[j][1] > t2.start_s) > 1 for j in hits):
             merged += 1
             row["outcome"] = "merged"
-        elif len(hits) > 1 or segs[hits[0]][1] < tr["end_s"] - CUT_TOLERANCE_S:
+        elif len(hits) > 1 or segs[hits[0]][1] < tr.end_s - CUT_TOLERANCE_S:
             cut += 1
             row["outcome"] = "cut"
         else:
@@ -202,7 +214,7 @@ def _score(answers: Sequence[tuple[Any, dict[str, Any], float]], truths: list[di
             row.update({"event": out["event"], "heard": out.get("heard", ""), "command": out.get("command"),
                         "action": out.get("action"), "timings": out.get("timings")})
             if row["outcome"] == "ok" and out["event"] == "decision":
-                d = at - (t0 + tr["end_s"])
+                d = at - (t0 + tr.end_s)
                 row["delay_s"] = round(d, 4)
                 delays.append(d)
         rows.append(row)

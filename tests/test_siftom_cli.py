@@ -237,3 +237,12 @@ def test_bench_planner_json(cli):
     assert {"num_goals", "num_actions", "q_values", "q_table_p50_ms", "v_per_second", "astar_nodes_expanded",
             "astar_nodes_per_second"} <= set(out)
     assert out["num_goals"] >= 100 and out["num_actions"] == 10 and out["q_values"] > 0
+
+
+def test_infer_with_no_instruction_says_no_likelihood_scored_it(capsys):
+    # "thanks" asks for nothing: the posterior is the actions' alone, and the console says so
+    # rather than "scored by the likelihood none" beside the reason the phonetic one was chosen
+    assert main(["infer", "--scenario", "kitchen-cereal-v0", "--transcript", "thanks"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "scored by no likelihood: no instruction to score" in out
+    assert "the likelihood none" not in out

@@ -253,7 +253,12 @@ def print_posterior(post: Posterior, console: Console | None = None, *, recognis
             post.evidence.get("whisper_use", ""), "no object word in it: not used")
         con.print(f'Whisper heard: "{escape(post.evidence["whisper_heard"])}" ({use})')
     reason = post.evidence.get("likelihood_reason")
-    con.print(f"scored by the likelihood {post.likelihood}" + (f" ({escape(reason)})" if reason else ""))
+    chosen = post.evidence.get("likelihood")
+    if post.likelihood == "none":  # no instruction heard: the words reached no likelihood
+        con.print("scored by no likelihood: no instruction to score"
+                  + (f" (the {escape(str(chosen))} likelihood would have: {escape(reason or '')})" if chosen else ""))
+    else:
+        con.print(f"scored by the likelihood {post.likelihood}" + (f" ({escape(reason)})" if reason else ""))
     rule_text = f", decision rule {rule}" if rule else ""
     con.print(f"model {post.mode}, {post.n_actions} observed actions{rule_text}")
     t = Table(title="robot commands")

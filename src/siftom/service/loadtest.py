@@ -18,8 +18,9 @@ import numpy as np
 
 from siftom.errors import SiftomError
 from siftom.service.local_server import serve_in_thread
+from siftom.service.schemas import InferRequest
 
-DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
+DEFAULT_BODIES: tuple[InferRequest, ...] = tuple(InferRequest.model_validate(body) for body in (
     {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"},
     {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"},
     {"scenario": "household-table-v0/3", "transcript": "bring me the forks"},
@@ -27,7 +28,7 @@ DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
     {"scenario": "kitchen-v0/2", "transcript": "get me the milk"},
     {"scenario": "kitchen-cereal-v0", "nbest": [{"text": "pass me the see real", "score": -3.0},
                                                  {"text": "pass me the sugar", "score": -4.0}]},
-)
+))
 
 
 AUDIO_SENTENCES: tuple[tuple[str, str], ...] = (
@@ -89,7 +90,7 @@ class LoadResult:
         return self.errors == 0 and self.rps >= min_rps and self.p99_ms < max_p99_ms
 
 
-async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int, concurrency: int,
+async def _drive(url: str, bodies: Sequence[InferRequest | AudioBody], n: int, concurrency: int,
                  timeout: float) -> tuple[list[float], int, float]:
     import httpx
 
@@ -110,7 +111,7 @@ async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int,
                         r = await client.post("/v1/infer", data=body.fields,
                                               files={"audio": ("say.wav", body.wav, "audio/wav")})
                     else:
-                        r = await client.post("/v1/infer", json=body)
+                        r = await client.post("/v1/infer", json=body.model_dump(exclude_unset=True))
                     good = r.status_code == 200
                 except httpx.HTTPError:
                     good = False
@@ -123,7 +124,7 @@ async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int,
 
 
 def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
-                  bodies: Sequence[dict[str, Any] | AudioBody] = DEFAULT_BODIES, url: str | None = None,
+                  bodies: Sequence[InferRequest | AudioBody] = DEFAULT_BODIES, url: str | None = None,
                   timeout: float = 30.0, settings: Any = None) -> LoadResult:
     """Send ``requests`` transcript inferences with ``concurrency`` in flight; measure.
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import logging
 import sqlite3
+from dataclasses import dataclass
 from http import HTTPStatus
 from typing import Any
 
@@ -30,44 +31,52 @@ DISK_FULL = ("the server's disk is full, so nothing was written; DELETE the sess
              "folder")
 
 
+@dataclass(frozen=True)
+class FieldError:
+    """One invalid field of a request: where (``loc``, dotted) and what is wrong (``msg``)."""
+
+    loc: str
+    msg: str
+
+
 class ProblemError(Exception):
     """Raise inside a handler to answer with a problem document."""
 
-    def __init__(self, status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None,
+    def __init__(self, status: int, slug: str, detail: str, errors: list[FieldError] | None = None,
                  headers: dict[str, str] | None = None) -> None:
         super().__init__(detail)
         self.status, self.slug, self.detail, self.errors, self.headers = status, slug, detail, errors, headers
 
 
-def problem(status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+def problem(status: int, slug: str, detail: str, errors: list[FieldError] | None = None) -> dict[str, Any]:
     """The problem-details body."""
     body: dict[str, Any] = {"type": f"urn:siftom:problem:{slug}", "title": HTTPStatus(status).phrase,
                             "status": status, "detail": detail}
     if errors:
-        body["errors"] = errors
+        body["errors"] = [{"loc": e.loc, "msg": e.msg} for e in errors]
     return body
 
 
-def problem_response(status: int, slug: str, detail: str, errors: list[dict[str, Any]] | None = None,
+def problem_response(status: int, slug: str, detail: str, errors: list[FieldError] | None = None,
                      headers: dict[str, str] | None = None) -> JSONResponse:
     return JSONResponse(problem(status, slug, detail, errors), status_code=status,
                         media_type=PROBLEM_JSON, headers=headers)
 
 
-def validation_errors(exc: ValidationError | RequestValidationError) -> list[dict[str, Any]]:
-    """Pydantic errors as ``[{loc, msg}]`` (no echo of the input: it may be large)."""
+def validation_errors(exc: ValidationError | RequestValidationError) -> list[FieldError]:
+    """Pydantic's errors, each as where and what (no echo of the input: it may be large)."""
     out = []
     for e in exc.errors():
         loc = ".".join(str(p) for p in e.get("loc", ()) if p not in ("body",))
-        out.append({"loc": loc, "msg": str(e.get("msg", "invalid"))})
+        out.append(FieldError(loc, str(e.get("msg", "invalid"))))
     return out
 
 
-def _summary(errors: list[dict[str, Any]]) -> str:
-    first = errors[0] if errors else {"loc": "", "msg": "invalid request"}
-    where = f"{first['loc']}: " if first["loc"] else ""
+def _summary(errors: list[FieldError]) -> str:
+    first = errors[0] if errors else FieldError("", "invalid request")
+    where = f"{first.loc}: " if first.loc else ""
     more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    return f"{where}{first['msg']}{more}"
+    return f"{where}{first.msg}{more}"
 
 
 def install_handlers(app: FastAPI) -> None:
@@ -279,14 +288,14 @@ async def read_audio_form(request: Request, *, max_fields: int, max_part_size: i
         audio = form.get("audio")
         if not isinstance(audio, UploadFile):
             raise ProblemError(422, "validation", "audio: a file field named 'audio' is required",
-                               [{"loc": "audio", "msg": "a file is required"}])
+                               [FieldError("audio", "a file is required")])
         fields: dict[str, str] = {}
         for k, v in form.multi_items():
             if k == "audio":
                 continue
             if k in fields or not isinstance(v, str):
                 raise ProblemError(422, "validation", f"{k}: give the field once, as text",
-                                   [{"loc": k, "msg": "repeated or not text"}])
+                                   [FieldError(k, "repeated or not text")])
             fields[k] = v
         return fields, await audio.read()
     finally:

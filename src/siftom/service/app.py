@@ -30,7 +30,7 @@ import contextlib
 from collections.abc import AsyncIterator
 from pathlib import Path
 
-from fastapi import FastAPI
+from fastapi import APIRouter, FastAPI
 from fastapi.staticfiles import StaticFiles
 
 from siftom.observer import Observer
@@ -54,6 +54,13 @@ async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
     not wait for it."""
     app.state.runtime.warm_up()
     yield
+
+
+def _add_door(app: FastAPI, router: APIRouter) -> None:
+    """The door's routes on the app, in order, as if declared on it: ``app.routes`` lists every
+    route (FastAPI's ``include_router`` may keep them behind one entry; the API reference's build
+    reads them). The routers declare no prefix, dependencies or tags of their own to inherit."""
+    app.router.routes.extend(router.routes)
 
 
 def _context(settings: ServiceSettings, full: Settings, folder: Path, observer: Observer,
@@ -100,13 +107,13 @@ def create_app(data_dir: str | Path | None = None, settings: ServiceSettings | S
     app.add_middleware(AccessGuard, access=access)  # Host, Origin, token: docs/security.md
     app.add_middleware(SecurityHeadersMiddleware)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
-    app.include_router(meta_api.router)  # the page, /healthz
+    _add_door(app, meta_api.router)  # the page, /healthz
     install_docs(app)  # GET /docs: interactive API docs from local files, no CDN
-    app.include_router(infer_api.router)  # /v1/scenarios, /v1/infer, /v1/say
-    app.include_router(perceive.router)  # POST /v1/perceive, POST /v1/sessions/{id}/frames
-    app.include_router(session_api.router)  # /v1/sessions
-    app.include_router(stream_api.router)  # WS /v1/sessions/{id}/listen, POST /v1/sessions/from-scenario
-    app.include_router(ratings_api.router)  # the /rate page and POST /v1/sessions/{id}/rating
+    _add_door(app, infer_api.router)  # /v1/scenarios, /v1/infer, /v1/say
+    _add_door(app, perceive.router)  # POST /v1/perceive, POST /v1/sessions/{id}/frames
+    _add_door(app, session_api.router)  # /v1/sessions
+    _add_door(app, stream_api.router)  # WS /v1/sessions/{id}/listen, POST /v1/sessions/from-scenario
+    _add_door(app, ratings_api.router)  # the /rate page and POST /v1/sessions/{id}/rating
     offered = settings.offered
     app.openapi = lambda: meta_api.openapi_for(app, offered)  # type: ignore[method-assign]
     return app

@@ -26,7 +26,7 @@ from siftom.errors import SiftomError
 
 if TYPE_CHECKING:
     from siftom.options import ServiceSettings
-    from siftom.service.runtime import InferReply
+    from siftom.service.infer_reply import InferReply
     from siftom.settings import Settings
 
 # builds a worker's runtime from the service's settings (a module-level function: it is pickled

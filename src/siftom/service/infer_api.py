@@ -20,8 +20,8 @@ from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.scenarios.base import Scenario
 from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
+from siftom.service.infer_reply import InferReply
 from siftom.service.problems import ProblemError, read_audio_form
-from siftom.service.runtime import InferReply
 from siftom.service.schemas import (
     MAX_SCENARIO_ID,
     AudioFields,

@@ -19,14 +19,13 @@ import io
 import tempfile
 import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
 from siftom.answer import Answer
-from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
+from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.errors import AudioError, ObservationError, SiftomError
 from siftom.inference.listen import Cache
@@ -42,6 +41,7 @@ from siftom.options import (
 from siftom.private import private_dir
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.admission import Admission
+from siftom.service.infer_reply import InferReply
 from siftom.settings import Settings
 
 __all__ = ["SERVICE_LIKELIHOODS", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
@@ -54,29 +54,6 @@ def scenario_vocabulary(scenario: Scenario) -> list[str]:
     from siftom.api import vocabulary_for
 
     return sorted(vocabulary_for(scenario.world, scenario.verb))
-
-
-@dataclass(frozen=True)
-class InferReply:
-    """The answer of ``POST /v1/infer``: the observer's answer (its JSON, at the request's ``top``),
-    the N-best list it heard, the clarifying decision, the robot's plan and, for a recording,
-    why the likelihood gave way under load (``degraded``: '' when it did not)."""
-
-    scenario: str
-    answer: dict[str, Any]
-    nbest: tuple[tuple[str, float], ...]
-    clarification: Clarification
-    plan: RobotPlan | None
-    degraded: str | None = None  # None: not a recording (no ``degraded`` field)
-
-    def to_json(self) -> dict[str, Any]:
-        body: dict[str, Any] = {"scenario": self.scenario, **self.answer}
-        body["nbest"] = [{"text": text, "score": score} for text, score in self.nbest]
-        body["clarification"] = self.clarification.to_json()
-        body["plan"] = self.plan.to_json() if self.plan is not None else None
-        if self.degraded is not None:
-            body["degraded"] = self.degraded
-        return body
 
 
 class Runtime:

@@ -38,7 +38,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     likelihood); ``combo=True`` adds the other choice under negative keys (-T). With the Whisper
     factor on, the temperatures are T_w's (``WHISPER_GRID``) and ``combo`` does not apply.
     """
-    from siftom.api import get_model
+    from siftom import Observer, Settings
     from siftom.bench.acoustic_models import heard
     from siftom.bench.engines import engine as get_engine
     from siftom.bench.trials import dataset_vocabulary
@@ -47,7 +47,7 @@ def collect(dataset: str | Path, mode: str = "full", engine: str = "pocketsphinx
     ds = load_dataset(dataset)
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset
     asr = get_engine(engine, vocab)
-    model = get_model(mode, "acoustic")
+    model = Observer(Settings.load(env={})).model(mode, "acoustic")
     lk: Any = model.likelihood  # an AcousticLikelihood (raw_scores, with_phonetic)
     # the Whisper factor replaces the alignment: then T_w is fitted instead (and there is no combo)
     aligns = getattr(lk, "aligns", True)

@@ -64,7 +64,7 @@ class _Tied:
 
 
 def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> None:
-    from siftom.api import get_model
+    from siftom import Observer, Settings
     from siftom.bench.acoustic_models import heard
     from siftom.bench.trials import dataset_vocabulary
     from siftom.inference.model import ModelConfig, Observation, SIFToM
@@ -81,7 +81,7 @@ def run(dataset: str, out: str, start: int, step: int, limit: int | None) -> Non
         done = {json.loads(x)["id"] for x in Path(out).read_text().splitlines() if x.strip()}
     rec = _Recorded()
     full, tied = SIFToM(ModelConfig("full"), rec), SIFToM(ModelConfig("full"), _Tied(rec))
-    action = get_model("action-only", "phonetic")
+    action = Observer(Settings.load(env={})).model("action-only", "phonetic")
     with open(out, "a") as f:
         for s in stimuli:
             if s.id in done:

@@ -63,7 +63,7 @@ def _summ(trials: Sequence[tuple[dict[str, Any], bool, float]]) -> dict[str, flo
 def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_GRID,
                         alphas: Sequence[float] = ALPHA_GRID) -> dict[str, Any]:
     """The negative share / speedup / accuracy of expected benefit at each loss aversion."""
-    from siftom.api import get_model
+    from siftom import Observer, Settings
     from siftom.assist import decide as dec
     from siftom.assist.decide import Situation
     from siftom.assist.teamvalue import team_values
@@ -81,7 +81,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     for t in read_jsonl(root / ev.TEAM_CACHE):
         tr._TEAM.setdefault((t["key"], t["command"]), t)
     rows = {r["id"]: r for r in ev.load_results(root)}
-    model = get_model("full", likelihood)
+    model = Observer(Settings.load(env={})).model("full", likelihood)
     per_l: dict[float, list[tuple[dict[str, Any], bool, float]]] = {x: [] for x in lambdas}
     per_a: dict[float, list[tuple[dict[str, Any], bool, float]]] = {x: [] for x in alphas}
     base = []

@@ -43,10 +43,15 @@ def three_room_house() -> tuple[World, State]:
     return world, s
 
 
-def phonetic_model() -> Any:
-    """The default model with the phonetic likelihood, built by the observer every door uses
-    (default settings, not the ``SIFTOM_*`` environment)."""
+def model_for(mode: str = "full", likelihood: Any = "phonetic") -> Any:
+    """The model for ``mode`` and ``likelihood`` (a name or an object), built by the observer every
+    door uses (default settings, not the ``SIFTOM_*`` environment)."""
     from siftom.observer import observer_for
     from siftom.settings import Settings
 
-    return observer_for(Settings.load(env={})).model("full", "phonetic")
+    return observer_for(Settings.load(env={})).model(mode, likelihood)
+
+
+def phonetic_model() -> Any:
+    """The default model with the phonetic likelihood (:func:`model_for`)."""
+    return model_for("full", "phonetic")

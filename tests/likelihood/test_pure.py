@@ -58,10 +58,10 @@ MEMOS = ("phonetic.plans", "phonetic.contents", "phonetic.vocabularies", "phonet
 
 def _calls(n: int = 48, seed: int = 3) -> list[tuple[Instruction, tuple[RobotCommand, ...]]]:
     """(N-best, a scene's commands) pairs over several scenes and misheard N-best lists."""
-    from siftom.api import get_model
+    from helpers import model_for
 
     rng = random.Random(seed)
-    model = get_model("full", "phonetic")
+    model = model_for("full", "phonetic")
     scenes = []
     for sid in ("kitchen-cereal-v0", "household-table-v0/3", "household-table-v0/6", "kitchen-v0/7"):
         sc = get_scenario(sid)
@@ -145,9 +145,9 @@ def test_the_acoustic_likelihood_is_pure_across_threads(tmp_path):
     from siftom.speech.asr.base import get_engine
 
     sc = get_scenario("kitchen-cereal-v0")
-    from siftom.api import get_model
+    from helpers import model_for
 
-    cmds = tuple(get_model("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb).candidates()[4])
+    cmds = tuple(model_for("full", "phonetic").online(sc.world, sc.start, sc.goals, sc.verb).candidates()[4])
     eng = get_engine("pocketsphinx")
     calls = []
     for k, text in enumerate(["can you pass me the cereal", "i need the sugar", "get me some honey"]):

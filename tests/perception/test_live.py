@@ -48,7 +48,8 @@ def test_real_model_recovers_the_cereal_story(tmp_path):
     truth_objects = Counter((it.cls, sc.world.places[sc.start.item_at[k]].name) for k, it in enumerate(sc.world.items))
     seen_objects = Counter((it["class"], it["at"]) for it in res.world["items"])
     truth_actions = [sc.world.format_action(a) for a in sc.actions[: steps[-1]]][steps[0]:]
-    from siftom.api import get_model, make_instruction
+    from helpers import model_for
+    from siftom.api import make_instruction
     from siftom.inference.model import Observation
     from siftom.world.io import scene_from_json
     from siftom.world.model import apply
@@ -58,7 +59,7 @@ def test_real_model_recovers_the_cereal_story(tmp_path):
     for text in res.actions:
         acts.append(scene.world.parse_action(text, s))
         s = apply(s, acts[-1])
-    post = get_model().infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
+    post = model_for().infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
                                          make_instruction("can you pass me the silver")))
     report = {
         "model": os.environ["SIFTOM_VLM_MODEL"], "frames": list(steps),

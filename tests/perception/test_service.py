@@ -33,7 +33,8 @@ def test_perceive_then_infer_over_http(client, vlm_env, frames):
     assert len(body["actions"]) == 10 and body["num_objects"] == 45 and body["requests"] == 4
     assert body["world"]["target"] == "kitchen_counter"
     # the same world and actions feed the library's inference unchanged
-    from siftom.api import get_model, make_instruction
+    from helpers import model_for
+    from siftom.api import make_instruction
     from siftom.inference.model import Observation
     from siftom.world.io import scene_from_json
 
@@ -44,7 +45,7 @@ def test_perceive_then_infer_over_http(client, vlm_env, frames):
     for text in body["actions"]:
         acts.append(scene.world.parse_action(text, s))
         s = apply(s, acts[-1])
-    post = get_model().infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
+    post = model_for().infer(Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
                                          make_instruction("can you pass me the silver")))
     assert post.command == "fetch(cereal)"
 

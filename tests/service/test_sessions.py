@@ -58,7 +58,8 @@ def test_salad_session_streams_actions_and_answers_the_misheard_word(folder):
 
 def test_the_incremental_answer_equals_inference_on_the_whole_observation(folder):
     """Independent reference: the batch path (siftom.inference) on the same world and actions."""
-    from siftom.api import get_model, make_instruction
+    from helpers import model_for
+    from siftom.api import make_instruction
     from siftom.inference.model import Observation
     from siftom.world.io import scene_from_json
     from siftom.world.vhscript import parse_actions
@@ -72,7 +73,7 @@ def test_the_incremental_answer_equals_inference_on_the_whole_observation(folder
     acts, _ = parse_actions(scene.world, scene.start, SALAD_ACTIONS)
     obs = Observation(scene.world, scene.start, tuple(acts), scene.goals, scene.verb,
                       make_instruction(transcript="the potato please"))
-    want = get_model("full", "phonetic").infer(obs)
+    want = model_for("full", "phonetic").infer(obs)
     assert got["command"] == want.command
     assert [x["prob"] for x in got["commands"]] == pytest.approx([p for _c, p in want.commands[:10]], abs=1e-9)
 

@@ -22,6 +22,7 @@ entry point (siftom/registry.py) and ``siftom eval --models siftom-L`` runs it.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -34,6 +35,7 @@ from siftom.speech.asr import DEFAULT_NBEST
 
 if TYPE_CHECKING:
     from siftom.settings import Settings
+    from siftom.settings.llm import LLMConfig
 
 KINDS = ("posterior", "decision", "acoustic", "literal", "llm-baseline")
 HEARD = ("nbest", "audio", "reference", "none")
@@ -237,12 +239,17 @@ class EvalOptions:
 
 
 @lru_cache(maxsize=8)
-def eval_settings(mode: str) -> Settings:
+def eval_settings(mode: str, llm: LLMConfig | None = None) -> Settings:
     """The settings the evaluator runs SIFToM with: the defaults (not the ``SIFTOM_*`` environment:
-    a benchmark does not change with it), in ``mode``; every row goes through their observer."""
+    a benchmark does not change with it), in ``mode``, with the run's language model ``llm`` (the
+    ``--llm-*`` options); every row goes through their observer."""
     from siftom.settings import Settings
 
-    return Settings.load(env={}, flags={"model.mode": mode})
+    flags: dict[str, Any] = {"model.mode": mode}
+    if llm is not None:
+        flags.update({f"llm.{f.name}": getattr(llm, f.name) for f in dataclasses.fields(llm)
+                      if getattr(llm, f.name) is not None})
+    return Settings.load(env={}, flags=flags)
 
 
 def siftom_likelihood(opts: EvalOptions) -> str:

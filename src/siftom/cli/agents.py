@@ -34,7 +34,7 @@ def simulate_cmd(scenario_id: str, command: str, as_json: bool) -> None:
 
 def _rule_option(f: Any) -> Any:
     return click.option("--rule", "rule", default=None,
-                        help="decision rule: expected-benefit, ask-or-act, map (default: the setting infer.decide)")(f)
+                        help="decision rule: teammate, expected-benefit, ask-or-act, map (default: the setting infer.decide)")(f)
 
 
 def _ask_for_option(f: Any) -> Any:

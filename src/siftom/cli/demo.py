@@ -75,7 +75,7 @@ def demo_cmd(scenario_id: str, text: str, voice: str, noise: str, snr: float, se
     con.print(f"from the transcripts alone: {literal.command} (P={literal.commands[0][1]:.2f}); "
               f"from the {likelihood} likelihood alone: {alone.command} (P={alone.commands[0][1]:.2f}); "
               f"the human meant {sc.command}")
-    png = render_scenario(sc, out_dir / "demo.png", posterior=post)
+    png = render_scenario(sc, out_dir / "demo.png", posterior=post, doing=ans.doing)
     (out_dir / "answer.json").write_text(json.dumps(ans.to_json(), indent=2))
     con.print(f"\npicture: {png}   answer: {out_dir / 'answer.json'}")
     con.print("next: [bold]siftom serve[/bold] and open http://127.0.0.1:8000 for the browser demo; "

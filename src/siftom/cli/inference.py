@@ -195,7 +195,7 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
 
-        render_scenario(get_scenario(scenario_id), png, posterior=post)
+        render_scenario(get_scenario(scenario_id), png, posterior=post, doing=ans.doing)
     if as_json:
         if scene_file is not None:
             body["warnings"] = warnings

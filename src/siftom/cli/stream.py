@@ -27,7 +27,7 @@ def _home_options(f: Any) -> Any:
         click.option("--mode", type=click.Choice(["full", "speech-only"]), default=None,
                      help="the model (setting model.mode, default full)"),
         click.option("--decide", default=None,
-                     help="the decision rule (setting infer.decide, default expected-benefit; docs/decisions.md)"),
+                     help="the decision rule (setting infer.decide, default teammate; docs/decisions.md)"),
         click.option("--top", type=click.IntRange(1, 20), default=None,
                      help="commands and goals in each answer (setting infer.top, default 10)"),
         click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -184,6 +184,7 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         first = next(chunks)  # open the device now: a missing PortAudio or device fails before loading
     # a scenario's recorded actions are observed first, unless --actions gives the person's own
     home = _home_listener(**home_opts, recorded=actions is None)
+    _note_scoring(home_opts.get("likelihood"))
     if actions is not None and actions != "-":
         home.observe(_read_action_file(actions))
     elif actions == "-":
@@ -200,6 +201,15 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         pass
     finally:
         home.close()
+
+
+def _note_scoring(likelihood: str | None) -> None:
+    """Say on stderr what scores the speech when Whisper is missing, and the pip line that adds it."""
+    from siftom.cli.inference import audio_likelihood_note
+
+    note = audio_likelihood_note(likelihood)
+    if note:
+        click.echo(note, err=True)
 
 
 @click.command("ros")
@@ -234,6 +244,8 @@ def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_t
                        actions=actions_topic, actions_type=actions_type, decision=decision_topic,
                        decision_type=decision_type)
     home = _home_listener(**home_opts, recorded=actions is None)
+    if audio_topic:
+        _note_scoring(home_opts.get("likelihood"))
     if actions is not None:
         home.observe(_read_action_file(actions))
     say = _printer()

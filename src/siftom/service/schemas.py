@@ -61,8 +61,8 @@ class InferOptions(Strict):
                             description="how many commands, goals and hypotheses to return (default: infer.top)")
     clarify: ClarifyOptions = Field(default_factory=ClarifyOptions)
     decide: DecisionRuleName | None = Field(default=None, description="decision rule (docs/decisions.md): "
-                                            "expected-benefit, ask-or-act or map (default: the setting "
-                                            "infer.decide, expected-benefit)")
+                                            "teammate, expected-benefit, ask-or-act or map (default: the setting "
+                                            "infer.decide, teammate)")
 
 
 class InferRequest(InferOptions):
@@ -150,7 +150,7 @@ class PosteriorOut(BaseModel):
     top_command: str = Field(description="the most probable command (for analysis)")
     top_prob: float
     decision: dict[str, Any] = Field(description="the decision rule, its action and its reason")
-    rule: str = Field(default="", description="the decision rule that ran (expected-benefit, ask-or-act, map)")
+    rule: str = Field(default="", description="the decision rule that ran (teammate, expected-benefit, ask-or-act, map)")
     recogniser: str | None = Field(default=None, description="the speech recogniser that turned the audio into "
                                    "words (e.g. pocketsphinx-vocab); null when words were given")
     speech_heard: bool = True

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -29,12 +30,15 @@ def _room_boxes(scenario: Any) -> dict[str, tuple[float, float, float, float]]:
 
 
 def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, command: str | None = None,
-                    title: str | None = None, show_path: bool = True, step: int | None = None) -> Path:
+                    title: str | None = None, show_path: bool = True, step: int | None = None,
+                    doing: str | None = None) -> Path:
     """Draw ``scenario`` (state when the human spoke) to a PNG; optionally a posterior bar chart.
 
     Args:
         posterior: a Posterior; its top commands are drawn beside the map.
         command: a command to highlight (objects of its class are ringed).
+        doing: what the robot does (``Answer.doing``), written above the chart; without it the
+            chart names the posterior's most probable command, which the robot may not act on.
         show_path: draw the human's observed walking trajectory.
         step: draw the state after this many observed actions (default: all of them), e.g.
             the frames a camera would have seen (``siftom scenarios show ID --step K``); object
@@ -62,7 +66,7 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
     ax.axis("off")
     ax.set_title(title or f"{scenario.id}: {scenario.description}", fontsize=9)
     if posterior is not None:
-        _draw_posterior(axes[1], posterior)
+        _draw_posterior(axes[1], posterior, doing)
     fig.tight_layout()
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -132,8 +136,8 @@ def _draw_agents(ax: Any, w: World, states: list[State], show_path: bool) -> Non
                     fontsize=6.5, zorder=6)
 
 
-def _draw_posterior(bx: Any, posterior: Any) -> None:
-    """The posterior's top commands as a bar chart, the chosen one in green."""
+def _draw_posterior(bx: Any, posterior: Any, doing: str | None) -> None:
+    """The posterior's top commands as a bar chart, the most probable one in green."""
     top = list(posterior.commands[:8])[::-1]
     names = [c for c, _ in top]
     probs = [p for _, p in top]
@@ -142,5 +146,6 @@ def _draw_posterior(bx: Any, posterior: Any) -> None:
     bx.set_xlim(0, 1)
     bx.set_xlabel("P(command | actions, words)")
     heard = f'heard: "{posterior.transcript}"' if posterior.transcript else "no instruction"
-    bx.set_title(f"{heard}\nchosen: {posterior.command}", fontsize=9)
+    said = f"robot: {doing}" if doing is not None else f"most probable: {posterior.command}"
+    bx.set_title(f"{heard}\n{textwrap.shorten(said, 60)}", fontsize=9)
     bx.tick_params(axis="y", labelsize=8)

@@ -53,15 +53,15 @@ def _random_goals(world: World, n: int, seed: int = 0) -> tuple[Goal, ...]:
 
 def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
     """Time full inference, incremental updates and scaling with the number of goals."""
-    from siftom.inference.model import ModelConfig, Observation, SIFToM
-    from siftom.likelihood.phonetic import PhoneticLikelihood
+    from siftom.inference.model import Observation
     from siftom.memo import memo
     from siftom.observation import Instruction
+    from siftom.observer import Observer
     from siftom.scenarios.base import get_scenario
+    from siftom.settings import Settings
 
     sc = get_scenario("kitchen-cereal-v0")
-    lk = PhoneticLikelihood()
-    model = SIFToM(ModelConfig(), lk)
+    model = Observer(Settings.load(env={})).model("full", "phonetic")  # the model every door uses
     instr = Instruction.from_nbest(NBEST_SILVER)
     obs = Observation.from_scenario(sc, instr)
     post = model.infer(obs)  # warm-up: dictionaries, phrasing tables

@@ -144,7 +144,7 @@ def test_scored_answers_are_a_human_model(collection, tmp_path):
     assert len(ann.assignments) == 4  # 2 rounds x 2 layers (clean, 10 dB), each with both recordings
     names = []
     for _ in range(4):
-        who = ann.join(None)["annotator"]
+        who = ann.join(None).annotator
         names.append(who)
         while (pos := ann.next_position(who)) is not None:
             s = ann.stimulus_at(who, pos)
@@ -240,7 +240,7 @@ def test_actions_in_words():
 
 def test_answers_of_another_version_of_the_dataset_are_refused(collection, tmp_path):
     ann = Annotation(collection.root, tmp_path / "ann", AnnotateOptions(per_stimulus=1))
-    who = ann.join("x1")["annotator"]
+    who = ann.join("x1").annotator
     ann.answer(who, 0, "milk", "milk", None)
     assert len(score_answers(tmp_path / "ann", tmp_path / "res")) == 1
     collection.save("p1", 0, wav_bytes(_tone(1.5)), "another take")  # the manifest changes

@@ -65,7 +65,7 @@ def test_recordings_consent_and_answers_are_private(tmp_path, open_umask):
     for p in (out / stim.audio, out / "participants.jsonl", out / "manifest.jsonl", out / "dataset.json"):
         assert _mode(p) == 0o600, p
     ann = Annotation(out, tmp_path / "ann", AnnotateOptions(per_stimulus=1))
-    who = ann.join(None)["annotator"]
+    who = ann.join(None).annotator
     ann.answer(who, 0, "milk", "milk", None)
     assert _mode(tmp_path / "ann") == 0o700
     for name in ("plan.json", "annotators.jsonl", "answers.jsonl"):

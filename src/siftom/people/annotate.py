@@ -37,6 +37,7 @@ import numpy as np
 
 from siftom.errors import DatasetError, NotYoursError
 from siftom.jsonlines import read_jsonl
+from siftom.people.records import AnnotatorAnswer, AnswerForm, Joined
 from siftom.people.stimuli import Dataset, load_dataset, scenario_for
 from siftom.private import append_private, private_dir, write_private_text
 
@@ -122,12 +123,12 @@ def answer_command(scenario: Any, item: str, count: int | None) -> str:
     return f"deliver({item},{count})"
 
 
-def answer_form(scenario: Any) -> dict[str, Any]:
+def answer_form(scenario: Any) -> AnswerForm:
     """What the page's form offers for this scenario: the scene's classes and, to deliver, counts."""
     from siftom.world.commands import MAX_COUNT
 
-    return {"verb": scenario.verb, "classes": sorted(scenario.world.classes),
-            "max_count": MAX_COUNT if scenario.verb == "deliver" else None}
+    return AnswerForm(scenario.verb, tuple(sorted(scenario.world.classes)),
+                      MAX_COUNT if scenario.verb == "deliver" else None)
 
 
 class Annotation:
@@ -164,7 +165,7 @@ class Annotation:
         """annotator -> the SHA-256 of its key ('' for one who joined before keys existed)."""
         return {r["annotator"]: str(r.get("key_sha256") or "") for r in read_jsonl(self.root / ANNOTATORS)}
 
-    def join(self, annotator: str | None, key: str | None = None) -> dict[str, Any]:
+    def join(self, annotator: str | None, key: str | None = None) -> Joined:
         """Give ``annotator`` (a new unguessable id when None) its assignment: the one it had, or the
         first free one; the answer holds ``key``, the annotator's secret (the page's links use it).
 
@@ -204,8 +205,7 @@ class Annotation:
                 with append_private(self.root / ANNOTATORS) as f:
                     f.write(json.dumps(rec) + "\n")
                 known[annotator] = assignment
-        return {"annotator": annotator, "key": given, "assignment": known[annotator],
-                "total": len(self.assignments[known[annotator]])}
+        return Joined(annotator, given, known[annotator], len(self.assignments[known[annotator]]))
 
     def annotator_for(self, key: str) -> str:
         """The annotator whose key this is; NotYoursError for any other string."""
@@ -238,17 +238,17 @@ class Annotation:
         return self.ds.stimuli[self.index[ids[position]]]
 
     def answer(self, annotator: str, position: int, typed: str, item: str, count: int | None,
-               seconds: float | None = None) -> dict[str, Any]:
+               seconds: float | None = None) -> AnnotatorAnswer:
         """Store one answer (a position answered twice keeps the first answer)."""
         s = self.stimulus_at(annotator, position)
         command = answer_command(scenario_for(s), item, count)
         typed = " ".join(str(typed).split())[:500]
-        rec = {"annotator": annotator, "position": position, "id": s.id, "typed": typed, "command": command,
-               "seconds": None if seconds is None else round(float(seconds), 1),
-               "at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        rec = AnnotatorAnswer(annotator, position, s.id, typed, command,
+                              None if seconds is None else round(float(seconds), 1),
+                              time.strftime("%Y-%m-%dT%H:%M:%S%z"))
         with self._lock:
             if position in self.answered(annotator):
                 raise DatasetError(f"position {position} is already answered; go on to the next stimulus")
             with append_private(self.root / ANSWERS) as f:
-                f.write(json.dumps(rec) + "\n")
+                f.write(json.dumps(rec.to_json()) + "\n")
         return rec

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from siftom.errors import AudioError, DatasetError, NotYoursError
+from siftom.people.records import Agreement
 from siftom.people.stimuli import (
     AUDIO_DIR,
     FORMAT_VERSION,
@@ -220,7 +221,7 @@ class Collection:
 
     # -- participants ---------------------------------------------------------------------------
 
-    def agree(self, participant: str, key: str | None = None) -> dict[str, Any]:
+    def agree(self, participant: str, key: str | None = None) -> Agreement:
         """Store that ``participant`` agreed to the consent text shown; return the record with
         ``key``, the participant's secret (the only place it is ever given in clear).
 
@@ -237,12 +238,11 @@ class Collection:
                                     "ask the experimenter to give them a new key with "
                                     f"'siftom collect --participant {participant} --new-key'")
             given = key if digest and key else secrets.token_urlsafe(24)
-            rec = {"participant": participant, "agreed": True, "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                   "consent_sha1": self.consent_sha1, "consent": self.options.consent, "domain": self.options.domain,
-                   "key_sha256": key_digest(given)}
+            rec = Agreement(participant, time.strftime("%Y-%m-%dT%H:%M:%S%z"), self.consent_sha1,
+                            self.options.consent, self.options.domain, key_digest(given), given)
             with append_private(self.root / PARTICIPANTS) as f:
-                f.write(json.dumps(rec) + "\n")
-        return {**rec, "key": given}
+                f.write(json.dumps(rec.to_json()) + "\n")
+        return rec
 
     def reset_key(self, participant: str) -> bool:
         """Make ``participant``'s key stop working: their next agreement gets a fresh one (the

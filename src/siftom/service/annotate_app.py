@@ -61,7 +61,7 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
         sc = scenario_for(ann.stimulus_at(aid, pos))
         return {**base, "done": False, "position": pos,
                 "actions": [action_words(sc.world, a, "The person") for a in sc.actions], "steps": len(sc.actions),
-                "form": answer_form(sc)}
+                "form": answer_form(sc).to_json()}
 
     @app.get("/api/annotation")
     async def info() -> JSONResponse:
@@ -76,7 +76,7 @@ def create_annotate_app(dataset: str | Path, out: str | Path, options: AnnotateO
             raise ProblemError(422, "no-consent", "annotating needs your agreement to the text above; tick the box "
                                "to agree, or close the page to stop")
         who = await run_cpu(ann.join, req.annotator or None, req.key)
-        return _json({**await run_cpu(_view, who["annotator"]), "key": who["key"]})
+        return _json({**await run_cpu(_view, who.annotator), "key": who.key})
 
     async def whose(key: str) -> str:
         aid: str = await run_cpu(ann.annotator_for, key)

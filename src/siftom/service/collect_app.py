@@ -64,7 +64,7 @@ def create_collect_app(out: str | Path, options: CollectOptions, access: Access 
                                "tick the box to agree, or close the page to stop")
         only(req.participant)
         rec = await run_cpu(coll.agree, req.participant, req.key)
-        return _json({"participant": req.participant, "key": rec["key"], "done": coll.done(req.participant),
+        return _json({"participant": req.participant, "key": rec.key, "done": coll.done(req.participant),
                       "scenarios": len(coll.prompts)})
 
     @app.get("/api/prompts/{k}")

@@ -30,7 +30,8 @@ def render_frames(folder: Path, steps=STEPS) -> list[Path]:
 
 def scene_answer(step: int = 0) -> dict[str, Any]:
     sc = get_scenario(SCENARIO)
-    return graph_from_world(sc.world, sc.states()[step])
+    graph = graph_from_world(sc.world, sc.states()[step]).to_json()  # in the scene schema: no null fields
+    return {"nodes": [{k: v for k, v in n.items() if v is not None} for n in graph["nodes"]], "edges": graph["edges"]}
 
 
 def actions_answer(a: int, b: int) -> dict[str, Any]:

@@ -11,6 +11,7 @@ from perception.ideal import SCENARIO, STEPS, handler, images, scene_answer, sch
 from siftom.cli import main
 from siftom.errors import BackendUnavailableError
 from siftom.perception import Frame, VisionModel, perceive
+from siftom.perception.pipeline import KnownWorld
 from siftom.perception.schemas import SCHEMAS
 from siftom.scenarios.base import get_scenario
 
@@ -78,7 +79,7 @@ def test_a_known_world_skips_the_scene_question(vlm_env, frames):
     s = sc.summary()
     world = {"places": s["places"], "items": [{"name": o["name"], "class": o["class"], "at": o["at"]} for o in s["objects"]],
              "agents": s["agents"], "target": "kitchen_counter", "goals": [{"name": "mine", "counts": {"jam": 1}}]}
-    res = perceive([Frame.from_path(f) for f in frames], world=world, propose_goals=False)
+    res = perceive([Frame.from_path(f) for f in frames], world=KnownWorld.from_json(world), propose_goals=False)
     assert [schema_name(r) for r in vlm_env.requests] == ["actions", "actions"]
     assert len(res.actions) == 10 and res.world["goals"] == [{"name": "mine", "counts": {"jam": 1}}]
     assert res.graph is None
@@ -88,7 +89,7 @@ def test_one_frame_gives_a_scene_and_no_actions(vlm_env, frames):
     vlm_env.on("chat/completions", handler(frames[:1], STEPS[:1]))
     res = perceive([Frame.from_path(frames[0])], goal_space="kitchen-v0", propose_goals=False, target="kitchen_counter")
     assert res.actions == () and len(res.world["items"]) == 45
-    assert sorted(n["id"] for n in res.graph["nodes"]) == sorted(n["id"] for n in scene_answer(0)["nodes"])
+    assert sorted(n.id for n in res.graph.nodes) == sorted(n["id"] for n in scene_answer(0)["nodes"])
     assert len(res.world["goals"]) > 100  # the recipe library, every recipe these objects allow
 
 

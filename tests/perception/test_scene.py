@@ -10,7 +10,13 @@ import pytest
 from helpers import three_room_house
 from siftom.errors import PerceptionError
 from siftom.perception.scene import graph_from_world, parse_scene
-from siftom.perception.validate import check_goals, library_goals, merge_goals
+from siftom.perception.validate import (
+    GoalProposal,
+    NamedGoal,
+    check_goals,
+    library_goals,
+    merge_goals,
+)
 from siftom.scenarios.base import get_scenario
 from siftom.world.io import scene_from_json
 
@@ -18,7 +24,7 @@ from siftom.world.io import scene_from_json
 @pytest.mark.parametrize("sid", ["kitchen-cereal-v0", "household-table-v0/3"])
 def test_a_perfect_graph_gives_back_the_scenario(sid):
     sc = get_scenario(sid)
-    world = parse_scene(graph_from_world(sc.world, sc.start)).world
+    world = parse_scene(graph_from_world(sc.world, sc.start).to_json()).world
     ref = sc.summary()  # the scenario's own description, an independent path
     assert [(p["name"], p["kind"], p["room"], p["pos"], p["closable"]) for p in world["places"]] == \
         [(p["name"], p["kind"], p["room"], p["pos"], p["closable"]) for p in ref["places"]]
@@ -64,17 +70,17 @@ def test_names_classes_and_open_states():
 
 def test_goals_are_checked_and_merged_with_the_library():
     world, _ = three_room_house()
-    target, goals = check_goals(world, {"target": "table", "goals": [
+    target, goals = check_goals(world, GoalProposal.from_json({"target": "table", "goals": [
         {"name": "forks", "counts": [{"class": "fork", "count": 2}]},
-        {"name": "meal", "counts": [{"class": "plate", "count": 1}, {"class": "fork", "count": 1}]}]})
-    assert target == "table" and goals[1] == {"name": "meal", "counts": {"plate": 1, "fork": 1}}
+        {"name": "meal", "counts": [{"class": "plate", "count": 1}, {"class": "fork", "count": 1}]}]}))
+    assert target == "table" and goals[1].to_json() == {"name": "meal", "counts": {"plate": 1, "fork": 1}}
     with pytest.raises(PerceptionError, match="lists 'fork' twice"):
-        check_goals(world, {"target": "table", "goals": [{"name": "f", "counts": [{"class": "fork", "count": 1},
-                                                                                {"class": "fork", "count": 1}]}]})
-    library = [{"name": "forks", "counts": {"plate": 1}}, {"name": "two_forks", "counts": {"fork": 2}}]
+        check_goals(world, GoalProposal.from_json({"target": "table", "goals": [
+            {"name": "f", "counts": [{"class": "fork", "count": 1}, {"class": "fork", "count": 1}]}]}))
+    library = [NamedGoal("forks", (("plate", 1),)), NamedGoal("two_forks", (("fork", 2),))]
     merged = merge_goals(goals, library)
-    assert merged == library + [{"name": "meal", "counts": {"plate": 1, "fork": 1}}]  # same counts = same goal
-    assert merge_goals([{"name": "forks", "counts": {"cup": 1}}], library)[-1]["name"] == "forks_proposed"
+    assert merged == [*library, NamedGoal("meal", (("plate", 1), ("fork", 1)))]  # same counts = same goal
+    assert merge_goals([NamedGoal("forks", (("cup", 1),))], library)[-1].name == "forks_proposed"
 
 
 def test_library_goals_are_only_the_reachable_ones():
@@ -101,10 +107,10 @@ VIRTUALHOME = Path(__file__).parents[2] / "data" / "virtualhome"
 
 @pytest.mark.skipif(not (VIRTUALHOME / "apartment_graph_2.json").exists(), reason="needs data/virtualhome/apartment_graph_2.json")
 def test_a_real_apartment_is_a_known_world():
-    from siftom.perception.pipeline import known_world
+    from siftom.perception.pipeline import KnownWorld
 
     graph = json.loads((VIRTUALHOME / "apartment_graph_2.json").read_text())
-    world = known_world(graph)  # 339 nodes: only furniture that holds objects or agents becomes a place
+    world = KnownWorld.from_json(graph).world  # 339 nodes: only furniture that holds objects or agents becomes a place
     assert len(world["places"]) <= 62 and len(world["items"]) > 50
     # the character has no edges; it stands at the furniture nearest to its position
     char = next(n for n in graph["nodes"] if n["class_name"] == "character")
@@ -122,7 +128,7 @@ def test_the_world_does_not_depend_on_how_the_model_writes_the_graph():
     import random
 
     sc = get_scenario("kitchen-cereal-v0")
-    g = graph_from_world(sc.world, sc.start)
+    g = graph_from_world(sc.world, sc.start).to_json()
     rng = random.Random(3)
     ids = [n["id"] for n in g["nodes"]]
     new = dict(zip(ids, rng.sample(range(5000, 9000), len(ids)), strict=True))
@@ -157,10 +163,10 @@ def test_the_world_does_not_depend_on_how_the_model_writes_the_graph():
     ({"nodes": [{"id": "x"}], "edges": []}, "not a valid scene graph"),
 ])
 def test_a_given_world_is_checked_before_any_request(bad, words):
-    from siftom.perception.pipeline import known_world
+    from siftom.perception.pipeline import KnownWorld
 
     good = {"places": [{"name": "table", "kind": "surface", "room": "r", "pos": [0, 0]}],
             "items": [{"name": "fork_1", "class": "fork", "at": "table"}], "target": "table"}
-    assert known_world(good)["items"] == good["items"]
+    assert KnownWorld.from_json(good).world["items"] == good["items"]
     with pytest.raises(PerceptionError, match=words):
-        known_world({**good, **bad})
+        KnownWorld.from_json({**good, **bad})

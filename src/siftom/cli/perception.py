@@ -38,12 +38,14 @@ def perceive_cmd(frames: tuple[Path, ...], world_file: Path | None, out: Path, a
     images = [Frame.from_path(f) for f in frames]
     world = None
     if world_file is not None:
+        from siftom.perception.pipeline import KnownWorld
         from siftom.safejson import loads, read_text
 
-        world = loads(read_text(world_file, "world file", PerceptionError), f"world file {world_file!r}",
-                      PerceptionError)
-        if not isinstance(world, dict):
+        raw = loads(read_text(world_file, "world file", PerceptionError), f"world file {world_file!r}",
+                    PerceptionError)
+        if not isinstance(raw, dict):
             raise PerceptionError(f"{world_file}: a world must be a JSON object")
+        world = KnownWorld.from_json(raw)
     result = perceive(images, world=world, goal_space=goal_space, target=target, propose_goals=not no_goals,
                       model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url,
                                         max_tokens=max_tokens))
@@ -52,7 +54,7 @@ def perceive_cmd(frames: tuple[Path, ...], world_file: Path | None, out: Path, a
     actions_out.parent.mkdir(parents=True, exist_ok=True)
     actions_out.write_text("".join(a + "\n" for a in result.actions), encoding="utf-8")
     if graph_out is not None and result.graph is not None:
-        graph_out.write_text(json.dumps(result.graph, indent=1) + "\n", encoding="utf-8")
+        graph_out.write_text(json.dumps(result.graph.to_json(), indent=1) + "\n", encoding="utf-8")
     if as_json:
         click.echo(json.dumps(result.to_json(), indent=2))
         return

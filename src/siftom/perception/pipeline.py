@@ -22,6 +22,8 @@ from siftom.perception import prompts
 from siftom.perception.frames import Frame
 from siftom.perception.scene import parse_scene, scene_to_world
 from siftom.perception.validate import (
+    GoalProposal,
+    NamedGoal,
     check_actions,
     check_goals,
     library_classes,
@@ -31,6 +33,7 @@ from siftom.perception.validate import (
 from siftom.perception.vlm import VisionModel
 from siftom.world.io import LoadedScene, scene_from_json
 from siftom.world.model import State, World
+from siftom.world.scenegraph import SceneGraph
 
 
 @dataclass(frozen=True)
@@ -48,24 +51,49 @@ class PerceptionResult:
 
     world: dict[str, Any]
     actions: tuple[str, ...]
-    proposed_goals: tuple[dict[str, Any], ...] = ()
+    proposed_goals: tuple[NamedGoal, ...] = ()
     target: str = ""
-    graph: dict[str, Any] | None = None
+    graph: SceneGraph | None = None
     requests: int = 0
     cache_hits: int = 0
     frames: tuple[str, ...] = field(default=())
 
     def to_json(self) -> dict[str, Any]:
-        return {"world": self.world, "actions": list(self.actions), "proposed_goals": list(self.proposed_goals),
-                "target": self.target, "graph": self.graph, "frames": list(self.frames),
+        return {"world": self.world, "actions": list(self.actions), "proposed_goals": [g.to_json() for g in self.proposed_goals],
+                "target": self.target, "graph": None if self.graph is None else self.graph.to_json(), "frames": list(self.frames),
                 "requests": self.requests, "cache_hits": self.cache_hits,
                 "num_objects": len(self.world.get("items", [])), "num_goals": len(self.world.get("goals", []))}
 
 
-def known_world(world: dict[str, Any]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class KnownWorld:
+    """A world given with the frames (read by :meth:`from_json`).
+
+    Attributes:
+        world: siftom world JSON (``places``, ``items``, ...), target and goals possibly missing.
+        goal_space: the goal library the given world names (None: none).
+        target: the target place the given world names (None: none).
+    """
+
+    world: dict[str, Any]
+    goal_space: str | None = None
+    target: str | None = None
+
+    @classmethod
+    def from_json(cls, obj: Any) -> KnownWorld:
+        """From siftom world JSON or a VirtualHome graph; PerceptionError when it is not valid."""
+        if not isinstance(obj, dict):
+            raise PerceptionError("a world must be a JSON object (siftom world JSON or a VirtualHome graph)")
+        space = obj["goal_space"] if isinstance(obj.get("goal_space"), str) else None
+        target = str(obj["target"]) if obj.get("target") else None
+        return cls(_world_json(obj), space, target)
+
+    def to_json(self) -> dict[str, Any]:
+        return self.world
+
+
+def _world_json(world: dict[str, Any]) -> dict[str, Any]:
     """World JSON (``places``, ``items``, ...) from a given world: siftom world JSON or a VirtualHome graph."""
-    if not isinstance(world, dict):
-        raise PerceptionError("a world must be a JSON object (siftom world JSON or a VirtualHome graph)")
     if "nodes" in world and "edges" in world:
         from siftom.errors import SceneGraphError
         from siftom.world.scenegraph import SceneGraph
@@ -127,7 +155,7 @@ def perceive_actions(world: World, state: State, frames: Sequence[Frame], model:
 def perceive(
     frames: Sequence[Frame],
     *,
-    world: dict[str, Any] | None = None,
+    world: KnownWorld | None = None,
     goal_space: str | None = None,
     target: str | None = None,
     propose_goals: bool = True,
@@ -138,8 +166,8 @@ def perceive(
 
     Args:
         frames: one or more images in time order; the scene is read from the first one.
-        world: a known world (siftom world JSON or a VirtualHome graph) at the first frame;
-            then only actions and goals are asked for.
+        world: a known world at the first frame (:meth:`KnownWorld.from_json` reads siftom
+            world JSON or a VirtualHome graph); then only actions and goals are asked for.
         goal_space: a domain goal library to merge (``household-table-v0``, ``kitchen-v0``);
             its object names are also suggested to the model.
         target: the place goals refer to (default: the given world's, else the model's).
@@ -149,8 +177,8 @@ def perceive(
     """
     if not frames:
         raise PerceptionError("give at least one frame")
-    if goal_space is None and world is not None and isinstance(world.get("goal_space"), str):
-        goal_space = world["goal_space"]  # a world that names its library keeps it
+    if goal_space is None and world is not None:
+        goal_space = world.goal_space  # a world that names its library keeps it
     library_names = library_classes(goal_space)  # also checks the name before any request
     vlm = model or VisionModel()
     graph = None
@@ -158,18 +186,19 @@ def perceive(
         prompt = prompts.scene_prompt(library_names)
         perceived = vlm.ask("scene (frame 1)", prompt, frames[:1], "scene_graph", parse_scene)
         partial = perceived.world
-        graph = perceived.graph.to_json()
+        graph = perceived.graph
     else:
-        partial = known_world(world)
+        partial = world.world
     scene = _load(partial)
     w, s = scene.world, scene.start
     actions, s = perceive_actions(w, s, frames, vlm)
     library = library_goals(w, goal_space)
-    proposed: list[dict[str, Any]] = []
-    where = target or (world or {}).get("target")
+    proposed: list[NamedGoal] = []
+    where = target or (world.target if world is not None else None)
     if propose_goals:
         prompt = prompts.goals_prompt(w, s, actions, library, max_goals)
-        model_target, proposed = vlm.ask("goals", prompt, frames[-1:], "goals", lambda a: check_goals(w, a))
+        model_target, proposed = vlm.ask("goals", prompt, frames[-1:], "goals",
+                                     lambda a: check_goals(w, GoalProposal.from_json(a)))
         where = where or model_target
     if not where:
         raise PerceptionError("no target place: pass target= (--target PLACE) or let the model propose goals")
@@ -177,14 +206,15 @@ def perceive(
         from siftom.errors import unknown_name
 
         raise PerceptionError(f"target: {unknown_name('place', where, [p.name for p in w.places])}")
-    given = [{"name": str(g.get("name", f"goal{k}")), "counts": g["counts"]} for k, g in enumerate(partial.get("goals", []))]
+    given = [NamedGoal(str(g.get("name", f"goal{k}")), tuple(g["counts"].items()))
+             for k, g in enumerate(partial.get("goals", []))]
     goals = merge_goals(proposed, merge_goals(given, library))
     if not goals:
         raise PerceptionError("no goal: the model proposed none and no goal library fits these objects; "
                               "pass --goal-space or give goals in the world")
     verb = "fetch" if goal_space == "kitchen-v0" else str(partial.get("verb", "deliver"))
     out = {k: v for k, v in partial.items() if k not in ("goal_space", "goals", "target", "verb")}
-    out.update(target=where, verb=verb, goals=goals)
+    out.update(target=where, verb=verb, goals=[g.to_json() for g in goals])
     try:
         scene_from_json(out)
     except ObservationError as exc:

@@ -8,9 +8,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING
 
 from siftom.world.model import AGENT_NAMES, State, World
+
+if TYPE_CHECKING:
+    from siftom.perception.validate import NamedGoal
+    from siftom.world.scenegraph import SceneGraph
 
 SYSTEM = ("You are the eyes of a household robot. You turn camera images into symbols: scene graphs, "
           "action logs and goals. Answer with one JSON object that matches the given schema, nothing else.")
@@ -73,14 +77,14 @@ def describe_state(world: World, state: State) -> str:
     return "\n".join(lines)
 
 
-def scene_prompt(classes: Sequence[str] = (), previous: dict[str, Any] | None = None) -> str:
+def scene_prompt(classes: Sequence[str] = (), previous: SceneGraph | None = None) -> str:
     """The scene question; ``classes`` are a goal library's object names to prefer."""
     text = SCENE
     if classes:
         text += f"\nWhen an object is one of these, use exactly this class name: {', '.join(sorted(classes))}.\n"
     if previous is not None:
         text += ("\nThe scene graph seen before (keep the ids of the things you see again):\n"
-                 + json.dumps(previous, separators=(",", ":")) + "\n")
+                 + json.dumps(previous.to_json(), separators=(",", ":")) + "\n")
     return text
 
 
@@ -88,11 +92,11 @@ def actions_prompt(world: World, state: State) -> str:
     return ACTIONS.format(state=describe_state(world, state))
 
 
-def goals_prompt(world: World, state: State, actions: Sequence[str], library: Sequence[dict[str, Any]] = (),
+def goals_prompt(world: World, state: State, actions: Sequence[str], library: Sequence[NamedGoal] = (),
                  max_goals: int = 10) -> str:
     examples = ""
     if library:
-        shown = [f"{g['name']}: " + ", ".join(f"{n} {c}" for c, n in g["counts"].items()) for g in library[:5]]
+        shown = [f"{g.name}: " + ", ".join(f"{n} {c}" for c, n in g.counts) for g in library[:5]]
         examples = "\nGoals people in this kind of home often have (you may propose others):\n  " + "\n  ".join(shown)
     return GOALS.format(state=describe_state(world, state),
                         actions="\n".join(f"{k + 1}. {a}" for k, a in enumerate(actions)) or "(nothing yet)",

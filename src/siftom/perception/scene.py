@@ -169,7 +169,7 @@ def _agent_place(graph: SceneGraph, classes: tuple[str, ...], places: set[int]) 
     return None
 
 
-def graph_from_world(world: Any, state: Any, target: int | None = None) -> dict[str, Any]:
+def graph_from_world(world: Any, state: Any, target: int | None = None) -> SceneGraph:
     """The VirtualHome graph a perfect model would report for a siftom world and state.
 
     Used to describe a known world to the model and by the tests as the ideal answer. Room
@@ -206,4 +206,4 @@ def graph_from_world(world: Any, state: Any, target: int | None = None) -> dict[
         edges.append({"from_id": aid, "relation_type": "CLOSE", "to_id": 100 + state.agent_at[agent]})
         if state.held[agent] >= 0:
             edges.append({"from_id": aid, "relation_type": "HOLDS_RH", "to_id": 1000 + state.held[agent]})
-    return {"nodes": nodes, "edges": edges}
+    return SceneGraph.from_json({"nodes": nodes, "edges": edges})

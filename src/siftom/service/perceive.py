@@ -92,23 +92,21 @@ def _decoded(frames: list[str]) -> list[Any]:
 async def perceive_route(req: PerceiveRequest, ctx: Ctx) -> JSONResponse:
     """Turn camera frames into a world, the person's actions and a goal space with a vision model."""
     from siftom.perception import perceive
-    from siftom.perception.pipeline import known_world
+    from siftom.perception.pipeline import KnownWorld
 
     if req.world is not None:  # a 422 at once, before anything is decoded or built
         check_world_bounds(req.world, max_items=ctx.settings.sessions.max_world_items)
 
-    def check() -> list[Any]:
+    def check() -> tuple[list[Any], KnownWorld | None]:
         decoded = _decoded(req.frames)
-        if req.world is not None:
-            known_world(req.world)
-        return decoded
+        return decoded, (KnownWorld.from_json(req.world) if req.world is not None else None)
 
     try:
-        frames = await ctx.run_cpu(check)  # decoding and the world's walking costs: off the event loop
+        frames, world = await ctx.run_cpu(check)  # decoding and the world's walking costs: off the event loop
     except PerceptionError as exc:
         raise ProblemError(422, "invalid-observation", str(exc)) from None
     model = _vision(ctx)
-    result = await _ask_model(functools.partial(perceive, frames, world=req.world, goal_space=req.goal_space,
+    result = await _ask_model(functools.partial(perceive, frames, world=world, goal_space=req.goal_space,
                                                 target=req.target, propose_goals=req.propose_goals, model=model))
     return JSONResponse(jsonable_encoder(result.to_json()))
 

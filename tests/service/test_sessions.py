@@ -315,8 +315,8 @@ def test_concurrent_robots_get_the_answers_they_would_get_alone(folder):
 
 
 def test_session_load_test_counts_requests_and_checks_nothing_was_lost(folder):
+    from siftom.bench.session_load import run_session_load
     from siftom.service.local_server import serve_in_thread
-    from siftom.service.session_load import run_session_load
 
     app = create_app(folder)
     with serve_in_thread(app) as url:

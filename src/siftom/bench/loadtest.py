@@ -1,9 +1,13 @@
-"""A bounded load test on loopback: start the app in a background thread, send N requests.
+"""A bounded load test of ``POST /v1/infer``: start ``siftom serve`` on loopback, send N requests.
 
 ``run_load_test`` sends ``requests`` inference requests (transcripts, cycling over a fixed set
 of scenarios and instructions) with ``concurrency`` requests in flight, and reports the
 throughput and latency percentiles. Budgets in (requests, concurrency, timeout), counters out.
 :func:`audio_bodies` makes recordings of such instructions (synthetic speech) to send instead.
+
+Without ``url`` the server is started as its own process (``python -m siftom.cli serve`` on a free
+loopback port, :func:`siftom.bench.session_load.serve_in_process`): the bench never imports the
+service, it speaks HTTP to it, as a robot would.
 """
 
 from __future__ import annotations
@@ -17,10 +21,9 @@ from typing import Any
 import numpy as np
 
 from siftom.errors import SiftomError
-from siftom.service.local_server import serve_in_thread
-from siftom.service.schemas import InferRequest
 
-DEFAULT_BODIES: tuple[InferRequest, ...] = tuple(InferRequest.model_validate(body) for body in (
+# JSON bodies of POST /v1/infer (the service's InferRequest; tests/bench/test_load_tools.py checks them)
+DEFAULT_BODIES: tuple[dict[str, Any], ...] = (
     {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"},
     {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"},
     {"scenario": "household-table-v0/3", "transcript": "bring me the forks"},
@@ -28,7 +31,7 @@ DEFAULT_BODIES: tuple[InferRequest, ...] = tuple(InferRequest.model_validate(bod
     {"scenario": "kitchen-v0/2", "transcript": "get me the milk"},
     {"scenario": "kitchen-cereal-v0", "nbest": [{"text": "pass me the see real", "score": -3.0},
                                                  {"text": "pass me the sugar", "score": -4.0}]},
-))
+)
 
 
 AUDIO_SENTENCES: tuple[tuple[str, str], ...] = (
@@ -66,7 +69,7 @@ class LoadResult:
         seconds: wall time of the measured phase (after warm-up).
         rps: ok requests per second.
         p50_ms, p90_ms, p99_ms, max_ms: latency percentiles of all requests.
-        url: where the app listened.
+        url: where the server listened.
     """
 
     requests: int
@@ -89,8 +92,15 @@ class LoadResult:
         """Whether the service target is met (>= 50 req/s, p99 < 200 ms, no errors)."""
         return self.errors == 0 and self.rps >= min_rps and self.p99_ms < max_p99_ms
 
+    def summary(self, verdict: bool = True) -> str:
+        """One line for the console (``verdict``: whether the service target is met)."""
+        met = f" ({'meets' if self.meets() else 'MISSES'} >= 50 req/s, p99 < 200 ms)" if verdict else ""
+        return (f"{self.ok}/{self.requests} ok, concurrency {self.concurrency}, {self.seconds:.2f} s: "
+                f"{self.rps:.1f} req/s; latency p50 {self.p50_ms:.1f} ms, p90 {self.p90_ms:.1f} ms, "
+                f"p99 {self.p99_ms:.1f} ms, max {self.max_ms:.1f} ms{met}")
 
-async def _drive(url: str, bodies: Sequence[InferRequest | AudioBody], n: int, concurrency: int,
+
+async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int, concurrency: int,
                  timeout: float) -> tuple[list[float], int, float]:
     import httpx
 
@@ -111,7 +121,7 @@ async def _drive(url: str, bodies: Sequence[InferRequest | AudioBody], n: int, c
                         r = await client.post("/v1/infer", data=body.fields,
                                               files={"audio": ("say.wav", body.wav, "audio/wav")})
                     else:
-                        r = await client.post("/v1/infer", json=body.model_dump(exclude_unset=True))
+                        r = await client.post("/v1/infer", json=body)
                     good = r.status_code == 200
                 except httpx.HTTPError:
                     good = False
@@ -124,32 +134,26 @@ async def _drive(url: str, bodies: Sequence[InferRequest | AudioBody], n: int, c
 
 
 def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
-                  bodies: Sequence[InferRequest | AudioBody] = DEFAULT_BODIES, url: str | None = None,
-                  timeout: float = 30.0, settings: Any = None) -> LoadResult:
-    """Send ``requests`` transcript inferences with ``concurrency`` in flight; measure.
+                  bodies: Sequence[dict[str, Any] | AudioBody] = DEFAULT_BODIES, url: str | None = None,
+                  timeout: float = 30.0, audio_workers: int | None = None) -> LoadResult:
+    """Send ``requests`` inferences with ``concurrency`` in flight; measure.
 
     Args:
-        requests: measured requests (after ``warmup`` unmeasured ones that fill the caches).
+        requests: measured requests (after ``warmup`` unmeasured ones that fill the caches and
+            start the server's audio workers, if any).
         concurrency: requests in flight at once.
-        url: an already running server; None starts ``create_app(settings=settings)`` on a free
-            loopback port (its audio workers, if any, are started before the warm-up).
+        url: an already running server; None starts ``siftom serve`` on a free loopback port
+            (with ``--audio-workers audio_workers`` when given, else the settings' number).
         timeout: per-request client timeout in seconds.
     """
     if requests < 1 or concurrency < 1 or warmup < 0:
         raise SiftomError("requests and concurrency must be >= 1 and warmup >= 0")
     if url is None:
-        from siftom.service.app import create_app
+        from siftom.bench.session_load import serve_in_process
 
-        app = create_app(settings=settings)
-        rt = app.state.runtime
-        rt.warm_up()  # what the served app's start-up does
-        try:
-            if rt.audio_pool is not None:
-                rt.audio_pool.warm()
-            with serve_in_thread(app) as base:
-                return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
-        finally:
-            rt.close()
+        args = ("--audio-workers", str(audio_workers)) if audio_workers is not None else ()
+        with serve_in_process(args=args) as (base, _pid):
+            return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
     if warmup:
         asyncio.run(_drive(url, bodies, warmup, min(concurrency, warmup), timeout))
     lat, ok, secs = asyncio.run(_drive(url, bodies, requests, concurrency, timeout))

@@ -13,7 +13,8 @@ Afterwards every session is read back: an action or an answer missing there coun
 Creation is measured apart from the streamed requests.
 
 Without ``url`` the server is started as its own process (``python -m siftom.cli serve``), as a
-robot's server would run, so the client's work does not share the server's interpreter; the
+robot's server would run, so the client's work does not share the server's interpreter (the bench
+never imports the service; it speaks HTTP to it, as :mod:`siftom.bench.robots` does); the
 server's CPU time per streamed request is reported too (from /proc on Linux): unlike latency it
 does not grow when other programs compete for the cores.
 """
@@ -23,7 +24,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -65,6 +66,18 @@ class SessionLoadResult:
     def meets(self, max_p99_ms: float = TARGET_P99_MS) -> bool:
         """The sessions target: no errors, nothing lost, p99 < 200 ms per streamed request."""
         return self.errors == 0 and self.lost == 0 and self.p99_ms < max_p99_ms
+
+    def summary(self) -> str:
+        """One line for the console: counts, latencies, creation and the server's CPU."""
+        verdict = "meets" if self.meets() else "MISSES"
+        return (f"{self.sessions} sessions x ({self.actions_per_session} actions + 1 instruction), interval "
+                f"{self.interval_s:g} s: {self.requests - self.errors}/{self.requests} ok, {self.lost} lost, "
+                f"{self.rps:.1f} req/s; latency p50 {self.p50_ms:.1f} ms, p90 {self.p90_ms:.1f} ms, "
+                f"p99 {self.p99_ms:.1f} ms, max {self.max_ms:.1f} ms ({verdict} p99 < 200 ms, nothing lost); "
+                f"p99 actions {self.actions_p99_ms:.1f} ms, instructions p50 {self.instruction_p50_ms:.1f} ms, "
+                f"p99 {self.instruction_p99_ms:.1f} ms; creating a session: p50 {self.create_p50_ms:.1f} ms, "
+                f"max {self.create_max_ms:.1f} ms; server CPU {self.server_cpu_ms_per_request} ms per streamed "
+                "request")
 
 
 def _vh(world: Any, a: Any) -> str:
@@ -120,30 +133,44 @@ def _cpu_seconds(pid: int | None) -> float | None:
         return None
 
 
+def free_port() -> int:
+    """A loopback TCP port free right now."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 @contextlib.contextmanager
-def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]:
-    """``siftom serve`` on a free loopback port in a fresh data folder; yields (url, pid)."""
+def serve_in_process(startup_timeout: float = 90.0, args: Sequence[str] = ()) -> Iterator[tuple[str, int]]:
+    """``siftom serve [args]`` on a free loopback port in a fresh data folder, as its own process
+    (the bench does not import the service: it talks to it over HTTP); yields (url, pid)."""
     import os
+    import shutil
     import subprocess
     import sys
     import tempfile
 
     import httpx
 
-    from siftom.service.local_server import free_port
-
     port = free_port()
-    folder = tempfile.mkdtemp(prefix="siftom-sessions-")
+    folder = tempfile.mkdtemp(prefix="siftom-load-")
     src = str(Path(__file__).resolve().parents[2])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.Popen([sys.executable, "-m", "siftom.cli", "serve", "--port", str(port), "--data-dir", folder],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    log = Path(folder) / "serve.log"
+    with log.open("wb") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "siftom.cli", "serve", "--host", "127.0.0.1",
+                                 "--port", str(port), "--data-dir", str(Path(folder) / "data"), *args],
+                                env=env, stdout=subprocess.DEVNULL, stderr=err)
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + startup_timeout
         while True:
             if proc.poll() is not None or time.monotonic() > deadline:
-                raise SiftomError(f"siftom serve did not start on port {port} within {startup_timeout:g} s")
+                tail = log.read_text(errors="replace")[-400:].strip()
+                raise SiftomError(f"siftom serve did not start on port {port} within {startup_timeout:g} s"
+                                  + (f": {tail}" if tail else ""))
             try:
                 if httpx.get(f"{url}/healthz", timeout=2).status_code == 200:
                     break
@@ -156,6 +183,8 @@ def serve_in_process(startup_timeout: float = 90.0) -> Iterator[tuple[str, int]]
             proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
             proc.kill()
+            proc.wait()
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 async def _run(url: str, work: list[SessionWork], interval: float, timeout: float, pid: int | None = None,

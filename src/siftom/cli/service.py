@@ -368,43 +368,23 @@ def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_j
                     n_actions: int, interval: float, audio: bool, likelihood: str,
                     audio_workers: int | None) -> None:
     """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles
-    (--audio: recordings; --sessions: the session API)."""
+    (--audio: recordings; --sessions: the session API). Without --url, ``siftom serve`` is started
+    as its own process on a free loopback port."""
     _need_serve_extra()
     if sessions is not None:
-        _bench_sessions(sessions, n_actions, interval, url, as_json)
-        return
-    from siftom.service.loadtest import DEFAULT_BODIES, audio_bodies, run_load_test
-    from siftom.settings import Settings
+        from siftom.bench.session_load import run_session_load
 
-    settings = Settings.load(flags={"service.audio_workers": audio_workers}).service if url is None else None
+        res_s = run_session_load(sessions=sessions, actions=n_actions, interval=interval, url=url)
+        click.echo(json.dumps({**res_s.to_json(), "meets_target": res_s.meets()}, indent=2) if as_json
+                   else res_s.summary())
+        return
+    from siftom.bench.loadtest import DEFAULT_BODIES, audio_bodies, run_load_test
+
     bodies = audio_bodies(likelihood) if audio else DEFAULT_BODIES
     res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url, bodies=bodies,
-                        settings=settings)
-    if as_json:
-        click.echo(json.dumps({**res.to_json(), **({} if audio else {"meets_target": res.meets()})}, indent=2))
-        return
-    verdict = "" if audio else f" ({'meets' if res.meets() else 'MISSES'} >= 50 req/s, p99 < 200 ms)"
-    click.echo(f"{res.ok}/{res.requests} ok, concurrency {res.concurrency}, {res.seconds:.2f} s: "
-               f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
-               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms{verdict}")
-
-
-def _bench_sessions(sessions: int, n_actions: int, interval: float, url: str | None, as_json: bool) -> None:
-    from siftom.service.session_load import run_session_load
-
-    res = run_session_load(sessions=sessions, actions=n_actions, interval=interval, url=url)
-    if as_json:
-        click.echo(json.dumps({**res.to_json(), "meets_target": res.meets()}, indent=2))
-        return
-    verdict = "meets" if res.meets() else "MISSES"
-    click.echo(f"{res.sessions} sessions x ({res.actions_per_session} actions + 1 instruction), interval "
-               f"{res.interval_s:g} s: {res.requests - res.errors}/{res.requests} ok, {res.lost} lost, "
-               f"{res.rps:.1f} req/s; latency p50 {res.p50_ms:.1f} ms, p90 {res.p90_ms:.1f} ms, "
-               f"p99 {res.p99_ms:.1f} ms, max {res.max_ms:.1f} ms ({verdict} p99 < 200 ms, nothing lost); "
-               f"p99 actions {res.actions_p99_ms:.1f} ms, instructions p50 {res.instruction_p50_ms:.1f} ms, "
-               f"p99 {res.instruction_p99_ms:.1f} ms; "
-               f"creating a session: p50 {res.create_p50_ms:.1f} ms, max {res.create_max_ms:.1f} ms; server CPU "
-               f"{res.server_cpu_ms_per_request} ms per streamed request")
+                        audio_workers=audio_workers)
+    click.echo(json.dumps({**res.to_json(), **({} if audio else {"meets_target": res.meets()})}, indent=2)
+               if as_json else res.summary(verdict=not audio))
 
 
 def register(root: click.Group) -> None:

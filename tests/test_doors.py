@@ -247,3 +247,29 @@ def test_the_server_reports_the_settings_it_runs_with(server):
     got = httpx.get(server + "/healthz", timeout=30).json()["settings"]
     assert got["model.unknown_prior"] == 0.3 and got["model.betas"] == [8.0]
     assert got["infer.decide"] == "teammate"
+
+
+@pytest.mark.parametrize("model", ["siftom-phonetic", "speech-only", "action-only", "siftom-oracle-text"])
+def test_the_evaluator_answers_what_it_heard_as_the_python_door_does(model):
+    """The evaluator is a door: a SIFToM model's choice for a stimulus is the Python door's answer to
+    the same actions and words under the evaluator's settings (the paper's metric: the MAP rule)."""
+    from siftom.bench.choosers import Trial, TrialHeard, choose
+    from siftom.bench.models import EvalOptions, eval_model, eval_settings
+    from siftom.observation import Instruction
+    from siftom.people.stimuli import Stimulus, scenario_for
+    from siftom.scenarios.base import get_scenario
+
+    sc = get_scenario(SCENARIO)
+    s = Stimulus(id="t", scenario=SCENARIO, domain=sc.domain,
+                 observed_actions=tuple(sc.world.format_action(a) for a in sc.actions), audio="t.wav",
+                 reference="could you pass me the cereal", gold_goal={"name": sc.goal.name, "counts": {}},
+                 gold_command=str(sc.command), speaker="s1", voice="flite-slt")
+    heard = TrialHeard(EvalOptions(models=(model,)), (), Path("t.wav"), {"text": NBEST[0]["text"], "nbest": NBEST})
+    spec = eval_model(model)
+    command, prob, _extra = choose(Trial(spec, s, scenario_for(s), "k", heard, "."))
+
+    said = {"nbest": Instruction.from_nbest([(h["text"], h["score"]) for h in NBEST]),
+            "reference": s.reference, "none": None}[spec.heard if spec.mode != "action-only" else "none"]
+    door = siftom.infer(SCENARIO, None, said, likelihood="phonetic", decide="map", settings=eval_settings(spec.mode))
+    assert command == str(door.top_command)
+    assert prob == pytest.approx(door.top_prob, abs=TOL)

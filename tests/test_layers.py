@@ -297,3 +297,25 @@ def test_every_variable_the_settings_read_is_listed():
 
     named = set(re.findall(r'"(SIFTOM_[A-Z0-9_]+)"', text)) - {environment.PREFIX}
     assert named <= set(environment.VARIABLES), f"list these in environment.VARIABLES: {sorted(named - set(environment.VARIABLES))}"
+
+
+def _model_builds(path: Path) -> list[int]:
+    """Lines that construct SIFToM or a likelihood from its registry (``get_likelihood``)."""
+    return [node.lineno for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+            if isinstance(node, ast.Call) and (
+                (isinstance(node.func, ast.Name) and node.func.id in ("SIFToM", "get_likelihood"))
+                or (isinstance(node.func, ast.Attribute) and node.func.attr in ("SIFToM", "get_likelihood")))]
+
+
+def test_no_model_is_built_outside_the_observer():
+    """Every door and the evaluator take their models from ``Observer.model`` (built from the
+    settings, cached per mode, likelihood and lexicon), so none may build one of its own."""
+    builds = {str(p.relative_to(SRC)): lines for p in _modules()
+              if p.relative_to(SRC).as_posix() != "observer.py" and (lines := _model_builds(p))}
+    assert not builds, f"build models with siftom.Observer(settings).model(mode, likelihood) instead: {builds}"
+
+
+def test_the_model_check_sees_a_build(tmp_path):
+    mod = tmp_path / "mod.py"
+    mod.write_text("from siftom.inference.model import SIFToM\nm = SIFToM(cfg, lk)\nx = reg.get_likelihood('p')\n")
+    assert _model_builds(mod) == [2, 3]

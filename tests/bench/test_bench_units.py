@@ -241,3 +241,31 @@ def test_answers_are_said_from_the_cell_and_heard_by_the_first_hypothesis_naming
     assert heard_grammar == [q.grammar()]  # the recogniser listens for this question's answers
     assert h.heard_cell == 2 and h.answer_heard == "three please"
     assert set(answers.answer_reliabilities(5.0)) == {"confirm", "choose", "count"}
+
+
+def test_a_plugin_registers_a_kind_of_evaluator_model_without_editing_siftom(monkeypatch):
+    from siftom.bench.choosers import Trial, TrialHeard, choose
+    from siftom.bench.models import (
+        EVAL_KINDS,
+        EVAL_MODELS,
+        EvalOptions,
+        eval_model,
+        register_eval_model,
+    )
+    from siftom.errors import SiftomError
+    from siftom.people.stimuli import Stimulus, scenario_for
+
+    for registry in (EVAL_KINDS, EVAL_MODELS):  # registered for this test only
+        monkeypatch.setattr(registry, "_entries", dict(registry.entries()))
+    EVAL_KINDS.register("first-class", "support.evalkind:choose_first", summary="the first class, always")
+    register_eval_model("first-class-baseline", "a test plug-in", kind="first-class", heard="none")
+    opts = EvalOptions(models=("first-class-baseline",))
+    s = Stimulus(id="t", scenario="kitchen-cereal-v0", domain="kitchen-v0", observed_actions=(), audio="t.wav",
+                 reference="", gold_goal={}, gold_command="fetch(cereal)", speaker="s1", voice="flite-slt")
+    sc = scenario_for(s)
+    heard = TrialHeard(opts, (), Path("t.wav"), {"text": "", "nbest": []})
+    assert choose(Trial(eval_model("first-class-baseline"), s, sc, "k", heard, ".")) == (
+        f"fetch({sorted(sc.world.classes)[0]})", 0.5, {})
+    register_eval_model("no-such-kind-model", kind="no-such-kind")
+    with pytest.raises(SiftomError, match="evaluator kind"):  # an unknown kind names the registered ones
+        EvalOptions(models=("no-such-kind-model",))

@@ -3,7 +3,9 @@
 ``siftom eval --models`` takes any name of :data:`EVAL_MODELS`, one registry of the shape every
 plug-in uses (siftom/registry.py). An entry's ``attrs`` say what the model is:
 
-* ``kind``: how a trial is run: ``posterior`` (SIFToM's posterior, the MAP command),
+* ``kind``: how a trial is run, a registered function of :data:`EVAL_KINDS`
+  (bench/choosers.py; a plug-in registers its own): ``posterior`` (SIFToM's posterior through
+  the observer, the MAP command),
   ``decision`` (a decision rule on the posterior: bench/decisions.py), ``acoustic`` (the
   acoustic likelihood as ``siftom.listen`` hears the clip: bench/acoustic_models.py),
   ``literal`` (the recogniser's words read literally) or ``llm-baseline`` (bench/llm_baselines.py);
@@ -37,7 +39,16 @@ if TYPE_CHECKING:
     from siftom.settings import Settings
     from siftom.settings.llm import LLMConfig
 
-KINDS = ("posterior", "decision", "acoustic", "literal", "llm-baseline")
+# how a kind of model chooses a command: a function (trial) -> Choice (bench/choosers.py)
+EVAL_KINDS = Registry("evaluator kind", default="posterior")
+for _kind, _summary in (
+    ("posterior", "SIFToM's posterior through the observer; the MAP command (the paper's metric)"),
+    ("decision", "a decision rule on SIFToM's posterior, answering through the observer"),
+    ("acoustic", "the acoustic likelihood as siftom.listen hears the clip"),
+    ("literal", "the recogniser's 1-best read literally (a baseline; no inference)"),
+    ("llm-baseline", "an LLM chooses the command (a baseline; no inverse planning)"),
+):
+    EVAL_KINDS.register(_kind, f"siftom.bench.choosers:choose_{_kind.replace('-', '_')}", summary=_summary)
 HEARD = ("nbest", "audio", "reference", "none")
 DEFAULT_ENGINE = "pocketsphinx-vocab"  # the evaluator's: recognition biased to the scene's phrasings
 
@@ -60,8 +71,9 @@ class EvalModel:
     follows_run: bool = False  # the run's ``--likelihood`` (when given) replaces ``likelihood``
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise DatasetError(f"evaluator model {self.name!r}: kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        if not self.kind:  # the kind is looked up in EVAL_KINDS by EvalOptions (plug-ins may add kinds)
+            raise DatasetError(f"evaluator model {self.name!r}: give its kind (one of EVAL_KINDS in "
+                               "siftom.bench.models)")
         if self.heard not in HEARD:
             raise DatasetError(f"evaluator model {self.name!r}: heard must be one of {', '.join(HEARD)}, "
                                f"got {self.heard!r}")
@@ -202,6 +214,7 @@ class EvalOptions:
             if m not in EVAL_MODELS:
                 raise unknown_name("model", m, eval_model_names())
             EVAL_MODELS.check(m)  # a plug-in's model whose extra is missing: the pip install that fixes it
+            EVAL_KINDS.check(eval_model(m).kind)  # an unknown kind names the registered ones
         if len(set(self.models)) != len(self.models):
             raise DatasetError(f"a model is listed twice: {', '.join(self.models)}")
         from siftom.speech.asr.base import ENGINES

@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -19,14 +19,10 @@ import numpy as np
 
 from siftom.assist.decide import DEFAULT_ASK_COST
 from siftom.bench.answers import AnswerUnavailableError
-from siftom.bench.decisions import (
-    decision_heard,
-    decision_posterior,
-    oracle_action,
-    run_decision_model,
-)
+from siftom.bench.choosers import Memo, Trial, TrialHeard, choose, instruction_from
+from siftom.bench.decisions import oracle_action
 from siftom.bench.engines import engine as _engine
-from siftom.bench.models import EvalModel, EvalOptions, eval_model, eval_settings, siftom_likelihood
+from siftom.bench.models import EvalOptions, eval_model
 from siftom.bench.scoring import is_correct, is_helpful
 from siftom.errors import SiftomError
 from siftom.people.stimuli import Stimulus, load_dataset, scenario_for
@@ -82,14 +78,6 @@ def _simulate(skey: str, sc: Any, command: str) -> dict[str, Any]:
     return _TEAM[key]
 
 
-def _instruction(nbest: Sequence[dict[str, Any]], engine: str | None = None) -> Any:
-    from siftom.observation import Hypothesis, Instruction
-    from siftom.speech.asr.base import writes_scene_words
-
-    hyps = tuple(Hypothesis(h["text"], float(h["score"])) for h in nbest if h["text"].strip())
-    return Instruction(nbest=hyps, scene_words=writes_scene_words(engine)) if hyps else None
-
-
 def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any, Any, dict[str, Any], Any]]:
     """(stimulus, scenario, result row, instruction or None) for each row of an eval results
     folder, to re-score what was heard with other likelihoods without re-running recognition.
@@ -100,7 +88,7 @@ def saved_trials(dataset: str | Path, results: str | Path) -> Iterator[tuple[Any
     for r in rows:
         s = stimuli[r["id"]]
         nbest = r["transcript"]["nbest"] or [{"text": r["transcript"]["text"], "score": 0.0}]
-        yield s, scenario_for(s), r, _instruction(nbest, r["transcript"].get("engine"))
+        yield s, scenario_for(s), r, instruction_from(nbest, r["transcript"].get("engine"))
 
 
 def _wer(reference: str, text: str) -> float:
@@ -129,33 +117,6 @@ class _Finished:
     team: list[dict[str, Any]]
 
 
-class _Heard:
-    """What one stimulus's models hear: its transcript, N-best and clip, with the posterior and the
-    decision models' input per likelihood computed once and shared by its models."""
-
-    def __init__(self, task: _Task, s: Stimulus, tr: dict[str, Any]) -> None:
-        self.task = task
-        self.tr = tr
-        self.instr = _instruction(tr["nbest"] or [{"text": tr["text"], "score": 0.0}], tr.get("engine"))
-        self.audio = Path(s.audio) if Path(s.audio).is_absolute() else Path(task.root) / s.audio
-        self._posts: dict[str, Any] = {}
-        self._hears: dict[str, Any] = {}
-
-    def engine(self, grammar: tuple[str, ...] | None = None) -> Any:
-        return _engine(self.task.options.engine, grammar or self.task.vocabulary)
-
-    def posterior(self, lk: str, sc: Any) -> Any:
-        if lk not in self._posts:
-            self._posts[lk] = decision_posterior(lk, sc, self.instr, self.audio, self.engine(),
-                                                 self.task.options.nbest)
-        return self._posts[lk]
-
-    def heard_by(self, lk: str) -> Any:
-        if lk not in self._hears:
-            self._hears[lk] = decision_heard(lk, self.instr, self.audio, self.engine(), self.task.options.nbest)
-        return self._hears[lk]
-
-
 def _transcript(task: _Task, s: Stimulus) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """(the stimulus's transcript, the same when it was made now, else None): cached or recognised."""
     tr = task.transcripts.get(s.id)
@@ -170,61 +131,11 @@ def _transcript(task: _Task, s: Stimulus) -> tuple[dict[str, Any], dict[str, Any
     return tr, tr
 
 
-_Memo = dict[tuple[str, str, str], tuple[str, float, float]]
-
-
-def _memoised(memo: _Memo, mk: tuple[str, str, str], choose: Callable[[], tuple[str, float]]) -> tuple[str, float]:
-    if mk not in memo:
-        c_, p_ = choose()
-        memo[mk] = (c_, p_, 0.0)
-    return memo[mk][0], memo[mk][1]
-
-
-def _choose(m: str, task: _Task, s: Stimulus, sc: Any, skey: str, h: _Heard,
-            memo: _Memo) -> tuple[str, float, dict[str, Any]]:
-    """(command, its probability, a decision model's further fields) of model ``m`` for ``s``.
-
-    Raises:
-        AnswerUnavailableError: the trial cannot be evaluated for ``m`` (a decision model).
-    """
-    from siftom.bench.literal import literal_command
-
-    opts = task.options
-    tr = h.tr
-    spec = eval_model(m)
-    if spec.kind == "literal":
-        cmd = literal_command(tr["text"], sc, max_count=MAX_COUNT)
-        return (str(cmd), 1.0, {}) if cmd is not None else ("none", 1.0, {})
-    if spec.kind == "acoustic" and spec.mode == "full" or (
-            spec.likelihood == "auto" and siftom_likelihood(opts) == "acoustic"):
-        # the MAP rule on the acoustic posterior (the product's default path for a recording)
-        post = h.posterior("acoustic", sc)
-        return post.command, float(post.commands[0][1]), {}
-    if spec.kind == "acoustic":  # siftom.api.listen's path without the actions
-        from siftom.bench.acoustic_models import acoustic_choice
-
-        return (*_memoised(memo, (skey, m, s.id), lambda: acoustic_choice(
-            "speech-only-acoustic", sc, h.audio, h.engine(), opts.nbest)), {})
-    if spec.kind == "llm-baseline":
-        from siftom.bench.llm_baselines import chooser, command_space
-
-        return (*_memoised(memo, (skey, m, tr["text"]), lambda: chooser(m, opts.llm).choose(
-            sc, tr["text"], command_space(sc, MAX_COUNT))), {})
-    if spec.kind == "decision":  # a decision rule on a likelihood's posterior: bench/decisions.py
-        extra = run_decision_model(m, s, sc, h.heard_by(str(spec.likelihood)), task.root,
-                                   lambda x, grammar=None: h.engine(grammar).transcribe(x, nbest=opts.nbest))
-        command, prob = extra.pop("command"), float(extra.pop("prob"))
-        return command, prob, extra
-    # "posterior": SIFToM's MAP command under the model's likelihood, on what it hears
-    command, prob = _posterior_choice(spec, opts, s, sc, skey, tr, h.instr, h.audio, memo, h.engine)
-    return command, prob, {}
-
-
 def _rounded(speedup: float | None) -> float | None:
     return None if speedup is None else round(speedup, 6)
 
 
-def _model_row(s: Stimulus, sc: Any, command: str, prob: float, extra: dict[str, Any],
+def _model_row(s: Stimulus, sc: Any, command: str, prob: float, extra: Mapping[str, Any],
                team: dict[str, Any], t0: float) -> dict[str, Any]:
     """A model's entry of a results row: its choice, its score and the team's speedup with it."""
     row = {
@@ -243,7 +154,7 @@ def _model_row(s: Stimulus, sc: Any, command: str, prob: float, extra: dict[str,
     return row
 
 
-def _decision_fields(extra: dict[str, Any], team: dict[str, Any]) -> dict[str, Any]:
+def _decision_fields(extra: Mapping[str, Any], team: dict[str, Any]) -> dict[str, Any]:
     """Fields a decision model adds to its results entry; a question's cost is added to L_team."""
     out = dict(extra)
     if extra.get("asked") and team.get("l_team") is not None:
@@ -268,20 +179,21 @@ def _eval_stimuli(task: _Task) -> Iterator[_Finished]:
         skey = scenario_key(s)
         for c, r in task.team.items():
             _TEAM.setdefault((skey, c), r)
-    memo: _Memo = {}
+    memo: Memo = {}
     oracles: dict[tuple[str, str], str] = {}
     for s in task.stimuli:
         sc = scenario_for(s)
         skey = scenario_key(s)
         tr, new_tr = _transcript(task, s)
-        h = _Heard(task, s, tr)
+        h = TrialHeard(task.options, task.vocabulary,
+                       Path(s.audio) if Path(s.audio).is_absolute() else Path(task.root) / s.audio, tr)
         before = set(_TEAM)
         models: dict[str, Any] = {}
         not_evaluable: dict[str, str] = {}  # model -> why this trial could not be evaluated for it
         for m in task.options.models:
             t0 = time.perf_counter()
             try:
-                command, prob, extra = _choose(m, task, s, sc, skey, h, memo)
+                command, prob, extra = choose(Trial(eval_model(m), s, sc, skey, h, task.root, memo))
             except AnswerUnavailableError as exc:  # this trial cannot be evaluated for m; the others go on
                 not_evaluable[m] = str(exc)
                 continue
@@ -301,50 +213,6 @@ def _eval_stimuli(task: _Task) -> Iterator[_Finished]:
         }
         new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]
         yield _Finished(row, new_tr, new_team)
-
-
-def _heard_by(spec: EvalModel, opts: EvalOptions, s: Stimulus, instr: Any, audio: Path,
-              engine: Callable[[], Any]) -> tuple[Any, str]:
-    """(what the model hears, its memo key): the N-best, the clip with its N-best, the reference or nothing."""
-    from siftom.observation import Instruction
-
-    if spec.heard == "reference":
-        return Instruction.from_text(s.reference), s.reference
-    if spec.heard == "none" or spec.mode == "action-only":
-        return None, ""
-    if spec.heard == "audio":
-        from siftom.bench.acoustic_models import heard
-
-        return heard(audio, engine(), opts.nbest)[0], f"audio:{s.id}"
-    return instr, json.dumps([(h.text, h.score) for h in instr.nbest]) if instr is not None else ""
-
-
-def _posterior_choice(spec: EvalModel, opts: EvalOptions, s: Stimulus, sc: Any, skey: str, tr: dict[str, Any],
-                      instr: Any, audio: Path, memo: dict[tuple[str, str, str], tuple[str, float, float]],
-                      engine: Callable[[], Any]) -> tuple[str, float]:
-    """The MAP command and its probability for a ``posterior`` model (the paper's metric)."""
-    from siftom.observer import observer_for
-
-    heard, key = _heard_by(spec, opts, s, instr, audio, engine)
-    mk = (skey, spec.name, key)
-    if mk in memo:
-        return memo[mk][0], memo[mk][1]
-    if spec.mode == "speech-only" and heard is None:
-        command, prob = "none", 1.0  # nothing was heard: the robot does nothing
-    else:
-        lk = str(spec.likelihood or "phonetic")
-        if lk == "auto":  # the siftom row: the run's likelihood for the transcript, phonetic by default
-            lk = "phonetic" if opts.likelihood == "auto" else opts.likelihood
-        elif spec.follows_run and opts.likelihood != "auto":
-            lk = opts.likelihood
-        # siftom.infer, with the evaluator's own settings (the SIFTOM_* environment does not change
-        # a benchmark); the LLM likelihood comes configured by the run's options
-        settings = eval_settings(spec.mode, opts.llm if lk == "llm" else None)
-        # the paper's metric scores the inferred command (the MAP rule, the words' posterior)
-        post = observer_for(settings).infer(sc, None, heard, likelihood=lk, decide="map", gate=False)
-        command, prob = str(post.top_command), post.top_prob
-    memo[mk] = (command, prob, 0.0)
-    return command, prob
 
 
 def _run_task(task: _Task, vocabulary: tuple[str, ...]) -> list[_Finished]:

@@ -100,9 +100,9 @@ def test_the_trials_block_renders_the_rules_and_says_where_it_came_from() -> Non
 
 
 def test_blocks_render_from_a_results_file(tmp_path: Path) -> None:
-    results = {r["set"]: r for r in load_results(ROOT / "results")}
+    results = {r.set: r for r in load_results(ROOT / "results")}
     name = "kitchen-s0"
-    acc = results[name]["summary"]["models"]["siftom"]["accuracy"]
+    acc = results[name].summary["models"]["siftom"]["accuracy"]
     assert render(f"value {name} models/siftom/accuracy pct", results) == f"{100 * acc:.1f} %"
     assert render(f'value {name} "breakdowns/snr/10 dB/siftom/accuracy" pct0', results).endswith(" %")
     table = render(f"table {name} models=literal-asr,siftom", results)

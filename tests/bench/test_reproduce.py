@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 import siftom
+from siftom.bench.machine import Machine
 from siftom.bench.pages import END, PAGES, REPRODUCE, START, voice_table, write_pages
-from siftom.bench.reproduce import load_plan
+from siftom.bench.reproduce import SetData, SetResult, load_plan
 from siftom.cli import main
 from siftom.errors import DatasetError
 
@@ -88,13 +90,17 @@ def test_committed_results_pages_match_the_committed_results(tmp_path: Path) -> 
 
 def test_the_voice_table_has_a_row_per_voice_and_a_column_per_model() -> None:
     cell = {"accuracy": 0.5, "speedup": 0.1, "n": 4}
-    result = {"commands": ["siftom eval D --out R --models siftom,literal-asr"],
-              "summary": {"models": {"siftom": {}, "literal-asr": {}},
+    result = _set_result(("siftom eval D --out R --models siftom,literal-asr",),
+                         {"models": {"siftom": {}, "literal-asr": {}},
                           "breakdowns": {"voice": {"flite-slt": {"siftom": cell, "literal-asr": {**cell, "accuracy": 0.25}},
                                                    "hibari-heart": {"siftom": {**cell, "accuracy": 1.0}}}},
-                          "asr_wer": {"voice": {"flite-slt": 0.2}}}}
+                          "asr_wer": {"voice": {"flite-slt": 0.2}}})
     lines = voice_table(result).splitlines()
     assert lines[0] == "| voice | n | siftom | literal-asr | ASR WER |"
     assert lines[2] == "| flite-slt | 4 | 50.0 % | 25.0 % | 20.0 % |"
     assert lines[3] == "| hibari-heart | 4 | 100.0 % |  | – |"
-    assert voice_table({"commands": [], "summary": {"models": {}}}) == ""
+    assert voice_table(_set_result((), {"models": {}})) == ""
+
+
+def _set_result(commands: tuple[str, ...], summary: dict[str, Any]) -> SetResult:
+    return SetResult("s", "s", "0", "?", SetData("f", 1, "kitchen-v0", 0), Machine(), commands, (0.0, 0.0), summary)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from siftom.bench.machine import Machine
 from siftom.bench.robots import ServeBenchOptions, ServeBenchResult, match_delays, run_serve_bench
 from siftom.errors import OptionsError
 
@@ -23,7 +24,7 @@ def test_options_out_of_range_say_which(bad):
 
 
 def _result(answered, p90, idle, load):
-    return ServeBenchResult({}, {}, {"p90": idle}, {"p90": load}, 0, [], 4, answered, 0.5, p90, (0, 0, 0), 0, 1)
+    return ServeBenchResult({}, Machine(), {"p90": idle}, {"p90": load}, 0, [], 4, answered, 0.5, p90, (0, 0, 0), 0, 1)
 
 
 def test_the_floors_need_every_decision_p90_within_a_second_and_http_within_three_times_idle():
@@ -38,19 +39,19 @@ def test_two_robots_stream_into_a_real_server_and_every_instruction_is_answered(
     res = run_serve_bench(ServeBenchOptions(streams=2, instructions=2, http_rps=1, idle_requests=3))
     assert res.expected == 4 and res.answered == 4
     assert all(st["closed"] == "1000" for st in res.streams)
-    assert res.machine["cpus"] and res.idle_infer_ms["n"] == 3
+    assert res.machine.cpus and res.idle_infer_ms["n"] == 3
 
 
 @pytest.mark.slow
 def test_every_hostile_request_is_a_4xx_naming_its_limit_against_a_real_server():
-    from siftom.bench.robots import run_hostile_bench
+    from siftom.bench.hostile import run_hostile_bench
 
     res = run_hostile_bench()
-    assert all(400 <= r["status"] < 500 and "allowed" in r["detail"] for r in res["rows"]), res["rows"]
+    assert all(400 <= r.status < 500 and "allowed" in r.detail for r in res.rows), res.rows
 
 
 def test_the_streaming_page_is_generated_from_the_service_results(tmp_path):
-    from siftom.bench.blocks import fill_page, load_service
+    from siftom.bench.blocks import ServiceResults, fill_page, load_service
     from siftom.errors import DatasetError
 
     res = _result(4, 0.9, 10, 29).to_json()
@@ -61,4 +62,4 @@ def test_the_streaming_page_is_generated_from_the_service_results(tmp_path):
     page = fill_page("x <!-- gen:service robots --><!-- /gen --> y", [], None, load_service(tmp_path))
     assert "| robots-2 | 2 × 2 | 4/4 |" in page and "2.9×" in page and "siftom 9.9" in page
     with pytest.raises(DatasetError, match="siftom bench hostile --out"):
-        fill_page("<!-- gen:service hostile --><!-- /gen -->", [], None, {})
+        fill_page("<!-- gen:service hostile --><!-- /gen -->", [], None, ServiceResults())

@@ -200,9 +200,10 @@ def test_a_plan_world_seed_must_be_a_seed(tmp_path: Path) -> None:
 
 def test_a_world_seed_results_page_says_so() -> None:
     from siftom.bench.pages import _worlds
+    from siftom.bench.reproduce import SetData
 
-    assert _worlds({"seed": 0}) == ""
-    assert "world seed 101" in _worlds({"seed": 0, "world_seed": 101})
+    assert _worlds(SetData("f", 1, "kitchen-v0", 0)) == ""
+    assert "world seed 101" in _worlds(SetData("f", 1, "kitchen-v0", 0, world_seed=101))
 
 
 def test_a_sweep_takes_world_seeds_as_an_axis(tmp_path: Path) -> None:

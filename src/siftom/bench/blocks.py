@@ -20,14 +20,21 @@ a share as a percentage without the sign), ``sp`` (+0.190), ``int``, ``ci`` ([56
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import re
 import shlex
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from siftom.bench.constants import constants_table
+from siftom.bench.hostile import HostileResult
+from siftom.bench.machine import Machine
 from siftom.bench.pages import _ci, _pct, load_results, model_order, set_table
+from siftom.bench.reproduce import SetResult
+from siftom.bench.robots import ServeBenchResult
 from siftom.errors import DatasetError
 
 FILL = ("siftom bench pages --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md "
@@ -36,11 +43,35 @@ BLOCK = re.compile(r"<!-- gen:(?P<spec>.*?) -->(?P<body>.*?)<!-- /gen -->", re.D
 SNR_ORDER = ("clean", "20 dB", "10 dB", "5 dB", "0 dB")
 
 
-def _get(result: dict[str, Any], path: str) -> Any:
-    node: Any = result["summary"]
+@dataclass(frozen=True)
+class TrialBatch:
+    """A ``results/trials/NAME.jsonl`` file: whole-trial rows as ``siftom bench trials --out`` wrote
+    them (:func:`siftom.bench.wholetrial.run_trials`), one a line."""
+
+    name: str
+    rows: tuple[dict[str, Any], ...]
+
+    @classmethod
+    def read(cls, path: Path) -> TrialBatch:
+        """Read ``path`` (its stem names the batch)."""
+        with path.open(encoding="utf-8") as f:
+            return cls(path.stem, tuple(json.loads(line) for line in f if line.strip()))
+
+
+@dataclass(frozen=True)
+class ServiceResults:
+    """The service benchmarks' results of ``results/service``: every ``robots-*.json`` (``siftom bench
+    robots --out``) by name, and ``hostile.json`` (``siftom bench hostile --out``) when there is one."""
+
+    robots: tuple[tuple[str, ServeBenchResult], ...] = ()
+    hostile: HostileResult | None = None
+
+
+def _get(result: SetResult, path: str) -> Any:
+    node: Any = result.summary
     for key in path.split("/"):
         if not isinstance(node, dict) or key not in node:
-            raise DatasetError(f"results/{result['set']}.json has no summary/{path} (at {key!r})")
+            raise DatasetError(f"results/{result.set}.json has no summary/{path} (at {key!r})")
         node = node[key]
     return node
 
@@ -71,11 +102,11 @@ def _opts(args: Sequence[str]) -> tuple[list[str], dict[str, str]]:
     return pos, kw
 
 
-def _snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) -> str:
+def _snr_table(result: SetResult, models: Sequence[str], wer: bool = True) -> str:
     """Accuracy per condition (rows) and model (columns), with the 1-best WER."""
-    snr = result["summary"]["breakdowns"]["snr"]
+    snr = result.summary["breakdowns"]["snr"]
     conds = [c for c in SNR_ORDER if c in snr] + sorted(c for c in snr if c not in SNR_ORDER)
-    wers = result["summary"].get("asr_wer", {}).get("snr", {})
+    wers = result.summary.get("asr_wer", {}).get("snr", {})
     head = ["condition"] + (["WER"] if wer else []) + list(models)
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for c in conds:
@@ -85,10 +116,11 @@ def _snr_table(result: dict[str, Any], models: Sequence[str], wer: bool = True) 
     return "\n".join(lines)
 
 
-def _trials_block(rows: Sequence[dict[str, Any]], name: str) -> str:
-    """The whole-trial summary of ``rows`` as a table, stamped with the version and machine."""
+def _trials_block(batch: TrialBatch) -> str:
+    """The whole-trial summary of a batch as a table, stamped with the version and machine."""
     from siftom.bench.wholetrial import markdown, summarise
 
+    rows, name = batch.rows, batch.name
     versions = sorted({str(r.get("version", "?")) for r in rows})
     machines = sorted({f"{r['machine'].get('cpu_count')} CPUs, {r['machine'].get('platform')}"
                        for r in rows if isinstance(r.get("machine"), dict)}) or ["not recorded"]
@@ -98,68 +130,64 @@ def _trials_block(rows: Sequence[dict[str, Any]], name: str) -> str:
             f"`results/trials/{name}.jsonl` by `make pages`.\n")
 
 
-def load_trials(folder: str | Path) -> dict[str, list[dict[str, Any]]]:
-    """``NAME.jsonl`` whole-trial rows per NAME in ``folder`` (none when it does not exist)."""
-    import json
-
-    out: dict[str, list[dict[str, Any]]] = {}
-    for path in sorted(Path(folder).glob("*.jsonl")) if Path(folder).is_dir() else []:
-        with path.open(encoding="utf-8") as f:
-            out[path.stem] = [json.loads(line) for line in f if line.strip()]
-    return out
+def load_trials(folder: str | Path) -> dict[str, TrialBatch]:
+    """The ``NAME.jsonl`` whole-trial batches of ``folder`` by NAME (none when it does not exist)."""
+    paths = sorted(Path(folder).glob("*.jsonl")) if Path(folder).is_dir() else []
+    return {p.stem: TrialBatch.read(p) for p in paths}
 
 
-def load_service(folder: str | Path) -> dict[str, dict[str, Any]]:
-    """``NAME.json`` service benchmark results per NAME in ``folder`` (none when it does not exist)."""
-    import json
-
+def load_service(folder: str | Path) -> ServiceResults:
+    """The service benchmarks' results in ``folder`` (none when it does not exist)."""
     folder = Path(folder)
-    return {p.stem: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("*.json"))} \
-        if folder.is_dir() else {}
+    paths = sorted(folder.glob("*.json")) if folder.is_dir() else []
+    robots = tuple((p.stem, ServeBenchResult.from_json(json.loads(p.read_text(encoding="utf-8"))))
+                   for p in paths if p.stem.startswith("robots-"))
+    hostile = next((HostileResult.from_json(json.loads(p.read_text(encoding="utf-8")))
+                    for p in paths if p.stem == "hostile"), None)
+    return ServiceResults(robots, hostile)
 
 
-def _stamp(results: Sequence[dict[str, Any]]) -> str:
-    ms = [r.get("machine", {}) for r in results]
-    versions = sorted({str(m.get("version", "?")) for m in ms})
-    where = sorted({f"{m.get('cpus')} CPUs ({m.get('processor')})" for m in ms})
+def _stamp(machines: Sequence[Machine]) -> str:
+    versions = sorted({m.version or "?" for m in machines})
+    where = sorted({f"{m.cpus} CPUs ({m.processor})" for m in machines})
     return f"siftom {', '.join(versions)}; measured on {'; '.join(where)}"
 
 
-def _service_block(kind: str, service: dict[str, dict[str, Any]]) -> str:
+def _service_block(kind: str, service: ServiceResults) -> str:
     """A table of ``siftom bench robots`` (``robots``) or ``siftom bench hostile`` (``hostile``) results."""
     if kind == "robots":
-        runs = [(n, r) for n, r in service.items() if n.startswith("robots-")]
+        runs = service.robots
         if not runs:
             raise DatasetError("gen:service robots: no results/service/robots-*.json; write them with "
                                "siftom bench robots --out")
         lines = ["| run | streams × instructions | decisions | delay p50 / p90 (s) | /v1/infer p90 idle → load (ms) "
                  "| ratio | in-process p50 (s) | load before |", "|---|---|---|---|---|---|---|---|"]
         for name, r in runs:
-            o = r["options"]
-            ratio = r["load_infer_ms"]["p90"] / r["idle_infer_ms"]["p90"] if r["load_infer_ms"].get("n") else None
-            local = r.get("in_process") or {}
-            loaded = r["load_infer_ms"]["p90"] if r["load_infer_ms"].get("n") else "–"
-            lines.append(f"| {name} | {o['streams']} × {o['instructions']} | {r['answered']}/{r['expected']} | "
-                         f"{r['delay_p50_s']} / {r['delay_p90_s']} | {r['idle_infer_ms']['p90']} → "
+            o, idle, load = r.options, r.idle_infer_ms, r.load_infer_ms
+            ratio = load["p90"] / idle["p90"] if load.get("n") else None
+            local = r.in_process or {}
+            loaded = load["p90"] if load.get("n") else "–"
+            lines.append(f"| {name} | {o['streams']} × {o['instructions']} | {r.answered}/{r.expected} | "
+                         f"{r.delay_p50_s} / {r.delay_p90_s} | {idle['p90']} → "
                          f"{loaded} | {'–' if ratio is None else f'{ratio:.1f}×'} | "
-                         f"{local.get('p50_s', '–')} | {r['machine'].get('load_avg_before', ['?'])[0]} |")
-        return "\n" + "\n".join(lines) + f"\n\n{_stamp([r for _, r in runs])}. Regenerated from " \
+                         f"{local.get('p50_s', '–')} | {(r.machine.load_avg or ('?',))[0]} |")
+        return "\n" + "\n".join(lines) + f"\n\n{_stamp([r.machine for _, r in runs])}. Regenerated from " \
             "`results/service/robots-*.json` by `make pages`.\n"
     if kind == "hostile":
-        if "hostile" not in service:
+        h = service.hostile
+        if h is None:
             raise DatasetError("gen:service hostile: no results/service/hostile.json; write it with "
                                "siftom bench hostile --out")
-        r = service["hostile"]
         lines = ["| input | status | answered in (s) | slowest /healthz meanwhile (ms) | says |", "|---|---|---|---|---|"]
-        lines += [f"| {x['input']} | {x['status']} | {x['seconds']} | {x['healthz_max_ms']} | "
-                  f"{x['detail'][:70].replace('|', '/')}… |" for x in r["rows"]]
-        return "\n" + "\n".join(lines) + f"\n\n{_stamp([r])}. Regenerated from `results/service/hostile.json` " \
+        lines += [f"| {x.input} | {x.status} | {x.seconds} | {x.healthz_max_ms} | "
+                  f"{x.detail[:70].replace('|', '/')}… |" for x in h.rows]
+        return "\n" + "\n".join(lines) + f"\n\n{_stamp([h.machine])}. Regenerated from `results/service/hostile.json` " \
             "by `make pages`.\n"
     raise DatasetError(f"gen:service {kind}: use robots or hostile")
 
 
-def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list[dict[str, Any]]] | None = None,
-           service: dict[str, dict[str, Any]] | None = None) -> str:
+def render(spec: str, results: Mapping[str, SetResult], trials: Mapping[str, TrialBatch] | None = None,
+           service: ServiceResults | None = None) -> str:
     """What a block with ``spec`` holds."""
     args = shlex.split(spec)
     if not args:
@@ -171,19 +199,19 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
         raise DatasetError(f"gen:{kind} needs a set name")
     name = rest[0]
     if kind == "service":
-        return _service_block(name, service or {})
+        return _service_block(name, service or ServiceResults())
     if kind == "trials":
         if not trials or name not in trials:
             raise DatasetError(f"gen:{spec}: no results/trials/{name}.jsonl (have: "
                                f"{', '.join(sorted(trials or {})) or 'none'}); write it with siftom bench trials --out")
-        return _trials_block(trials[name], name)
+        return _trials_block(trials[name])
     if name not in results:
         raise DatasetError(f"gen:{spec}: no results/{name}.json (have: {', '.join(sorted(results)) or 'none'})")
     r = results[name]
     pos, kw = _opts(rest[1:])
     models = kw["models"].split(",") if "models" in kw else model_order(r)
     if kind == "table":
-        sub = dict(r, summary=dict(r["summary"], models={m: r["summary"]["models"][m] for m in models}))
+        sub = dataclasses.replace(r, summary={**r.summary, "models": {m: r.summary["models"][m] for m in models}})
         return "\n" + set_table(sub) + "\n"
     if kind == "snr":
         return "\n" + _snr_table(r, models, wer="wer" in pos) + "\n"
@@ -194,11 +222,10 @@ def render(spec: str, results: dict[str, dict[str, Any]], trials: dict[str, list
     raise DatasetError(f"bad gen: block {spec!r} (see siftom.bench.blocks)")
 
 
-def fill_page(text: str, results: Sequence[dict[str, Any]],
-              trials: dict[str, list[dict[str, Any]]] | None = None,
-              service: dict[str, dict[str, Any]] | None = None) -> str:
+def fill_page(text: str, results: Sequence[SetResult], trials: Mapping[str, TrialBatch] | None = None,
+              service: ServiceResults | None = None) -> str:
     """``text`` with every generated block rewritten."""
-    by_set = {r["set"]: r for r in results}
+    by_set = {r.set: r for r in results}
     return BLOCK.sub(lambda m: f"<!-- gen:{m['spec']} -->{render(m['spec'], by_set, trials, service)}<!-- /gen -->",
                      text)
 

@@ -43,13 +43,13 @@ from siftom.bench.results_io import (
     RESULTS,
     TIMINGS,
     AtomicAppender,
+    Provenance,
     check_unique,
     load_results,
     provenance,
     provenance_mismatch,
     read_jsonl,
     rewrite,
-    split_timings,
 )
 from siftom.bench.runlock import RunLock, stop_on_signals
 from siftom.bench.trials import (
@@ -145,16 +145,16 @@ def _old_run(run_path: Path) -> dict[str, Any]:
     return old
 
 
-def _done_rows(root: Path, ds: Dataset, prov: dict[str, Any]) -> dict[str, dict[str, Any]]:
+def _done_rows(root: Path, ds: Dataset, prov: Provenance) -> dict[str, dict[str, Any]]:
     """The rows already in ``results.jsonl`` of stimuli of the dataset, by id.
 
     Raises:
         DatasetError: a row was made by another run (other options, data or code).
     """
     old_rows = _read_jsonl(root / RESULTS, repair=True)
-    check_unique(old_rows, root / RESULTS)
+    check_unique((r.get("id") for r in old_rows), root / RESULTS)
     for n, r in enumerate(old_rows, 1):  # every row says how it was made: another run's rows are refused
-        differs = provenance_mismatch(r.get("provenance"), prov)
+        differs = provenance_mismatch(Provenance.from_json(r.get("provenance")), prov)
         if differs:
             raise DatasetError(
                 f"{root} holds results of another run ({root / RESULTS}:{n} differs in {'; '.join(differs)}); "
@@ -168,11 +168,11 @@ def _done_rows(root: Path, ds: Dataset, prov: dict[str, Any]) -> dict[str, dict[
 class _Sink:
     """The run's appenders: each finished stimulus's caches, timing and row, written at once."""
 
-    def __init__(self, root: Path, prov: dict[str, Any], done: dict[str, dict[str, Any]], total: int,
+    def __init__(self, root: Path, prov: Provenance, done: dict[str, dict[str, Any]], total: int,
                  progress: Callable[[int, int], None] | None) -> None:
         self.res_f, self.tr_f, self.team_f, self.tim_f = (
             AtomicAppender(root / n) for n in (RESULTS, TRANSCRIPTS, TEAM_CACHE, TIMINGS))
-        self.prov = prov
+        self.prov = prov.to_json()
         self.done = done
         self.n_done = len(done)
         self.total = total
@@ -183,7 +183,7 @@ class _Sink:
             self.tr_f.write(done.transcript)
         for t in done.team:
             self.team_f.write(t)
-        row, timing = split_timings(done.row)
+        row, timing = _split_timings(done.row)
         row["provenance"] = self.prov
         self.tim_f.write(timing)
         self.res_f.write(row)  # last: a stimulus counts as done once its caches are saved
@@ -195,6 +195,16 @@ class _Sink:
     def close(self) -> None:
         for f in (self.res_f, self.tr_f, self.team_f, self.tim_f):
             f.close()
+
+
+def _split_timings(row: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(row without timing fields, timing record) for a row of the evaluator."""
+    models = {m: {k: v for k, v in r.items() if k != "seconds"} for m, r in row.get("models", {}).items()}
+    tr = {k: v for k, v in row.get("transcript", {}).items() if k != "rtf"}
+    clean = {**row, "models": models, **({"transcript": tr} if "transcript" in row else {})}
+    timing = {"id": row["id"], "rtf": row.get("transcript", {}).get("rtf"),
+              "seconds": {m: r.get("seconds") for m, r in row.get("models", {}).items()}}
+    return clean, timing
 
 
 def _run_tasks(be: Any, tasks: list[_Task], vocab: tuple[str, ...], sink: _Sink) -> None:
@@ -225,7 +235,7 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
               progress: Callable[[int, int], None] | None) -> EvalRun:
     run_info: dict[str, Any] = {"dataset": str(ds.root.resolve()), "dataset_fingerprint": ds.fingerprint,
                 "options": opts.to_json(), "seed": opts.seed}
-    prov = provenance(opts.to_json(), ds.fingerprint)
+    prov = provenance(opts, ds.fingerprint)
     run_path = root / RUN
     old = _old_run(run_path)
     if overwrite:
@@ -242,7 +252,7 @@ def _evaluate(ds: Dataset, root: Path, opts: EvalOptions, be: Any, overwrite: bo
     history = [] if overwrite else list(old.get("history", [])) if old.get("dataset_fingerprint") == ds.fingerprint else []
     started = time.strftime("%Y-%m-%dT%H:%M:%S")
     run_info["history"] = history
-    run_info["code"] = prov["code"]
+    run_info["code"] = prov.to_json()["code"]
     _write_json(run_path, run_info)
 
     vocab = dataset_vocabulary(ds.stimuli)  # every class of every scenario in the dataset

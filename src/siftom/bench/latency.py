@@ -17,8 +17,11 @@ from __future__ import annotations
 import statistics
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from siftom.bench.machine import Machine
 
 SCENARIO = "kitchen-cereal-v0"
 CLIPS = (  # (text, voice): 1-4 s of speech
@@ -49,45 +52,75 @@ def make_clips(folder: Path, noise: str, snr: float, quick: bool = False) -> lis
     return out
 
 
-def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quick: bool = False) -> dict[str, Any]:
-    """Per likelihood: p50 seconds, ratio_p50 (and p90), chosen commands."""
-    import os
-    import platform
+@dataclass(frozen=True)
+class LikelihoodLatency:
+    """One likelihood's timings over every clip and repeat: median seconds, median and 90th
+    percentile of seconds / clip length (wall and CPU time), every run's seconds, each clip's command."""
 
+    p50_s: float
+    ratio_p50: float
+    ratio_p90: float
+    cpu_ratio_p50: float
+    seconds: tuple[float, ...]
+    commands: tuple[str | None, ...]  # None: no command chosen
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry in ``likelihoods``."""
+        return {"p50_s": self.p50_s, "ratio_p50": self.ratio_p50, "ratio_p90": self.ratio_p90,
+                "cpu_ratio_p50": self.cpu_ratio_p50, "seconds": list(self.seconds), "commands": list(self.commands)}
+
+
+@dataclass(frozen=True)
+class LatencyResult:
+    """``siftom bench latency``'s result (module doc): the clips, where it ran, each likelihood's timings."""
+
+    scenario: str
+    noise: str
+    snr_db: float
+    repeats: int
+    default: str
+    machine: Machine
+    likelihoods: dict[str, LikelihoodLatency]
+    clip_seconds: tuple[float, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``--json`` form (``results/service/latency.json``)."""
+        return {"scenario": self.scenario, "noise": self.noise, "snr_db": self.snr_db, "repeats": self.repeats,
+                "default": self.default, "machine": self.machine.to_json("latency"),
+                "likelihoods": {k: v.to_json() for k, v in self.likelihoods.items()},
+                "clip_seconds": list(self.clip_seconds)}
+
+
+def _time_likelihood(lk: str, clips: list[tuple[Path, float, str]], repeats: int) -> LikelihoodLatency:
+    """Time ``listen`` with likelihood ``lk`` on every clip, ``repeats`` times each, after one warm-up."""
     from siftom.api import listen
+
+    listen(clips[0][0], scenario=SCENARIO, likelihood=lk)  # per-home set-up, cached
+    secs, ratios, cpu_ratios = [], [], []
+    chosen: list[str | None] = []
+    for path, dur, _ in clips:
+        for _ in range(repeats):  # every run counts (the median of all of them, not the fastest)
+            t0, c0 = time.perf_counter(), time.process_time()
+            heard = listen(path, scenario=SCENARIO, likelihood=lk)
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            secs.append(wall)
+            ratios.append(wall / dur)
+            cpu_ratios.append(cpu / dur)
+        chosen.append(heard.command)
+    q = statistics.quantiles(ratios, n=10) if len(ratios) > 1 else ratios * 9
+    return LikelihoodLatency(round(statistics.median(secs), 4), round(statistics.median(ratios), 4),
+                             round(q[-1], 4), round(statistics.median(cpu_ratios), 4),
+                             tuple(round(s, 4) for s in secs), tuple(chosen))
+
+
+def run_latency(noise: str = "babble", snr: float = 10.0, repeats: int = 3, quick: bool = False) -> LatencyResult:
+    """Per likelihood: p50 seconds, ratio_p50 (and p90), chosen commands."""
     from siftom.likelihood.registry import resolve_likelihood
 
-    result: dict[str, Any] = {"scenario": SCENARIO, "noise": noise, "snr_db": snr, "repeats": repeats,
-                              "default": resolve_likelihood(None, has_audio=True)[0],
-                              "machine": {"cpus": os.cpu_count(), "processor": _cpu_name() or platform.machine(),
-                                          "load_1min": round(os.getloadavg()[0], 2)},
-                              "likelihoods": {}}
+    default = resolve_likelihood(None, has_audio=True)[0]
+    where = Machine.here()
     with tempfile.TemporaryDirectory(prefix="siftom-latency-") as tmp:
         clips = make_clips(Path(tmp), noise, snr, quick)
-        result["clip_seconds"] = [round(d, 2) for _, d, _ in clips]
-        for lk in LIKELIHOODS:
-            listen(clips[0][0], scenario=SCENARIO, likelihood=lk)  # per-home set-up, cached
-            secs, ratios, cpu_ratios, chosen = [], [], [], []
-            for path, dur, _ in clips:
-                for _ in range(repeats):  # every run counts (the median of all of them, not the fastest)
-                    t0, c0 = time.perf_counter(), time.process_time()
-                    heard = listen(path, scenario=SCENARIO, likelihood=lk)
-                    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-                    secs.append(wall)
-                    ratios.append(wall / dur)
-                    cpu_ratios.append(cpu / dur)
-                chosen.append(heard.command)
-            q = statistics.quantiles(ratios, n=10) if len(ratios) > 1 else ratios * 9
-            result["likelihoods"][lk] = {
-                "p50_s": round(statistics.median(secs), 4), "ratio_p50": round(statistics.median(ratios), 4),
-                "ratio_p90": round(q[-1], 4), "cpu_ratio_p50": round(statistics.median(cpu_ratios), 4),
-                "seconds": [round(s, 4) for s in secs], "commands": chosen}
-    return result
-
-
-def _cpu_name() -> str:
-    try:
-        text = Path("/proc/cpuinfo").read_text(encoding="utf-8")
-    except OSError:
-        return ""
-    return next((ln.split(":", 1)[1].strip() for ln in text.splitlines() if ln.startswith("model name")), "")
+        timed = {lk: _time_likelihood(lk, clips, repeats) for lk in LIKELIHOODS}
+    return LatencyResult(SCENARIO, noise, snr, repeats, default, where, timed,
+                         tuple(round(d, 2) for _, d, _ in clips))

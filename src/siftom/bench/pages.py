@@ -11,9 +11,12 @@ import json
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from siftom.errors import DatasetError
+
+if TYPE_CHECKING:
+    from siftom.bench.reproduce import SetData, SetResult
 
 REPRODUCE = "siftom bench reproduce --plan results/plan.toml --out results/"
 PAGES = "siftom bench pages --results results/ --docs docs/results --readme README.md"
@@ -21,8 +24,10 @@ START, END = "<!-- results:start -->", "<!-- results:end -->"
 README_MODELS = ("literal-asr", "speech-only", "action-only", "siftom", "siftom-acoustic", "siftom-oracle-text")
 
 
-def load_results(folder: str | Path) -> list[dict[str, Any]]:
+def load_results(folder: str | Path) -> list[SetResult]:
     """The stamped result files of ``folder`` (``*.json`` with a ``summary``), sorted by set name."""
+    from siftom.bench.reproduce import SetResult
+
     root = Path(folder)
     if not root.is_dir():
         raise DatasetError(f"results folder {str(root)!r} does not exist; run: {REPRODUCE}")
@@ -30,7 +35,7 @@ def load_results(folder: str | Path) -> list[dict[str, Any]]:
     for p in sorted(root.glob("*.json")):
         data = json.loads(p.read_text(encoding="utf-8"))
         if isinstance(data, dict) and "summary" in data and "set" in data:
-            out.append(data)
+            out.append(SetResult.from_json(data))
     return out
 
 
@@ -48,28 +53,28 @@ def _sp(x: float | None) -> str:
     return "–" if x is None else f"{x:+.3f}"
 
 
-def versions(results: Sequence[dict[str, Any]]) -> list[str]:
+def versions(results: Sequence[SetResult]) -> list[str]:
     """The siftom versions the results were made with."""
-    return sorted({str(r.get("siftom", "?")) for r in results})
+    return sorted({r.siftom for r in results})
 
 
-def model_order(result: dict[str, Any]) -> list[str]:
+def model_order(result: SetResult) -> list[str]:
     """The set's models in the plan's order (the ``--models`` of its eval command), then any others."""
     planned: list[str] = []
-    for cmd in result.get("commands", []):
+    for cmd in result.commands:
         m = re.search(r"--models (\S+)", cmd)
         if m:
             planned = m.group(1).split(",")
-    have = result["summary"]["models"]
+    have = result.summary["models"]
     return [m for m in planned if m in have] + sorted(m for m in have if m not in planned)
 
 
-def set_table(result: dict[str, Any]) -> str:
+def set_table(result: SetResult) -> str:
     """One set's table: a row per model, in the plan's order."""
     lines = ["| model | accuracy [95 % CI] | speedup [95 % CI] | negative speedup | helpful errors | n |",
              "|---|---|---|---|---|---|"]
     for m in model_order(result):
-        s = result["summary"]["models"][m]
+        s = result.summary["models"][m]
         sci = s.get("speedup_ci") or [None, None]
         spci = "" if sci[0] is None else f" [{sci[0]:+.3f}, {sci[1]:+.3f}]"
         lines.append(f"| {m} | {_pct(s['accuracy'])}{_ci(s.get('accuracy_ci'))} | {_sp(s['speedup'])}{spci} "
@@ -77,10 +82,10 @@ def set_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def voice_table(result: dict[str, Any]) -> str:
+def voice_table(result: SetResult) -> str:
     """Accuracy per voice (rows) and model (columns, in the plan's order), with the recogniser's
     word error rate per voice; "" when the summary has no per-voice breakdown."""
-    summary = result["summary"]
+    summary = result.summary
     by_voice: dict[str, dict[str, Any]] = summary.get("breakdowns", {}).get("voice") or {}
     if not by_voice:
         return ""
@@ -94,41 +99,41 @@ def voice_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _summary_table(results: Sequence[dict[str, Any]], models: Sequence[str] = README_MODELS) -> str:
+def _summary_table(results: Sequence[SetResult], models: Sequence[str] = README_MODELS) -> str:
     """Accuracy per set (rows) and model (columns): the README's table."""
-    present = [m for m in models if any(m in r["summary"]["models"] for r in results)]
+    present = [m for m in models if any(m in r.summary["models"] for r in results)]
     lines = ["| set | stimuli | " + " | ".join(present) + " |", "|---|---|" + "---|" * len(present)]
     for r in results:
-        ms = r["summary"]["models"]
+        ms = r.summary["models"]
         cells = [_pct(ms[m]["accuracy"]) if m in ms else "" for m in present]
-        lines.append(f"| {r['title']} | {r['dataset']['stimuli']} | " + " | ".join(cells) + " |")
+        lines.append(f"| {r.title} | {r.dataset.stimuli} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
-def _stamp(results: Sequence[dict[str, Any]]) -> str:
-    machines = sorted({f"{r['machine'].get('cpu_count')} CPUs, {r['machine'].get('platform')}" for r in results})
+def _stamp(results: Sequence[SetResult]) -> str:
+    machines = sorted({f"{r.machine.cpus} CPUs, {r.machine.platform}" for r in results})
     return (f"siftom {', '.join(versions(results))}; measured on {'; '.join(machines)}. "
             f"Regenerate: `{REPRODUCE}` (runs everything), then `{PAGES}` (pages only).")
 
 
-def _worlds(ds: dict[str, Any]) -> str:
+def _worlds(ds: SetData) -> str:
     """``, world seed W`` for a set of generated worlds (``--world-seed``); '' for the registered scenarios."""
-    return "" if ds.get("world_seed") is None else f", world seed {ds['world_seed']} (generated worlds, none tuned on)"
+    return "" if ds.world_seed is None else f", world seed {ds.world_seed} (generated worlds, none tuned on)"
 
 
-def _set_page(result: dict[str, Any]) -> str:
+def _set_page(result: SetResult) -> str:
     """The Markdown page of one set."""
-    ds = result["dataset"]
-    cmds = "\n".join(result["commands"])
-    return (f"# {result['title']}\n\n"
-            f"siftom {result['siftom']} (source `{result.get('source_sha1', '?')}`); dataset `{ds['domain']}`, seed {ds['seed']}{_worlds(ds)}, {ds['stimuli']} stimuli, "
-            f"fingerprint `{ds['fingerprint']}`; machine: {result['machine'].get('cpu_count')} CPUs, "
-            f"{result['machine'].get('platform')}, Python {result['machine'].get('python')}.\n\n"
-            f"Generated by `{PAGES}` from `results/{result['set']}.json`, made by `{REPRODUCE}`:\n\n"
+    ds, m = result.dataset, result.machine
+    cmds = "\n".join(result.commands)
+    return (f"# {result.title}\n\n"
+            f"siftom {result.siftom} (source `{result.source_sha1}`); dataset `{ds.domain}`, seed {ds.seed}{_worlds(ds)}, {ds.stimuli} stimuli, "
+            f"fingerprint `{ds.fingerprint}`; machine: {m.cpus} CPUs, "
+            f"{m.platform}, Python {m.python}.\n\n"
+            f"Generated by `{PAGES}` from `results/{result.set}.json`, made by `{REPRODUCE}`:\n\n"
             f"```console\n{cmds}\n```\n\n{set_table(result)}\n{_voice_section(result)}")
 
 
-def _voice_section(result: dict[str, Any]) -> str:
+def _voice_section(result: SetResult) -> str:
     table = voice_table(result)
     if not table:
         return ""
@@ -136,17 +141,17 @@ def _voice_section(result: dict[str, Any]) -> str:
             f"n: stimuli per model.\n\n{table}\n")
 
 
-def _index_page(results: Sequence[dict[str, Any]]) -> str:
+def _index_page(results: Sequence[SetResult]) -> str:
     """The results overview page."""
     if not results:
         return (f"# Results for this version\n\nNo results files yet. Run `{REPRODUCE}`, then `{PAGES}`.\n")
-    links = "\n".join(f"* [{r['title']}]({r['set']}.md)" for r in results)
+    links = "\n".join(f"* [{r.title}]({r.set}.md)" for r in results)
     return (f"# Results for this version\n\n{_stamp(results)}\n\nAccuracy (the command executed is the one "
             f"asked for), mean over every condition of the set:\n\n{_summary_table(results)}\n\n"
             f"Each set, with confidence intervals, speedup and the exact commands:\n\n{links}\n")
 
 
-def _readme_block(results: Sequence[dict[str, Any]]) -> str:
+def _readme_block(results: Sequence[SetResult]) -> str:
     """The README's results block (between the markers)."""
     if not results:
         return f"{START}\nNo results yet: run `make results`.\n{END}"
@@ -161,7 +166,7 @@ def write_pages(results_dir: str | Path, docs_dir: str | Path, readme: str | Pat
     written = [docs / "index.md"]
     written[0].write_text(_index_page(results), encoding="utf-8")
     for r in results:
-        p = docs / f"{r['set']}.md"
+        p = docs / f"{r.set}.md"
         p.write_text(_set_page(r), encoding="utf-8")
         written.append(p)
     if readme is not None:

@@ -23,16 +23,18 @@ those files into the documentation's results pages and the README's table.
 from __future__ import annotations
 
 import json
-import os
-import platform
 import time
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from siftom.bench.machine import Machine
 from siftom.errors import DatasetError
+
+if TYPE_CHECKING:
+    from siftom.bench.results_io import Provenance
 
 RESULT_FORMAT = 1
 SET_KEYS = {"name", "title", "domain", "seed", "noise_dir", "noises", "voices", "phrasings", "scenarios",
@@ -133,13 +135,76 @@ def _world_seed(value: object, i: int) -> int | None:
     return value
 
 
-def machine() -> dict[str, Any]:
-    """What the numbers were measured on."""
-    return {"cpu_count": os.cpu_count(), "platform": platform.platform(terse=True),
-            "machine": platform.machine(), "python": platform.python_version()}
+@dataclass(frozen=True)
+class SetData:
+    """The dataset a set was evaluated on: its fingerprint, stimuli, domain, seed and world seed."""
+
+    fingerprint: str
+    stimuli: int
+    domain: str
+    seed: int
+    world_seed: int | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``dataset`` entry of ``NAME.json``."""
+        return {"fingerprint": self.fingerprint, "stimuli": self.stimuli, "domain": self.domain, "seed": self.seed,
+                **({"world_seed": self.world_seed} if self.world_seed is not None else {})}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> SetData:
+        """Read :meth:`to_json`'s form."""
+        return cls(str(data["fingerprint"]), int(data["stimuli"]), str(data["domain"]), int(data["seed"]),
+                   data.get("world_seed"))
 
 
-def _run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class SetResult:
+    """One set's stamped result, ``OUT/NAME.json`` (module doc): the evaluator's summary with the
+    version and source hash that made it, its dataset, the machine, the commands and how long it took.
+
+    Attributes:
+        set: the set's name.
+        title: its title in the pages.
+        siftom: siftom's version.
+        source_sha1: the hash of siftom's source code.
+        dataset: the dataset evaluated.
+        machine: where it ran.
+        commands: the build and eval command lines.
+        seconds: (build, total) seconds.
+        summary: the evaluator's summary, as ``summary.json`` holds it (:mod:`siftom.bench.report`).
+        format: the file's format version.
+    """
+
+    set: str
+    title: str
+    siftom: str
+    source_sha1: str
+    dataset: SetData
+    machine: Machine
+    commands: tuple[str, ...]
+    seconds: tuple[float, float]
+    summary: dict[str, Any]
+    format: int = RESULT_FORMAT
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``NAME.json`` form."""
+        return {"format": self.format, "set": self.set, "title": self.title, "siftom": self.siftom,
+                "source_sha1": self.source_sha1, "dataset": self.dataset.to_json(),
+                "machine": self.machine.to_json("results"), "commands": list(self.commands),
+                "seconds": {"build": self.seconds[0], "total": self.seconds[1]}, "summary": self.summary}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> SetResult:
+        """Read :meth:`to_json`'s form."""
+        secs = data.get("seconds") or {}
+        return cls(set=str(data["set"]), title=str(data["title"]), siftom=str(data["siftom"]),
+                   source_sha1=str(data.get("source_sha1", "?")), dataset=SetData.from_json(data["dataset"]),
+                   machine=Machine.from_json(data.get("machine")), commands=tuple(data.get("commands", ())),
+                   seconds=(float(secs.get("build", 0.0)), float(secs.get("total", 0.0))),
+                   summary=dict(data["summary"]), format=int(data.get("format", RESULT_FORMAT)))
+
+
+def _run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None] | None = None) -> SetResult:
     """Build and evaluate one set; return the stamped result (also written to ``out/NAME.json``)."""
     from siftom import __version__
     from siftom.bench.dataset import build_dataset
@@ -163,29 +228,25 @@ def _run_set(s: EvalSet, out: Path, backend: Any, progress: Callable[[str], None
         ds = build_dataset(opts, ds_dir, backend=backend)
     t_build = time.perf_counter() - t0
     eval_opts = EvalOptions(models=s.models, engine=s.engine)
-    stale = _stale(res_dir, provenance(eval_opts.to_json(), ds.fingerprint))
+    stale = _stale(res_dir, provenance(eval_opts, ds.fingerprint))
     if stale:
         say(f"{s.name}: earlier results differ in {stale}; evaluating again from scratch")
     say(f"{s.name}: evaluating {len(ds.stimuli)} stimuli")
     evaluate(ds, res_dir, eval_opts, backend=backend, overwrite=bool(stale))
     summary = write_report(res_dir, figures=False)
-    result = {
-        "format": RESULT_FORMAT,
-        "set": s.name, "title": s.title, "siftom": __version__, "source_sha1": code_version()["source_sha1"],
-        "dataset": {"fingerprint": ds.fingerprint, "stimuli": len(ds.stimuli), "domain": s.domain, "seed": s.seed,
-                    **({"world_seed": s.world_seed} if s.world_seed is not None else {})},
-        "machine": machine(),
-        "commands": [s.build_command("DATASET"), s.eval_command("DATASET", "RESULTS")],
-        "seconds": {"build": round(t_build, 1), "total": round(time.perf_counter() - t0, 1)},
-        "summary": summary,
-    }
-    (out / f"{s.name}.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    result = SetResult(
+        set=s.name, title=s.title, siftom=__version__, source_sha1=code_version()["source_sha1"],
+        dataset=SetData(ds.fingerprint, len(ds.stimuli), s.domain, s.seed, s.world_seed),
+        machine=Machine.here(), commands=(s.build_command("DATASET"), s.eval_command("DATASET", "RESULTS")),
+        seconds=(round(t_build, 1), round(time.perf_counter() - t0, 1)), summary=summary)
+    (out / f"{s.name}.json").write_text(json.dumps(result.to_json(), indent=1, sort_keys=True) + "\n",
+                                        encoding="utf-8")
     return result
 
 
-def _stale(res_dir: Path, prov: dict[str, Any]) -> str:
+def _stale(res_dir: Path, prov: Provenance) -> str:
     """What differs between the rows already in ``res_dir`` and this run ('' when none or the same)."""
-    from siftom.bench.results_io import provenance_mismatch
+    from siftom.bench.results_io import Provenance, provenance_mismatch
 
     path = res_dir / "results.jsonl"
     if not path.is_file():
@@ -195,12 +256,12 @@ def _stale(res_dir: Path, prov: dict[str, Any]) -> str:
             row = json.loads(line)
         except json.JSONDecodeError:
             continue
-        return "; ".join(provenance_mismatch(row.get("provenance"), prov))
+        return "; ".join(provenance_mismatch(Provenance.from_json(row.get("provenance")), prov))
     return ""
 
 
 def reproduce(plan: Plan, out: str | Path, backend: Any, only: tuple[str, ...] = (),
-              progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+              progress: Callable[[str], None] | None = None) -> list[SetResult]:
     """Run every set of ``plan`` (or those named in ``only``) into ``out``."""
     root = Path(out)
     root.mkdir(parents=True, exist_ok=True)

@@ -17,16 +17,20 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from siftom.errors import DatasetError
 from siftom.jsonlines import (
     read_jsonl as read_jsonl,  # re-exported: the result files are JSON lines
 )
 from siftom.jsonlines import rewrite as rewrite
+
+if TYPE_CHECKING:
+    from siftom.bench.models import EvalOptions
 
 TIMINGS = "timings.jsonl"
 RESULTS = "results.jsonl"
@@ -45,37 +49,52 @@ def code_version() -> dict[str, str]:
     return {"siftom": str(getattr(siftom, "__version__", "?")), "source_sha1": h.hexdigest()[:16]}
 
 
-def provenance(options: dict[str, Any], dataset_fingerprint: str) -> dict[str, Any]:
-    """The record stored in every results row."""
-    return {"code": code_version(), "options": options, "dataset": dataset_fingerprint}
+@dataclass(frozen=True)
+class Provenance:
+    """How a results row was made: siftom's version and source hash, the evaluation options (their
+    JSON form, :meth:`EvalOptions.to_json`) and the dataset's fingerprint; None where an older row
+    does not say."""
+
+    siftom: str | None
+    source_sha1: str | None
+    options: dict[str, Any]
+    dataset: str | None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``provenance`` entry of every results row."""
+        return {"code": {"siftom": self.siftom, "source_sha1": self.source_sha1}, "options": self.options,
+                "dataset": self.dataset}
+
+    @classmethod
+    def from_json(cls, data: object) -> Provenance | None:
+        """Read a row's ``provenance`` (None when it is not a JSON object: a row of an older siftom)."""
+        if not isinstance(data, dict):
+            return None
+        code = data.get("code", {})
+        return cls(code.get("siftom"), code.get("source_sha1"), dict(data.get("options", {})), data.get("dataset"))
 
 
-def provenance_mismatch(old: dict[str, Any] | None, new: dict[str, Any]) -> list[str]:
+def provenance(options: EvalOptions, dataset_fingerprint: str) -> Provenance:
+    """This code's provenance for rows evaluated with ``options`` on the dataset of that fingerprint."""
+    code = code_version()
+    return Provenance(code["siftom"], code["source_sha1"], options.to_json(), dataset_fingerprint)
+
+
+def provenance_mismatch(old: Provenance | None, new: Provenance) -> list[str]:
     """What differs between a row's provenance and this run's, in words (empty: the same)."""
-    if not isinstance(old, dict):
+    if old is None:
         return ["the rows record no provenance (made by an older siftom)"]
     out = []
-    if old.get("dataset") != new["dataset"]:
+    if old.dataset != new.dataset:
         out.append("the dataset")
-    oo, no = old.get("options", {}), new["options"]
+    oo, no = old.options, new.options
     for k in sorted(set(oo) | set(no)):
         if oo.get(k) != no.get(k):
             out.append(f"option {k} ({oo.get(k)!r} then, {no.get(k)!r} now)")
-    oc, nc = old.get("code", {}), new["code"]
-    if oc != nc:
-        out.append(f"the code (siftom {oc.get('siftom')} source {oc.get('source_sha1')} then, "
-                   f"{nc['siftom']} source {nc['source_sha1']} now)")
+    if (old.siftom, old.source_sha1) != (new.siftom, new.source_sha1):
+        out.append(f"the code (siftom {old.siftom} source {old.source_sha1} then, "
+                   f"{new.siftom} source {new.source_sha1} now)")
     return out
-
-
-def split_timings(row: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(row without timing fields, timing record) for a row of the evaluator."""
-    models = {m: {k: v for k, v in r.items() if k != "seconds"} for m, r in row.get("models", {}).items()}
-    tr = {k: v for k, v in row.get("transcript", {}).items() if k != "rtf"}
-    clean = {**row, "models": models, **({"transcript": tr} if "transcript" in row else {})}
-    timing = {"id": row["id"], "rtf": row.get("transcript", {}).get("rtf"),
-              "seconds": {m: r.get("seconds") for m, r in row.get("models", {}).items()}}
-    return clean, timing
 
 
 class AtomicAppender:
@@ -98,11 +117,10 @@ class AtomicAppender:
             self.fd = -1
 
 
-def check_unique(rows: Sequence[dict[str, Any]], where: str | Path) -> None:
-    """Raise DatasetError naming the first stimulus id that appears twice."""
+def check_unique(ids: Iterable[object], where: str | Path) -> None:
+    """Raise DatasetError naming the first stimulus id that appears twice (``ids``: each row's, in order)."""
     seen: dict[str, int] = {}
-    for n, r in enumerate(rows, 1):
-        i = r.get("id")
+    for n, i in enumerate(ids, 1):
         if i in seen:
             raise DatasetError(
                 f"{where}: stimulus {i!r} appears twice (lines {seen[i]} and {n}), so two runs wrote "
@@ -121,5 +139,5 @@ def load_results(out: str | Path) -> list[dict[str, Any]]:
     for n, r in enumerate(rows, 1):
         if not isinstance(r, dict) or "id" not in r or not isinstance(r.get("models"), dict):
             raise DatasetError(f"{p}:{n}: a results row needs 'id' and 'models'; the file is not from siftom eval")
-    check_unique(rows, p)
+    check_unique((r.get("id") for r in rows), p)
     return rows

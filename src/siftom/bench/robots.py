@@ -23,7 +23,6 @@ import asyncio
 import contextlib
 import json
 import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -34,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from siftom.bench.machine import Machine
 from siftom.errors import OptionsError, SiftomError
 
 if TYPE_CHECKING:
@@ -98,7 +98,7 @@ class ServeBenchResult:
     """Per stream and overall: decisions, delays, HTTP percentiles, machine and load."""
 
     options: dict[str, Any]
-    machine: dict[str, Any]
+    machine: Machine
     idle_infer_ms: dict[str, float]
     load_infer_ms: dict[str, float]
     infer_errors: int
@@ -113,7 +113,20 @@ class ServeBenchResult:
     in_process: dict[str, Any] | None = None  # the same recording through an in-process listener
 
     def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+        """The ``results/service/robots-*.json`` form."""
+        return asdict(self) | {"machine": self.machine.to_json()}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> ServeBenchResult:
+        """Read a ``results/service/robots-*.json`` file's content."""
+        return cls(options=dict(data["options"]), machine=Machine.from_json(data.get("machine")),
+                   idle_infer_ms=dict(data["idle_infer_ms"]), load_infer_ms=dict(data["load_infer_ms"]),
+                   infer_errors=int(data.get("infer_errors", 0)), streams=list(data.get("streams", [])),
+                   expected=int(data["expected"]), answered=int(data["answered"]),
+                   delay_p50_s=data.get("delay_p50_s"), delay_p90_s=data.get("delay_p90_s"),
+                   load_avg_after=tuple(data.get("load_avg_after") or (0.0, 0.0, 0.0)),
+                   client_cpu_s=float(data.get("client_cpu_s", 0.0)), wall_s=float(data.get("wall_s", 0.0)),
+                   in_process=data.get("in_process"))
 
     def meets(self) -> bool:
         """Every instruction answered, delay p90 <= 1 s, ``/v1/infer`` p90 <= 3x idle."""
@@ -129,18 +142,8 @@ def _pcts(ms: list[float]) -> dict[str, float]:
             "max": round(float(a.max()), 1)}
 
 
-def machine() -> dict[str, Any]:
-    """Where the benchmark ran: CPUs, processor, Python and the load before it started."""
-    from siftom import __version__
-    from siftom.bench.latency import _cpu_name
-
-    return {"version": __version__, "cpus": os.cpu_count(), "processor": _cpu_name() or platform.machine(),
-            "system": platform.platform(terse=True), "python": platform.python_version(),
-            "load_avg_before": tuple(round(x, 2) for x in os.getloadavg())}
-
-
 @contextlib.contextmanager
-def _server(token: str | None) -> Any:
+def local_server(token: str | None) -> Any:
     """``siftom serve`` on a free loopback port; yields its URL once ``/healthz`` answers."""
     import socket
 
@@ -291,10 +294,10 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
 def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
     """Run the benchmark (module doc)."""
     opts = opts or ServeBenchOptions()
-    where = machine()
+    where = Machine.here()
     t0, c0 = time.perf_counter(), time.process_time()
     with contextlib.ExitStack() as stack:
-        url = opts.url or stack.enter_context(_server(opts.token))
+        url = opts.url or stack.enter_context(local_server(opts.token))
         idle, load, errors, outcomes, (audio0, truths0) = asyncio.run(_run(opts, url))
     local = None
     if opts.in_process:
@@ -315,70 +318,3 @@ def run_serve_bench(opts: ServeBenchOptions | None = None) -> ServeBenchResult:
         delay_p90_s=round(float(np.percentile(delays, 90)), 3) if delays else None,
         load_avg_after=tuple(round(x, 2) for x in os.getloadavg()),  # type: ignore[arg-type]
         client_cpu_s=round(time.process_time() - c0, 2), wall_s=round(time.perf_counter() - t0, 1), in_process=local)
-
-
-# ----- hostile inputs ---------------------------------------------------------------------------
-_PNG = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg=="
-
-
-def _hostile_world(n_places: int = 3, cls: str = "tomato") -> dict[str, Any]:
-    """A world JSON with ``n_places`` places and one object of class ``cls``."""
-    places = [{"name": f"p{i}", "kind": "surface", "room": f"r{i % 7}", "pos": [i % 50, i // 50]}
-              for i in range(n_places)]
-    return {"places": places, "items": [{"name": "o0", "class": cls, "at": "p0"}], "target": "p0",
-            "goals": [{"name": "g", "counts": {cls: 1}}]}
-
-
-def _hostile_requests() -> list[tuple[str, str, dict[str, Any]]]:
-    """(name, path, JSON body) of each hostile request the service must refuse at once."""
-    return [
-        ("3,000-place world", "/v1/sessions", {"world": _hostile_world(3000)}),
-        ("1,000-place world", "/v1/sessions", {"world": _hostile_world(1000)}),
-        ("100,000-letter class names", "/v1/sessions", {"world": _hostile_world(4, "a" * 100_000)}),
-        ("6,000-node scene graph", "/v1/sessions",
-         {"world": {"nodes": [{"id": k, "class_name": "chair"} for k in range(6000)], "edges": []}}),
-        ("perceive, 1,000 places", "/v1/perceive", {"frames": [_PNG], "world": _hostile_world(1000)}),
-        ("perceive, 100,000-letter class", "/v1/perceive", {"frames": [_PNG], "world": _hostile_world(4, "b" * 100_000)}),
-    ]
-
-
-async def _hostile(url: str, headers: dict[str, str]) -> list[dict[str, Any]]:
-    import httpx
-
-    rows = []
-    async with httpx.AsyncClient(base_url=url, headers=headers, timeout=120) as client:
-        await client.post("/v1/sessions", json={"world": _hostile_world()})  # warm: the first request loads models
-        for name, path, body in _hostile_requests():
-            health: list[float] = []
-            done = asyncio.Event()
-
-            async def poll(health: list[float] = health, done: asyncio.Event = done) -> None:
-                while not done.is_set():
-                    t0 = time.perf_counter()
-                    await client.get("/healthz")
-                    health.append((time.perf_counter() - t0) * 1000)
-                    await asyncio.sleep(0.01)
-
-            poller = asyncio.create_task(poll())
-            await asyncio.sleep(0.05)
-            t0 = time.perf_counter()
-            r = await client.post(path, json=body)
-            took = time.perf_counter() - t0
-            done.set()
-            await poller
-            detail = r.json().get("detail", "") if r.headers.get("content-type", "").endswith("json") else r.text
-            rows.append({"input": name, "path": path, "status": r.status_code, "seconds": round(took, 3),
-                         "detail": str(detail)[:160], "healthz_max_ms": round(max(health), 1) if health else None,
-                         "healthz_n": len(health)})
-    return rows
-
-
-def run_hostile_bench(url: str | None = None, token: str | None = None) -> dict[str, Any]:
-    """Each hostile request once, while ``/healthz`` is polled every 10 ms: status, seconds to the
-    refusal, what it said, and the slowest ``/healthz`` meanwhile."""
-    where = machine()
-    with contextlib.ExitStack() as stack:
-        base = url or stack.enter_context(_server(token))
-        rows = asyncio.run(_hostile(base, {"Authorization": f"Bearer {token}"} if token else {}))
-    ok = all(400 <= r["status"] < 500 and r["seconds"] < 1.0 and (r["healthz_max_ms"] or 0) < 100 for r in rows)
-    return {"machine": where, "rows": rows, "meets": ok}

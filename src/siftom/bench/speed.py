@@ -10,6 +10,7 @@ import functools
 import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -23,6 +24,54 @@ NBEST_SILVER = [
     ("could you pass me the silver", -4.0), ("can you pass me the so", -4.4), ("can you pass me to silver", -4.6),
     ("can you pass me the cellar", -4.9),
 ]
+
+
+@dataclass(frozen=True)
+class InferenceBench:
+    """``siftom bench inference``: the kitchen scenario's size, the command inferred, the median
+    milliseconds of full inference, of a one-action update and of the posterior alone, and the
+    median of full inference per number of goals (``scaling``: (goals, ms))."""
+
+    scenario: str
+    num_items: int
+    num_classes: int
+    num_goals: int
+    num_actions: int
+    nbest: int
+    command: str
+    p50_ms: float
+    update_p50_ms: float
+    posterior_p50_ms: float
+    scaling: tuple[tuple[int, float], ...]
+    threads: str
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``--json`` form."""
+        return {"scenario": self.scenario, "num_items": self.num_items, "num_classes": self.num_classes,
+                "num_goals": self.num_goals, "num_actions": self.num_actions, "nbest": self.nbest,
+                "command": self.command, "p50_ms": self.p50_ms, "update_p50_ms": self.update_p50_ms,
+                "posterior_p50_ms": self.posterior_p50_ms,
+                "scaling": [{"goals": g, "p50_ms": t} for g, t in self.scaling], "threads": self.threads}
+
+
+@dataclass(frozen=True)
+class PlannerBench:
+    """``siftom bench planner``: Q* values of the kitchen scenario and the median milliseconds of
+    their table, A* nodes expanded (and per second) on household scenarios, one V*(s; g)'s time."""
+
+    scenario: str
+    num_goals: int
+    num_actions: int
+    q_values: int
+    q_table_p50_ms: float
+    v_per_second: float
+    astar_nodes_expanded: int
+    astar_nodes_per_second: float
+    single_goal_value_ms: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``--json`` form."""
+        return dict(vars(self))
 
 
 def _p50(fn: Callable[[], object], n: int) -> tuple[float, list[float]]:
@@ -51,7 +100,7 @@ def _random_goals(world: World, n: int, seed: int = 0) -> tuple[Goal, ...]:
     return tuple(out)
 
 
-def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
+def run_inference_bench(repeats: int = 30) -> InferenceBench:
     """Time full inference, incremental updates and scaling with the number of goals."""
     from siftom.inference.model import Observation
     from siftom.memo import memo
@@ -99,24 +148,24 @@ def run_inference_bench(repeats: int = 30) -> dict[str, Any]:
         model.infer(o)
         reps = max(3, min(repeats, 3000 // n))
         t, _ = _p50(functools.partial(model.infer, o), reps)
-        scaling.append({"goals": n, "p50_ms": t})
-    return {
-        "scenario": sc.id,
-        "num_items": len(sc.world.items),
-        "num_classes": len(sc.world.classes),
-        "num_goals": len(sc.goals),
-        "num_actions": len(sc.actions),
-        "nbest": len(NBEST_SILVER),
-        "command": post.command,
-        "p50_ms": p50,
-        "update_p50_ms": float(np.median(upd)),
-        "posterior_p50_ms": post_p50,
-        "scaling": scaling,
-        "threads": os.environ.get("OMP_NUM_THREADS", "default"),
-    }
+        scaling.append((n, t))
+    return InferenceBench(
+        scenario=sc.id,
+        num_items=len(sc.world.items),
+        num_classes=len(sc.world.classes),
+        num_goals=len(sc.goals),
+        num_actions=len(sc.actions),
+        nbest=len(NBEST_SILVER),
+        command=post.command,
+        p50_ms=p50,
+        update_p50_ms=float(np.median(upd)),
+        posterior_p50_ms=post_p50,
+        scaling=tuple(scaling),
+        threads=os.environ.get("OMP_NUM_THREADS", "default"),
+    )
 
 
-def run_planner_bench(repeats: int = 20) -> dict[str, Any]:
+def run_planner_bench(repeats: int = 20) -> PlannerBench:
     """A* throughput and the time of the Q* table of a kitchen scenario (all goals x steps)."""
     from siftom.planning.astar import plan_for_goal
     from siftom.planning.costtogo import CostToGo, SparseGoals, goal_matrix, successor_values
@@ -152,14 +201,14 @@ def run_planner_bench(repeats: int = 20) -> dict[str, Any]:
         expanded += res.nodes_expanded
         secs += res.seconds
     ctg = CostToGo(sc.world, sc.target, int(N.max()))
-    return {
-        "scenario": sc.id,
-        "num_goals": len(sc.goals),
-        "num_actions": len(sc.actions),
-        "q_values": n_q,
-        "q_table_p50_ms": q_p50,
-        "v_per_second": n_q / (q_p50 / 1000.0),
-        "astar_nodes_expanded": expanded,
-        "astar_nodes_per_second": expanded / secs if secs else 0.0,
-        "single_goal_value_ms": _p50(lambda: ctg.value(sc.now, sc.goal), repeats)[0],
-    }
+    return PlannerBench(
+        scenario=sc.id,
+        num_goals=len(sc.goals),
+        num_actions=len(sc.actions),
+        q_values=n_q,
+        q_table_p50_ms=q_p50,
+        v_per_second=n_q / (q_p50 / 1000.0),
+        astar_nodes_expanded=expanded,
+        astar_nodes_per_second=expanded / secs if secs else 0.0,
+        single_goal_value_ms=_p50(lambda: ctg.value(sc.now, sc.goal), repeats)[0],
+    )

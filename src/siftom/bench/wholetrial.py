@@ -105,10 +105,10 @@ def run_trials(domain: str, seeds: Sequence[int], rules: Sequence[str], observer
     """One row per (scenario, channel, person policy, seed, rule) over the domain's registered
     scenarios; ``ask_for``: one person policy or several (agents/trial.py, ``ASK_FOR``)."""
     from siftom import __version__
-    from siftom.bench.reproduce import machine
+    from siftom.bench.machine import Machine
     from siftom.scenarios.base import get_domain, get_scenario
 
-    stamp = {"version": __version__, "machine": machine()}
+    stamp = {"version": __version__, "machine": Machine.here().to_json("results")}
     policies = [ask_for] if isinstance(ask_for, str) else list(ask_for)
     for a in policies:
         if a not in ASK_FOR:

@@ -20,15 +20,15 @@ def bench_inference_cmd(as_json: bool, repeats: int) -> None:
     """Inference speed: full p50, incremental update p50, scaling with goals (kitchen-v0)."""
     res = run_inference_bench(repeats)
     if as_json:
-        click.echo(json.dumps(res, indent=2))
+        click.echo(json.dumps(res.to_json(), indent=2))
         return
-    click.echo(f"{res['scenario']}: {res['num_items']} objects, {res['num_goals']} goals, "
-               f"{res['num_actions']} actions, {res['nbest']}-best -> {res['command']}")
-    click.echo(f"  full inference p50      {res['p50_ms']:.2f} ms")
-    click.echo(f"  one-action update p50   {res['update_p50_ms']:.2f} ms")
-    click.echo(f"  posterior only p50      {res['posterior_p50_ms']:.2f} ms")
-    for row in res["scaling"]:
-        click.echo(f"  {row['goals']:>6} goals            {row['p50_ms']:.2f} ms")
+    click.echo(f"{res.scenario}: {res.num_items} objects, {res.num_goals} goals, "
+               f"{res.num_actions} actions, {res.nbest}-best -> {res.command}")
+    click.echo(f"  full inference p50      {res.p50_ms:.2f} ms")
+    click.echo(f"  one-action update p50   {res.update_p50_ms:.2f} ms")
+    click.echo(f"  posterior only p50      {res.posterior_p50_ms:.2f} ms")
+    for goals, ms in res.scaling:
+        click.echo(f"  {goals:>6} goals            {ms:.2f} ms")
 
 
 @click.command("planner")
@@ -38,14 +38,14 @@ def bench_planner_cmd(as_json: bool, repeats: int) -> None:
     """Planner speed: Q* table for all goals x observed steps, A* nodes per second."""
     res = run_planner_bench(repeats)
     if as_json:
-        click.echo(json.dumps(res, indent=2))
+        click.echo(json.dumps(res.to_json(), indent=2))
         return
-    click.echo(f"{res['scenario']}: Q* for {res['num_goals']} goals x {res['num_actions']} steps x every action "
-               f"= {res['q_values']} values in {res['q_table_p50_ms']:.2f} ms (p50) "
-               f"= {res['v_per_second']:.3g} values/s")
-    click.echo(f"  A*: {res['astar_nodes_per_second']:.0f} nodes expanded per second "
-               f"({res['astar_nodes_expanded']} nodes on 6 household scenarios)")
-    click.echo(f"  one V*(s; g) with table build: {res['single_goal_value_ms']:.3f} ms")
+    click.echo(f"{res.scenario}: Q* for {res.num_goals} goals x {res.num_actions} steps x every action "
+               f"= {res.q_values} values in {res.q_table_p50_ms:.2f} ms (p50) "
+               f"= {res.v_per_second:.3g} values/s")
+    click.echo(f"  A*: {res.astar_nodes_per_second:.0f} nodes expanded per second "
+               f"({res.astar_nodes_expanded} nodes on 6 household scenarios)")
+    click.echo(f"  one V*(s; g) with table build: {res.single_goal_value_ms:.3f} ms")
 
 
 @click.command("latency")
@@ -59,14 +59,14 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
     """Time from an audio file (1-4 s) to the chosen command, per instruction likelihood."""
     res = run_latency(noise, snr, max(1, repeats), quick)
     if as_json:
-        click.echo(json.dumps(res, indent=2))
+        click.echo(json.dumps(res.to_json(), indent=2))
         return
-    m = res["machine"]
-    click.echo(f"clips: {res['clip_seconds']} s, {noise} at {snr:g} dB, {SCENARIO}; default likelihood "
-               f"{res['default']}; {m['cpus']} CPUs ({m['processor']}), load {m['load_1min']}")
-    for lk, r in res["likelihoods"].items():
-        click.echo(f"{lk:9s} p50 {r['p50_s'] * 1000:.0f} ms  ratio_p50 {r['ratio_p50']:.3f}  "
-                   f"ratio_p90 {r['ratio_p90']:.3f}  cpu_ratio_p50 {r['cpu_ratio_p50']:.3f}  commands {r['commands']}")
+    m = res.machine.to_json("latency")
+    click.echo(f"clips: {list(res.clip_seconds)} s, {noise} at {snr:g} dB, {SCENARIO}; default likelihood "
+               f"{res.default}; {m['cpus']} CPUs ({m['processor']}), load {m['load_1min']}")
+    for lk, r in res.likelihoods.items():
+        click.echo(f"{lk:9s} p50 {r.p50_s * 1000:.0f} ms  ratio_p50 {r.ratio_p50:.3f}  "
+                   f"ratio_p90 {r.ratio_p90:.3f}  cpu_ratio_p50 {r.cpu_ratio_p50:.3f}  commands {list(r.commands)}")
 
 
 @click.command("robots")
@@ -102,7 +102,7 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
         return
     m = res.machine
     click.echo(f"{streams} streams x {instructions} instructions, /v1/infer at {http_rps:g}/s; "
-               f"{m['cpus']} CPUs ({m['processor']}), load before {m['load_avg_before']}, after {res.load_avg_after}")
+               f"{m.cpus} CPUs ({m.processor}), load before {m.load_avg}, after {res.load_avg_after}")
     click.echo(f"decisions {res.answered}/{res.expected}; end of speech -> decision p50 {res.delay_p50_s} s, "
                f"p90 {res.delay_p90_s} s")
     click.echo(f"/v1/infer idle p50 {res.idle_infer_ms['p50']} ms p90 {res.idle_infer_ms['p90']} ms; under load "
@@ -126,22 +126,22 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
 def bench_hostile_cmd(url: str | None, token: str | None, out: Path | None, as_json: bool) -> None:
     """Hostile requests (huge worlds, huge names) against a server while /healthz is polled: each must
     be a 4xx naming its limit within a second, /healthz within 100 ms meanwhile."""
-    from siftom.bench.robots import run_hostile_bench
+    from siftom.bench.hostile import run_hostile_bench
 
     res = run_hostile_bench(url, token)
     if out is not None:
         from siftom.bench.speech import write_json
 
-        write_json(res, out)
+        write_json(res.to_json(), out)
     if as_json:
-        click.echo(json.dumps(res, indent=2))
+        click.echo(json.dumps(res.to_json(), indent=2))
         return
-    m = res["machine"]
-    click.echo(f"{m['cpus']} CPUs ({m['processor']}), load before {m['load_avg_before']}")
-    for r in res["rows"]:
-        click.echo(f"  {r['input']:32s} {r['status']} in {r['seconds']:.3f} s, /healthz max {r['healthz_max_ms']} ms "
-                   f"({r['healthz_n']} polls): {r['detail'][:90]}")
-    click.echo("meets (4xx within 1 s, /healthz within 100 ms): " + ("yes" if res["meets"] else "no"))
+    m = res.machine
+    click.echo(f"{m.cpus} CPUs ({m.processor}), load before {m.load_avg}")
+    for r in res.rows:
+        click.echo(f"  {r.input:32s} {r.status} in {r.seconds:.3f} s, /healthz max {r.healthz_max_ms} ms "
+                   f"({r.healthz_n} polls): {r.detail[:90]}")
+    click.echo("meets (4xx within 1 s, /healthz within 100 ms): " + ("yes" if res.meets else "no"))
 
 
 def register(root: click.Group) -> None:

@@ -29,7 +29,7 @@ def reproduce_cmd(plan_path: str, out: str, only: str | None, workers: int | Non
     with _backend(backend, workers, ray_address) as be:
         results = reproduce(plan, out, be, only=tuple(_csv(only)), progress=click.echo)
     for r in results:
-        click.echo(f"wrote {out}/{r['set']}.json ({r['dataset']['stimuli']} stimuli, {r['seconds']['total']:.0f} s)")
+        click.echo(f"wrote {out}/{r.set}.json ({r.dataset.stimuli} stimuli, {r.seconds[1]:.0f} s)")
     if docs_dir:
         for p in write_pages(out, docs_dir, readme or None):
             click.echo(f"wrote {p}")

@@ -110,7 +110,52 @@ def _hash(obj: Any) -> str:
     return hashlib.sha1(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:10]
 
 
-def load_config(path: str | Path) -> dict[str, Any]:
+@dataclasses.dataclass(frozen=True)
+class SweepConfig:
+    """A sweep TOML file, checked: the dataset and evaluation options every cell shares (their
+    TOML tables), the axes (name -> values) and the sections in the file's order."""
+
+    dataset: dict[str, Any]
+    eval: dict[str, Any]
+    axes: dict[str, list[Any]]
+    sections: tuple[str, ...] = ("dataset", "eval", "axes")
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``config`` of ``sweep.json``: the file's sections, in its order."""
+        tables: dict[str, Any] = {"dataset": self.dataset, "eval": self.eval, "axes": self.axes}
+        return {k: tables[k] for k in self.sections}
+
+
+@dataclasses.dataclass(frozen=True)
+class CellResult:
+    """One evaluated cell of ``sweep.json``: its axis values, its dataset and results folders,
+    stimuli, and each model's summary (``summary.json``'s ``models``)."""
+
+    values: dict[str, Any]
+    dataset: str
+    results: str
+    n_stimuli: int
+    models: dict[str, Any]
+
+    def to_json(self) -> dict[str, Any]:
+        """The cell's entry in ``sweep.json``."""
+        return {"values": self.values, "dataset": self.dataset, "results": self.results,
+                "n_stimuli": self.n_stimuli, "models": self.models}
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepResult:
+    """``sweep.json``: the configuration and every cell's result, in plan order."""
+
+    config: SweepConfig
+    cells: tuple[CellResult, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``sweep.json`` form."""
+        return {"config": self.config.to_json(), "cells": [c.to_json() for c in self.cells]}
+
+
+def load_config(path: str | Path) -> SweepConfig:
     """Read and check a sweep TOML file; raise DatasetError saying what to fix."""
     p = Path(path)
     if not p.is_file():
@@ -142,17 +187,17 @@ def load_config(path: str | Path) -> dict[str, Any]:
                                f"valid: {', '.join(fields)}")
         for k, v in cfg.get(section, {}).items():
             _check_type(f"{p}: [{section}] {k}", k, v)
-    return cfg
+    return SweepConfig(dict(cfg.get("dataset", {})), dict(cfg.get("eval", {})), dict(axes), tuple(cfg))
 
 
-def plan(cfg: dict[str, Any], out: str | Path) -> list[Cell]:
+def plan(cfg: SweepConfig, out: str | Path) -> list[Cell]:
     """Every cell of the cross product, in axis order (the last axis varies fastest)."""
     root = Path(out)
-    axes = [(k, _axis_field(k), v) for k, v in cfg["axes"].items()]
+    axes = [(k, _axis_field(k), v) for k, v in cfg.axes.items()]
     cells = []
     for combo in itertools.product(*(v for _, _, v in axes)):
-        b = {k: _coerce(k, v) for k, v in cfg.get("dataset", {}).items()}
-        e = {k: _coerce(k, v) for k, v in cfg.get("eval", {}).items()}
+        b = {k: _coerce(k, v) for k, v in cfg.dataset.items()}
+        e = {k: _coerce(k, v) for k, v in cfg.eval.items()}
         values = {}
         for (key, name, _), v in zip(axes, combo, strict=True):
             (b if name in BUILD_FIELDS else e)[name] = _coerce(name, v)
@@ -180,12 +225,12 @@ def _dataset(cell: Cell, backend: Any) -> Any:
 
 
 def run_sweep(config: str | Path, out: str | Path, backend: Any,
-              progress: Callable[[int, int, Cell], None] | None = None) -> dict[str, Any]:
+              progress: Callable[[int, int, Cell], None] | None = None) -> SweepResult:
     """Run (or resume) every cell on ``backend``; write the combined table and figure; return sweep.json."""
     cfg = load_config(config)
     root = Path(out)
     cells = plan(cfg, root)
-    result: dict[str, Any] = {"config": cfg, "cells": []}
+    done: list[CellResult] = []
     with RunLock(root), stop_on_signals():
         for i, cell in enumerate(cells):
             if progress:
@@ -193,11 +238,13 @@ def run_sweep(config: str | Path, out: str | Path, backend: Any,
             ds = _dataset(cell, backend)
             evaluate(ds, cell.run_dir, cell.options, backend=backend)
             summary = write_report(cell.run_dir, figures=False)
-            result["cells"].append({"values": cell.values, "dataset": cell.dataset_dir, "results": cell.run_dir,
-                                    "n_stimuli": summary["n_stimuli"], "models": summary["models"]})
+            done.append(CellResult(cell.values, cell.dataset_dir, cell.run_dir, summary["n_stimuli"],
+                                   summary["models"]))
         if progress:
             progress(len(cells), len(cells), cells[-1])
-        (root / "sweep.json").write_text(json.dumps(result, indent=2, default=list) + "\n", encoding="utf-8")
+        result = SweepResult(cfg, tuple(done))
+        (root / "sweep.json").write_text(json.dumps(result.to_json(), indent=2, default=list) + "\n",
+                                         encoding="utf-8")
         rows = table_rows(result)
         (root / "table.md").write_text(markdown_table(rows) + "\n", encoding="utf-8")
         (root / "table.csv").write_text(_csv_table(rows), encoding="utf-8")
@@ -236,12 +283,12 @@ class SweepRow:
                 "speedup_lo": self.speedup_lo, "speedup_hi": self.speedup_hi}
 
 
-def table_rows(result: dict[str, Any]) -> list[SweepRow]:
+def table_rows(result: SweepResult) -> list[SweepRow]:
     """One row per cell and model (of ``sweep.json``): the axis values, n, accuracy and speedup with their CIs."""
     rows = []
-    for c in result["cells"]:
-        for m, s in c["models"].items():
-            rows.append(SweepRow(tuple((k, _label(v)) for k, v in c["values"].items()), m, s["n"],
+    for c in result.cells:
+        for m, s in c.models.items():
+            rows.append(SweepRow(tuple((k, _label(v)) for k, v in c.values.items()), m, s["n"],
                                  s["accuracy"], s["accuracy_ci"][0], s["accuracy_ci"][1],
                                  s["speedup"], s["speedup_ci"][0], s["speedup_ci"][1]))
     return rows

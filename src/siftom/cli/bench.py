@@ -283,7 +283,7 @@ def sweep_cmd(config: str, out: str, workers: int | None, backend: str, ray_addr
     with _backend(backend, workers, ray_address) as be:
         result = run_sweep(config, out, be, progress=show)
     if as_json:
-        click.echo(json.dumps(result, indent=2, default=list))
+        click.echo(json.dumps(result.to_json(), indent=2, default=list))
         return
     click.echo(markdown_table(table_rows(result)))
     click.echo(f"\n{n} cells; wrote {out}/sweep.json, table.md, table.csv and sweep.png")

@@ -125,7 +125,7 @@ def _word_doors(text: str, config: Path, settings: Settings, server: str) -> dic
                            timeout=60).raise_for_status().json(),
         "session": httpx.post(server + f"/v1/sessions/{_session(server)}/instruction", json={"transcript": text},
                               timeout=60).raise_for_status().json(),
-        "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text),
+        "listener": HomeListener(load_home(SCENARIO), observer=Observer(settings)).answer_text(text).to_json(),
     }
 
 
@@ -227,7 +227,7 @@ def test_a_question_and_its_reply_get_one_answer_through_every_conversation_door
                                                  pending=first.pending).to_json()],
         "session": [httpx.post(server + f"/v1/sessions/{sid}/instruction", json={"transcript": t},
                                timeout=60).raise_for_status().json() for t in ("pass me the silver", reply)],
-        "listener": [home.answer_text(t) for t in ("pass me the silver", reply)],
+        "listener": [home.answer_text(t).to_json() for t in ("pass me the silver", reply)],
     }
     _same({k: v[0] for k, v in turns.items()}, None)
     _same({k: v[1] for k, v in turns.items()}, None)

@@ -20,15 +20,24 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.answer import Answer
+from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
 from siftom.assist.reply import Pending
 from siftom.errors import ObservationError
-from siftom.inference.stream import Recognised, StreamListener, recogniser
+from siftom.inference.stream import (
+    Decided,
+    NoSpeech,
+    Recognised,
+    StreamListener,
+    StreamTimings,
+    recogniser,
+)
 from siftom.observer import Observer
-from siftom.speech.segment import FrameScorer, SegmentOptions, SpeechEnded, Utterance
+from siftom.speech.segment import FrameScorer, SegmentOptions, SpeechEnded, SpeechStarted, Utterance
 
 ACTIONS = ("act", "ask", "none")
 
@@ -88,7 +97,7 @@ class HomeListener:
             self.online.observe(a)
             self.actions.append(self.world.format_action(a))
         rec = self.observer.recogniser(self.world, self.verb, engine)
-        self.listener = StreamListener(recogniser(rec.engine, nbest or st.infer.nbest, rec.lock), self._answer,
+        self.listener: StreamListener[HomeAnswer, HomeAnswer] = StreamListener(recogniser(rec.engine, nbest or st.infer.nbest, rec.lock), self._answer,
                                        options, scorer, early,
                                        version=lambda: (len(self.actions), id(self.pending)))  # answer early
 
@@ -107,26 +116,26 @@ class HomeListener:
         return texts
 
     # ----- audio -----------------------------------------------------------------------------
-    def feed(self, chunk: Any) -> list[Any]:
+    def feed(self, chunk: Any) -> list[SpeechStarted | SpeechEnded]:
         return self.listener.feed(chunk)
 
-    def finish(self) -> list[Any]:
+    def finish(self) -> list[SpeechStarted | SpeechEnded]:
         return self.listener.finish()
 
-    def respond(self, utterance: Utterance) -> dict[str, Any]:
+    def respond(self, utterance: Utterance) -> Decided[HomeAnswer] | NoSpeech:
         return self._kept(self.listener.respond(utterance))
 
-    def _kept(self, body: dict[str, Any]) -> dict[str, Any]:
+    def _kept(self, event: Decided[HomeAnswer] | NoSpeech) -> Decided[HomeAnswer] | NoSpeech:
         """Keep the question an answer leaves waiting (an answer made early, then used, included)."""
-        if "_pending" in body:
+        if isinstance(event, Decided):
             with self._lock:
-                self.pending = body.pop("_pending")
-        return body
+                self.pending = event.body.pending
+        return event
 
     def close(self) -> None:
         self.listener.close()
 
-    def answer_text(self, text: str) -> dict[str, Any]:
+    def answer_text(self, text: str) -> Decided[HomeAnswer]:
         """Answer words recognised elsewhere (e.g. a robot's own ASR) as one utterance's transcript."""
         from siftom.observation import Hypothesis, Instruction
 
@@ -134,12 +143,13 @@ class HomeListener:
             raise ObservationError("the text is empty; give the words that were heard")
         t0 = time.perf_counter()
         rec = Recognised(Instruction(nbest=(Hypothesis(text.strip(), 0.0),)), None, 0.0)
-        body = self._kept(self._answer(rec, None, text_only=True))
+        body = self._answer(rec, None, text_only=True)
         total = round(time.perf_counter() - t0, 4)
-        return {"event": "decision", "heard": text.strip(), "nbest": [{"text": text.strip(), "score": 0.0}],
-                **body, "timings": {"answer": total, "wait": total}}
+        event = Decided(None, text.strip(), ((text.strip(), 0.0),), body, StreamTimings(answer=total, wait=total))
+        self._kept(event)
+        return event
 
-    def _answer(self, rec: Recognised, utterance: Utterance | None, text_only: bool = False) -> dict[str, Any]:
+    def _answer(self, rec: Recognised, utterance: Utterance | None, text_only: bool = False) -> HomeAnswer:
         from siftom.observer import Heard
 
         likelihood = self.likelihood_arg
@@ -151,31 +161,97 @@ class HomeListener:
             ans = self.observer.answer(self.online, rec.instruction, likelihood=likelihood, decide=self.decide,
                                        top=self.top, heard=heard, mode=self.mode, pending=self.pending)
             n = len(self.actions)
-        body: dict[str, Any] = ans.to_json(top=self.top)
-        body["_pending"] = ans.pending  # kept by respond / answer_text, not sent
-        body["clarification"] = clarify(ans.commands, self.policy).to_json()
+        return HomeAnswer(ans, self.top, clarify(ans.commands, self.policy), n, round(time.perf_counter() - t0, 4))
+
+
+@dataclass(frozen=True)
+class HomeAnswer:
+    """A home's answer to one utterance: the observer's answer, the clarifying policy's view of it,
+    the number of actions it was given and how long it took (the body of a ``decision`` event)."""
+
+    answer: Answer
+    top: int
+    clarification: Clarification
+    n_actions: int
+    infer_s: float
+
+    @property
+    def pending(self) -> Pending | None:
+        """The question the answer leaves waiting (kept by the listener, not sent)."""
+        return self.answer.pending
+
+    def to_json(self) -> dict[str, Any]:
+        ans = self.answer
+        body = ans.to_json(top=self.top)
+        body["clarification"] = self.clarification.to_json()
         body["question"] = ans.decision.question if ans.action == "ask" else ""
         body["declined"] = ans.decision.declined  # what the robot says when it turns the request down
         body["prob"] = ans.prob(ans.command) if ans.command is not None else 0.0
-        body["n_actions"] = n
-        body["infer_s"] = round(time.perf_counter() - t0, 4)
+        body["n_actions"] = self.n_actions
+        body["infer_s"] = self.infer_s
         return body
 
+
+@dataclass(frozen=True)
+class ListenerError:
+    """Something that went wrong while listening (one utterance, one line or message): said, then
+    the listening goes on. At most one of ``topic``, ``line``, ``heard``, ``actions`` says what it was about."""
+
+    detail: str
+    utterance: Utterance | None = None
+    topic: str | None = None
+    line: str | None = None
+    heard: str | None = None
+    actions: tuple[str, ...] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"event": "error", **(self.utterance.to_json() if self.utterance else {})}
+        for k, v in (("topic", self.topic), ("line", self.line), ("heard", self.heard)):
+            if v is not None:
+                out[k] = v
+        if self.actions is not None:
+            out["actions"] = list(self.actions)
+        out["detail"] = self.detail
+        return out
+
+
+@dataclass(frozen=True)
+class ActionsObserved:
+    """The person's actions just observed (siftom's form) and how many there are now."""
+
+    added: tuple[str, ...]
+    n_actions: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {"event": "actions", "added": list(self.added), "n_actions": self.n_actions}
+
+
+# what a listener says: speech started and ended, answers, actions observed, errors
+ListenEvent = SpeechStarted | SpeechEnded | Decided[HomeAnswer] | NoSpeech | ListenerError | ActionsObserved
 
 COMPACT = ("event", "utterance", "start_s", "end_s", "ended_s", "reason", "heard", "nbest", "command", "prob",
            "action", "carry_out", "top_command", "question", "declined", "reply_to", "awaiting_reply", "commands",
            "goals", "n_actions", "message", "recogniser", "likelihood", "rule", "timings")
 
 
-def compact(answer: dict[str, Any], nbest: int = 3) -> dict[str, Any]:
-    """The fields of an answer worth one line of output (what was heard, command, decision, timings)."""
-    out = {k: answer[k] for k in COMPACT if k in answer}
-    if "nbest" in out:
-        out["nbest"] = out["nbest"][:nbest]
-    return out
+@dataclass(frozen=True)
+class Compact:
+    """An event as one line of output: the fields worth it (what was heard, command, decision,
+    timings), the N-best list cut to ``nbest`` (what ``siftom listen --json`` prints and the ROS
+    bridge publishes)."""
+
+    event: ListenEvent
+    nbest: int = 3
+
+    def to_json(self) -> dict[str, Any]:
+        full = self.event.to_json()
+        out = {k: full[k] for k in COMPACT if k in full}
+        if "nbest" in out:
+            out["nbest"] = out["nbest"][:self.nbest]
+        return out
 
 
-def run_listener(home: HomeListener, chunks: Iterable[Any], emit: Callable[[dict[str, Any]], None], *,
+def run_listener(home: HomeListener, chunks: Iterable[Any], emit: Callable[[ListenEvent], None], *,
                  realtime: bool = False, events: bool = False) -> int:
     """Feed ``chunks`` to ``home``; answer each utterance in a worker thread, in order, while the
     audio goes on; ``emit`` each answer (from that thread). With ``realtime`` (the chunks arrive
@@ -190,17 +266,18 @@ def run_listener(home: HomeListener, chunks: Iterable[Any], emit: Callable[[dict
         try:
             out = home.respond(utt)
         except Exception as exc:  # one utterance failed (e.g. a backend error): say so, go on
-            emit({"event": "error", **utt.to_json(), "detail": f"{type(exc).__name__}: {exc}"})
+            emit(ListenerError(f"{type(exc).__name__}: {exc}", utterance=utt))
             return
         if realtime:
-            out["timings"]["after_speech_s"] = round(utt.ended_s - utt.end_s + time.perf_counter() - declared, 4)
+            after = round(utt.ended_s - utt.end_s + time.perf_counter() - declared, 4)
+            out = replace(out, timings=replace(out.timings, after_speech_s=after))
         emit(out)
 
-    def handle(evs: list[Any]) -> None:
+    def handle(evs: list[SpeechStarted | SpeechEnded]) -> None:
         nonlocal count
         for ev in evs:
             if events:
-                emit(ev.to_json())
+                emit(ev)
             if isinstance(ev, SpeechEnded):
                 count += 1
                 pool.submit(answer, ev.utterance, time.perf_counter())

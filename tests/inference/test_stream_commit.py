@@ -12,13 +12,18 @@ from siftom.observation import Hypothesis, Instruction
 from siftom.speech.segment import Utterance
 
 
+class Body(dict):
+    def to_json(self):
+        return dict(self)
+
+
 def _listener(state: dict, stale: int):
     def recognise(samples):
         return Recognised(Instruction(nbest=(Hypothesis("pass me the cereal", 0.0),)), None, 0.0)
 
     def answer(rec, utt):
         state["prepared"] += 1
-        return {"revision": state["revision"]}
+        return Body(revision=state["revision"])
 
     def commit(body):
         if state["stale"] < stale:  # an action arrived after this answer was prepared
@@ -26,7 +31,7 @@ def _listener(state: dict, stale: int):
             state["revision"] += 1
             return None
         state["stored"].append(body)
-        return {**body, "stored": True}
+        return Body(body, stored=True)
 
     return StreamListener(recognise, answer, early=False, version=lambda: state["revision"], commit=commit)
 
@@ -37,13 +42,13 @@ def _utt():
 
 def test_a_prepared_answer_is_written_once():
     state = {"prepared": 0, "revision": 0, "stale": 0, "stored": []}
-    out = _listener(state, stale=0).respond(_utt())
+    out = _listener(state, stale=0).respond(_utt()).to_json()
     assert out["event"] == "decision" and out["stored"] and state["prepared"] == 1 and len(state["stored"]) == 1
 
 
 def test_an_answer_made_stale_by_an_action_is_prepared_again_with_the_new_state():
     state = {"prepared": 0, "revision": 0, "stale": 0, "stored": []}
-    out = _listener(state, stale=1).respond(_utt())
+    out = _listener(state, stale=1).respond(_utt()).to_json()
     assert state["prepared"] == 2 and out["revision"] == 1 and state["stored"] == [{"revision": 1}]
 
 

@@ -26,6 +26,11 @@ class Scripted:
         self.k = 0
 
 
+class Body(dict):
+    def to_json(self):
+        return dict(self)
+
+
 def _feed(listener, n):
     out = []
     for _ in range(n):
@@ -44,11 +49,11 @@ def test_early_recognition_and_answer_are_reused_while_nothing_changed():
 
     def answer(rec, utt):
         calls["ans"] += 1
-        return {"command": "fetch(milk)", "decision": "act", "seen": version[0]}
+        return Body(command="fetch(milk)", decision="act", seen=version[0])
 
     lst = StreamListener(recognise, answer, scorer=Scripted([0.9] * 10 + [0.0] * 20), version=lambda: version[0])
     (end,) = _feed(lst, 30)
-    out = lst.respond(end.utterance)
+    out = lst.respond(end.utterance).to_json()
     assert out["event"] == "decision" and out["heard"] == "" and out["command"] == "fetch(milk)"
     assert out["timings"]["asr_early"] and out["timings"]["answer_early"]
     assert calls == {"rec": 1, "ans": 1}
@@ -61,13 +66,13 @@ def test_an_action_meanwhile_makes_the_early_answer_stale():
 
     def answer(rec, utt):
         seen.append(version[0])
-        return {"n": version[0]}
+        return Body(n=version[0])
 
     rec = Recognised(Instruction(nbest=(Hypothesis("milk", 0.0),)), None, 0.0)
     lst = StreamListener(lambda s: rec, answer, scorer=Scripted([0.9] * 10 + [0.0] * 20), version=lambda: version[0])
     (end,) = _feed(lst, 30)
     version[0] = 1  # an action arrived after the early answer
-    out = lst.respond(end.utterance)
+    out = lst.respond(end.utterance).to_json()
     assert out["n"] == 1 and not out["timings"]["answer_early"] and seen == [0, 1]
     lst.close()
 
@@ -79,7 +84,7 @@ def test_without_a_version_the_answer_runs_once_after_the_end():
     def answer(rec, utt):
         seen.append(utt.reason)
         gate.set()
-        return {}
+        return Body()
 
     rec = Recognised(Instruction(nbest=(Hypothesis("milk", 0.0),)), None, 0.0)
     lst = StreamListener(lambda s: rec, answer, scorer=Scripted([0.9] * 10 + [0.0] * 20))
@@ -91,9 +96,9 @@ def test_without_a_version_the_answer_runs_once_after_the_end():
 
 
 def test_an_utterance_without_words_is_not_answered():
-    lst = StreamListener(lambda s: Recognised(None, None, 0.0, NO_WORDS), lambda r, u: {"never": True},
+    lst = StreamListener(lambda s: Recognised(None, None, 0.0, NO_WORDS), lambda r, u: Body(never=True),
                          scorer=Scripted([0.9] * 10), early=False)
     _feed(lst, 12)
     (end,) = lst.finish()
-    out = lst.respond(end.utterance)
+    out = lst.respond(end.utterance).to_json()
     assert out["event"] == "no_speech" and out["message"] == NO_WORDS and "never" not in out

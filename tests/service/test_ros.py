@@ -29,7 +29,7 @@ SPOKEN = "can you get me the tomato"
 
 def _bridge(rb: FakeRosbridge, topics: RosTopics | None = None) -> tuple[RosBridge, threading.Thread, list]:
     log: list = []
-    bridge = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=log.append)
+    bridge = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=lambda e: log.append(e.to_json()))
     thread = threading.Thread(target=bridge.run, daemon=True)
     thread.start()
     wanted = 1 + sum(bool(t) for t in (bridge.topics.audio, bridge.topics.text, bridge.topics.actions))

@@ -8,10 +8,12 @@ from __future__ import annotations
 import json
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
+from siftom.inference.stream import Decided, StreamTimings
 from siftom.listener import HomeListener, load_home
 from siftom.service.ros import (
     AUDIO_QUEUE_S,
@@ -45,7 +47,7 @@ def test_the_audio_queue_holds_ten_seconds_and_drops_the_oldest():
 
 def _bridge(rb: FakeRosbridge, topics: RosTopics | None = None) -> tuple[RosBridge, list]:
     log: list = []
-    bridge = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=log.append)
+    bridge = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=lambda e: log.append(e.to_json()))
     assert rb.wait_for(lambda: "/siftom/decision" in rb.advertised)
     return bridge, log
 
@@ -64,6 +66,18 @@ def test_a_flood_of_audio_keeps_the_newest_ten_seconds():
             bridge._terminate()
 
 
+@dataclass(frozen=True)
+class _Body:
+    command: str | None
+
+    def to_json(self) -> dict:
+        return {"command": self.command}
+
+
+def _decided(heard: str, command: str | None) -> Decided:
+    return Decided(None, heard, (), _Body(command), StreamTimings())
+
+
 def test_text_messages_use_a_bounded_pool_of_threads():
     topics = RosTopics(audio="", text="/speech/text")
     with FakeRosbridge() as rb:
@@ -71,10 +85,10 @@ def test_text_messages_use_a_bounded_pool_of_threads():
         gate = threading.Event()
         calls: list[str] = []
 
-        def slow(text: str) -> dict:
+        def slow(text: str) -> Decided:
             calls.append(text)
             gate.wait(10)
-            return {"event": "decision", "heard": text}
+            return _decided(text, None)
 
         bridge.home.answer_text = slow  # type: ignore[method-assign]
         before = threading.active_count()
@@ -100,7 +114,7 @@ def test_decisions_wait_for_the_topic_to_be_advertised_again_after_a_reconnect()
         try:
             rb.drop()  # rosbridge restarted, or the network cut for a moment
             assert rb.wait_for(lambda: not rb.advertised_by and not bridge._advertised)
-            bridge.publish({"event": "decision", "heard": "can you get me the tomato", "command": "fetch(tomato)"})
+            bridge.publish(_decided("can you get me the tomato", "fetch(tomato)"))
             # roslibpy reconnects by itself; the bridge advertises the topic, then publishes
             with ws_client.connect(rb.url) as robot:
                 robot.send(json.dumps({"op": "subscribe", "topic": "/siftom/decision", "type": "std_msgs/String"}))

@@ -27,7 +27,7 @@ def bridge():
     topics = RosTopics(text="/speech/text")
     with FakeRosbridge() as rb:
         log: list[dict[str, Any]] = []
-        b = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=log.append)
+        b = RosBridge(HomeListener(load_home(scene=WORLD)), rb.url, topics, out=lambda e: log.append(e.to_json()))
         assert rb.wait_for(lambda: "/siftom/decision" in rb.advertised)
         b.test_log = log  # type: ignore[attr-defined]
         b.test_rb = rb  # type: ignore[attr-defined]

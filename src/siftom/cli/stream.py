@@ -7,11 +7,15 @@ import json
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from siftom.errors import ObservationError, SiftomError
+
+if TYPE_CHECKING:
+    from siftom.listener import Compact, ListenEvent
+    from siftom.speech.segment import Utterance
 
 LIKELIHOOD_CHOICES = ("auto", "phonetic", "acoustic", "llm")
 
@@ -76,69 +80,82 @@ def _read_action_file(path: str) -> list[str]:
 
 def _stdin_actions(home: Any, say: Any) -> threading.Thread:
     """Observe action lines from stdin as they arrive (a bad line is reported, the rest go on)."""
+    from siftom.listener import ActionsObserved, ListenerError
+
     def run() -> None:
         for line in sys.stdin:
             line = line.strip()
             if not line or line.startswith("#"):
                 continue
             try:
-                say({"event": "actions", "added": home.observe([line]), "n_actions": len(home.actions)}, err=True)
+                say(ActionsObserved(tuple(home.observe([line])), len(home.actions)), err=True)
             except SiftomError as exc:
-                say({"event": "error", "line": line, "detail": str(exc)}, err=True)
+                say(ListenerError(str(exc), line=line), err=True)
 
     t = threading.Thread(target=run, name="siftom-stdin-actions", daemon=True)
     t.start()
     return t
 
 
-def _span(ev: dict[str, Any]) -> str:
-    return f"{ev.get('start_s', 0.0):6.2f}-{ev.get('end_s', 0.0):.2f} s"
+def _span(utt: Utterance | None) -> str:
+    start, end = (round(utt.start_s, 3), round(utt.end_s, 3)) if utt is not None else (0.0, 0.0)
+    return f"{start:6.2f}-{end:.2f} s"
 
 
-def human_line(ev: dict[str, Any]) -> str:
+def _decision_line(ev: dict[str, Any], span: str) -> str:
+    """A decision event's line, from its JSON (what was heard, by whom, and what the robot does)."""
+    scored = ev.get("likelihood") not in (None, "", "none")  # "none": no words reached a likelihood
+    who = ", ".join(x for x in (ev.get("recogniser"), scored and f"likelihood {ev['likelihood']}",
+                                ev.get("rule") and f"rule {ev['rule']}") if x)
+    heard = f'heard "{ev.get("heard", "")}"' + (f" ({who})" if who else "")
+    got = ev.get("decision")
+    decision: dict[str, Any] = got if isinstance(got, dict) else {}
+    if ev.get("action") == "act":
+        does = f"carries out {ev.get('command')} (P = {float(ev.get('prob') or 0.0):.2f})"
+    elif ev.get("action") == "ask":
+        does = f'asks "{ev.get("question") or decision.get("question", "")}"'
+    else:
+        why = ev.get("message") or decision.get("reason", "")
+        does = "does nothing" + (f" ({why})" if why else "")
+    after = (ev.get("timings") or {}).get("after_speech_s")
+    tail = f"  [{after:.2f} s after speech]" if isinstance(after, (int, float)) else ""
+    return f"{span}  {heard}  ->  the robot {does}{tail}"
+
+
+def human_line(ev: ListenEvent) -> str:
     """One readable line for a listener event (what ``siftom listen`` prints without ``--json``)."""
-    kind = ev.get("event")
-    if kind == "decision":
-        scored = ev.get("likelihood") not in (None, "", "none")  # "none": no words reached a likelihood
-        who = ", ".join(x for x in (ev.get("recogniser"), scored and f"likelihood {ev['likelihood']}",
-                                    ev.get("rule") and f"rule {ev['rule']}") if x)
-        heard = f'heard "{ev.get("heard", "")}"' + (f" ({who})" if who else "")
-        got = ev.get("decision")
-        decision: dict[str, Any] = got if isinstance(got, dict) else {}
-        if ev.get("action") == "act":
-            does = f"carries out {ev.get('command')} (P = {float(ev.get('prob') or 0.0):.2f})"
-        elif ev.get("action") == "ask":
-            does = f'asks "{ev.get("question") or decision.get("question", "")}"'
-        else:
-            why = ev.get("message") or decision.get("reason", "")
-            does = "does nothing" + (f" ({why})" if why else "")
-        after = (ev.get("timings") or {}).get("after_speech_s")
-        tail = f"  [{after:.2f} s after speech]" if isinstance(after, (int, float)) else ""
-        return f"{_span(ev)}  {heard}  ->  the robot {does}{tail}"
-    if kind == "no_speech":
-        heard = f' (the recogniser heard "{ev["heard"]}")' if ev.get("heard") else ""
-        return f"{_span(ev)}  {ev.get('message') or 'no speech heard'}{heard}: nothing to answer"
-    if kind == "speech_started":
-        return f"{ev.get('t', 0.0):6.2f} s    speech started"
-    if kind == "speech_ended":
-        return f"{_span(ev)}  speech ended ({ev.get('reason', '')})"
-    if kind == "actions":
-        added = ", ".join(ev.get("added") or []) or "nothing"
-        n = ev.get("n_actions", 0)
+    from siftom.inference.stream import Decided, NoSpeech
+    from siftom.listener import ActionsObserved
+    from siftom.speech.segment import SpeechEnded, SpeechStarted
+
+    if isinstance(ev, Decided):
+        return _decision_line(ev.to_json(), _span(ev.utterance))
+    if isinstance(ev, NoSpeech):
+        heard = f' (the recogniser heard "{ev.heard}")' if ev.heard else ""
+        return f"{_span(ev.utterance)}  {ev.message or 'no speech heard'}{heard}: nothing to answer"
+    if isinstance(ev, SpeechStarted):
+        return f"{round(ev.t, 3):6.2f} s    speech started"
+    if isinstance(ev, SpeechEnded):
+        return f"{_span(ev.utterance)}  speech ended ({ev.utterance.reason})"
+    if isinstance(ev, ActionsObserved):
+        added = ", ".join(ev.added) or "nothing"
+        n = ev.n_actions
         return f"observed {added} ({n} action{'' if n == 1 else 's'} so far)"
-    if kind == "error":
-        where = f"line {ev['line']!r}" if "line" in ev else f"utterance {ev.get('utterance', '?')}"
-        return f"error: {where}: {ev.get('detail', '')}"
-    return json.dumps(ev)
+    where = f"line {ev.line!r}" if ev.line is not None else \
+        f"utterance {ev.utterance.index if ev.utterance is not None else '?'}"
+    return f"error: {where}: {ev.detail}"
 
 
 def _printer(as_json: bool = True) -> Any:
     """Print events: JSON lines (``as_json``) or one readable line each."""
+    from siftom.listener import Compact
+
     lock = threading.Lock()
 
-    def say(obj: dict[str, Any], err: bool = False) -> None:
+    def say(obj: ListenEvent | Compact, err: bool = False) -> None:
         with lock:
-            click.echo(json.dumps(obj) if as_json else human_line(obj), err=err)
+            click.echo(json.dumps(obj.to_json()) if as_json
+                       else human_line(obj.event if isinstance(obj, Compact) else obj), err=err)
             (sys.stderr if err else sys.stdout).flush()
 
     return say
@@ -169,7 +186,8 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
     siftom listen --wav say.wav --realtime --scenario kitchen-cereal-v0
     tail -f actions.log | siftom listen --mic --scene world.json --actions - --json
     """
-    from siftom.listener import compact, run_listener
+    from siftom.inference.stream import Decided, NoSpeech
+    from siftom.listener import Compact, run_listener
     from siftom.speech.sources import file_chunks, mic_chunks
 
     if mic == (wav is not None):
@@ -195,7 +213,7 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         chunks = itertools.chain([first], chunks)
         click.echo("listening… (Ctrl-C to stop)", err=True)
     try:
-        run_listener(home, chunks, lambda ev: say(compact(ev) if as_json and ev.get("event") in ("decision", "no_speech")
+        run_listener(home, chunks, lambda ev: say(Compact(ev) if as_json and isinstance(ev, Decided | NoSpeech)
                                                   else ev), realtime=realtime or mic, events=events)
     except KeyboardInterrupt:
         pass

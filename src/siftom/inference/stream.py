@@ -7,7 +7,7 @@ listen --mic/--wav`` and the ROS bridge), so they cut utterances the same way::
                                                              |
                      recognise(samples) -> (Instruction | None, transcript)   (ASR, no side effects)
                                                              |
-                     answer(instruction, transcript) -> dict                   (the posterior, the decision)
+                     answer(instruction, transcript) -> body                   (the posterior, the decision)
 
 :meth:`StreamListener.feed` only runs the detector (about 1 ms per 32 ms frame), so a caller can
 call it from an event loop; :meth:`StreamListener.respond` does the recognition and inference
@@ -31,7 +31,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Generic, Protocol, TypeVar, cast
 
 import numpy as np
 
@@ -70,38 +70,105 @@ class Recognised:
         return self.transcript.text if self.transcript is not None else ""
 
 
+class JsonBody(Protocol):
+    """What an answer sends: its fields of the ``decision`` event."""
+
+    def to_json(self) -> dict[str, Any]: ...
+
+
+P = TypeVar("P")  # what ``answer`` prepares
+B = TypeVar("B", bound=JsonBody)  # what is sent (``commit``'s result; without commit, what ``answer`` prepares)
+
+
+@dataclass(frozen=True)
+class StreamTimings:
+    """Seconds an event took (``None``: not part of this event): ``asr`` and ``answer`` (how long
+    each took), ``wait`` (from the call to the answer), ``asr_early`` and ``answer_early`` (whether
+    each ran before the end was declared), ``after_speech_s`` (real time: from the last speech frame)."""
+
+    asr: float | None = None
+    answer: float | None = None
+    wait: float | None = None
+    asr_early: bool | None = None
+    answer_early: bool | None = None
+    after_speech_s: float | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: v for k, v in (("asr", self.asr), ("answer", self.answer), ("wait", self.wait),
+                                  ("asr_early", self.asr_early), ("answer_early", self.answer_early),
+                                  ("after_speech_s", self.after_speech_s)) if v is not None}
+
+
+@dataclass(frozen=True)
+class NoSpeech:
+    """An utterance without words (the recogniser heard none, or none of a request): not answered."""
+
+    utterance: Utterance
+    heard: str
+    message: str
+    timings: StreamTimings
+
+    def to_json(self) -> dict[str, Any]:
+        return {"event": "no_speech", **self.utterance.to_json(), "heard": self.heard, "message": self.message,
+                "timings": self.timings.to_json()}
+
+
+@dataclass(frozen=True)
+class Decided(Generic[B]):
+    """An answered utterance (a ``decision`` event): what was heard, the answer's ``body`` and timings.
+
+    ``utterance`` is None for words recognised elsewhere; ``speech_heard`` and ``message`` are then
+    None too (not sent)."""
+
+    utterance: Utterance | None
+    heard: str
+    nbest: tuple[tuple[str, float], ...]
+    body: B
+    timings: StreamTimings
+    speech_heard: bool | None = None
+    message: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"event": "decision", **(self.utterance.to_json() if self.utterance else {}),
+                               "heard": self.heard, "nbest": [{"text": t, "score": s} for t, s in self.nbest]}
+        if self.speech_heard is not None:
+            out["speech_heard"] = self.speech_heard
+        if self.message is not None:
+            out["message"] = self.message
+        return {**out, **self.body.to_json(), "timings": self.timings.to_json()}
+
+
 Recognise = Callable[[np.ndarray], Recognised]
-Answer = Callable[[Recognised, Utterance], dict[str, Any]]
-# an early run: what was heard, the state token it was answered under, the answer and its seconds
-EarlyResult = tuple[Recognised, Any, tuple[dict[str, Any], float] | None]
+# an early run: what was heard, the state token it was answered under, the answer prepared and its seconds
+EarlyResult = tuple[Recognised, Any, tuple[P, float] | None]
 
 
-class StreamListener:
+class StreamListener(Generic[P, B]):
     """Cut a 16 kHz stream into utterances and answer each (see module doc).
 
     Args:
         recognise: samples -> :class:`Recognised` (thread-safe, no side effects: it may run early).
-        answer: (recognised, utterance) -> the answer's JSON fields (posterior, decision, ...).
+        answer: (recognised, utterance) -> the answer prepared (without ``commit``: the body sent,
+            whose ``to_json()`` gives the event's posterior, decision, ...).
         options: the segmentation's thresholds and durations.
         scorer: the frame scorer (default: Silero VAD).
         early: start recognising after ``post_roll_s`` of silence (module doc).
         version: with ``early``, answer early too while this token stays the same (module doc);
             ``answer`` must then have no side effects.
         commit: where answering writes state (a session's last answer), ``answer`` prepares it
-            without side effects and ``commit(body)`` writes it once the end is declared: it returns
-            the answer to send, or None when the state changed after it was prepared (it is
+            without side effects and ``commit(prepared)`` writes it once the end is declared: it returns
+            the body to send, or None when the state changed after it was prepared (it is
             prepared again, at most :data:`COMMIT_TRIES` times).
     """
 
-    def __init__(self, recognise: Recognise, answer: Answer, options: SegmentOptions | None = None,
-                 scorer: FrameScorer | None = None, early: bool = True,
-                 version: Callable[[], Any] | None = None,
-                 commit: Callable[[dict[str, Any]], dict[str, Any] | None] | None = None) -> None:
+    def __init__(self, recognise: Recognise, answer: Callable[[Recognised, Utterance], P],
+                 options: SegmentOptions | None = None, scorer: FrameScorer | None = None, early: bool = True,
+                 version: Callable[[], Any] | None = None, commit: Callable[[P], B | None] | None = None) -> None:
         self.segmenter = UtteranceSegmenter(options, scorer)
         self._recognise, self._answer, self.early, self._version = recognise, answer, early, version
         self._commit = commit
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="siftom-early-asr") if early else None
-        self._early: tuple[tuple[int, float, int], Future[EarlyResult]] | None = None
+        self._early: tuple[tuple[int, float, int], Future[EarlyResult[P]]] | None = None
         self._lock = threading.Lock()
         self.utterances = 0
 
@@ -136,7 +203,7 @@ class StreamListener:
                 return
             self._early = (key, self._pool.submit(self._early_job, preview))
 
-    def _early_job(self, preview: Utterance) -> EarlyResult:
+    def _early_job(self, preview: Utterance) -> EarlyResult[P]:
         rec = self._recognise(preview.samples)
         if self._version is None or rec.instruction is None:
             return rec, None, None
@@ -145,15 +212,15 @@ class StreamListener:
         body = self._answer(rec, preview)
         return rec, token, (body, time.perf_counter() - t0)
 
-    def respond(self, utterance: Utterance) -> dict[str, Any]:
+    def respond(self, utterance: Utterance) -> Decided[B] | NoSpeech:
         """Recognise and answer one utterance (blocks).
 
-        Returns a ``decision`` event: the answer's fields plus what was heard, the utterance's
-        times and ``timings`` in seconds: ``asr`` and ``answer`` (how long each took), ``wait``
+        Returns a ``decision`` event (:class:`Decided`): the answer's body plus what was heard, the
+        utterance's times and ``timings`` in seconds: ``asr`` and ``answer`` (how long each took), ``wait``
         (from this call to the answer: less than their sum when they ran early), ``asr_early``
         and ``answer_early`` (whether each ran before the end was declared). An utterance without words (the
         second detector found no speech in it, or the recogniser no words) gives a ``no_speech``
-        event instead and is not answered.
+        event (:class:`NoSpeech`) instead and is not answered.
         """
         t0 = time.perf_counter()
         key = (utterance.index, utterance.start_s, len(utterance.samples))
@@ -164,7 +231,7 @@ class StreamListener:
             self._early = None
         rec: Recognised | None = None
         token: Any = None
-        early_body: tuple[dict[str, Any], float] | None = None
+        early_body: tuple[P, float] | None = None
         if early is not None:
             try:
                 rec, token, early_body = early.result()
@@ -174,40 +241,34 @@ class StreamListener:
             rec = self._recognise(utterance.samples)
         t1 = time.perf_counter()
         if rec.instruction is None:  # noise, a cough, words outside any phrasing: nothing to answer
-            return {"event": "no_speech", **utterance.to_json(), "heard": rec.text, "message": rec.why,
-                    "timings": {"asr": round(rec.seconds, 4), "wait": round(t1 - t0, 4), "asr_early": early is not None}}
+            return NoSpeech(utterance, rec.text, rec.why,
+                            StreamTimings(asr=round(rec.seconds, 4), wait=round(t1 - t0, 4), asr_early=early is not None))
         answered_early = early_body is not None and self._version is not None and self._version() == token
         if answered_early and early_body is not None:
-            body, answer_s = early_body
+            prepared, answer_s = early_body
         else:  # nothing was answered early, or the state changed since (a new action)
-            body = self._answer(rec, utterance)
+            prepared = self._answer(rec, utterance)
             answer_s = time.perf_counter() - t1
-        if self._commit is not None:
-            body = self._committed(body, rec, utterance)
+        body = self._committed(prepared, rec, utterance)
         t2 = time.perf_counter()
         self.utterances += 1
-        heard = {
-            "heard": rec.text,
-            "nbest": [{"text": h.text, "score": round(float(h.score), 4)}
-                      for h in (rec.instruction.nbest if rec.instruction is not None else ())],
-            "speech_heard": rec.instruction is not None,
-            "message": rec.why,
-        }
-        return {"event": "decision", **utterance.to_json(), **heard, **body,
-                "timings": {"asr": round(rec.seconds, 4), "answer": round(answer_s, 4),
-                            "wait": round(t2 - t0, 4),
-                            "asr_early": early is not None, "answer_early": answered_early}}
+        nbest = tuple((h.text, round(float(h.score), 4)) for h in rec.instruction.nbest)
+        return Decided(utterance, rec.text, nbest, body,
+                       StreamTimings(asr=round(rec.seconds, 4), answer=round(answer_s, 4), wait=round(t2 - t0, 4),
+                                     asr_early=early is not None, answer_early=answered_early),
+                       speech_heard=True, message=rec.why)
 
-    def _committed(self, body: dict[str, Any], rec: Recognised, utterance: Utterance) -> dict[str, Any]:
-        """``body`` written by ``commit``; prepared again while the state moves under it."""
+    def _committed(self, prepared: P, rec: Recognised, utterance: Utterance) -> B:
+        """``prepared`` written by ``commit``; prepared again while the state moves under it.
+        Without ``commit`` what was prepared is sent."""
         commit = self._commit
         if commit is None:
-            return body
+            return cast(B, prepared)  # without commit, what is prepared is sent
         for _ in range(COMMIT_TRIES):
-            done = commit(body)
+            done = commit(prepared)
             if done is not None:
                 return done
-            body = self._answer(rec, utterance)
+            prepared = self._answer(rec, utterance)
         raise SiftomError(f"the session changed under {COMMIT_TRIES} answers in a row (actions arriving faster than "
                           "an answer); say it again")
 

@@ -44,7 +44,17 @@ from urllib.parse import urlparse
 import numpy as np
 
 from siftom.errors import AudioError, BackendUnavailableError, OptionsError, SiftomError
-from siftom.listener import HomeListener, compact, run_listener
+from siftom.inference.stream import Decided, NoSpeech
+from siftom.listener import (
+    ActionsObserved,
+    Compact,
+    HomeListener,
+    ListenerError,
+    ListenEvent,
+    run_listener,
+)
+
+BridgeLine = ListenEvent | Compact  # a line of the bridge's log: an event, or a decision as published
 
 AUDIO_QUEUE_S = 10.0  # seconds of audio waiting for the listener at most (docs/ros.md)
 TEXT_WORKERS = 2  # threads answering text messages
@@ -142,7 +152,7 @@ def parse_url(url: str) -> tuple[str, int, bool]:
     return u.hostname, u.port or 9090, u.scheme == "wss"
 
 
-def audio_bytes(msg: dict[str, Any]) -> bytes:
+def audio_bytes(msg: Mapping[str, object]) -> bytes:
     """The PCM bytes of an AudioData message: ``data`` as base64 text or a list of 0-255 numbers;
     a WAV header at the start of a chunk is skipped."""
     data = msg.get("data")
@@ -167,13 +177,13 @@ class RosBridge:
     """Subscribe, listen, publish (see module doc). ``run()`` blocks until :meth:`stop`."""
 
     def __init__(self, home: HomeListener, url: str, topics: RosTopics | None = None,
-                 out: Callable[[dict[str, Any]], None] | None = None, connect_timeout: float = 10.0) -> None:
+                 out: Callable[[BridgeLine], None] | None = None, connect_timeout: float = 10.0) -> None:
         try:
             import roslibpy
         except ModuleNotFoundError:
             raise BackendUnavailableError('the ROS bridge needs roslibpy: pip install "siftom[ros]"') from None
         self.home, self.topics, self.url = home, topics or RosTopics(), url
-        self._out = out or (lambda obj: print(json.dumps(obj), file=sys.stderr, flush=True))
+        self._out = out or (lambda obj: print(json.dumps(obj.to_json()), file=sys.stderr, flush=True))
         host, port, secure = parse_url(url)
         self._roslibpy = roslibpy
         self.ros = roslibpy.Ros(host=host, port=port, is_secure=secure, transport="asyncio")
@@ -189,8 +199,8 @@ class RosBridge:
         self._texts = ThreadPoolExecutor(TEXT_WORKERS, thread_name_prefix="siftom-ros-text")
         self._text_pending = 0
         self._lock = threading.Lock()
-        self.published: list[dict[str, Any]] = []
-        self._held: deque[dict[str, Any]] = deque(maxlen=HELD_DECISIONS)
+        self.published: list[Compact] = []
+        self._held: deque[Compact] = deque(maxlen=HELD_DECISIONS)
         self._advertised = False  # the decision topic, on the current connection
         t = self.topics
         # advertised again by this bridge on every (re)connection, before any decision is published
@@ -213,9 +223,8 @@ class RosBridge:
         data = msg.get("data", "") if isinstance(msg, Mapping) else None
         if not isinstance(data, str):
             got = type(msg).__name__ if not isinstance(msg, Mapping) else f"data of type {type(data).__name__}"
-            self._out({"event": "error", "topic": topic,
-                       "detail": f"ignored a message on {topic} that is not a std_msgs/String ({got}); "
-                                 "publish std_msgs/String messages there"})
+            self._out(ListenerError(f"ignored a message on {topic} that is not a std_msgs/String ({got}); "
+                                    "publish std_msgs/String messages there", topic=topic))
             return None
         return data
 
@@ -226,9 +235,9 @@ class RosBridge:
         lines = [ln.strip() for ln in data.splitlines() if ln.strip() and not ln.startswith("#")]
         try:
             added = self.home.observe(lines)
-            self._out({"event": "actions", "added": added, "n_actions": len(self.home.actions)})
+            self._out(ActionsObserved(tuple(added), len(self.home.actions)))
         except SiftomError as exc:
-            self._out({"event": "error", "actions": lines, "detail": str(exc)})
+            self._out(ListenerError(str(exc), actions=tuple(lines)))
 
     def _on_text(self, msg: Any) -> None:
         data = self._text_data(msg, self.topics.text)
@@ -240,8 +249,8 @@ class RosBridge:
             if not busy:
                 self._text_pending += 1
         if busy:
-            self._out({"event": "error", "heard": text, "detail": f"{TEXT_PENDING} text messages are waiting for "
-                       "their answer: dropped this one; send one per utterance"})
+            self._out(ListenerError(f"{TEXT_PENDING} text messages are waiting for their answer: dropped this "
+                                    "one; send one per utterance", heard=text))
             return
         try:
             self._texts.submit(self._answer_text, text)
@@ -253,7 +262,7 @@ class RosBridge:
         try:
             self.publish(self.home.answer_text(text))
         except SiftomError as exc:  # e.g. the acoustic likelihood, which needs the audio
-            self._out({"event": "error", "heard": text, "detail": str(exc)})
+            self._out(ListenerError(str(exc), heard=text))
         finally:
             with self._lock:
                 self._text_pending -= 1
@@ -261,22 +270,22 @@ class RosBridge:
     def _on_audio(self, msg: Any) -> None:
         if not isinstance(msg, Mapping):
             topic = self.topics.audio
-            self._out({"event": "error", "topic": topic,
-                       "detail": f"ignored a message on {topic} that is not an audio_common_msgs/AudioData "
-                                 f"({type(msg).__name__}); publish AudioData (16 kHz mono 16-bit PCM) there"})
+            self._out(ListenerError(f"ignored a message on {topic} that is not an audio_common_msgs/AudioData "
+                                    f"({type(msg).__name__}); publish AudioData (16 kHz mono 16-bit PCM) there",
+                                    topic=topic))
             return
         try:
-            chunk = audio_bytes(dict(msg))
+            chunk = audio_bytes(msg)
         except AudioError as exc:
-            self._out({"event": "error", "detail": str(exc)})
+            self._out(ListenerError(str(exc)))
             return
         dropped = self._audio.put(chunk)  # the listener fell behind: the oldest audio goes, ROS never waits
         if dropped:
             self._dropped[0] += dropped
             now = time.monotonic()
             if now - self._dropped[1] >= 1.0:  # one line a second at most
-                self._out({"event": "error", "detail": f"audio queue full ({AUDIO_QUEUE_S:g} s): dropped the "
-                           f"oldest {self._dropped[0]:.2f} s"})
+                self._out(ListenerError(f"audio queue full ({AUDIO_QUEUE_S:g} s): dropped the oldest "
+                                        f"{self._dropped[0]:.2f} s"))
                 self._dropped[:] = [0.0, now]
 
     # ----- decisions ---------------------------------------------------------------------------
@@ -298,14 +307,15 @@ class RosBridge:
         with self._lock:
             self._advertised = False
 
-    def _send(self, body: dict[str, Any]) -> None:
-        self._decision.publish(self._roslibpy.Message({"data": json.dumps(body)}))
+    def _send(self, body: Compact) -> None:
+        self._decision.publish(self._roslibpy.Message({"data": json.dumps(body.to_json())}))
 
-    def publish(self, answer: dict[str, Any]) -> None:
-        """Publish an answer (decision or no_speech) on the decision topic and log it; while the
-        topic is not advertised (rosbridge reconnecting) it is held and published after."""
-        body = compact(answer)
-        send = body.get("event") in ("decision", "no_speech")
+    def publish(self, answer: ListenEvent) -> None:
+        """Publish an answer (decision or no_speech) on the decision topic and log it (any other
+        event is only logged); while the topic is not advertised (rosbridge reconnecting) it is
+        held and published after."""
+        body = Compact(answer)
+        send = isinstance(answer, Decided | NoSpeech)
         with self._lock:
             self.published.append(body)
             if send and not self._advertised:
@@ -342,7 +352,7 @@ class RosBridge:
             self.ros.terminate()
 
 
-def audio_message(pcm: bytes) -> dict[str, Any]:
+def audio_message(pcm: bytes) -> dict[str, str]:
     """An ``audio_common_msgs/AudioData`` message as rosbridge sends it (``data`` in base64)."""
     return {"data": base64.b64encode(pcm).decode()}
 

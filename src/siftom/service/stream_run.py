@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import json
 import threading
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from fastapi import WebSocket, WebSocketDisconnect
@@ -30,14 +31,38 @@ from siftom.service.stream_settings import (
 from siftom.service.stream_state import StreamGone
 
 if TYPE_CHECKING:
-    from siftom.inference.stream import Recognised, StreamListener
+    from siftom.inference.stream import Decided, NoSpeech, Recognised, StreamListener
     from siftom.service.context import ServiceContext
+    from siftom.service.session_records import Prepared, SessionReply
     from siftom.service.sessions import Session
     from siftom.speech.segment import Utterance
 
 PARTIAL_EVERY_S = 1.0  # with ?partial=1, a "heard" event per second of speech
-DEGRADED = "_degraded"  # a prepared answer's admission note, sent as ``degraded`` (never stored)
-PREPARED = "_prepared"  # the answer prepared (SessionManager.prepare), for the commit
+
+
+@dataclass(frozen=True)
+class StreamPrepared:
+    """An answer prepared (:meth:`SessionManager.prepare`), for the commit, and its admission note
+    (sent as ``degraded``, never stored)."""
+
+    prepared: Prepared
+    degraded: str
+
+
+@dataclass(frozen=True)
+class StreamAnswer:
+    """A stored answer as the stream sends it: the session's reply without ``session``, with the
+    decision's ``question`` and ``declined`` and the admission note ``degraded``."""
+
+    reply: SessionReply
+    degraded: str
+
+    def to_json(self) -> dict[str, Any]:
+        out = {k: v for k, v in self.reply.to_json().items() if k != "session"}
+        out["question"] = out["decision"].get("question", "") if out["action"] == "ask" else ""
+        out["declined"] = out["decision"].get("declined", "")
+        out["degraded"] = self.degraded
+        return out
 
 
 class StreamRun:
@@ -55,11 +80,11 @@ class StreamRun:
         self._waiting = 0
         self._next_partial = PARTIAL_EVERY_S
         self._partial_task: asyncio.Task[None] | None = None
-        self._listener: StreamListener | None = None
+        self._listener: StreamListener[StreamPrepared, StreamAnswer] | None = None
         self._recognise: Any = None
 
     # ----- answers (worker threads) ------------------------------------------------------------
-    def _answer(self, rec: Recognised, utt: Utterance) -> dict[str, Any]:
+    def _answer(self, rec: Recognised, utt: Utterance) -> StreamPrepared:
         """The session's answer, prepared (no side effects: it may run before the end is declared)."""
         from siftom.observer import Heard
 
@@ -71,24 +96,18 @@ class StreamRun:
         with self.ctx.runtime.admission.slot(self.sess.options.likelihood) as slot:
             prepared = self.mgr.prepare(self.sid, rec.instruction, self.params.top, self.params.policy,
                                         heard=heard, likelihood=slot.likelihood)
-        return {PREPARED: prepared, DEGRADED: slot.reason}
+        return StreamPrepared(prepared, slot.reason)
 
-    def _commit(self, prepared: dict[str, Any]) -> dict[str, Any] | None:
+    def _commit(self, prepared: StreamPrepared) -> StreamAnswer | None:
         """Store the answer as the session's last (None: the session changed since it was prepared)."""
         def still_open() -> None:  # under the session's lock: a closed stream changes nothing
             if self.gone.is_set():
                 raise StreamGone(-1)
 
-        reply = self.mgr.commit(self.sid, prepared[PREPARED], still_open)
-        if reply is None:
-            return None
-        out = {k: v for k, v in reply.to_json().items() if k != "session"}
-        out["question"] = out["decision"].get("question", "") if out["action"] == "ask" else ""
-        out["declined"] = out["decision"].get("declined", "")
-        out["degraded"] = prepared[DEGRADED]
-        return out
+        reply = self.mgr.commit(self.sid, prepared.prepared, still_open)
+        return None if reply is None else StreamAnswer(reply, prepared.degraded)
 
-    def _respond(self, utt: Utterance) -> dict[str, Any]:
+    def _respond(self, utt: Utterance) -> Decided[StreamAnswer] | NoSpeech:
         if self.gone.is_set():
             raise StreamGone(utt.index)
         assert self._listener is not None
@@ -103,7 +122,7 @@ class StreamRun:
         """Answer the queued utterances one after the other, until the None that ends the queue."""
         while (utt := await self._queue.get()) is not None:
             try:
-                await self._send(await self.ctx.streams.run_answer(self._respond, utt))
+                await self._send((await self.ctx.streams.run_answer(self._respond, utt)).to_json())
             except ProblemError as exc:
                 await self._send({"event": "error", "utterance": utt.index, "status": exc.status,
                                   "detail": exc.detail})

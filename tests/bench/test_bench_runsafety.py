@@ -73,7 +73,7 @@ def test_second_writer_is_refused_and_a_dead_owners_lock_is_taken_over(tiny: Pat
         p.wait()
     assert json.loads((out / LOCK).read_text())["pid"] == p.pid
     with RunLock(out) as lock:
-        assert lock.took_over is not None and lock.took_over["pid"] == p.pid
+        assert lock.took_over is not None and lock.took_over.pid == p.pid
         assert json.loads((out / LOCK).read_text())["pid"] == os.getpid()
     assert not (out / LOCK).exists()
 

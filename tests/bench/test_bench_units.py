@@ -199,7 +199,7 @@ def test_regret_is_the_oracle_speedup_minus_the_model_speedup() -> None:
     r, ci, n = regret(rows, "m")
     assert n == 2 and r == pytest.approx(0.25) and ci[0] <= r <= ci[1]
     o = oracle_summary(rows)
-    assert o["speedup"] == pytest.approx(0.45) and o["gold_is_best"] == pytest.approx(0.5)
+    assert o is not None and o.speedup == pytest.approx(0.45) and o.gold_is_best == pytest.approx(0.5)
 
 
 def test_answer_reliability_follows_the_measured_table() -> None:

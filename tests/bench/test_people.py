@@ -183,8 +183,8 @@ def test_ratings():
             check_scores(bad)
     s = ratings_summary([{"model": "siftom", "scores": [6, 5, 7]}, {"model": "siftom", "scores": [4, 4, 4]},
                          {"model": "action-only", "scores": [2, 3, 1]}])
-    assert s["siftom"]["mean"] == 5.0 and s["siftom"]["statements"] == [5.0, 4.5, 5.5]
-    assert s["action-only"]["mean"] == 2.0 and s["action-only"]["n"] == 1
+    assert s["siftom"].mean == 5.0 and s["siftom"].statements == (5.0, 4.5, 5.5)
+    assert s["action-only"].mean == 2.0 and s["action-only"].n == 1
 
 
 def test_importing_ratings_twice_adds_them_once(tmp_path):

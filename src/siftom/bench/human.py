@@ -12,6 +12,8 @@ the robot (:mod:`siftom.people.ratings`) are summarised per model by :func:`rati
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -90,7 +92,44 @@ def load_human(results: str | Path) -> list[dict[str, Any]]:
     return read_jsonl(Path(results) / HUMAN_RESULTS)
 
 
-def human_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
+@dataclass(frozen=True)
+class HumanSummary:
+    """How well people transcribed: answers, annotators, stimuli, answers per stimulus, the mean word
+    error rate with its bootstrap CI, and the mean per SNR label."""
+
+    answers: int
+    annotators: int
+    stimuli: int
+    answers_per_stimulus: float
+    wer: float
+    wer_ci: tuple[float, float]
+    wer_by_snr: dict[str, float]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``human`` entry of summary.json."""
+        return {"answers": self.answers, "annotators": self.annotators, "stimuli": self.stimuli,
+                "answers_per_stimulus": self.answers_per_stimulus, "wer": self.wer, "wer_ci": list(self.wer_ci),
+                "wer_by_snr": self.wer_by_snr}
+
+
+@dataclass(frozen=True)
+class RatingSummary:
+    """One model's ratings: trials, the mean per trial of the three statements with its CI and
+    standard deviation, and each statement's mean."""
+
+    n: int
+    mean: float
+    mean_ci: tuple[float, float]
+    sd: float
+    statements: tuple[float, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The model's entry in summary.json's ``ratings``."""
+        return {"n": self.n, "mean": self.mean, "mean_ci": list(self.mean_ci), "sd": self.sd,
+                "statements": list(self.statements)}
+
+
+def human_summary(rows: list[dict[str, Any]], seed: int = 0) -> HumanSummary:
     """How well people transcribed: mean WER with a bootstrap CI, by SNR; answers, annotators, stimuli."""
     from siftom.bench.metrics import bootstrap_ci, group_key, label_order
 
@@ -100,32 +139,33 @@ def human_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     for r in rows:
         by.setdefault(group_key(r, "snr"), []).append(r["wer"])
     per = [sum(1 for r in rows if r["id"] == i) for i in {r["id"] for r in rows}]
-    return {"answers": len(rows), "annotators": len({r["annotator"] for r in rows}),
-            "stimuli": len({r["id"] for r in rows}), "answers_per_stimulus": round(float(np.mean(per)), 2),
-            "wer": round(float(w.mean()), 4), "wer_ci": [round(lo, 4), round(hi, 4)],
-            "wer_by_snr": {k: round(float(np.mean(by[k])), 4) for k in sorted(by, key=label_order)}}
+    return HumanSummary(len(rows), len({r["annotator"] for r in rows}), len({r["id"] for r in rows}),
+                        round(float(np.mean(per)), 2), round(float(w.mean()), 4), (round(lo, 4), round(hi, 4)),
+                        {k: round(float(np.mean(by[k])), 4) for k in sorted(by, key=label_order)})
 
 
 def _pct(x: float | None) -> str:
     return "–" if x is None else f"{100 * x:.1f} %"
 
 
-def people_section(summary: dict[str, Any]) -> str:
-    """The report's Markdown section on people: the human baseline's transcripts and the ratings."""
+def people_section(human: HumanSummary | None, ratings: Mapping[str, RatingSummary],
+                   asr_wer: float | None = None, asr_wer_by_snr: Mapping[str, float] | None = None) -> str:
+    """The report's Markdown section on people: the human baseline's transcripts (beside the
+    recogniser's word error rate, overall and per SNR label) and the ratings."""
     parts: list[str] = []
-    h = summary.get("human")
+    h = human
     if h:
-        asr = summary.get("asr_wer", {})
+        by_snr = asr_wer_by_snr or {}
         parts += ["## The human baseline", "",
-                  f"{h['answers']} answers from {h['annotators']} annotator(s) on {h['stimuli']} stimuli "
-                  f"({h['answers_per_stimulus']:g} per stimulus); each answer is one trial of the model `human` "
+                  f"{h.answers} answers from {h.annotators} annotator(s) on {h.stimuli} stimuli "
+                  f"({h.answers_per_stimulus:g} per stimulus); each answer is one trial of the model `human` "
                   "in the tables above (its command went through the same team simulation).", "",
-                  f"Transcription word error rate: people {_pct(h['wer'])} [{100 * h['wer_ci'][0]:.1f}, "
-                  f"{100 * h['wer_ci'][1]:.1f}], the recogniser {_pct(asr.get('all'))}.", "",
+                  f"Transcription word error rate: people {_pct(h.wer)} [{100 * h.wer_ci[0]:.1f}, "
+                  f"{100 * h.wer_ci[1]:.1f}], the recogniser {_pct(asr_wer)}.", "",
                   "| condition | people WER | ASR WER |", "|---|---|---|"]
-        parts += [f"| {k} | {_pct(v)} | {_pct(asr.get('snr', {}).get(k))} |" for k, v in h["wer_by_snr"].items()]
+        parts += [f"| {k} | {_pct(v)} | {_pct(by_snr.get(k))} |" for k, v in h.wer_by_snr.items()]
         parts += [""]
-    r = summary.get("ratings")
+    r = ratings
     if r:
         from siftom.people.ratings import STATEMENTS
 
@@ -136,23 +176,23 @@ def people_section(summary: dict[str, Any]) -> str:
         parts += ["", "| model | mean rating [95 % CI] | SD | statement 1 | statement 2 | statement 3 | trials |",
                   "|---|---|---|---|---|---|---|"]
         for m, v in r.items():
-            st = " | ".join(f"{x:.2f}" for x in v["statements"])
-            parts.append(f"| {m} | {v['mean']:.2f} [{v['mean_ci'][0]:.2f}, {v['mean_ci'][1]:.2f}] | {v['sd']:.2f} "
-                         f"| {st} | {v['n']} |")
+            st = " | ".join(f"{x:.2f}" for x in v.statements)
+            parts.append(f"| {m} | {v.mean:.2f} [{v.mean_ci[0]:.2f}, {v.mean_ci[1]:.2f}] | {v.sd:.2f} "
+                         f"| {st} | {v.n} |")
         parts += [""]
     return "\n".join(parts) + ("\n" if parts else "")
 
 
-def ratings_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
+def ratings_summary(rows: list[dict[str, Any]], seed: int = 0) -> dict[str, RatingSummary]:
     """Per model: mean of the three statements per trial (helpfulness) with a CI, and each statement's mean."""
     from siftom.bench.metrics import bootstrap_ci
 
-    out: dict[str, Any] = {}
+    out: dict[str, RatingSummary] = {}
     for m in sorted({r["model"] for r in rows}):
         s = np.array([r["scores"] for r in rows if r["model"] == m], dtype=float)
         per_trial = s.mean(axis=1)
         lo, hi = bootstrap_ci(per_trial, seed=seed + 3)
-        out[m] = {"n": len(s), "mean": round(float(per_trial.mean()), 3), "mean_ci": [round(lo, 3), round(hi, 3)],
-                  "sd": round(float(per_trial.std(ddof=1)) if len(s) > 1 else 0.0, 3),
-                  "statements": [round(float(v), 3) for v in s.mean(axis=0)]}
+        out[m] = RatingSummary(len(s), round(float(per_trial.mean()), 3), (round(lo, 3), round(hi, 3)),
+                               round(float(per_trial.std(ddof=1)) if len(s) > 1 else 0.0, 3),
+                               tuple(round(float(v), 3) for v in s.mean(axis=0)))
     return out

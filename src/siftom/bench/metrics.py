@@ -147,16 +147,32 @@ def regret(rows: Sequence[Mapping[str, Any]], model: str, seed: int = 0,
     return float(d.mean()), bootstrap_ci(d, n_boot, seed + 2), len(d)
 
 
-def oracle_summary(rows: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any] | None:
+@dataclass(frozen=True)
+class OracleSummary:
+    """The goal-known oracle over a set of trials: mean speedup with its CI, negative share, trials
+    with a speedup, and the share of them whose best action is the requested command (rounded)."""
+
+    speedup: float | None
+    speedup_ci: tuple[float | None, float | None]
+    neg_speedup_share: float | None
+    n: int
+    gold_is_best: float | None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``goal_oracle`` entry of summary.json."""
+        return {"speedup": self.speedup, "speedup_ci": list(self.speedup_ci),
+                "neg_speedup_share": self.neg_speedup_share, "n": self.n, "gold_is_best": self.gold_is_best}
+
+
+def oracle_summary(rows: Sequence[Mapping[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> OracleSummary | None:
     """Mean speedup (with CI) and negative share of the goal-known oracle, or None without one."""
     sp = np.array([float(r["oracle"]["speedup"]) for r in rows if (r.get("oracle") or {}).get("speedup") is not None])
     if not len(sp):
         return None
     lo, hi = bootstrap_ci(sp, n_boot, seed + 1)
-    return {"speedup": _round(float(sp.mean())), "speedup_ci": [_round(lo), _round(hi)],
-            "neg_speedup_share": _round(float((sp < -1e-9).mean())), "n": len(sp),
-            "gold_is_best": _round(float(np.mean([r["oracle"]["command"] == r.get("gold_command") for r in rows
-                                                    if (r.get("oracle") or {}).get("speedup") is not None])))}
+    return OracleSummary(_round(float(sp.mean())), (_round(lo), _round(hi)), _round(float((sp < -1e-9).mean())),
+                         len(sp), _round(float(np.mean([r["oracle"]["command"] == r.get("gold_command") for r in rows
+                                                        if (r.get("oracle") or {}).get("speedup") is not None]))))
 
 
 def _reason(error: str | None) -> str:
@@ -179,23 +195,36 @@ def group_key(row: Mapping[str, Any], by: str) -> str:
     return str(row.get(by, "?"))
 
 
+@dataclass(frozen=True)
+class GroupMetrics:
+    """One model in one group of trials (a noise, an SNR, a voice): accuracy, mean speedup, trials."""
+
+    accuracy: float | None
+    speedup: float | None
+    n: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry of summary.json's ``breakdowns``."""
+        return {"accuracy": self.accuracy, "speedup": self.speedup, "n": self.n}
+
+
 def breakdown(
     rows: Iterable[Mapping[str, Any]], models: Sequence[str], by: str
-) -> dict[str, dict[str, dict[str, Any]]]:
-    """{label: {model: {accuracy, speedup, n}}} for the rows grouped by ``by``."""
+) -> dict[str, dict[str, GroupMetrics]]:
+    """{label: {model: its metrics}} for the rows grouped by ``by``, labels in :func:`label_order`."""
     groups: dict[str, list[Mapping[str, Any]]] = defaultdict(list)
     for r in rows:
         groups[group_key(r, by)].append(r)
-    out: dict[str, dict[str, dict[str, Any]]] = {}
+    out: dict[str, dict[str, GroupMetrics]] = {}
     for label in sorted(groups, key=label_order):
         rs = groups[label]
         out[label] = {}
         for m in models:
             ts = [r["models"][m] for r in rs if m in r["models"]]
             if ts:
-                out[label][m] = {"accuracy": _round(np.mean([t["correct"] for t in ts])),
-                                 "speedup": _round(_mean([t["speedup"] for t in ts if t.get("speedup") is not None])),
-                                 "n": len(ts)}
+                out[label][m] = GroupMetrics(_round(np.mean([t["correct"] for t in ts])),
+                                             _round(_mean([t["speedup"] for t in ts if t.get("speedup") is not None])),
+                                             len(ts))
     return out
 
 

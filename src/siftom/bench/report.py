@@ -66,7 +66,8 @@ def _summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BO
         rg, rg_ci, n_rg = regret(rows, m, seed, n_boot)
         out["models"][m].update({"regret": None if not np.isfinite(rg) else round(rg, 4),
                                  "regret_ci": [None if not np.isfinite(c) else round(c, 4) for c in rg_ci]})
-    out["goal_oracle"] = oracle_summary(rows, seed, n_boot)
+    oracle = oracle_summary(rows, seed, n_boot)
+    out["goal_oracle"] = None if oracle is None else oracle.to_json()
     skipped: dict[str, dict[str, Any]] = {}
     for r in rows:
         for m, why in r.get("not_evaluable", {}).items():
@@ -76,7 +77,8 @@ def _summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BO
     out["not_evaluable"] = skipped  # model -> trials it could not be evaluated on, and why
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
-    out["breakdowns"] = {by: breakdown(rows, models, by) for by in BREAKDOWNS}
+    out["breakdowns"] = {by: {label: {m: g.to_json() for m, g in per.items()}
+                              for label, per in breakdown(rows, models, by).items()} for by in BREAKDOWNS}
     out["asr_wer"] = {}
     for by in ("snr", "voice"):
         wer: dict[str, list[float]] = defaultdict(list)
@@ -239,10 +241,12 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     human = load_human(root)  # people's answers as trials of the model "human" (bench/human.py)
     ratings = read_jsonl(root / RATINGS)
     summary = _summarise(rows + human, seed=seed)
-    if human:
-        summary["human"] = human_summary(human, seed)
-    if ratings:
-        summary["ratings"] = ratings_summary(ratings, seed)
+    people = human_summary(human, seed) if human else None
+    rated = ratings_summary(ratings, seed) if ratings else {}
+    if people is not None:
+        summary["human"] = people.to_json()
+    if rated:
+        summary["ratings"] = {m: r.to_json() for m, r in rated.items()}
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     figs = render_figures(rows + human, summary, root) if figures else []
     from siftom.bench import reliability
@@ -251,7 +255,8 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     summary["reliability"] = {m: {g: c.to_json() for g, c in res.items()} for m, res in rel.items()}
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     rel_fig = reliability.render(rel, root) if figures else None
-    _write(root / "report.md", _render_report(summary, run, figs) + "\n" + people_section(summary)
+    _write(root / "report.md", _render_report(summary, run, figs) + "\n"
+           + people_section(people, rated, summary["asr_wer"].get("all"), summary["asr_wer"].get("snr"))
            + reliability.section(rel, rel_fig))
     return summary
 

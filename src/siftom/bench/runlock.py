@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -62,13 +63,39 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def read_owner(folder: str | Path) -> dict[str, Any] | None:
-    """The lock file's owner record, or None when there is none (or it is unreadable)."""
+@dataclass(frozen=True)
+class LockOwner:
+    """Who holds a results folder, as its lock file says: process id, host, start time and command
+    line (None where the file does not say)."""
+
+    pid: int | None = None
+    host: str | None = None
+    started: str | None = None
+    command: str | None = None
+
+    @classmethod
+    def here(cls) -> LockOwner:
+        """This process, now."""
+        return cls(os.getpid(), socket.gethostname(), time.strftime("%Y-%m-%dT%H:%M:%S"), " ".join(sys.argv)[:300])
+
+    def is_me(self) -> bool:
+        """Whether the lock file names this process on this host."""
+        return self.pid == os.getpid() and self.host == socket.gethostname()
+
+    def to_json(self) -> dict[str, Any]:
+        """The lock file's content."""
+        return {"pid": self.pid, "host": self.host, "started": self.started, "command": self.command}
+
+
+def read_owner(folder: str | Path) -> LockOwner | None:
+    """The lock file's owner record, or None when there is none (or it is unreadable or empty)."""
     try:
         d = json.loads((Path(folder) / LOCK).read_text(encoding="utf-8"))
     except (OSError, ValueError):  # ValueError: JSONDecodeError, UnicodeDecodeError
         return None
-    return d if isinstance(d, dict) else None
+    if not isinstance(d, dict) or not d:
+        return None
+    return LockOwner(d.get("pid"), d.get("host"), d.get("started"), d.get("command", "?"))
 
 
 def _check_lock_text(path: Path) -> None:
@@ -94,11 +121,10 @@ def _open_error(path: Path, exc: OSError) -> LockFileError:
                          f"{path.parent} writable, or give another folder")
 
 
-def _describe(owner: dict[str, Any] | None) -> str:
-    if not owner:
+def _describe(owner: LockOwner | None) -> str:
+    if owner is None:
         return "another process"
-    return (f"siftom pid {owner.get('pid')} on host {owner.get('host')!r} since {owner.get('started')} "
-            f"({owner.get('command', '?')})")
+    return f"siftom pid {owner.pid} on host {owner.host!r} since {owner.started} ({owner.command})"
 
 
 # (resolved folder, thread) -> (fd, depth): re-entrant within a thread; another thread of the
@@ -122,7 +148,7 @@ class RunLock:
         self.folder = Path(folder)
         self.fix = fix
         self.path = self.folder / LOCK
-        self.took_over: dict[str, Any] | None = None
+        self.took_over: LockOwner | None = None
         self._key: tuple[str, int] = ("", 0)
 
     def __enter__(self) -> RunLock:
@@ -170,12 +196,10 @@ class RunLock:
                     continue
                 _check_lock_text(self.path)
                 old = read_owner(self.folder)
-                if old and not (old.get("pid") == os.getpid() and old.get("host") == socket.gethostname()):
+                if old is not None and not old.is_me():
                     self.took_over = old
                     print(f"note: taking over the stale lock of {_describe(old)} on {self.folder}", file=sys.stderr)
-                record = {"pid": os.getpid(), "host": socket.gethostname(),
-                          "started": time.strftime("%Y-%m-%dT%H:%M:%S"), "command": " ".join(sys.argv)[:300]}
-                data = (json.dumps(record) + "\n").encode()
+                data = (json.dumps(LockOwner.here().to_json()) + "\n").encode()
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, data, 0)
                 os.fsync(fd)
@@ -198,11 +222,11 @@ class RunLock:
                     raise
         # no flock here: decide by the recorded owner
         owner = read_owner(self.folder)
-        if not owner or (owner.get("pid") == os.getpid() and owner.get("host") == socket.gethostname()):
+        if owner is None or owner.is_me():
             return True
-        if owner.get("host") != socket.gethostname():
+        if owner.host != socket.gethostname():
             return False
-        return not _pid_alive(int(owner.get("pid", 0)))
+        return not _pid_alive(int(owner.pid or 0))
 
     def release(self) -> None:
         """Give the folder back (the outermost release removes the lock file)."""

@@ -30,7 +30,7 @@ import hashlib
 import json
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -211,7 +211,7 @@ def _share(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return {"n": n, "understood": ok, "share": round(ok / n, 4) if n else None}
 
 
-def _summarize(rows: Sequence[dict[str, Any]], meta: dict[str, Any] | None = None) -> dict[str, Any]:
+def _summarize(rows: Sequence[dict[str, Any]], meta: Mapping[str, object] | None = None) -> dict[str, Any]:
     """Share understood per condition: overall, per kind, per domain and per kind and domain."""
     conds = [c for c in CONDITIONS if any(r["condition"] == c for r in rows)]
     out: dict[str, Any] = {**(meta or {}), "rows": len(rows), "overall": {}, "by_kind": {}, "by_domain": {},
@@ -241,7 +241,7 @@ class Run:
 
 
 def run_benchmark(items: Sequence[Item], conditions: Sequence[str] = ("text",), *, observer: Any = None,
-                  seed: int = 0, out: str | Path | None = None, meta: dict[str, Any] | None = None,
+                  seed: int = 0, out: str | Path | None = None, meta: Mapping[str, str | int | None] | None = None,
                   progress: Callable[[int, int], None] | None = None) -> Run:
     """Run every item in every condition; write ``out`` (JSON lines) and its summary when given.
 
@@ -305,10 +305,11 @@ def run_benchmark(items: Sequence[Item], conditions: Sequence[str] = ("text",), 
     return Run(rows, summary, secs, files)
 
 
-def table(summary: dict[str, Any]) -> Any:
-    """A rich table of the share understood per kind (rows) and condition (columns)."""
+def table(run: Run) -> Any:
+    """A rich table of the run's share understood per kind (rows) and condition (columns)."""
     from rich.table import Table
 
+    summary = run.summary
     conds = list(summary["overall"])
     t = Table(title=f"understood, {summary.get('set', '?')} set",
               caption=f"world seed {summary.get('world_seed', '?')}, {summary.get('items', '?')} items")

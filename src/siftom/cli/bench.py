@@ -336,13 +336,13 @@ def bench_understanding_cmd(set_name: str, world_seed: int | None, worlds: int, 
     conds = _conditions(conditions)
     ws = WORLD_SEEDS[set_name] if world_seed is None else world_seed
     items = generate_items(set_name, ws, worlds, seed)[:limit]
-    meta = {"set": set_name, "world_seed": ws, "worlds_per_domain": worlds, "seed": seed, "limit": limit}
+    meta: dict[str, str | int | None] = {"set": set_name, "world_seed": ws, "worlds_per_domain": worlds, "seed": seed, "limit": limit}
     with _bar("understanding", not as_json) as bar:
         run = run_benchmark(items, conds, seed=seed, out=out, meta=meta, progress=bar)
     if as_json:
         click.echo(json.dumps(run.summary, indent=2))
         return
-    Console().print(table(run.summary))
+    Console().print(table(run))
     click.echo(f"{len(items)} items x {len(conds)} conditions in {run.seconds:.0f} s"
                + (f"; wrote {', '.join(run.files)}" if run.files else ""))
 

@@ -102,9 +102,9 @@ def test_bad_inputs_are_named_errors():
 
 def test_the_package_lists_its_public_names():
     names = dir(siftom)
-    for n in ("infer", "listen", "Posterior", "RobotCommand", "Settings", "SiftomError", "Heard"):
+    for n in ("infer", "listen", "Posterior", "RobotCommand", "Settings", "SiftomError", "Answer", "Observer"):
         assert n in names
-    assert "importlib" not in names and "TYPE_CHECKING" not in names
+    assert "importlib" not in names and "TYPE_CHECKING" not in names and "Heard" not in names  # one name: Answer
     assert siftom.RobotCommand is RobotCommand
 
 

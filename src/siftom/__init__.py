@@ -33,7 +33,6 @@ _PUBLIC: dict[str, str] = {
     "infer_actions": "siftom.api",
     "make_instruction": "siftom.api",
     "transcribe_for": "siftom.api",
-    "Heard": "siftom.answer",
     "Answer": "siftom.answer",
     "Observer": "siftom.observer",
     "Posterior": "siftom.inference.model",
@@ -61,7 +60,6 @@ __all__ = [
     "AudioError",
     "BackendUnavailableError",
     "CommandParseError",
-    "Heard",
     "Hypothesis",
     "InferOptions",
     "Instruction",
@@ -87,7 +85,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load on first use
-    from siftom.answer import Answer, Heard
+    from siftom.answer import Answer
     from siftom.api import (
         infer,
         infer_actions,

@@ -221,7 +221,3 @@ class Answer:
             "timings": {k: round(v, 4) for k, v in self.timings.items()},
         })
         return out
-
-
-# The name ``siftom.listen`` returned before the answer covered every door.
-Heard = Answer

@@ -38,6 +38,7 @@ from siftom.answer import NOTHING_ASKED, Answer
 from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
 from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
+from siftom.assist.requested import absent, combine_parts, request_parts, said_object
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
@@ -270,6 +271,49 @@ class Observer:
             if replied is not None:
                 return replied
         speech = None if heard is None else heard.speech
+        post, said = self._heard_posterior(online, instruction, heard, mode, lk, why, top, gate)
+        world, target = online.world, online.goals[0].target
+        nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
+                   else NOTHING_ASKED if instruction is None else "")
+        understood = post.understanding if said and instruction is not None else None
+        targets = understood.targets if understood is not None and understood.request else ()
+        named, left_out = request_parts(targets, MAX_PARTS)
+        parts: tuple[RobotCommand, ...] = ()
+        decisions: list[Decision] = []
+        part_posts: list[Posterior] = []
+        if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":
+            # several things in one request: each target read on its own (its slot alone is
+            # scored), decided on its own; the robot carries out every part it would act on
+            view = self._view(online, mode, lk)
+            part_posts = [with_likelihood(view.posterior(dataclasses.replace(instruction, focus=k), top=top),
+                                          lk if isinstance(lk, str) else type(lk).__name__, why)
+                          for k in named]
+            parts = tuple(pp.command for pp in part_posts)
+            decisions = [self._decide_part(pp, world, target, decide, targets[k], rel)
+                         for pp, k in zip(part_posts, named, strict=True)]
+            decision = combine_parts(decisions, left_out, MAX_PARTS)
+        else:
+            if targets:
+                parts = (post.command,)
+            decision = self.decide(post, world, target, decide, nothing=nothing, answer_reliability=rel)
+            if targets and not nothing:
+                decision, parts = said_object(decision, parts, targets[0], post, world, target, online.verb)
+        post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
+        post = dataclasses.replace(post, decision=decision)
+        asking = next((pp for pp, d in zip(part_posts, decisions, strict=True) if d.action == "ask"), post) \
+            if decisions else post
+        keep = self._pending(online, asking, decision, mode) if decision.action == "ask" else (
+            pending if nothing else None)  # words that asked nothing leave a question waiting
+        timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
+        return Answer(post, decision, speech, heard.asr if heard is not None else None,
+                      heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
+                      tuple(decisions), keep)
+
+    def _heard_posterior(self, online: OnlineInference, instruction: Instruction | None, heard: Heard | None,
+                         mode: str, lk: LikelihoodArg, why: str, top: int, gate: bool) -> tuple[Posterior, bool]:
+        """(the posterior, whether an instruction was said): from the actions alone when nothing,
+        no words or words near no command of the scene were heard (``gate`` False keeps the
+        words' posterior then; see :meth:`answer`)."""
         said = not (heard is not None and heard.speech and instruction is None)  # speech, but no words
         if instruction is None:
             post = self._view(online, "action-only" if mode != "speech-only" else mode, "phonetic").posterior(
@@ -286,54 +330,7 @@ class Observer:
         if heard is not None:
             post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": heard.speech,
                                                        "instruction_heard": heard.speech and said})
-        world, target = online.world, online.goals[0].target
-        nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
-                   else NOTHING_ASKED if instruction is None else "")
-        understood = post.understanding if said and instruction is not None else None
-        targets = understood.targets if understood is not None and understood.request else ()
-        # several things in one request: each names an object (a slot naming none is one request
-        # with the rest: "any chance you could grab four knights")
-        named: list[int] = []
-        for k, m in enumerate(targets):  # a repeated object is one part ("the potato ... the potatoes")
-            if (m.obj_class is not None or m.named) and all(
-                    (targets[i].obj_class, targets[i].named) != (m.obj_class, m.named) for i in named):
-                named.append(k)
-        left_out = [targets[k] for k in named[MAX_PARTS:]]
-        named = named[:MAX_PARTS]
-        parts: tuple[RobotCommand, ...] = ()
-        decisions: list[Decision] = []
-        part_posts: list[Posterior] = []
-        if len(named) > 1 and instruction is not None and not nothing and mode != "speech-only":
-            # several things in one request: each target read on its own (its slot alone is
-            # scored), decided on its own; the robot carries out every part it would act on
-            view = self._view(online, mode, lk)
-            part_posts = [with_likelihood(view.posterior(dataclasses.replace(instruction, focus=k), top=top),
-                                          lk if isinstance(lk, str) else type(lk).__name__, why)
-                          for k in named]
-            parts = tuple(pp.command for pp in part_posts)
-            decisions = [self._decide_part(pp, world, target, decide, targets[k], rel)
-                         for pp, k in zip(part_posts, named, strict=True)]
-            decision = _combine(decisions)
-            if left_out:
-                names = ", ".join(m.obj_class or m.named for m in left_out)
-                decision = dataclasses.replace(decision, reason=f"{decision.reason}; not taken this time (at most "
-                                               f"{MAX_PARTS} things per request): {names}")
-        else:
-            if targets:
-                parts = (post.command,)
-            decision = self.decide(post, world, target, decide, nothing=nothing, answer_reliability=rel)
-            if targets and not nothing:
-                decision, parts = _said_object(decision, parts, targets[0], post, world, target, online.verb)
-        post = dataclasses.replace(post, evidence={**post.evidence, "parts": [str(c) for c in parts]})
-        post = dataclasses.replace(post, decision=decision)
-        asking = next((pp for pp, d in zip(part_posts, decisions, strict=True) if d.action == "ask"), post) \
-            if decisions else post
-        keep = self._pending(online, asking, decision, mode) if decision.action == "ask" else (
-            pending if nothing else None)  # words that asked nothing leave a question waiting
-        timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
-        return Answer(post, decision, speech, heard.asr if heard is not None else None,
-                      heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
-                      tuple(decisions), keep)
+        return post, said
 
     def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str,
                  answered: tuple[Question, ...] = ()) -> Pending | None:
@@ -369,7 +366,7 @@ class Observer:
                                answered=(*pending.answered, pending.question))
         parts: tuple[RobotCommand, ...] = (post.command,)
         if targets:
-            decision, parts = _said_object(decision, parts, targets[0], post, world, target, online.verb)
+            decision, parts = said_object(decision, parts, targets[0], post, world, target, online.verb)
         decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
         post = dataclasses.replace(post, decision=decision,
                                    evidence={**post.evidence, "parts": [str(c) for c in parts]})
@@ -384,7 +381,7 @@ class Observer:
                      mention: Mention, rel: float | Mapping[str, float]) -> Decision:
         """The rule's decision on one part of a request with several (an absent object: none)."""
         made = self.decide(post, world, target, rule, answer_reliability=rel)
-        return _absent(made, mention) or made
+        return absent(made, mention) or made
 
     def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
                nothing: str = "", answer_reliability: float | Mapping[str, float] | None = None,
@@ -472,67 +469,6 @@ class Observer:
     def describe(self) -> dict[str, Any]:
         """The resolved values this observer runs with (``/healthz``, ``siftom config show``)."""
         return {key: value for key, value, _ in self.settings.show()}
-
-
-def _absent(decision: Decision, mention: Mention) -> Decision | None:
-    """No action, with a reason naming it, when the target names an object the world lacks
-    ("bring me a banana" where there is none); None otherwise."""
-    if mention.obj_class is not None or not mention.named:
-        return None
-    return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
-                    reason=f"there is no {mention.named} here: the robot does not bring something else instead",
-                    declined=f"Sorry, there is no {mention.named} here.")
-
-
-def _already_here(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
-                  verb: str) -> tuple[Decision, tuple[RobotCommand, ...]] | None:
-    """(no action with the reason, the command understood) when the target names an object of
-    the world of which nothing is left to bring ("pass me the milk" with the milk already on the
-    counter): the robot says why, and does not bring another object instead; None otherwise."""
-    from siftom.assist.decide import Situation, decline_reason
-
-    if mention.obj_class is None or post.joint is None or post.joint.state is None:
-        return None
-    if _names_category_of(mention, str(post.command.obj_class), world):
-        return None  # "the spices": the words name the salt as well as the pepper; the posterior chose
-    asked = RobotCommand(verb, mention.obj_class, mention.count or 1)
-    why = decline_reason(asked, Situation(world, post.joint.state, target))
-    if not why:
-        return None
-    return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
-                    declined=f"Sorry, {why}."), (asked,)
-
-
-def _said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Mention, post: Posterior,
-                 world: World, target: int, verb: str) -> tuple[Decision, tuple[RobotCommand, ...]]:
-    """The decision and parts once the object the words name is checked: none with the reason
-    when nothing of it is left to bring, or when the world lacks it."""
-    here = _already_here(decision, mention, post, world, target, verb)
-    if here is not None:  # understood, but nothing of it is left to bring: say so
-        decision, parts = here
-    return _absent(decision, mention) or decision, parts
-
-
-def _names_category_of(mention: Mention, obj_class: str, world: World) -> bool:
-    """Whether the mention's words are a category word that names ``obj_class`` too ("the
-    spices": salt and pepper; "the cutlery": forks, knives and spoons)."""
-    from siftom.likelihood.lexicon import lexicon_for, pluralize
-
-    if obj_class == mention.obj_class or obj_class not in world.classes:
-        return False
-    said = mention.words.strip()
-    return any(said in (cat.word, pluralize(cat.word)) for cat in lexicon_for(world).categories_of(obj_class))
-
-
-def _combine(decisions: Sequence[Decision]) -> Decision:
-    """One decision for a request of several parts: act on the parts the rule acts on (the
-    first part's decision carries them), else the first part's ask or none."""
-    acting = [d for d in decisions if d.action not in (NONE, "ask")]
-    if not acting:
-        return decisions[0]
-    reason = "; ".join(f"{d.command if d.action not in (NONE, 'ask') else d.action}: {d.reason}"
-                       for d in decisions if d.reason)
-    return dataclasses.replace(acting[0], reason=reason)
 
 
 class _Locked:

@@ -1,0 +1,98 @@
+"""What was asked for, checked against the world: the parts of a request of several things, an
+object the world lacks ("bring me a banana"), an object of which nothing is left to bring ("pass
+me the milk" with the milk already on the counter), and one decision for several parts.
+
+The observer applies these after the decision rule: the rule values commands, these say when
+the words name something the robot cannot or need not bring, and why, in words it can say.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+from siftom.assist.decide import Decision, Situation, decline_reason
+from siftom.assist.teamvalue import NONE
+from siftom.inference.model import Posterior
+from siftom.language.record import Mention
+from siftom.world.commands import RobotCommand
+from siftom.world.model import World
+
+
+def absent(decision: Decision, mention: Mention) -> Decision | None:
+    """No action, with a reason naming it, when the target names an object the world lacks
+    ("bring me a banana" where there is none); None otherwise."""
+    if mention.obj_class is not None or not mention.named:
+        return None
+    return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
+                    reason=f"there is no {mention.named} here: the robot does not bring something else instead",
+                    declined=f"Sorry, there is no {mention.named} here.")
+
+
+def _already_here(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
+                  verb: str) -> tuple[Decision, tuple[RobotCommand, ...]] | None:
+    """(no action with the reason, the command understood) when the target names an object of
+    the world of which nothing is left to bring ("pass me the milk" with the milk already on the
+    counter): the robot says why, and does not bring another object instead; None otherwise."""
+    if mention.obj_class is None or post.joint is None or post.joint.state is None:
+        return None
+    if _names_category_of(mention, str(post.command.obj_class), world):
+        return None  # "the spices": the words name the salt as well as the pepper; the posterior chose
+    asked = RobotCommand(verb, mention.obj_class, mention.count or 1)
+    why = decline_reason(asked, Situation(world, post.joint.state, target))
+    if not why:
+        return None
+    return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
+                    declined=f"Sorry, {why}."), (asked,)
+
+
+def said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Mention, post: Posterior,
+                 world: World, target: int, verb: str) -> tuple[Decision, tuple[RobotCommand, ...]]:
+    """The decision and parts once the object the words name is checked: none with the reason
+    when nothing of it is left to bring, or when the world lacks it."""
+    here = _already_here(decision, mention, post, world, target, verb)
+    if here is not None:  # understood, but nothing of it is left to bring: say so
+        decision, parts = here
+    return absent(decision, mention) or decision, parts
+
+
+def _names_category_of(mention: Mention, obj_class: str, world: World) -> bool:
+    """Whether the mention's words are a category word that names ``obj_class`` too ("the
+    spices": salt and pepper; "the cutlery": forks, knives and spoons)."""
+    from siftom.likelihood.lexicon import lexicon_for, pluralize
+
+    if obj_class == mention.obj_class or obj_class not in world.classes:
+        return False
+    said = mention.words.strip()
+    return any(said in (cat.word, pluralize(cat.word)) for cat in lexicon_for(world).categories_of(obj_class))
+
+
+def request_parts(targets: Sequence[Mention], most: int) -> tuple[list[int], list[Mention]]:
+    """(the targets taken as parts of the request, by index; those past ``most``, left out).
+
+    Each part names an object: a slot naming none is one request with the rest ("any chance you
+    could grab four knights"), and a repeated object is one part ("the potato ... the potatoes").
+    """
+    named: list[int] = []
+    for k, m in enumerate(targets):
+        if (m.obj_class is not None or m.named) and all(
+                (targets[i].obj_class, targets[i].named) != (m.obj_class, m.named) for i in named):
+            named.append(k)
+    return named[:most], [targets[k] for k in named[most:]]
+
+
+def combine_parts(decisions: Sequence[Decision], left_out: Sequence[Mention] = (), most: int = 0) -> Decision:
+    """One decision for a request of several parts: act on the parts the rule acts on (the
+    first part's decision carries them), else the first part's ask or none; the reason names
+    the objects ``left_out`` (past the ``most`` things one request carries out)."""
+    acting = [d for d in decisions if d.action not in (NONE, "ask")]
+    decision = decisions[0]
+    if acting:
+        reason = "; ".join(f"{d.command if d.action not in (NONE, 'ask') else d.action}: {d.reason}"
+                           for d in decisions if d.reason)
+        decision = dataclasses.replace(acting[0], reason=reason)
+    if left_out:
+        names = ", ".join(m.obj_class or m.named for m in left_out)
+        decision = dataclasses.replace(decision, reason=f"{decision.reason}; not taken this time (at most "
+                                       f"{most} things per request): {names}")
+    return decision

@@ -38,7 +38,7 @@ def test_a_missing_module_is_explained_before_anything_is_imported(reg):
         reg.make("ghost")
     assert "no_such_module_xyz" not in sys.modules
     assert reg.available() == ()
-    assert reg.describe()[0]["available"] is False
+    assert reg.describe()[0].available is False
 
 
 def test_a_missing_program_names_the_apt_package(reg):
@@ -79,7 +79,7 @@ def test_every_builtin_registry_entry_describes_itself():
     assert "domain" in regs
     for r in regs.values():
         for line in r.describe():
-            assert line["name"] and isinstance(line["available"], bool)
+            assert line.name and isinstance(line.to_json()["available"], bool)
 
 
 def test_plugins_command_lists_every_registry(capsys):

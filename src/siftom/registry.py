@@ -57,6 +57,23 @@ def _import(target: str) -> Any:
 
 
 @dataclass(frozen=True)
+class EntryStatus:
+    """Whether a plug-in can be used here: name, summary and, when it cannot, why (``missing``)."""
+
+    name: str
+    summary: str
+    missing: str | None = None
+
+    @property
+    def available(self) -> bool:
+        return self.missing is None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"name": self.name, "summary": self.summary, "available": self.available,
+                **({"missing": self.missing} if self.missing else {})}
+
+
+@dataclass(frozen=True)
 class Entry:
     """A registered plug-in.
 
@@ -118,11 +135,9 @@ class Entry:
         configuration themselves (e.g. an explicit LLM endpoint), which the class validates."""
         return _import(self.entry_point)(**kwargs)
 
-    def describe(self) -> dict[str, Any]:
-        """A JSON-able line: name, summary, whether it is available and, if not, why."""
-        why = self.missing()
-        return {"name": self.name, "summary": self.summary, "available": why is None,
-                **({"missing": why} if why else {})}
+    def describe(self) -> EntryStatus:
+        """Name, summary, whether it is available and, if not, why."""
+        return EntryStatus(self.name, self.summary, self.missing() or None)
 
 
 class Registry:
@@ -194,7 +209,7 @@ class Registry:
         """Names usable on this machine now."""
         return tuple(n for n in self.names() if self._entries[n].missing() is None)
 
-    def describe(self) -> list[dict[str, Any]]:
+    def describe(self) -> list[EntryStatus]:
         return [self._entries[n].describe() for n in self.names()]
 
     def help_line(self, default: str | None = None) -> str:

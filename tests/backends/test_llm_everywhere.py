@@ -141,7 +141,7 @@ def test_an_invalid_environment_is_reported_by_healthz_not_a_crash(monkeypatch, 
     settings = ServiceSettings()
     assert "llm" not in settings.likelihoods
     status = Runtime(settings, tmp_path).llm_status()
-    assert status["offered"] is False and "SIFTOM_LLM_BASE_URL" in status["error"]
+    assert status.offered is False and "SIFTOM_LLM_BASE_URL" in (status.error or "")
 
 
 # ------------------------------------------------------------------ chat path of the baselines

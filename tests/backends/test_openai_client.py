@@ -24,7 +24,7 @@ def test_config_reads_the_environment_and_overrides_win(tmp_path):
     assert (cfg.backend, cfg.base_url, cfg.model, cfg.api_key) == ("openai", "http://h:1/v1", "m", "sk-secret")
     assert (cfg.timeout_s, cfg.max_retries, cfg.cache_dir) == (7.5, 1, tmp_path)
     assert LLMConfig.from_env(env, model="other", base_url=None).model == "other"
-    assert "sk-secret" not in json.dumps(cfg.public()) and cfg.public()["api_key_set"] is True
+    assert "sk-secret" not in json.dumps(cfg.to_json()) and cfg.to_json()["api_key_set"] is True
     assert LLMConfig.from_env({}).backend == "llama" and not llm_configured({})
     assert LLMConfig.from_env({"SIFTOM_LLM": "llama", "SIFTOM_LLM_GGUF": "/x.gguf"}).model == "/x.gguf"
     assert llm_configured({"SIFTOM_LLM": "llama"})

@@ -68,10 +68,10 @@ def test_registered_and_small_seed_scenarios_are_unchanged() -> None:
     """
     h = hashlib.sha1()
     for sid in scenario_ids():
-        h.update(json.dumps(get_scenario(sid).summary(), sort_keys=True).encode())
+        h.update(json.dumps(get_scenario(sid).to_json(), sort_keys=True).encode())
     for dom in DOMAINS:
         for seed in [*range(10, 40), 123, 10**9]:
-            h.update(json.dumps(get_domain(dom).generate(seed).summary(), sort_keys=True).encode())
+            h.update(json.dumps(get_domain(dom).generate(seed).to_json(), sort_keys=True).encode())
     assert h.hexdigest()[:16] == "cdd18449c7bf9d7f"
 
 
@@ -91,7 +91,7 @@ def test_world_seed_worlds_are_valid_and_really_differ(domain: str) -> None:
         for g in sc.goals:
             for c, n in g.counts:
                 assert sum(1 for it in sc.world.items if it.cls == c) >= n
-        json.dumps(sc.summary())
+        json.dumps(sc.to_json())
         assert sc.meta["generator"] == "wide"
     # 20 worlds: layouts, starts, goals and action sequences all differ (measured: 20/20 distinct
     # action sequences and layouts, 18-19 distinct goals per domain)

@@ -76,7 +76,7 @@ def test_cache_answers_a_rerun_without_requests(vlm_env, frames):
 def test_a_known_world_skips_the_scene_question(vlm_env, frames):
     vlm_env.on("chat/completions", handler(frames))
     sc = get_scenario(SCENARIO)
-    s = sc.summary()
+    s = sc.to_json()
     world = {"places": s["places"], "items": [{"name": o["name"], "class": o["class"], "at": o["at"]} for o in s["objects"]],
              "agents": s["agents"], "target": "kitchen_counter", "goals": [{"name": "mine", "counts": {"jam": 1}}]}
     res = perceive([Frame.from_path(f) for f in frames], world=KnownWorld.from_json(world), propose_goals=False)

@@ -46,7 +46,7 @@ def test_robot_plan_reaches_the_target():
     sc = get_scenario("kitchen-cereal-v0")
     plan = robot_plan(sc, sc.now, "fetch(sugar)")
     assert plan.status == "optimal"
-    assert plan.route[-1] == sc.summary()["target"]
+    assert plan.route[-1] == sc.to_json()["target"]
     assert plan.actions[-1].startswith("put(robot, sugar")
 
 

@@ -27,15 +27,15 @@ def plugins_cmd(kind: str | None, as_json: bool) -> None:
             raise unknown_name("registry", kind, regs)
         regs = {kind: regs[kind]}
     if as_json:
-        click.echo(json.dumps({k: r.describe() for k, r in regs.items()}, indent=2))
+        click.echo(json.dumps({k: [e.to_json() for e in r.describe()] for k, r in regs.items()}, indent=2))
         return
     table = Table(title="siftom plug-ins")
     for col in ("kind", "name", "usable", "summary / what is missing"):
         table.add_column(col)
     for k, r in regs.items():
         for line in r.describe():
-            name = line["name"] + (" (default)" if line["name"] == r.default else "")
-            table.add_row(k, name, "yes" if line["available"] else "no", line.get("missing") or line["summary"])
+            name = line.name + (" (default)" if line.name == r.default else "")
+            table.add_row(k, name, "yes" if line.available else "no", line.missing or line.summary)
     Console().print(table)
 
 

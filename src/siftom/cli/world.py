@@ -26,7 +26,7 @@ def scene() -> None:
     """Look at scene graphs (VirtualHome JSON)."""
 
 
-def inspect_summary(graph: SceneGraph, scene_view: SymbolicScene) -> dict[str, Any]:
+def _inspect_summary(graph: SceneGraph, scene_view: SymbolicScene) -> dict[str, Any]:
     """The facts ``scene inspect`` prints, as a JSON-ready dict."""
     room_name: dict[int | None, str] = {r.id: r.name for r in scene_view.rooms}  # None: in no room
     in_room = Counter(p.room for p in scene_view.placements)
@@ -108,7 +108,7 @@ def _print_summary(path: Path, info: dict[str, Any]) -> None:
 def inspect_cmd(file: Path, as_json: bool) -> None:
     """Show the rooms, containers, surfaces and objects of a scene-graph FILE."""
     graph = SceneGraph.load(file)
-    info = inspect_summary(graph, SymbolicScene.of(graph))
+    info = _inspect_summary(graph, SymbolicScene.of(graph))
     if as_json:
         click.echo(json.dumps(info, indent=2))
     else:
@@ -173,7 +173,7 @@ def scenarios_show(scenario_id: str, png: Path | None, as_json: bool, no_path: b
     from siftom.scenarios.base import get_scenario
 
     sc = get_scenario(scenario_id)
-    info = sc.summary()
+    info = sc.to_json()
     if png is not None:
         from siftom.world.render import render_scenario
 

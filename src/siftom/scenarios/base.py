@@ -74,8 +74,8 @@ class Scenario:
             raise CommandParseError(f"{text!r}: only {n} {cmd.obj_class} exist in {self.id}")
         return cmd
 
-    def summary(self) -> dict[str, Any]:
-        """A JSON-able description."""
+    def to_json(self) -> dict[str, Any]:
+        """The scenario as JSON: its world, start, goal, command and recorded actions."""
         w = self.world
         s = self.start
         return {

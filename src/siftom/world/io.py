@@ -29,6 +29,7 @@ from siftom.world.bounds import WORLD_BOUNDS as WORLD_BOUNDS
 from siftom.world.bounds import WorldBounds as WorldBounds
 from siftom.world.bounds import WorldTooLargeError as WorldTooLargeError
 from siftom.world.bounds import check_world_bounds as check_world_bounds
+from siftom.world.library import GoalSpec as GoalSpec
 from siftom.world.library import LoadedScene as LoadedScene
 from siftom.world.library import _need
 from siftom.world.library import feasible_goals as feasible_goals
@@ -111,7 +112,7 @@ def _scene_from_json(obj: Any) -> LoadedScene:
         open_mask |= 1 << place_of(name, "open")
     target = place_of(_need(obj, "target", "world"), "target")
     start = State((human, robot), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = feasible_goals(obj, world, target)
+    goals = feasible_goals(GoalSpec.from_json(obj), world, target)
     verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
     return LoadedScene(world, start, goals, verb)
 
@@ -171,9 +172,9 @@ def scene_warnings(obj: Any, scene: LoadedScene) -> list[str]:
     """Warnings about a loaded world JSON (classes no goal mentions)."""
     if not isinstance(obj, dict) or ("nodes" in obj and "edges" in obj and "goals" not in obj):
         space = obj.get("goal_space", "household-table-v0") if isinstance(obj, dict) else "household-table-v0"
-        lib = goal_library({"goal_space": space}, scene.goals[0].target)
+        lib = goal_library(GoalSpec(space), scene.goals[0].target)
     else:
-        lib = goal_library(obj, scene.goals[0].target)
+        lib = goal_library(GoalSpec.from_json(obj), scene.goals[0].target)
     return [*scene.notes, *unmentioned_class_warnings(scene.world, lib)]
 
 

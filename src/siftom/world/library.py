@@ -31,11 +31,28 @@ def _need(d: object, key: str, where: str) -> Any:
     return d[key]
 
 
-def goal_library(obj: dict[str, Any], target: int) -> list[Goal]:
+@dataclass(frozen=True)
+class GoalSpec:
+    """Where a world's goals come from: its own ``goals`` (the JSON list as given, checked when the
+    goals are read; None: it has none) or else the named ``goal_space``."""
+
+    goal_space: str = "household-table-v0"
+    goals: object = None
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> GoalSpec:
+        """The ``goals`` and ``goal_space`` of world JSON (``"goals": null`` is an empty list, refused when read)."""
+        space = obj.get("goal_space", "household-table-v0")
+        if "goals" in obj:
+            return cls(space, obj["goals"] if obj["goals"] is not None else [])
+        return cls(space)
+
+
+def goal_library(spec: GoalSpec, target: int) -> list[Goal]:
     """Every goal of the library a world names (its own ``goals`` or a ``goal_space``), unfiltered."""
-    if "goals" in obj:
+    if spec.goals is not None:
         goals = []
-        raw = obj["goals"]
+        raw = spec.goals
         if not isinstance(raw, list) or not raw:
             raise ObservationError("goals must be a non-empty list like [{\"name\": \"salad\", \"counts\": {\"tomato\": 1}}]")
         for k, g in enumerate(raw):
@@ -48,7 +65,7 @@ def goal_library(obj: dict[str, Any], target: int) -> list[Goal]:
                 raise ObservationError(f"goals[{k}]: each count must be an integer from 1 to 20")
             goals.append(Goal(str(g.get("name", f"goal{k}")), target, tuple(sorted((str(c), int(n)) for c, n in counts.items()))))
         return goals
-    space = obj.get("goal_space", "household-table-v0")
+    space = spec.goal_space
     if space == "household-table-v0":
         from siftom.world.domains.household import goal_space
     elif space == "kitchen-v0":
@@ -58,10 +75,10 @@ def goal_library(obj: dict[str, Any], target: int) -> list[Goal]:
     return [Goal(g.name, target, g.counts) for g in goal_space(target)]
 
 
-def feasible_goals(obj: dict[str, Any], world: World, target: int) -> tuple[Goal, ...]:
-    """The goals of the library ``obj`` names that the world's objects can satisfy (none: an error)."""
+def feasible_goals(spec: GoalSpec, world: World, target: int) -> tuple[Goal, ...]:
+    """The goals of the library ``spec`` names that the world's objects can satisfy (none: an error)."""
     have = Counter(it.cls for it in world.items)
-    goals = goal_library(obj, target)
+    goals = goal_library(spec, target)
     feasible = [g for g in goals if all(have[c] >= n for c, n in g.counts)]
     if not feasible:
         raise ObservationError("no goal in the goal space can be reached with the objects in this scene"

@@ -6,7 +6,7 @@ from collections import Counter
 from typing import Any
 
 from siftom.errors import ObservationError, SceneGraphError
-from siftom.world.library import LoadedScene, feasible_goals, goal_library
+from siftom.world.library import GoalSpec, LoadedScene, feasible_goals, goal_library
 from siftom.world.model import NOTHING, Item, Place, State, World
 
 # VirtualHome class names -> siftom object classes
@@ -34,7 +34,7 @@ def scene_from_scenegraph(graph: Any, target: str | None = None, goal_space: str
     view = SymbolicScene.of(graph)
     want = target or ("kitchentable" if goal_space == "household-table-v0" else "kitchencounter")
     tnode = _target_node(graph, view, want)
-    spec: dict[str, Any] = {"goals": goals} if goals is not None else {"goal_space": goal_space}
+    spec = GoalSpec(goal_space, goals)
     known = {c for g in goal_library(spec, 0) for c, _n in g.counts}
     lib = "given" if goals is not None else goal_space
     objs, unknown, loose, why = _grabbables(graph, view, known, lib)

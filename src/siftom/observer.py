@@ -41,11 +41,12 @@ from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.requested import absent, combine_parts, request_parts, said_object
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
-from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, Cache, with_likelihood
+from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, with_likelihood
 from siftom.inference.model import OnlineInference, Posterior, SIFToM
 from siftom.inputs import SceneInput
 from siftom.language.record import Mention
 from siftom.likelihood.base import Instruction, InstructionLikelihood
+from siftom.memo import Memo
 from siftom.settings import Settings
 from siftom.world.commands import RobotCommand
 from siftom.world.model import State, World
@@ -143,8 +144,8 @@ class Observer:
         self.max_audio_seconds = max_audio_seconds
         self._models: dict[Any, SIFToM] = {}
         self._models_lock = threading.Lock()
-        self._recognisers = Cache(8)
-        self._online = Cache(256)
+        self._recognisers: Memo[Recogniser] = Memo("observer.recognisers", 8)
+        self._online: Memo[OnlineInference] = Memo("observer.online", 256)
 
     # ----- parts ------------------------------------------------------------------------------
     def model(self, mode: str | None = None, likelihood: LikelihoodArg = "phonetic", lexicon: Any = None) -> SIFToM:

@@ -15,11 +15,8 @@ recognition and the instruction likelihood only.
 from __future__ import annotations
 
 import dataclasses
-import threading
 import time
-from collections import OrderedDict
-from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -29,45 +26,6 @@ from siftom.speech.asr import DEFAULT_NBEST
 
 NO_SPEECH = "no speech heard"
 NO_INSTRUCTION = "no instruction heard"
-T = TypeVar("T")
-
-
-class Cache:
-    """A small thread-safe LRU map with get-or-create (engines, online inferences, plans).
-
-    ``make`` runs outside the lock (creation may be slow); two threads that miss at once may
-    both create, and the last one is kept.
-    """
-
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self._d: OrderedDict[Any, Any] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def __len__(self) -> int:
-        return len(self._d)
-
-    def get_or_create(self, key: Any, make: Callable[[], T]) -> T:
-        """The value for ``key``, made by ``make()`` on a miss."""
-        return self.get(key, make)
-
-    def get(self, key: Any, make: Callable[[], T]) -> T:
-        """The value for ``key``, made by ``make()`` on a miss."""
-        with self._lock:
-            if key in self._d:
-                self._d.move_to_end(key)
-                hit: T = self._d[key]  # stored by make() for this key
-                return hit
-        value = make()
-        with self._lock:
-            self._d[key] = value
-            while len(self._d) > self.size:
-                self._d.popitem(last=False)
-        return value
-
-
-ENGINES = Cache(8)
-ONLINE = Cache(64)
 
 
 def with_likelihood(post: Posterior, name: str, why: str) -> Posterior:

@@ -73,7 +73,7 @@ class Runtime:
         self.observer = observer if observer is not None else Observer(
             offered=settings.offered, max_audio_seconds=settings.max_audio_seconds)
         self._scenes: Memo[SceneInput] = Memo("service.scenes", settings.cache_size)
-        self._plans: Memo[Any] = Memo("service.plans", 1024)
+        self._plans: Memo[RobotPlan | None] = Memo("service.plans", 1024)
         self._render_lock = threading.Lock()
         self.requests = 0
         # one CPU budget for every utterance this process answers: streams and audio requests

@@ -251,7 +251,7 @@ class OpenAIClient:
 
     # ----------------------------------------------------------------- transport
 
-    def request_key(self, path: str, body: dict[str, Any]) -> str:
+    def _request_key(self, path: str, body: dict[str, Any]) -> str:
         """Cache key of a request: model + path + canonical JSON body."""
         canon = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
         return hashlib.sha256("\0".join((self.model_id, path, canon)).encode()).hexdigest()
@@ -259,7 +259,7 @@ class OpenAIClient:
     def post(self, path: str, body: dict[str, Any], *, use_cache: bool = True) -> dict[str, Any]:
         """POST JSON to ``base_url/path`` with retries; the answer as a dict (cached on disk)."""
         path = path.strip("/")
-        return self._send(path, self.request_key(path, body), json.dumps(body).encode(), "application/json",
+        return self._send(path, self._request_key(path, body), json.dumps(body).encode(), "application/json",
                           use_cache)
 
     def post_form(self, path: str, fields: Sequence[tuple[str, str]], files: Sequence[tuple[str, str, bytes, str]],
@@ -280,7 +280,7 @@ class OpenAIClient:
             parts.append(f'--{boundary}\r\nContent-Disposition: form-data; name="{name}"; filename="{filename}"'
                          f"\r\nContent-Type: {ctype}\r\n\r\n".encode() + data + b"\r\n")
         parts.append(f"--{boundary}--\r\n".encode())
-        return self._send(path, self.request_key(path, canon), b"".join(parts),
+        return self._send(path, self._request_key(path, canon), b"".join(parts),
                           f"multipart/form-data; boundary={boundary}", use_cache)
 
     def _send(self, path: str, key: str, payload: bytes, content_type: str, use_cache: bool) -> dict[str, Any]:

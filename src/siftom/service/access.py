@@ -55,7 +55,7 @@ from siftom.service.hosts import (
     normal_origin,
     split_host,
 )
-from siftom.service.problems import problem
+from siftom.service.problems import ProblemBody
 
 __all__ = ["CLOSE_UNAUTHORIZED", "LOOPBACK_NAMES", "Access", "AccessGuard", "FailureLog", "authenticated",
            "check_host_name", "check_origin", "cookie_name", "is_ip", "is_loopback", "new_token", "normal_origin",
@@ -264,7 +264,7 @@ class AccessGuard:
     async def _deny(scope: Scope, receive: Receive, send: Send, status: int, slug: str, detail: str,
                     extra: list[tuple[bytes, bytes]] | None = None) -> None:
         """A problem response; a WebSocket is refused before its handshake completes."""
-        body = json.dumps(problem(status, slug, detail)).encode()
+        body = json.dumps(ProblemBody(status, slug, detail).to_json()).encode()
         headers = [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode()),
                    *(extra or [])]
         if scope["type"] == "websocket":
@@ -294,7 +294,7 @@ class AccessGuard:
             reason = f"{what}: send Authorization: Bearer TOKEN, or ?token=TOKEN"
             await send({"type": "websocket.close", "code": CLOSE_UNAUTHORIZED, "reason": reason[:123]})
             return
-        body = json.dumps(problem(401, "unauthorized", f"{what}: {fix}")).encode()
+        body = json.dumps(ProblemBody(401, "unauthorized", f"{what}: {fix}").to_json()).encode()
         await send({"type": "http.response.start", "status": 401,
                     "headers": [(b"content-type", b"application/problem+json"),
                                 (b"content-length", str(len(body)).encode()),

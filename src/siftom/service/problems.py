@@ -48,18 +48,27 @@ class ProblemError(Exception):
         self.status, self.slug, self.detail, self.errors, self.headers = status, slug, detail, errors, headers
 
 
-def problem(status: int, slug: str, detail: str, errors: list[FieldError] | None = None) -> dict[str, Any]:
-    """The problem-details body."""
-    body: dict[str, Any] = {"type": f"urn:siftom:problem:{slug}", "title": HTTPStatus(status).phrase,
-                            "status": status, "detail": detail}
-    if errors:
-        body["errors"] = [{"loc": e.loc, "msg": e.msg} for e in errors]
-    return body
+@dataclass(frozen=True)
+class ProblemBody:
+    """A problem-details document: ``type`` (``urn:siftom:problem:SLUG``), the status's ``title``,
+    ``status``, ``detail`` and, for a request with invalid fields, ``errors``."""
+
+    status: int
+    slug: str
+    detail: str
+    errors: tuple[FieldError, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        body: dict[str, Any] = {"type": f"urn:siftom:problem:{self.slug}", "title": HTTPStatus(self.status).phrase,
+                                "status": self.status, "detail": self.detail}
+        if self.errors:
+            body["errors"] = [{"loc": e.loc, "msg": e.msg} for e in self.errors]
+        return body
 
 
 def problem_response(status: int, slug: str, detail: str, errors: list[FieldError] | None = None,
                      headers: dict[str, str] | None = None) -> JSONResponse:
-    return JSONResponse(problem(status, slug, detail, errors), status_code=status,
+    return JSONResponse(ProblemBody(status, slug, detail, tuple(errors or ())).to_json(), status_code=status,
                         media_type=PROBLEM_JSON, headers=headers)
 
 
@@ -184,7 +193,7 @@ class _TrackedSend:
 
 async def send_problem(send: Send, status: int, slug: str, detail: str, close: bool = False) -> None:
     """Send a whole problem-details response on a raw ASGI ``send``."""
-    body = json.dumps(problem(status, slug, detail)).encode()
+    body = json.dumps(ProblemBody(status, slug, detail).to_json()).encode()
     headers = [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode())]
     if close:
         headers.append((b"connection", b"close"))

@@ -88,7 +88,7 @@ def _class(section: str) -> type:
     return cls
 
 
-def section_fields(section: str) -> dict[str, Any]:
+def _section_fields(section: str) -> dict[str, Any]:
     """The settings of a section: field name -> type (from the option class's annotations)."""
     cls = _class(section)
     hints = typing.get_type_hints(cls)
@@ -206,7 +206,7 @@ class Settings:
         def put(section: str, key: str, value: Any, source: str) -> None:
             if section not in SECTIONS:
                 raise unknown_name("settings section", section, [*SECTIONS, "rules", "likelihoods"])
-            known = section_fields(section)
+            known = _section_fields(section)
             if key not in known:
                 raise SettingsError(str(unknown_name(f"setting in [{section}]", key, known)).rstrip(".")
                                     + f" (from {source})")
@@ -339,11 +339,11 @@ class Settings:
                                              **({"llm": llm} if llm is not None else {}))
         return svc
 
-    def likelihood_options(self, name: str) -> dict[str, Any]:
+    def likelihood_options(self, name: str) -> dict[str, object]:
         """The constructor options given for likelihood ``name`` (checked at load)."""
         return dict(self.likelihoods.get(name, {}))
 
-    def rule_options(self, rule: str) -> dict[str, Any]:
+    def rule_options(self, rule: str) -> dict[str, object]:
         """The options given for decision rule ``rule`` (checked at load)."""
         return dict(self.rules.get(rule, {}))
 
@@ -363,7 +363,7 @@ class Settings:
                 continue
             given = self.values.get(section, {})
             defaults = _defaults(section)
-            for k in section_fields(section):
+            for k in _section_fields(section):
                 value = given.get(k, defaults.get(k))
                 if f"{section}.{k}" in SECRETS and value:
                     value = "***"

@@ -18,7 +18,7 @@ import math
 import os
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any, cast
@@ -45,7 +45,8 @@ OPEN_BACKGROUND_WEIGHT = 0.1
 # pocketsphinx's flat-lexicon rescoring pass: with a vocabulary of a few hundred words the flat pass
 # costs ~40 % of the decode and gains nothing measurable (docs/speech.md, "Decoder passes"); the
 # search is then reset before each utterance, so one utterance decodes the same after any other.
-FAST_PASSES: dict[str, Any] = {"fwdflat": False}
+DecoderValue = bool | int | float | str  # a pocketsphinx Decoder setting's value
+FAST_PASSES: dict[str, DecoderValue] = {"fwdflat": False}
 # Default request templates used when a vocabulary is given as bare object words.
 REQUEST_TEMPLATES = (
     "{x}",
@@ -247,7 +248,7 @@ class PocketsphinxEngine:
     def __init__(self, vocabulary: Sequence[str] | None = None, max_seconds: float = 120.0,
                  background_words: int = 0, background_weight: float = OPEN_BACKGROUND_WEIGHT,
                  background_filter: BackgroundFilter | None = None,
-                 decoder_options: dict[str, Any] | None = None, boost_words: Iterable[str] = (),
+                 decoder_options: Mapping[str, DecoderValue] | None = None, boost_words: Iterable[str] = (),
                  boost: float = 1.0) -> None:
         """Load the decoder (fast with a vocabulary: the dictionary is trimmed)."""
         ps = _ps()
@@ -373,7 +374,7 @@ def _clean(text: str) -> str:
 
 # The open decode skips pocketsphinx's second (flat-lexicon) pass: measured as accurate as with
 # it on free and grammar phrasings at half the decoding time (docs/speech.md, "Open vocabulary").
-OPEN_DECODER_OPTIONS: dict[str, Any] = {"fwdflat": False}
+OPEN_DECODER_OPTIONS: dict[str, DecoderValue] = {"fwdflat": False}
 
 
 def open_vocabulary_engine(vocabulary: Sequence[str], **options: Any) -> PocketsphinxEngine:

@@ -207,8 +207,8 @@ def test_a_world_seed_results_page_says_so() -> None:
 
 
 def test_a_sweep_takes_world_seeds_as_an_axis(tmp_path: Path) -> None:
-    from siftom.bench.sweep import plan
+    from siftom.bench.sweep import SweepConfig, plan
 
-    cells = plan({"axes": {"world_seeds": [1, 2]}, "dataset": {"domain": "kitchen-v0", "scenarios": 2}}, tmp_path)
+    cells = plan(SweepConfig({"domain": "kitchen-v0", "scenarios": 2}, {}, {"world_seeds": [1, 2]}), tmp_path)
     assert [c.build.world_seed for c in cells] == [1, 2]
     assert len({c.dataset_dir for c in cells}) == 2

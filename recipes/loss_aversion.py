@@ -69,6 +69,7 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
     from siftom.assist.teamvalue import team_values
     from siftom.bench import evaluate as ev
     from siftom.bench import trials as tr
+    from siftom.bench.choosers import instruction_from
     from siftom.bench.results_io import read_jsonl
     from siftom.inference.model import Observation
     from siftom.people.stimuli import load_dataset, scenario_for
@@ -91,7 +92,8 @@ def loss_aversion_curve(results: str | Path, lambdas: Sequence[float] = LAMBDA_G
             continue
         sc = scenario_for(s)
         skey = tr.scenario_key(s)
-        post = model.infer(Observation.from_scenario(sc, tr._instruction(r["transcript"]["nbest"], r["transcript"].get("engine"))))
+        heard = instruction_from(r["transcript"]["nbest"], r["transcript"].get("engine"))
+        post = model.infer(Observation.from_scenario(sc, heard))
         tv = team_values(post.joint, sc.world, sc.target, Situation.from_scenario(sc).state)
         outcome = _Outcome(tv.actions, skey, sc, s.gold_command, post)
         asked = (post.command,) if post.command in tv.actions else None  # the rule weighs what was asked

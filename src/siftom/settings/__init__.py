@@ -37,7 +37,7 @@ import os
 import tomllib
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -176,6 +176,26 @@ def _rule_options(rule: str) -> tuple[str, ...]:
     return opts
 
 
+def _put_file(file: Path, put: Callable[[str, str, Any, str], None], put_rule: Callable[[str, Any, str], None],
+              put_likelihood: Callable[[str, Any, str], None]) -> None:
+    """Put every value of a TOML settings file: its sections, ``[rules.X]`` and ``[likelihoods.X]``."""
+    where = f"file {file}"
+    for section, table in _read_file(file).items():
+        if section == "rules" and isinstance(table, Mapping):
+            for rule, opts in table.items():
+                put_rule(rule, opts, where)
+            continue
+        if section == "likelihoods" and isinstance(table, Mapping):
+            for lik, opts in table.items():
+                put_likelihood(lik, opts, where)
+            continue
+        if not isinstance(table, Mapping):
+            raise SettingsError(f"{file}: {section!r} must be a [section] table; sections: "
+                                f"{', '.join([*SECTIONS, 'rules'])}")
+        for k, v in table.items():
+            put(section, k, v, where)
+
+
 @dataclass(frozen=True)
 class Settings:
     """Every option, resolved. Build with :meth:`load` (file, environment, flags).
@@ -237,21 +257,7 @@ class Settings:
                 sources[f"likelihoods.{name}.{k}"] = source
 
         if file is not None:
-            where = f"file {file}"
-            for section, table in _read_file(Path(file)).items():
-                if section == "rules" and isinstance(table, Mapping):
-                    for rule, opts in table.items():
-                        put_rule(rule, opts, where)
-                    continue
-                if section == "likelihoods" and isinstance(table, Mapping):
-                    for lik, opts in table.items():
-                        put_likelihood(lik, opts, where)
-                    continue
-                if not isinstance(table, Mapping):
-                    raise SettingsError(f"{file}: {section!r} must be a [section] table; sections: "
-                                        f"{', '.join([*SECTIONS, 'rules'])}")
-                for k, v in table.items():
-                    put(section, k, v, where)
+            _put_file(Path(file), put, put_rule, put_likelihood)
         for name in sorted(env):
             if not name.startswith(ENV_PREFIX):
                 continue

@@ -118,7 +118,8 @@ class AcousticLikelihood:
         align: pocketsphinx key-phrase alignment; None (default): only without the Whisper factor.
         whisper_temperature: T_w in nats (> 0).
         whisper_pad_s: Whisper's feature window, at least this many seconds (``WhisperScorer``).
-        whisper_prior: beta, how much of Whisper's text prior to take out (``WhisperFactor``).
+        whisper_prior: lambda >= 0, content-free debiasing: each text scores log P(text | audio)
+            - lambda * log P(text | digital silence) (``WhisperFactor``); 0 scores as without it.
         whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
             computes anyway) and use its words as a second carrier; the commands it names join the
             pruned set (``WhisperFactor``).
@@ -175,6 +176,8 @@ class AcousticLikelihood:
         self.gap_scale = float(gap_scale)
         if not np.isfinite(whisper_temperature) or whisper_temperature <= 0:
             raise SiftomError(f"whisper_temperature must be a positive number of nats, got {whisper_temperature}")
+        if not np.isfinite(whisper_prior) or whisper_prior < 0:
+            raise SiftomError(f"whisper_prior must be a number >= 0, got {whisper_prior}")
         from siftom.likelihood.whisper_factor import WhisperFactor, whisper_available
 
         if whisper and not whisper_available():
@@ -183,6 +186,7 @@ class AcousticLikelihood:
             raise missing_extra("whisper", "faster-whisper")
         self.uses_whisper = whisper_available() if whisper is None else bool(whisper)
         self.whisper_temperature = float(whisper_temperature)
+        self.whisper_prior = float(whisper_prior)  # lambda of the content-free debiasing (WhisperFactor)
         # pocketsphinx alignment only when asked or when there is no Whisper factor to replace it
         self.aligns = (not self.uses_whisper) if align is None else bool(align)
         if not self.aligns and not self.uses_whisper:

@@ -18,10 +18,19 @@ gets the same guesses, so none is favoured by how many it has). Chosen on the se
 Whisper's own greedy transcript of the clip (``listen``) is a second carrier beside the 1-best:
 each transcript holding a key word gives its b … c to every command, w then sums over carriers
 too; key words match in the plural (``acoustic.key_word_forms``).
+
+**Content-free debiasing** (``prior_weight`` = lambda): each text's score can be taken as
+log P_whisper(t | audio) - lambda * log P_whisper(t | null), where null is digital silence (all
+zeros) as long as the clip's feature window (whole seconds): Whisper's decoder prefers some texts
+whatever it hears (Ma et al. 2023, arXiv 2311.09363, calibrate an ASR decoder used as a zero-shot
+classifier this way). The content-free score depends on the text and that length only, so it
+is memoised (:func:`content_free_scores`); lambda = 0 (the default) computes nothing and scores
+as before. docs/likelihoods.md gives the measurements behind the default.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -29,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from siftom.likelihood.counts import COUNT_WORDS
+from siftom.memo import Memo, memo
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
 
@@ -37,6 +47,10 @@ if TYPE_CHECKING:
     from siftom.speech.whisper_score import WhisperScorer
 
 Encoded = tuple[Any, int]  # WhisperScorer.encode's answer: (encoder output, number of real feature frames)
+# log P_whisper(text | digital silence), by (model, seconds of silence, text): a property of the text
+_NULL_SCORES: Memo[float] = memo("whisper.null_scores", 100_000)
+# the encoded silence itself, by (model, seconds)
+_NULL_ENCODED: Memo[Encoded] = memo("whisper.null_encoded", 32)
 
 
 def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
@@ -117,6 +131,32 @@ def scene_prompt(commands: Sequence[RobotCommand], lexicon: Lexicon | None = Non
     return ", ".join(names) + "." if names else None
 
 
+def null_seconds(n_samples: int, pad_s: float) -> int:
+    """How long the content-free input for a clip of ``n_samples`` is: its feature window (at
+    least ``pad_s``), rounded up to whole seconds so that few lengths (and memo keys) exist."""
+    from siftom.speech.audio import SAMPLE_RATE
+
+    return max(1, math.ceil(max(float(pad_s), n_samples / SAMPLE_RATE) - 1e-9))
+
+
+def content_free_scores(scorer: Any, texts: Sequence[str], seconds: int) -> np.ndarray:
+    """log P_whisper(text | ``seconds`` of digital silence) per text, in nats (``scorer``: a
+    WhisperScorer or a stand-in with ``encode`` and ``score_encoded``). Memoised per (model,
+    seconds, text): only the texts never seen before are scored, in one batch."""
+    from siftom.speech.audio import SAMPLE_RATE
+
+    model = str(getattr(scorer, "model_dir", None) or f"scorer-{id(scorer)}")
+    got = {t: _NULL_SCORES.peek((model, seconds, t)) for t in dict.fromkeys(texts)}
+    missing = [t for t, v in got.items() if v is None]
+    if missing:
+        silence = np.zeros(int(seconds * SAMPLE_RATE), dtype=np.float32)
+        enc = _NULL_ENCODED.get((model, seconds), lambda: scorer.encode(silence))
+        for t, v in zip(missing, np.asarray(scorer.score_encoded(enc, missing), dtype=float).tolist(), strict=True):
+            got[t] = _NULL_SCORES.put((model, seconds, t), float(v))
+    out = np.array([got[t] for t in texts], dtype=float)
+    return np.where(np.isfinite(out), out, 0.0)  # a text with no tokens: nothing to take out
+
+
 @dataclass(frozen=True, eq=False)
 class WhisperScores:
     """What one :meth:`WhisperFactor.scores` call found.
@@ -141,9 +181,9 @@ class WhisperFactor:
 
     Args:
         pad_s: pad the features to at least this many seconds (``WhisperScorer``).
-        prior_weight: beta in w = log P(text | audio) - beta * log P(text | silence): how much of
-            Whisper's own text prior (the same texts scored against digital silence of the clip's
-            length) is taken out; 0 keeps it.
+        prior_weight: lambda in log P(text | audio) - lambda * log P(text | null): how much of
+            Whisper's own text prior (the same texts scored against digital silence as long as
+            the clip's feature window, :func:`content_free_scores`) is taken out; 0 keeps it.
         scorer: a WhisperScorer to share (one is created on first use otherwise).
         listen: also transcribe the clip with Whisper (greedy, ``WhisperScorer.transcribe_encoded``)
             and use its words as a second carrier (``candidate_texts``' ``also_heard``).
@@ -208,7 +248,7 @@ class WhisperFactor:
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
         val = ws.score_encoded(enc, uniq)
         if self.prior_weight:
-            val = val - self.prior_weight * ws.score_encoded(ws.encode(np.zeros_like(samples)), uniq)
+            val = val - self.prior_weight * content_free_scores(ws, uniq, null_seconds(len(samples), self.pad_s))
         of = dict(zip(uniq, val.tolist(), strict=True))
         values = np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
         return WhisperScores(values, mode, tuple(heard), use, logprob)

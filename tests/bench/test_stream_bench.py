@@ -41,3 +41,30 @@ def test_noise_clip_selection():
     quick = noise_files(StreamBenchOptions(quick=True))
     assert len(quick) == len({f.stem.rsplit("_", 1)[0] for f in every}) == 11  # one per category
     assert [f.stem for f in noise_files(StreamBenchOptions(noise_clips=("fan_01",)))] == ["fan_01"]
+
+
+@pytest.mark.skipif(__import__("shutil").which("flite") is None, reason="flite is not installed")
+def test_the_bench_streams_a_spoken_request_and_scores_the_answer(tmp_path):
+    """The real listener behind the bench (not stand-in dicts): a request streamed in chunks is
+    cut, answered and scored as the person's request."""
+    import subprocess
+
+    import numpy as np
+
+    from siftom.bench.stream import RATE, _home, _noise_triggers
+    from siftom.speech.audio import load_audio
+
+    wav = tmp_path / "say.wav"
+    subprocess.run(["flite", "-voice", "slt", "-t", "can you pass me the cereal", "-o", str(wav)], check=True)
+    x = load_audio(wav)
+    padded = tmp_path / "padded.wav"
+    import soundfile as sf
+
+    sf.write(padded, np.concatenate([np.zeros(RATE // 2), x, np.zeros(RATE)]).astype(np.float32), RATE)
+    home = _home("phonetic")
+    try:
+        got = _noise_triggers(padded, len(x) / RATE + 1.5, home)
+    finally:
+        home.close()
+    assert got["segments"] >= 1 and got["decisions"] >= 1
+    assert any("cereal" in h for h in got["heard"])

@@ -236,7 +236,7 @@ class EvalOptions:
                                "likelihood": self.likelihood}
         chosen = [eval_model(m) for m in self.models]
         if self.llm is not None and any(m.needs_llm for m in chosen):
-            out["llm"] = {k: v for k, v in self.llm.public().items() if k in ("backend", "base_url", "model", "prompt")}
+            out["llm"] = {k: v for k, v in self.llm.to_json().items() if k in ("backend", "base_url", "model", "prompt")}
         if "siftom" in self.models:
             out["siftom_likelihood"] = siftom_likelihood(self)
         plugins = [m.to_json() for m in chosen if m.name not in {n for n, _s, _a in _BUILTIN}]

@@ -29,11 +29,14 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from siftom.errors import OptionsError
+
+if TYPE_CHECKING:
+    from siftom.listener import HomeListener
 
 SCENARIO = "kitchen-cereal-v0"
 RATE = 16_000
@@ -147,13 +150,13 @@ def build_stream(opts: StreamBenchOptions) -> tuple[np.ndarray, list[SpokenInstr
     return y.astype(np.float32), truths
 
 
-def _home(likelihood: str) -> Any:
+def _home(likelihood: str) -> HomeListener:
     from siftom.listener import HomeListener, load_home
 
     return HomeListener(load_home(SCENARIO), likelihood=likelihood)
 
 
-def _warm(home: Any, x: np.ndarray, truth: SpokenInstruction) -> None:
+def _warm(home: HomeListener, x: np.ndarray, truth: SpokenInstruction) -> None:
     """One answer before timing: the recogniser, Whisper and the caches are built, as in a robot
     that has been listening for a while."""
     from siftom.speech.segment import Utterance
@@ -173,7 +176,7 @@ def _stream_delays(likelihood: str, x: np.ndarray, truths: Sequence[SpokenInstru
     lock = threading.Lock()
 
     def answer(utt: Any) -> None:
-        out = home.respond(utt)
+        out = home.respond(utt).to_json()
         with lock:
             answers.append((utt, out, time.perf_counter()))
 
@@ -240,7 +243,7 @@ def noise_files(opts: StreamBenchOptions) -> list[Path]:
     return files
 
 
-def _noise_triggers(path: Path, seconds: float, home: Any) -> dict[str, Any]:
+def _noise_triggers(path: Path, seconds: float, home: HomeListener) -> dict[str, Any]:
     """Stream ``seconds`` of the looped clip as fast as the detector runs; answer what it cuts."""
     from siftom.speech.audio import load_audio
     from siftom.speech.segment import SpeechEnded
@@ -251,10 +254,10 @@ def _noise_triggers(path: Path, seconds: float, home: Any) -> dict[str, Any]:
     for k in range(0, len(x), CHUNK):
         for ev in home.feed(x[k:k + CHUNK]):
             if isinstance(ev, SpeechEnded):
-                outs.append(home.respond(ev.utterance))
+                outs.append(home.respond(ev.utterance).to_json())
     for ev in home.finish():
         if isinstance(ev, SpeechEnded):
-            outs.append(home.respond(ev.utterance))
+            outs.append(home.respond(ev.utterance).to_json())
     dec = [o for o in outs if o["event"] == "decision"]
     return {"clip": path.stem, "seconds": seconds, "segments": len(outs), "decisions": len(dec),
             "heard": [o.get("heard", "") for o in dec]}

@@ -174,7 +174,6 @@ class LLMConfig:
             "prompt": self.prompt,
         }
 
-    public = to_json  # the old name, still called by siftom.bench.models (to go once it calls to_json)
 
     def describe(self) -> str:
         """One line for logs and CLI output (no key)."""

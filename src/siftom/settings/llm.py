@@ -174,7 +174,6 @@ class LLMConfig:
             "prompt": self.prompt,
         }
 
-
     def describe(self) -> str:
         """One line for logs and CLI output (no key)."""
         if self.backend == "openai":

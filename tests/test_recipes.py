@@ -212,3 +212,23 @@ def test_every_recipe_has_a_smoke_test() -> None:
     untested = [p.name for p in sorted(RECIPES.glob("*.py")) if p.name not in tested and p.stem not in tested]
     untested += [p.name for p in sorted(RECIPES.glob("*.toml")) if p.name not in tested]
     assert not untested, f"recipes without a smoke test here: {untested}"
+
+
+def test_whisper_debias_summary_counts_confident_wrong_answers() -> None:
+    rows = [{"snr": "clean", "per": {"0": (0.9, 0.9, True), "1": (0.6, 0.6, True)}},
+            {"snr": "5 dB", "per": {"0": (0.05, 0.9, False), "1": (0.3, 0.7, False)}}]
+    out = _load("whisper_debias").summarise(rows)
+    assert out["all"]["0"] == {"n": 2, "accuracy": 50.0, "confident_wrong": 50.0, "nll": pytest.approx(1.551, abs=1e-3)}
+    assert out["all"]["1"]["confident_wrong"] == 0.0 and out["5 dB"]["1"]["accuracy"] == 0.0
+
+
+@pytest.mark.slow  # the acoustic likelihood and Whisper per stimulus
+def test_whisper_debias_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    pytest.importorskip("faster_whisper")
+    ds, _res = tiny_eval
+    res = _run(str(RECIPES / "whisper_debias.py"), "--dataset", str(ds), "--limit", "2", "--lambdas", "0,1",
+               "--out", str(tmp_path / "rows.jsonl"), "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    assert set(out["all"]) == {"0", "1"} and out["all"]["0"]["n"] == 2
+    assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2

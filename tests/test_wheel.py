@@ -130,3 +130,34 @@ def test_the_readme_pip_line_names_extras_the_wheel_declares(wheel: Path) -> Non
     assert lines
     for extras in lines:
         assert "whisper" in extras.split(",") and set(extras.split(",")) <= offered, (extras, offered)
+
+
+@pytest.fixture(scope="module")
+def bare(wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
+    """The wheel as a newcomer installs it without extras, `pip install siftom-*.whl`: pip resolves
+    and downloads its dependencies itself (minutes), nothing borrowed from this interpreter."""
+    env_dir = tmp_path_factory.mktemp("bare") / "venv"
+    venv.EnvBuilder(with_pip=True, clear=True).create(env_dir)
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "VIRTUAL_ENV", "SIFTOM_WHISPER_MODEL", "PIP_NO_DEPS")}
+    res = subprocess.run([str(env_dir / "bin" / "python"), "-m", "pip", "install", "-q", str(wheel)], cwd=env_dir,
+                         env=env, capture_output=True, text=True, timeout=1800)
+    if res.returncode != 0 and any(s in res.stderr for s in ("NewConnectionError", "Network is unreachable",
+                                                               "Temporary failure in name resolution")):
+        pytest.skip(f"no package index reachable to install the wheel's dependencies: {res.stderr[-300:]}")
+    assert res.returncode == 0, f"pip install {wheel.name}: exit {res.returncode}\n{res.stderr[-3000:]}"
+    return env_dir, env
+
+
+def test_the_wheel_installed_without_extras_names_the_whisper_extra(bare, tmp_path: Path) -> None:
+    """The newcomer's path: the wheel alone, its declared dependencies and no extra. `siftom demo`
+    from an empty folder stops with exit 2 and the pip line for Whisper, instead of a weaker result."""
+    env_dir, env = bare
+    probe = "import importlib.util as u; print(u.find_spec('faster_whisper') is None)"
+    assert _run([str(env_dir / "bin" / "python"), "-c", probe], cwd=tmp_path, env=env).strip() == "True"
+    res = subprocess.run([str(env_dir / "bin" / "siftom"), "demo"], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, timeout=600)
+    said = " ".join((res.stdout + res.stderr).split())
+    assert res.returncode == 2, said[-2000:]
+    assert "whisper" in said and 'pip install "siftom[whisper]"' in said, said[-2000:]
+    assert not any(tmp_path.iterdir())  # nothing written: no demo.png, no answer.json

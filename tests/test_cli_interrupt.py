@@ -16,6 +16,8 @@ def test_ctrl_c_in_the_first_tenths_of_a_second_prints_no_traceback():
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
+        if "Could not import runpy module" in err.decode():
+            continue  # on a loaded machine the signal landed in Python's own start-up, before siftom ran
         assert "Traceback" not in err.decode(), err.decode()[-600:]
         assert proc.returncode in (0, 130), (delay, proc.returncode)
         interrupted += proc.returncode == 130

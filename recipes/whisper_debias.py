@@ -4,7 +4,8 @@ The acoustic likelihood scores each candidate text t as log P(t | audio) - lambd
 null being digital silence as long as the clip's feature window (``[likelihoods.acoustic]
 whisper_prior``; likelihood/whisper_factor.py). For every stimulus the evaluator's acoustic path
 runs once (recognition of the whole clip, Whisper's encoding, transcript and text scores, kept
-for the clip), then the full model's posterior is recomputed for each lambda. Per SNR band and
+for the clip), then the full model's posterior is recomputed for each lambda (a clip where
+nothing was recognised is answered from the actions alone, as the evaluator's ``siftom`` does). Per SNR band and
 overall: accuracy, the share answered wrongly with P >= 0.8, and the mean NLL of the gold command.
 Choose lambda on one dataset and report it on others (other seed, voices and noise).
 
@@ -79,7 +80,8 @@ def collect(dataset: str | Path, lambdas: tuple[float, ...] = LAMBDAS, limit: in
 
     ds = load_dataset(dataset)
     asr = get_engine(engine, dataset_vocabulary(ds.stimuli))
-    model = Observer(Settings.load(env={})).model("full", "acoustic")
+    observer = Observer(Settings.load(env={}))
+    model, actions_only = observer.model("full", "acoustic"), observer.model("action-only", "acoustic")
     factor: Any = getattr(model.likelihood, "_whisper", None)
     if factor is None:
         raise SystemExit("the acoustic likelihood has no Whisper factor here: install siftom[whisper]")
@@ -89,16 +91,16 @@ def collect(dataset: str | Path, lambdas: tuple[float, ...] = LAMBDAS, limit: in
     for s in ds.stimuli[:limit]:
         sc = scenario_for(s)
         instruction, _ = heard(ds.root / s.audio, asr, DEFAULT_NBEST)
-        if instruction is None:
-            continue
         cache.reset()
         per: dict[str, tuple[float, float, bool]] = {}
         for lam in lambdas:
             factor.prior_weight = float(lam)
-            post = model.infer(Observation.from_scenario(sc, instruction))
+            # nothing heard: the actions alone answer, as in the evaluator (the same for every lambda)
+            post = (model if instruction is not None else actions_only).infer(Observation.from_scenario(sc, instruction))
             per[f"{lam:g}"] = (post.prob(s.gold_command), post.commands[0][1],
                                bool(is_correct(post.command, s.gold_command, sc.verb)))
-        rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB", "per": per})
+        rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
+                     "heard": instruction is not None, "per": per})
     return rows
 
 

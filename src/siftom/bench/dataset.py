@@ -17,6 +17,9 @@ How a dataset is built (paper, Simulated Experiment, Dataset Construction):
 * conditions: every clip is kept clean and mixed with background noise once per SNR in
   ``snrs``. The noise type rotates over ``noises`` so that every type meets every SNR equally
   often: the default is 1 clean + 3 noisy = 4 conditions, 26 x 5 x 4 = 520 stimuli.
+* rooms (``--rooms kitchen,living --distances 1,3``): each scenario x speaker is heard in one
+  simulated room at one talker distance (``siftom.speech.rooms``, an image-source response), every
+  room x distance pair equally often, before the noise; the manifest's ``extra`` names them.
 
 Everything random is drawn from generators seeded with ``[seed, scenario index, speaker index,
 ...]``, so a build is reproducible bit for bit and independent of the number of workers.
@@ -29,8 +32,7 @@ import json
 import os
 import re
 import time
-from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -116,6 +118,7 @@ class _Unit:
     scenario_seed: int | None
     speaker: Speaker
     conditions: tuple[tuple[str | None, float | None], ...]
+    room: tuple[str, float] | None = None  # (room preset, talker distance in m) with --rooms
 
 
 def _cond_tag(noise: str | None, snr: float | None) -> str:
@@ -167,6 +170,10 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
                     from siftom.speech.room import reverberate
 
                     clean = reverberate(clean, opts.room, np.random.default_rng([opts.seed, unit.k, j, 4]))
+                if unit.room is not None:  # the talker in a simulated room, placed afresh per clip
+                    from siftom.speech.rooms import reverberate_in_room
+
+                    clean = reverberate_in_room(clean, *unit.room, np.random.default_rng([opts.seed, unit.k, j, 5]))
             if noise is None:
                 x = clean
             else:
@@ -184,9 +191,19 @@ def _build_unit(unit: _Unit, opts: BuildOptions, out: Path) -> list[Stimulus]:
             gold_command=str(sc.command), speaker=unit.speaker.id, voice=unit.speaker.voice,
             noise=noise, snr_db=snr, scenario_seed=unit.scenario_seed, rate=unit.speaker.rate,
             pitch=unit.speaker.pitch, style=style, duration_s=round(len(x) / 16000, 3),
-            extra={} if opts.world_seed is None else {"world_seed": opts.world_seed, "world": unit.k},
+            extra=_extra(unit, opts),
         ))
     return rows
+
+
+def _extra(unit: _Unit, opts: BuildOptions) -> dict[str, Any]:
+    """The manifest's ``extra``: the generated world (``--world-seed``), the room and distance (``--rooms``)."""
+    out: dict[str, Any] = {} if opts.world_seed is None else {"world_seed": opts.world_seed, "world": unit.k}
+    if unit.room is not None:
+        from siftom.speech.rooms import get_room
+
+        out.update(room_name=unit.room[0], distance_m=unit.room[1], rt60_s=get_room(unit.room[0]).rt60)
+    return out
 
 
 def _stable(s: str) -> int:
@@ -203,13 +220,19 @@ def plan_units(opts: BuildOptions) -> list[_Unit]:
     scenarios = select_scenarios(opts.domain, opts.scenarios, opts.world_seed)
     speakers = make_speakers(opts)
     noise_names = [n for n, _ in resolve_noises(opts)] if opts.snrs else []
+    # every room x distance in a seeded order; unit u takes pair (u + u // pairs) % pairs: each block of
+    # `pairs` units meets every pair once, and the shift per block lets every speaker meet every pair
+    pairs = [(r, float(d)) for r in opts.rooms for d in opts.distances]
+    pairs = [pairs[i] for i in np.random.default_rng([opts.seed, 9002]).permutation(len(pairs))]
     units = []
     for k, (sid, seed) in enumerate(scenarios):
         for j, spk in enumerate(speakers):
             conds: list[tuple[str | None, float | None]] = [(None, None)]
             for i, snr in enumerate(opts.snrs):
                 conds.append((noise_names[(k * len(speakers) + j + i) % len(noise_names)], float(snr)))
-            units.append(_Unit(k, sid, seed, spk, tuple(conds)))
+            u = k * len(speakers) + j
+            room = pairs[(u + u // len(pairs)) % len(pairs)] if pairs else None
+            units.append(_Unit(k, sid, seed, spk, tuple(conds), room))
     return units
 
 
@@ -293,107 +316,7 @@ def _build(opts: BuildOptions, root: Path, be: Any, progress: Callable[[int, int
     tmp.write_text("".join(json.dumps(s.to_json()) + "\n" for s in stimuli), encoding="utf-8")
     os.replace(tmp, root / MANIFEST)
     ds = Dataset(root, tuple(stimuli), spec)
+    from siftom.bench.datasheet import write_datasheet
+
     write_datasheet(ds, opts, seconds=time.perf_counter() - t0)
     return ds
-
-
-# -- the datasheet -----------------------------------------------------------------------------
-
-def _table(rows: Iterable[Sequence[Any]], header: Sequence[str]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return "\n".join(lines)
-
-
-def _phrasing_note(opts: BuildOptions) -> str:
-    if opts.phrasings is None:
-        return ("Instructions are drawn from siftom's phrasing model "
-                "(`siftom.likelihood.phrasing.sample_phrasing`: direct, polite and indirect carriers, with\n"
-                "or without the count, synonyms and category words)")
-    return (f"Instructions put a carrier drawn uniformly from `{opts.phrasings}` around a noun phrase drawn "
-            "as in\n`sample_phrasing` (with or without the count, synonyms and category words)")
-
-
-def _world_note(opts: BuildOptions) -> str:
-    if opts.world_seed is None:
-        return "the registered scenario id"
-    return (f"`generate(scenario_seed)`: every world was drawn from world seed {opts.world_seed}, none is a\n"
-            "registered scenario, so no constant of siftom was tuned on them")
-
-
-def _grammar_limit(opts: BuildOptions) -> str:
-    if opts.phrasings is None:
-        return ("* The phrasings come from the same grammar that the model's instruction likelihood and the\n"
-                "  domain-biased recogniser use, so no instruction falls outside the model's vocabulary.")
-    return ("* The carriers come from a file, but the noun phrases (counts, names, category words) still\n"
-            "  come from siftom's lexicon, so no object is named in a way the model does not know.")
-
-
-def write_datasheet(ds: Dataset, opts: BuildOptions, seconds: float | None = None) -> Path:
-    """Write ``README.md`` in the dataset folder: what is in it, how it was made, its limits."""
-    st = ds.stimuli
-    speakers = {s.speaker: s for s in st}
-    by_cond = Counter(s.condition if s.noise is None else s.noise for s in st)
-    by_snr = Counter("clean" if s.snr_db is None else f"{s.snr_db:g} dB" for s in st)
-    by_style = Counter(s.style or "?" for s in st if s.noise is None)
-    dur = [s.duration_s for s in st if s.noise is None]
-    cmd = (f"siftom dataset build --domain {opts.domain} --out DIR --scenarios {opts.scenarios} "
-           f"--speakers {opts.speakers} --voices {','.join(opts.voices)}"
-           + (f" --noise-dir {opts.noise_dir}" if opts.noise_dir else "")
-           + (f" --noises {','.join(opts.noises)}" if opts.noises else "")
-           + f" --snr {','.join(f'{x:g}' for x in opts.snrs) or 'none'} --seed {opts.seed}"
-           + (f" --phrasings {opts.phrasings}" if opts.phrasings else "")
-           + (f" --room {opts.room:g}" if opts.room is not None else "")
-           + (f" --world-seed {opts.world_seed}" if opts.world_seed is not None else ""))
-    examples = [s for s in st if s.noise is None][:6]
-    text = f"""# Datasheet: {ds.root.name}
-
-A synthetic UnclearInstruct-style dataset of spoken robot instructions, built by siftom
-(paper, Simulated Experiment). {len(st)} stimuli: {len({s.scenario for s in st})} scenarios of
-`{opts.domain}` x {len(speakers)} speakers x {len(st) // max(1, len({(s.scenario, s.speaker) for s in st}))} conditions
-(clean + one noisy version per SNR).
-
-## Motivation
-To measure how well a robot infers what a person asks for from a noisy spoken instruction
-and what the person was doing, with the paper's metrics (accuracy, speedup, helpful errors).
-
-## Composition
-Each line of `manifest.jsonl` is one stimulus: the scenario (world, start state, goal space
-come from {_world_note(opts)}), the human's observed actions, the WAV, the reference
-transcript, the gold goal and the gold robot command, the speaker and voice, noise type and SNR.
-The format is documented in docs/dataset-format.md of the siftom repository.
-
-Speakers:
-
-{_table([(k, v.voice, v.rate, v.pitch) for k, v in sorted(speakers.items())], ["speaker", "voice", "rate", "pitch"])}
-
-Stimuli by noise type: {", ".join(f"{k} {v}" for k, v in sorted(by_cond.items()))}.
-By SNR: {", ".join(f"{k} {v}" for k, v in sorted(by_snr.items()))}.
-Phrasing styles (clean clips): {", ".join(f"{k} {v}" for k, v in sorted(by_style.items()))}.
-Clip length: {min(dur):.1f}-{max(dur):.1f} s (mean {np.mean(dur):.1f} s).
-
-Examples:
-
-{_table([(s.id, s.scenario, f'"{s.reference}"', s.gold_command) for s in examples], ["id", "scenario", "said", "gold command"])}
-
-## Collection process
-Nothing was recorded from people. {_phrasing_note(opts)}, spoken by offline TTS (flite, espeak-ng)
-with a per-speaker rate and pitch, and mixed with noise at the stated SNR measured over active
-speech (`siftom.speech.noise.mix_at_snr`). Noise: {"recordings in " + str(opts.noise_dir) if opts.noise_dir else "synthetic (" + ", ".join(SYNTHETIC_NOISES) + ")"}.
-
-Rebuild bit for bit with:
-
-    {cmd}
-
-## Limitations
-* TTS voices stand in for the paper's five non-native speakers; accented espeak-ng voices are
-  harder for the recogniser than the flite voices, but no voice hesitates, restarts or mixes
-  languages as people do.
-{_grammar_limit(opts)}
-* Noise is added, not recorded in a room (no reverberation, no Lombard effect).
-"""
-    if seconds is not None:
-        text += f"\nBuilt in {seconds:.0f} s.\n"
-    p = ds.root / "README.md"
-    p.write_text(text, encoding="utf-8")
-    return p

@@ -186,13 +186,37 @@ def _reason(error: str | None) -> str:
     return error
 
 
+ROOM_BREAKDOWNS = ("room", "distance", "room_distance", "distance_snr")
+SEP = " @ "  # between the parts of a two-way label: ``kitchen @ 3 m``, ``3 m @ 10 dB``
+
+
+def room_of(row: Mapping[str, Any]) -> tuple[str, float] | None:
+    """(room preset, talker distance in m) of a results row from a ``--rooms`` set, else None: the
+    row's ``room_name``/``distance_m`` (the report copies them from the manifest) or its ``extra``'s."""
+    for d in (row, row.get("extra") or {}):
+        if d.get("room_name") is not None and d.get("distance_m") is not None:
+            return str(d["room_name"]), float(d["distance_m"])
+    return None
+
+
 def group_key(row: Mapping[str, Any], by: str) -> str:
-    """The breakdown label of a results row: by ``noise``, ``snr``, ``voice`` or ``speaker``."""
+    """The breakdown label of a results row: by ``noise``, ``snr``, ``voice`` or ``speaker``; by
+    ``room``, ``distance`` (``3 m``), ``room_distance`` or ``distance_snr`` (rows without a room: ``dry``)."""
     if by == "noise":
         return row.get("noise") or "clean"
     if by == "snr":
         return "clean" if row.get("snr_db") is None else f"{row['snr_db']:g} dB"
+    if by in ROOM_BREAKDOWNS:
+        room = room_of(row)
+        parts = {"room": room[0] if room else "dry", "distance": f"{room[1]:g} m" if room else "dry"}
+        parts["snr"] = group_key(row, "snr")
+        return SEP.join(parts[p] for p in by.split("_"))
     return str(row.get(by, "?"))
+
+
+def has_rooms(rows: Iterable[Mapping[str, Any]]) -> bool:
+    """Whether any row comes from a set built with ``--rooms``."""
+    return any(room_of(r) is not None for r in rows)
 
 
 @dataclass(frozen=True)
@@ -216,7 +240,7 @@ def breakdown(
     for r in rows:
         groups[group_key(r, by)].append(r)
     out: dict[str, dict[str, GroupMetrics]] = {}
-    for label in sorted(groups, key=label_order):
+    for label in sorted(groups, key=lambda g: [label_order(p) for p in g.split(SEP)]):
         rs = groups[label]
         out[label] = {}
         for m in models:
@@ -237,4 +261,6 @@ def label_order(label: str) -> tuple[int, float, str]:
         return (0, 0.0, "")
     if label.endswith(" dB"):
         return (1, -float(label[:-3]), "")
+    if label.endswith(" m") and label[:-2].replace(".", "", 1).isdigit():
+        return (1, float(label[:-2]), "")  # talker distance, near first
     return (2, 0.0, label)

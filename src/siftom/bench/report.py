@@ -19,11 +19,15 @@ from siftom.bench.evaluate import RUN
 from siftom.bench.figures import FIG_ASK, FIG_HIST, FIG_MAIN, FIG_PARETO, FIG_SNR, render_figures
 from siftom.bench.metrics import (
     N_BOOT,
+    ROOM_BREAKDOWNS,
+    SEP,
     breakdown,
     group_key,
+    has_rooms,
     label_order,
     oracle_summary,
     regret,
+    room_of,
     summarise_model,
 )
 from siftom.bench.models import ACOUSTIC_MODELS, MODELS, OPTIONAL_MODELS
@@ -77,10 +81,12 @@ def _summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BO
     out["not_evaluable"] = skipped  # model -> trials it could not be evaluated on, and why
     gold = np.array([np.nan if r.get("gold_speedup") is None else r["gold_speedup"] for r in rows], dtype=float)
     out["gold_command_speedup"] = round(float(np.nanmean(gold)), 4) if np.isfinite(gold).any() else None
+    rooms = has_rooms(rows)  # a --rooms set: also by room, distance, and their crossings
     out["breakdowns"] = {by: {label: {m: g.to_json() for m, g in per.items()}
-                              for label, per in breakdown(rows, models, by).items()} for by in BREAKDOWNS}
+                              for label, per in breakdown(rows, models, by).items()}
+                         for by in BREAKDOWNS + (ROOM_BREAKDOWNS if rooms else ())}
     out["asr_wer"] = {}
-    for by in ("snr", "voice"):
+    for by in ("snr", "voice") + (("room", "distance") if rooms else ()):
         wer: dict[str, list[float]] = defaultdict(list)
         for r in rows:
             w = r.get("transcript", {}).get("wer")
@@ -153,6 +159,35 @@ def _breakdown_table(bd: dict[str, dict[str, dict[str, Any]]], models: Sequence[
     return "\n".join(lines)
 
 
+def _grid(bd: dict[str, dict[str, dict[str, Any]]], model: str, corner: str) -> str:
+    """One model's accuracy (n) over a two-way breakdown (labels ``ROW @ COLUMN``) as a table; '' if none."""
+    cells = {tuple(label.split(SEP, 1)): per[model] for label, per in bd.items() if model in per and SEP in label}
+    rows = list(dict.fromkeys(r for r, _ in cells))
+    cols = sorted({c for _, c in cells}, key=label_order)
+    if not cells:
+        return ""
+    lines = [f"| {corner} | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for r in rows:
+        lines.append(f"| {r} | " + " | ".join(
+            f"{_pct(cells[(r, c)]['accuracy'])} ({cells[(r, c)]['n']})" if (r, c) in cells else "–" for c in cols) + " |")
+    return "\n".join(lines)
+
+
+def _rooms_section(summary: dict[str, Any], models: Sequence[str]) -> list[str]:
+    """Accuracy by room, talker distance and SNR, for a set built with ``--rooms``; [] otherwise."""
+    bd = summary["breakdowns"]
+    if "room_distance" not in bd:
+        return []
+    parts = ["## By room and talker distance", "",
+             "Each clip was heard in one simulated room at one talker distance (image-source responses, "
+             "`siftom.speech.rooms`) before the noise; cells: executed-command accuracy (stimuli).", "",
+             _breakdown_table(bd["room"], models, "room"), "", _breakdown_table(bd["distance"], models, "distance"), ""]
+    for m in models:
+        parts += [f"### {m}", "", _grid(bd["room_distance"], m, "room / distance"), "",
+                  _grid(bd["distance_snr"], m, "distance / SNR"), ""]
+    return parts
+
+
 def _render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequence[Path]) -> str:
     """The Markdown report."""
     models = list(summary["models"])
@@ -208,6 +243,7 @@ def _render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequen
                   _breakdown_table(summary["breakdowns"][by], models, titles[by]), ""]
     if FIG_SNR in names:
         parts += [f"![accuracy by SNR]({FIG_SNR})", ""]
+    parts += _rooms_section(summary, models)
     parts += ["## The paper, for comparison", "",
               "| paper (Simulated Experiment) | value |", "|---|---|"]
     parts += [f"| {k} | {_pct(v)} |" for k, v in PAPER.items()]
@@ -227,7 +263,11 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     if (root / RUN).is_file():
         run = json.loads((root / RUN).read_text(encoding="utf-8"))
     # manifest order, whatever order workers finished in: the bootstrap depends on it
-    order = _manifest_order(run)
+    order, rooms = _manifest_order(run)
+    for r in rows:  # a --rooms set: each row's room and talker distance, from the manifest's extra
+        if r["id"] in rooms:
+            r.setdefault("room_name", rooms[r["id"]][0])
+            r.setdefault("distance_m", rooms[r["id"]][1])
     if order:
         rows = sorted(rows, key=lambda r: order.get(r["id"], len(order)))
     else:
@@ -261,17 +301,22 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
     return summary
 
 
-def _manifest_order(run: dict[str, Any]) -> dict[str, int]:
+def _manifest_order(run: dict[str, Any]) -> tuple[dict[str, int], dict[str, tuple[str, float]]]:
+    """The dataset's manifest: each stimulus' position, and (room, distance) of those built with --rooms."""
     ds = run.get("dataset")
     if not ds or not (Path(ds) / "manifest.jsonl").is_file():
-        return {}
-    order = {}
+        return {}, {}
+    order, rooms = {}, {}
     for i, line in enumerate((Path(ds) / "manifest.jsonl").read_text(encoding="utf-8").splitlines()):
         try:
-            order[json.loads(line)["id"]] = i
-        except (json.JSONDecodeError, KeyError, TypeError):
+            d = json.loads(line)
+            order[d["id"]] = i
+            room = room_of(d)
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError):
             continue
-    return order
+        if room is not None:
+            rooms[d["id"]] = room
+    return order, rooms
 
 
 def _write(path: Path, text: str) -> None:

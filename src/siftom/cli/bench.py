@@ -40,6 +40,13 @@ def _snrs(value: str) -> tuple[float, ...]:
     return snrs
 
 
+def _distances(value: str | None) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in _csv(value))
+    except ValueError:
+        raise DatasetError(f"--distances must be comma-separated metres, e.g. 1,3; got {value!r}") from None
+
+
 def _default_workers() -> int:
     return max(1, min(4, os.cpu_count() or 1))
 
@@ -126,6 +133,11 @@ def dataset_group() -> None:
 @click.option("--room", type=float, default=None,
               help="reverberation time RT60 in seconds: the speaker is heard across a reverberant room "
                    "(a seeded synthetic impulse response per clip) before the noise")
+@click.option("--rooms", default=None,
+              help="simulated rooms kitchen,living,open (pip install \"siftom[rooms]\"): each scenario x "
+                   "speaker is heard in one room at one of --distances (image-source responses); not with --room")
+@click.option("--distances", default=None,
+              help="talker-to-microphone distances in metres for --rooms, e.g. 1,3 (0.5-6, fitting every room)")
 @click.option("--phrasings", "phrasings", default=None,
               help="carrier file: UTF-8, one carrier per line with {np}, '#' comments; or a shipped set "
                    "(free-v0, free-heldout-v0). Default: siftom's phrasing grammar")
@@ -134,7 +146,7 @@ def dataset_group() -> None:
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
 def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
               noises: str | None, snr: str, seed: int, world_seed: int | None, room: float | None,
-              phrasings: str | None, workers: int | None,
+              rooms: str | None, distances: str | None, phrasings: str | None, workers: int | None,
               backend: str,
               ray_address: str | None,
               as_json: bool) -> None:
@@ -144,7 +156,8 @@ def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str 
 
     opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
                         voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed)
+                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed,
+                        rooms=_csv(rooms), distances=_distances(distances))
     from siftom.cli.audio_out import FOLDER_FIX, writing_audio
 
     t0 = time.perf_counter()

@@ -87,6 +87,9 @@ class BuildOptions:
             (siftom.scenarios.base), which never meet the seeds the registered scenarios and
             every tuned constant came from. None: registered scenarios first, then generated
             ones (``generate(i)``), as before.
+        rooms, distances: rooms (``siftom.speech.rooms.ROOMS``) and talker distances in metres: each
+            scenario x speaker is heard in one room at one distance (an image-source response), every
+            pair equally often; the manifest's ``extra`` says which (``room``: not with these).
     """
 
     domain: str = "household-table-v0"
@@ -100,6 +103,8 @@ class BuildOptions:
     phrasings: str | None = None
     room: float | None = None
     world_seed: int | None = None
+    rooms: tuple[str, ...] = ()
+    distances: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         check_seed(self.seed)
@@ -126,6 +131,9 @@ class BuildOptions:
             load_carriers(self.phrasings)  # DatasetError for a missing file or no {np} line
         if self.room is not None and not (np.isfinite(self.room) and 0.05 <= self.room <= 3.0):
             raise DatasetError(f"--room is a reverberation time RT60 in seconds (0.05-3), got {self.room}")
+        if self.rooms or self.distances:  # DatasetError naming the presets or the range
+            from siftom.speech.rooms import check_rooms
+            check_rooms(self.rooms, self.distances, self.room)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict (stored in dataset.json)."""
@@ -134,7 +142,8 @@ class BuildOptions:
                 "snrs": list(self.snrs), "seed": self.seed,
                 **({"phrasings": self.phrasings} if self.phrasings is not None else {}),
                 **({"room": self.room} if self.room is not None else {}),
-                **({"world_seed": self.world_seed} if self.world_seed is not None else {})}
+                **({"world_seed": self.world_seed} if self.world_seed is not None else {}),
+                **({"rooms": list(self.rooms), "distances": list(self.distances)} if self.rooms else {})}
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import fftconvolve
 
-from siftom.errors import SiftomError, missing_extra, unknown_name
+from siftom.errors import DatasetError, SiftomError, missing_extra, unknown_name
 from siftom.speech.audio import SAMPLE_RATE
 
 WALL_MARGIN = 0.5
@@ -96,6 +96,27 @@ def check_distance(room: RoomPreset | str, distance: float) -> None:
     if distance > max_distance(r):
         raise SiftomError(f"a talker {distance:g} m from the microphone does not fit the {r.name} "
                           f"({' x '.join(f'{x:g}' for x in r.size)} m): at most {max_distance(r):g} m there")
+
+
+def check_rooms(rooms: tuple[str, ...], distances: tuple[float, ...], rt60: float | None = None) -> None:
+    """DatasetError (``--rooms/--distances: ...``) unless ``rooms`` are distinct presets and every
+    distance fits every one of them (a dataset crosses them: each clip gets one room and one
+    distance); ``rt60``, the synthetic reverberation of ``--room``, must be None with them."""
+    try:
+        if rt60 is not None:
+            raise SiftomError("give --room RT60 (one synthetic reverberation) or --rooms, not both")
+        if not rooms or not distances:
+            raise SiftomError(f"give both, e.g. --rooms kitchen,living --distances 1,3 (rooms: "
+                              f"{', '.join(ROOMS)}; distances {DISTANCES[0]:g}-{DISTANCES[1]:g} m)")
+        if len(set(rooms)) != len(rooms):
+            raise SiftomError(f"a room is listed twice: {', '.join(rooms)}")
+        if len(set(distances)) != len(distances):
+            raise SiftomError(f"a distance is listed twice: {', '.join(f'{d:g}' for d in distances)}")
+        for name in rooms:
+            for d in distances:
+                check_distance(get_room(name), d)
+    except SiftomError as exc:
+        raise DatasetError(f"--rooms/--distances: {exc}") from None
 
 
 @dataclass(frozen=True)

@@ -68,8 +68,8 @@ def test_gap_scale_must_be_non_negative():
 
 
 def test_whisper_factor_enters_at_its_temperature_and_pruned_commands_get_the_worst_kept():
-    """log P = alignment / T + phonetic + w / T_w; a pruned command gets the lowest kept w."""
-    lk = AcousticLikelihood(temperature=10.0, whisper=False, whisper_temperature=4.0)
+    """pool="product": log P = alignment / T + phonetic + w / T_w; a pruned command gets the lowest kept w."""
+    lk = AcousticLikelihood(temperature=10.0, whisper=False, whisper_temperature=4.0, pool="product")
     base = _raw([-300.0, -300.0], phonetic=[-1.0, -1.0, -1.0], keep=[0, 1])
     no_w = lk.combine(base, 3)
     with_w = lk.combine(RawScores(base.keep, base.items, "key", base.phonetic, whisper=np.array([-8.0, -20.0])), 3)

@@ -2,7 +2,7 @@
 
 **With the whisper extra installed (the default then):**
 
-    log P(a | pi_r) = log P_phonetic(N-best | pi_r) + w(pi_r) / T_w
+    log P(a | pi_r) = pool[ log P_phonetic(N-best | pi_r), w(pi_r) / T_w ]   (a mixture; ``likelihood.pooling``)
 
 where w is the Whisper factor (``siftom.likelihood.whisper_factor``): the log-probability
 Whisper tiny.en gives the heard words with each command's key phrase in place of the heard
@@ -75,6 +75,7 @@ from siftom.likelihood.keyphrases import (
 from siftom.likelihood.keyphrases import (
     top_phrasings as top_phrasings,
 )
+from siftom.likelihood.pooling import DEFAULT_POOL, POOLS, whisper_slot_factor
 from siftom.logspace import logsumexp
 from siftom.observation import Instruction
 from siftom.world.commands import RobotCommand
@@ -123,6 +124,10 @@ class AcousticLikelihood:
         whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
             computes anyway) and use its words as a second carrier; the commands it names join the
             pruned set (``WhisperFactor``).
+        pool: how the N-best and the Whisper factor meet: ``"mixture"`` (default; a linear pool, flat
+            where they disagree), ``"product"`` or ``"tempered"`` (``likelihood.pooling``; docs/likelihoods.md).
+        whisper_slot_confidence: weigh Whisper's transcript in the slot channel by its own confidence
+            (default); False reads it at full weight (``likelihood.pooling``).
         whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
             default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
         tie_counts: when no count word was heard, no count of a class is favoured over another
@@ -156,6 +161,8 @@ class AcousticLikelihood:
         tie_counts: bool = True,
         whisper_prompt: bool = True,
         lexicon: Lexicon | None = None,
+        pool: str = DEFAULT_POOL,
+        whisper_slot_confidence: bool = True,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -166,6 +173,9 @@ class AcousticLikelihood:
             raise SiftomError(f"gap_scale must be a number >= 0, got {gap_scale}")
         if not 0 < prune_mass <= 1 or max_candidates < 1 or top_nbest < 0:
             raise SiftomError("prune_mass must be in (0, 1], max_candidates >= 1 and top_nbest >= 0")
+        if pool not in POOLS:
+            raise SiftomError(f"pool must be one of {', '.join(POOLS)}, got {pool!r}")
+        self.pool, self.whisper_slot_confidence = pool, bool(whisper_slot_confidence)
         self.phrasings = phrasings
         self.temperature = float(temperature)
         self.name = name
@@ -267,16 +277,15 @@ class AcousticLikelihood:
         whisper = str(evidence.get("whisper_heard") or "")
         if whisper.strip() and len(commands):
             # Whisper writes what it heard in an open vocabulary: the target slot of its words is
-            # read by the slot channel as a transcript's is (siftom.language.understand)
-            from siftom.language.understand import slot_log_factor
-
-            out = out + slot_log_factor([whisper], [1.0], commands, self.lexicon, instruction.focus)
+            # read by the slot channel as a transcript's is, weighed by Whisper's confidence (pooling)
+            out = out + whisper_slot_factor(whisper, evidence.get("whisper_logprob"), commands, self.lexicon,
+                                            instruction.focus, self.whisper_slot_confidence)
         return Scores(out, evidence)
 
     def combine(self, raw: RawScores, n: int, temperature: float | None = None) -> np.ndarray:
         """Turn raw alignment scores into log-likelihoods at temperature T (default: the likelihood's)."""
         return combine_scores(raw, n, self.temperature if temperature is None else temperature, self.gap_scale,
-                              self.with_phonetic, self.whisper_temperature)
+                              self.with_phonetic, self.whisper_temperature, self.pool)
 
     def raw_scores(self, instruction: Instruction, commands: Sequence[RobotCommand],
                    context: np.ndarray | None = None) -> RawScores:

@@ -42,14 +42,17 @@ class RawScores:
 
 
 def combine_scores(raw: RawScores, n: int, T0: float, gap_scale: float, with_phonetic: bool,
-                   whisper_temperature: float) -> np.ndarray:
+                   whisper_temperature: float, pool: str = "product") -> np.ndarray:
     """Raw alignment scores as log-likelihoods at temperature ``T0`` (grown by the gap, ``gap_scale``);
-    ``with_phonetic``: times the N-best phonetic likelihood; plus the Whisper factor / T_w."""
+    ``with_phonetic``: with the N-best phonetic likelihood; and the Whisper factor / T_w, the
+    N-best and Whisper pooled by ``pool`` (``likelihood.pooling``: "product" or "mixture")."""
+    from siftom.likelihood.pooling import pool_experts
+
     if n == 0:
         return np.zeros(0)
+    phon = raw.phonetic if with_phonetic else None
     if not raw.items:  # no alignment (the Whisper factor replaces it): the N-best and w only
-        out = raw.phonetic.copy() if with_phonetic and raw.phonetic is not None else np.zeros(n)
-        return out + whisper_term(raw, n, whisper_temperature)
+        return np.zeros(n) + pool_experts(phon, whisper_term(raw, n, whisper_temperature), pool)
     T = raw.temperature(T0, gap_scale)
     # a failed alignment (the decoder found no path) says nothing about the command: it gets
     # the worst score that did come back, not FAILED_SCORE / T (thousands of nats against it)
@@ -65,9 +68,7 @@ def combine_scores(raw: RawScores, n: int, T0: float, gap_scale: float, with_pho
         ref = float(np.min(raw.phonetic[raw.keep]))
         out = floor + np.minimum(raw.phonetic - ref, 0.0)
     out[raw.keep] = vals
-    if with_phonetic and raw.phonetic is not None:
-        out = out + raw.phonetic
-    return out + whisper_term(raw, n, whisper_temperature)
+    return out + pool_experts(phon, whisper_term(raw, n, whisper_temperature), pool)
 
 
 def whisper_term(raw: RawScores, n: int, whisper_temperature: float) -> np.ndarray | float:

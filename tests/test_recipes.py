@@ -232,3 +232,24 @@ def test_whisper_debias_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path
     out = json.loads(res.stdout)
     assert set(out["all"]) == {"0", "1"} and out["all"]["0"]["n"] == 2
     assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2
+
+
+def test_expert_pooling_settings_parse_and_reject_unknown_pools() -> None:
+    mod = _load("expert_pooling")
+    assert mod.parse_settings("product:full, mixture:confidence") == [
+        ("product:full", "product", False), ("mixture:confidence", "mixture", True)]
+    with pytest.raises(SystemExit, match="POOL:SLOT"):
+        mod.parse_settings("vote:full")
+
+
+@pytest.mark.slow  # the acoustic likelihood and Whisper per stimulus
+def test_expert_pooling_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    pytest.importorskip("faster_whisper")
+    ds, _res = tiny_eval
+    res = _run(str(RECIPES / "expert_pooling.py"), "--dataset", str(ds), "--limit", "2",
+               "--settings", "product:full,mixture:confidence", "--out", str(tmp_path / "rows.jsonl"), "--json",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    assert set(out["all"]) == {"product:full", "mixture:confidence"} and out["all"]["product:full"]["n"] == 2
+    assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2

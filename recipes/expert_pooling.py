@@ -1,0 +1,108 @@
+"""Confident wrong answers of the acoustic likelihood: how its experts are pooled, per setting.
+
+The acoustic likelihood pools the N-best (phonetic channel) and the Whisper factor
+(``[likelihoods.acoustic] pool``: "product", "mixture" or "tempered") and reads Whisper's own
+transcript in the slot channel at full weight or weighed by Whisper's confidence
+(``whisper_slot_confidence``; likelihood/pooling.py). For every stimulus the evaluator's acoustic
+path runs once (recognition of the whole clip; Whisper's encoding, transcript and text scores are
+kept for the clip, as in recipes/whisper_debias.py), then the full model's posterior is
+recomputed for each setting (a clip where nothing was recognised is answered from the actions
+alone, as the evaluator's ``siftom`` does). Per SNR band and overall: accuracy, the share
+answered wrongly with P >= 0.8, and the mean NLL of the gold command. Choose on one dataset,
+report on others.
+
+    python recipes/expert_pooling.py --dataset DIR [--settings product:full,mixture:confidence] [--limit N] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from whisper_debias import PerClip, summarise  # noqa: E402 - the sibling recipe's clip cache and summary
+
+# pool:slot; "product:full" is the acoustic likelihood before pooling, "mixture:confidence" the default
+SETTINGS = ("product:full", "product:confidence", "mixture:full", "tempered:confidence", "mixture:confidence")
+
+
+def parse_settings(text: str) -> list[tuple[str, str, bool]]:
+    """"product:full,mixture:confidence" -> [(name, pool, slot weighed by confidence), ...]."""
+    from siftom.likelihood.pooling import POOLS
+
+    out = []
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        pool, _, slot = item.partition(":")
+        if pool not in POOLS or slot not in ("full", "confidence"):
+            raise SystemExit(f"--settings: {item!r} is not POOL:SLOT (POOL one of {', '.join(POOLS)}; "
+                             "SLOT full or confidence)")
+        out.append((item, pool, slot == "confidence"))
+    return out
+
+
+def collect(dataset: str | Path, settings: list[tuple[str, str, bool]], limit: int | None = None,
+            engine: str = "pocketsphinx-vocab") -> list[dict[str, Any]]:
+    """Per stimulus: its band and, per setting, (P(gold), P(chosen), chosen is right)."""
+    from siftom import Observer, Settings
+    from siftom.bench.acoustic_models import heard
+    from siftom.bench.engines import engine as get_engine
+    from siftom.bench.scoring import is_correct
+    from siftom.bench.trials import dataset_vocabulary
+    from siftom.inference.model import Observation
+    from siftom.people.stimuli import load_dataset, scenario_for
+    from siftom.speech.asr import DEFAULT_NBEST
+
+    ds = load_dataset(dataset)
+    asr = get_engine(engine, dataset_vocabulary(ds.stimuli))
+    observer = Observer(Settings.load(env={}))
+    model, actions_only = observer.model("full", "acoustic"), observer.model("action-only", "acoustic")
+    lk: Any = model.likelihood
+    factor: Any = getattr(lk, "_whisper", None)
+    if factor is None:
+        raise SystemExit("the acoustic likelihood has no Whisper factor here: install siftom[whisper]")
+    cache = PerClip(factor.scorer)
+    factor._scorer = cache  # noqa: SLF001 - every setting reuses the clip's Whisper work
+    rows = []
+    for s in ds.stimuli[:limit]:
+        sc = scenario_for(s)
+        instruction, _ = heard(ds.root / s.audio, asr, DEFAULT_NBEST)
+        cache.reset()
+        per: dict[str, tuple[float, float, bool]] = {}
+        for name, pool, confidence in settings:
+            lk.pool, lk.whisper_slot_confidence = pool, confidence
+            post = (model if instruction is not None else actions_only).infer(Observation.from_scenario(sc, instruction))
+            per[name] = (post.prob(s.gold_command), post.commands[0][1],
+                         bool(is_correct(post.command, s.gold_command, sc.verb)))
+        rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
+                     "heard": instruction is not None, "per": per})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description="Acoustic likelihood: the full model per expert pooling setting.")
+    ap.add_argument("--dataset", required=True)
+    ap.add_argument("--settings", default=",".join(SETTINGS), help="comma-separated POOL:SLOT settings")
+    ap.add_argument("--limit", type=int, default=None, help="first N stimuli only")
+    ap.add_argument("--out", default=None, help="write the per-stimulus rows here (JSON lines)")
+    ap.add_argument("--json", dest="as_json", action="store_true", help="print JSON")
+    a = ap.parse_args(argv)
+    if not Path(a.dataset).is_dir():
+        ap.error(f"--dataset {a.dataset}: no such folder")
+    rows = collect(a.dataset, parse_settings(a.settings), a.limit)
+    if a.out:
+        Path(a.out).write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+    result = summarise(rows)
+    if a.as_json:
+        print(json.dumps(result, indent=2))
+        return
+    print("band     setting                 n   acc %  conf-wrong %   NLL")
+    for band, per in result.items():
+        for name, v in per.items():
+            print(f"{band:8s} {name:20s} {v['n']:4.0f}  {v['accuracy']:5.1f}  {v['confident_wrong']:12.1f}  {v['nll']:.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -85,6 +85,19 @@ def test_the_builder_hears_each_clip_in_its_room_and_says_so_in_the_manifest(tmp
     assert "--rooms kitchen,open --distances 1" in sheet and "kitchen at 1 m 2" in sheet
 
 
+def test_the_evaluator_keeps_each_clips_room_in_its_results_row(tmp_path: Path) -> None:
+    """The room breakdown reads the results alone: a moved dataset folder loses nothing."""
+    pytest.importorskip("pyroomacoustics", reason='pip install "siftom[rooms]"')
+    from siftom.bench.dataset import build_dataset
+    from siftom.bench.evaluate import EvalOptions, evaluate, load_results
+
+    opts = _opts(scenarios=2, speakers=1, voices=("flite-slt",), rooms=("living",), distances=(3.0,))
+    build_dataset(opts, tmp_path / "ds")
+    evaluate(tmp_path / "ds", tmp_path / "out", EvalOptions(models=("action-only",)), workers=1)
+    rows = load_results(tmp_path / "out")
+    assert rows and all((r["room_name"], r["distance_m"], r["rt60_s"]) == ("living", 3.0, 0.45) for r in rows)
+
+
 def _row(i: int, room: str | None, distance: float | None, snr: float | None, correct: bool) -> dict[str, Any]:
     trial = {"correct": correct, "helpful": False, "speedup": 0.1 if correct else -0.1,
              "command": "fetch(milk)", "prob": 0.5}

@@ -28,6 +28,8 @@ from siftom.errors import SiftomError
 from siftom.people.stimuli import Stimulus, load_dataset, scenario_for
 from siftom.world.commands import MAX_COUNT
 
+ROOM_FIELDS = ("room_name", "distance_m", "rt60_s")  # a stimulus's room, copied into its results row
+
 # -- per-process state (engines, caches) -------------------------------------------------------
 
 _TEAM: dict[tuple[str, str], dict[str, Any]] = {}
@@ -209,6 +211,7 @@ def _eval_stimuli(task: _Task) -> Iterator[_Finished]:
             "transcript": {"text": tr["text"], "nbest": tr["nbest"], "engine": tr["engine"],
                            "rtf": tr["rtf"], "wer": round(_wer(s.reference, tr["text"]), 4)},
             "models": models,
+            **{k: s.extra[k] for k in ROOM_FIELDS if k in s.extra},  # where the clip was heard (--rooms)
             **({"not_evaluable": not_evaluable} if not_evaluable else {}),
         }
         new_team = [{"key": k[0], "command": k[1], **_TEAM[k]} for k in set(_TEAM) - before]

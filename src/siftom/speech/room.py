@@ -51,10 +51,16 @@ def room_impulse_response(rt60: float, rng: np.random.Generator | int | None, dr
 
 def reverberate(x: np.ndarray, rt60: float, rng: np.random.Generator | int | None, drr_db: float = -3.0) -> np.ndarray:
     """``x`` as heard across a room (module doc), float32, same length plus the tail, same RMS level."""
+    return convolve_at_level(x, room_impulse_response(rt60, rng, drr_db) if len(x) else np.ones(1), rt60)
+
+
+def convolve_at_level(x: np.ndarray, h: np.ndarray, rt60: float) -> np.ndarray:
+    """``x`` convolved with the impulse response ``h``, cut to its length plus 0.3 x ``rt60`` of
+    tail, at ``x``'s RMS level (so noise mixes at the same SNR as for dry speech), float32."""
     x = np.asarray(x, dtype=np.float64)
     if not len(x):
         return x.astype(np.float32)
-    y = fftconvolve(x, room_impulse_response(rt60, rng, drr_db))[: len(x) + int(0.3 * rt60 * SAMPLE_RATE)]
+    y = fftconvolve(x, h)[: len(x) + int(0.3 * rt60 * SAMPLE_RATE)]
     rx, ry = float(np.sqrt(np.mean(x ** 2))), float(np.sqrt(np.mean(y ** 2)))
     if ry > 0:
         y *= rx / ry

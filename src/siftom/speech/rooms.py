@@ -43,8 +43,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
-from scipy.signal import fftconvolve
 
 from siftom.errors import DatasetError, SiftomError, missing_extra, unknown_name
 from siftom.speech.audio import SAMPLE_RATE
@@ -187,16 +185,6 @@ def reverberate_in_room(x: np.ndarray, room: RoomPreset | str, distance: float,
     """``x`` as heard ``distance`` m away in ``room`` (module doc), float32, same RMS level; the
     length grows by 0.3 x RT60 of tail, as ``speech.room.reverberate``."""
     r = get_room(room) if isinstance(room, str) else room
-    h = room_rir(r, place(r, distance, rng))
-    x = np.asarray(x, dtype=np.float64)
-    if not len(x):
-        return x.astype(np.float32)
-    y = fftconvolve(x, h)[: len(x) + int(0.3 * r.rt60 * SAMPLE_RATE)]
-    rx, ry = float(np.sqrt(np.mean(x ** 2))), float(np.sqrt(np.mean(y ** 2)))
-    if ry > 0:
-        y *= rx / ry
-    peak = float(np.max(np.abs(y)))
-    if peak > 0.99:
-        y *= 0.99 / peak
-    out: npt.NDArray[np.float32] = y.astype(np.float32)
-    return out
+    from siftom.speech.room import convolve_at_level
+
+    return convolve_at_level(x, room_rir(r, place(r, distance, rng)), r.rt60)

@@ -119,6 +119,20 @@ def _lexicon_of(world: World) -> Any:
     return lexicon_for(world)
 
 
+@dataclass(frozen=True)
+class _Call:
+    """One :meth:`Observer.answer` call's resolved options (the settings where the call named none)."""
+
+    mode: str
+    likelihood: LikelihoodArg
+    why: str  # why that likelihood ran
+    top: int
+    decide: str | DecisionRule | None
+    heard: Heard | None
+    reliability: float | Mapping[str, float]
+    t0: float
+
+
 class Observer:
     """The model, recognisers, likelihoods and per-scene caches of one robot, from one settings object.
 
@@ -264,15 +278,15 @@ class Observer:
         t0 = time.perf_counter()
         top = top or self.settings.infer.top
         mode = mode or online.model.config.mode
-        has_audio = instruction is not None and instruction.has_audio
-        lk, why = self.resolve(likelihood, has_audio)
+        lk, why = self.resolve(likelihood, instruction is not None and instruction.has_audio)
         rel = REPLY_RELIABILITY if answer_reliability is None else answer_reliability
+        call = _Call(mode, lk, why, top, decide, heard, rel, t0)
         if pending is not None and instruction is not None and mode != "speech-only":
-            replied = self._reply(online, pending, instruction, mode, lk, why, top, decide, heard, t0, rel)
+            replied = self._reply(online, pending, instruction, call)
             if replied is not None:
                 return replied
         speech = None if heard is None else heard.speech
-        post, said = self._heard_posterior(online, instruction, heard, mode, lk, why, top, gate)
+        post, said = self._heard_posterior(online, instruction, call, gate)
         world, target = online.world, online.goals[0].target
         nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
                    else NOTHING_ASKED if instruction is None else "")
@@ -310,11 +324,12 @@ class Observer:
                       heard.vad if heard is not None else None, time.perf_counter() - t0, timings, said, parts,
                       tuple(decisions), keep)
 
-    def _heard_posterior(self, online: OnlineInference, instruction: Instruction | None, heard: Heard | None,
-                         mode: str, lk: LikelihoodArg, why: str, top: int, gate: bool) -> tuple[Posterior, bool]:
+    def _heard_posterior(self, online: OnlineInference, instruction: Instruction | None, call: _Call,
+                         gate: bool) -> tuple[Posterior, bool]:
         """(the posterior, whether an instruction was said): from the actions alone when nothing,
         no words or words near no command of the scene were heard (``gate`` False keeps the
         words' posterior then; see :meth:`answer`)."""
+        mode, lk, why, top, heard = call.mode, call.likelihood, call.why, call.top, call.heard
         said = not (heard is not None and heard.speech and instruction is None)  # speech, but no words
         if instruction is None:
             post = self._view(online, "action-only" if mode != "speech-only" else mode, "phonetic").posterior(
@@ -344,11 +359,12 @@ class Observer:
         alone = self._view(online, "action-only", "phonetic").posterior(None, top=1)
         return Pending(q, request_evidence(post, alone), str(post.command), answered)
 
-    def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction, mode: str,
-               lk: LikelihoodArg, why: str, top: int, decide: str | DecisionRule | None, heard: Heard | None,
-               t0: float, rel: float | Mapping[str, float]) -> Answer | None:
+    def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction,
+               call: _Call) -> Answer | None:
         """The answer to words that reply to ``pending`` (assist/reply.py); None when they answer
         nothing (they are then an utterance like any other)."""
+        mode, lk, why, top, decide, heard, t0, rel = (call.mode, call.likelihood, call.why, call.top, call.decide,
+                                                      call.heard, call.t0, call.reliability)
         from siftom.assist.reply import after_reply, cell_named
 
         name = lk if isinstance(lk, str) else type(lk).__name__

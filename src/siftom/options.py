@@ -47,9 +47,10 @@ class InferOptions:
         engine: the ASR engine for audio.
         nbest: hypotheses the recogniser keeps.
         top: hypotheses kept in the posterior's ``hypotheses``.
-        decide: the decision rule every door applies when a call names none: ``expected-benefit``
-            (the fewest trials that slowed the team at the best mean speedup, docs/decisions.md);
-            ``map`` is the paper's rule (act on the most probable command).
+        decide: the decision rule every door applies when a call names none: ``teammate``
+            (acts on a request it understood, asks about one it is unsure of, says why it
+            declines; docs/decisions.md); ``expected-benefit``, ``ask-or-act``, and ``map``, the
+            paper's rule (act on the most probable command).
     """
 
     likelihood: str = "auto"

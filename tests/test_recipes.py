@@ -253,3 +253,32 @@ def test_expert_pooling_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path
     out = json.loads(res.stdout)
     assert set(out["all"]) == {"product:full", "mixture:confidence"} and out["all"]["product:full"]["n"] == 2
     assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2
+
+
+def test_dereverb_front_end_summary_groups_rooms_bands_and_counts_confident_wrong() -> None:
+    def ans(ok: bool, p: float, w: float) -> dict:
+        return {"correct": ok, "prob": p, "wer": w, "heard": ""}
+
+    rows = [{"room": "kitchen 3 m", "snr": "clean", "audio_s": 2.0, "front_end_s": 0.2,
+             "per": {"as-is": ans(False, 0.9, 0.5), "wpe": ans(True, 0.9, 0.25)}},
+            {"room": "dry", "snr": "10 dB", "audio_s": 2.0, "front_end_s": 0.1,
+             "per": {"as-is": ans(True, 0.7, 0.0), "wpe": ans(False, 0.85, 1.0)}}]
+    mod = _load("dereverb_front_end")
+    out = mod.summarise(rows)
+    assert list(out) == ["dry", "kitchen 3 m", "10 dB", "clean", "all"]
+    assert out["kitchen 3 m"]["as-is"] == {"n": 1, "accuracy": 0.0, "confident_wrong": 100.0, "wer": 50.0}
+    assert out["all"]["wpe"] == {"n": 2, "accuracy": 50.0, "confident_wrong": 50.0, "wer": 62.5}
+    assert mod.front_end_cost(rows) == {"seconds_per_clip": 0.15, "rtf": 0.075}
+
+
+@pytest.mark.slow  # the default path twice per stimulus (the acoustic likelihood, and Whisper when installed)
+def test_dereverb_front_end_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    pytest.importorskip("nara_wpe")
+    ds, _res = tiny_eval
+    res = _run(str(RECIPES / "dereverb_front_end.py"), "--dataset", str(ds), "--limit", "2",
+               "--out", str(tmp_path / "rows.jsonl"), "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    assert set(out["groups"]["all"]) == {"as-is", "wpe"} and out["groups"]["all"]["wpe"]["n"] == 2
+    assert "dry" in out["groups"] and out["front_end"]["seconds_per_clip"] > 0
+    assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2

@@ -9,7 +9,7 @@ import numpy.typing as npt
 
 from siftom.assist.decision import joint_of
 from siftom.errors import ObservationError
-from siftom.inference.model import JointPosterior, Posterior
+from siftom.inference.model import JointPosterior, Posterior, ScoredCommand, ScoredGoal
 from siftom.logspace import logsumexp
 
 
@@ -52,8 +52,8 @@ def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcri
     corder = corder[cm[corder] > 0]
     gorder = np.argsort(-gm, kind="stable")
     gorder = gorder[gm[gorder] > 0]
-    commands = tuple((j.commands[k], float(cm[k])) for k in corder)
-    goals = tuple((names[k], float(gm[k])) for k in gorder)
+    commands = tuple(ScoredCommand(j.commands[k], float(cm[k])) for k in corder)
+    goals = tuple(ScoredGoal(names[k], float(gm[k])) for k in gorder)
     from dataclasses import replace
 
     return replace(post, command=commands[0][0], commands=commands, goals=goals, hypotheses=(),

@@ -3,11 +3,33 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from siftom.world.commands import RobotCommand
 from siftom.world.model import Goal, State
+
+
+class ScoredCommand(NamedTuple):
+    """A command and its posterior probability: a pair (``for c, p in posterior.commands``),
+    printed readably: ``(fetch(cereal), 0.832)``."""
+
+    command: RobotCommand
+    prob: float
+
+    def __repr__(self) -> str:
+        return f"({self.command}, {self.prob:.3f})"
+
+
+class ScoredGoal(NamedTuple):
+    """A goal's name and its posterior probability, printed as ``(breakfast_cereal, 0.610)``."""
+
+    goal: str
+    prob: float
+
+    def __repr__(self) -> str:
+        return f"({self.goal}, {self.prob:.3f})"
 
 
 @dataclass(frozen=True)

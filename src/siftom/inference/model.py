@@ -33,6 +33,8 @@ from siftom.inference.goalspace import changed_classes
 from siftom.inference.goalspace import goal_space as _goal_space
 from siftom.inference.joint import JointHypothesis as JointHypothesis
 from siftom.inference.joint import JointPosterior as JointPosterior
+from siftom.inference.joint import ScoredCommand as ScoredCommand
+from siftom.inference.joint import ScoredGoal as ScoredGoal
 from siftom.inference.parts import BoltzmannActions, GoalPrior, HelpfulPartPrior, UniformActions
 from siftom.inference.understood import understanding_of as understanding_of
 from siftom.language.record import Understanding
@@ -313,10 +315,10 @@ class OnlineInference:
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple(zip([cmds[k] for k in corder.tolist()], cm[corder].tolist(), strict=True))
+        commands = tuple(ScoredCommand(cmds[k], p) for k, p in zip(corder.tolist(), cm[corder].tolist(), strict=True))
         gorder = np.argsort(-gm, kind="stable")
         gorder = gorder[gm[gorder] > 0]
-        goals = tuple(zip([goal_names[k] for k in gorder.tolist()], gm[gorder].tolist(), strict=True))
+        goals = tuple(ScoredGoal(goal_names[k], p) for k, p in zip(gorder.tolist(), gm[gorder].tolist(), strict=True))
         order = np.argsort(-lj, kind="stable")[:top]
         labels = [goal_names[g] for g in goal_all.tolist()]
         if cfg.mode != "speech-only" and len(unk_cmds):  # the off-plan rows, valued as the unknown goal

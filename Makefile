@@ -7,7 +7,7 @@ BROWSER_PKGS := chromium
 # `make demo` installs what `siftom demo` runs on (Whisper for the acoustic likelihood; serve for
 # the browser demo it points to next); `make test` and the other targets add the rest
 DEMO_EXTRAS ?= whisper,serve
-EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs,tts-neural,rooms
+EXTRAS ?= fast,whisper,serve,stream,ros,dev,docs,tts-neural,rooms,dereverb
 
 .PHONY: demo setup-demo test test-slow test-browser screenshots wheel lint setup sysdeps sysdeps-browser clean docs results pages
 

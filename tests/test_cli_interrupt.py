@@ -18,8 +18,10 @@ def test_ctrl_c_in_the_first_tenths_of_a_second_prints_no_traceback():
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         frames = re.findall(r'File "([^"]+)"', err.decode())
-        if "Could not import runpy module" in err.decode() or (frames and all(f.startswith("<frozen") for f in frames)):
-            continue  # on a loaded machine the signal landed in Python's own start-up, before siftom ran
+        if "Could not import runpy module" in err.decode() or (
+                frames and not any("siftom/cli" in f.replace("\\", "/") for f in frames)):
+            continue  # on a loaded machine the signal landed before the command line began to load
+            # (Python's start-up, or the package's first import): nothing of siftom's can catch it
         assert "Traceback" not in err.decode(), err.decode()[-600:]
         assert proc.returncode in (0, 130), (delay, proc.returncode)
         interrupted += proc.returncode == 130

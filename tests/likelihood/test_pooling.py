@@ -48,8 +48,8 @@ def test_tempered_product_flattens_as_the_experts_disagree() -> None:
 def test_acoustic_likelihood_pools_the_nbest_and_whisper_as_set() -> None:
     raw = RawScores(np.array([0, 1]), (), "whisper-key", np.array([0.0, -8.0, -9.0]),
                     whisper=np.array([-30.0, -3.0]))
-    product = AcousticLikelihood(whisper=False, align=True, pool="product").combine(raw, 3)
-    mixture = AcousticLikelihood(whisper=False, align=True).combine(raw, 3)  # the default pool
+    product = AcousticLikelihood(whisper=False, align=True).combine(raw, 3)  # the default pool
+    mixture = AcousticLikelihood(whisper=False, align=True, pool="mixture").combine(raw, 3)
     w = np.array([-10.0, -1.0, -10.0])  # / T_w = 3; the pruned third gets the worst kept w
     assert np.allclose(product, raw.phonetic + w)
     assert np.allclose(mixture, pool_experts(raw.phonetic, w, "mixture"))
@@ -72,3 +72,17 @@ def test_an_unsure_transcript_moves_the_slot_channel_little() -> None:
     assert sure[1] - sure[0] == pytest.approx(np.log(1 / (0.9 * np.exp(full[0] - full[1]) + 0.1)), abs=1e-6)
     assert 0 < unsure[1] - unsure[0] < np.log(1 / 0.8) + 1e-9 < sure[1] - sure[0]
     assert np.allclose(whisper_slot_factor("pass me the honey", None, cmds, None, None), 0.0)  # no confidence
+
+
+def test_the_default_pool_keeps_a_count_both_experts_heard() -> None:
+    """The product is the default: an N-best sure of a count is not flattened by a Whisper factor
+    that barely separates the counts (the mixture halves it)."""
+    from siftom.likelihood.pooling import DEFAULT_POOL
+
+    assert DEFAULT_POOL == "product"
+    nbest = np.array([0.0, -9.0, -9.0])  # "i need four teaspoons": four, heard without a word wrong
+    whisper = np.array([-1.0, -0.8, -1.1])  # Whisper's teacher-forced scores: the counts barely differ
+    product = np.asarray(pool_experts(nbest, whisper, DEFAULT_POOL))
+    mixture = np.asarray(pool_experts(nbest, whisper, "mixture"))
+    share = lambda x: float(np.exp(x[0] - np.logaddexp.reduce(x)))  # noqa: E731
+    assert share(product) > 0.99 > 0.7 > share(mixture)  # the mixture: about 2/3

@@ -2,7 +2,7 @@
 
 **With the whisper extra installed (the default then):**
 
-    log P(a | pi_r) = pool[ log P_phonetic(N-best | pi_r), w(pi_r) / T_w ]   (a mixture; ``likelihood.pooling``)
+    log P(a | pi_r) = pool[ log P_phonetic(N-best | pi_r), w(pi_r) / T_w ]   (a product; ``likelihood.pooling``)
 
 where w is the Whisper factor (``siftom.likelihood.whisper_factor``): the log-probability
 Whisper tiny.en gives the heard words with each command's key phrase in place of the heard
@@ -124,8 +124,9 @@ class AcousticLikelihood:
         whisper_listen: also let Whisper transcribe the clip (greedy, on the encoding the factor
             computes anyway) and use its words as a second carrier; the commands it names join the
             pruned set (``WhisperFactor``).
-        pool: how the N-best and the Whisper factor meet: ``"mixture"`` (default; a linear pool, flat
-            where they disagree), ``"product"`` or ``"tempered"`` (``likelihood.pooling``; docs/likelihoods.md).
+        pool: how the N-best and the Whisper factor meet: ``"product"`` (default), ``"mixture"`` (a
+            linear pool, flat where they disagree: fewer confident wrong answers, more questions) or
+            ``"tempered"`` (``likelihood.pooling``; docs/likelihoods.md).
         whisper_slot_confidence: weigh Whisper's transcript in the slot channel by its own confidence
             (default); False reads it at full weight (``likelihood.pooling``).
         whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;

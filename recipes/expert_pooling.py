@@ -17,13 +17,12 @@ report on others.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from whisper_debias import PerClip, summarise  # noqa: E402 - the sibling recipe's clip cache and summary
+from whisper_debias import PerClip, report  # noqa: E402 - the sibling recipe's clip cache and report
 
 # pool:slot; "product:full" is the acoustic likelihood before pooling, "mixture:confidence" the default
 SETTINGS = ("product:full", "product:confidence", "mixture:full", "tempered:confidence", "mixture:confidence")
@@ -91,17 +90,7 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     if not Path(a.dataset).is_dir():
         ap.error(f"--dataset {a.dataset}: no such folder")
-    rows = collect(a.dataset, parse_settings(a.settings), a.limit)
-    if a.out:
-        Path(a.out).write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
-    result = summarise(rows)
-    if a.as_json:
-        print(json.dumps(result, indent=2))
-        return
-    print("band     setting                 n   acc %  conf-wrong %   NLL")
-    for band, per in result.items():
-        for name, v in per.items():
-            print(f"{band:8s} {name:20s} {v['n']:4.0f}  {v['accuracy']:5.1f}  {v['confident_wrong']:12.1f}  {v['nll']:.3f}")
+    report(collect(a.dataset, parse_settings(a.settings), a.limit), a.out, a.as_json, "setting")
 
 
 if __name__ == "__main__":

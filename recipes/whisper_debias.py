@@ -133,16 +133,21 @@ def main(argv: list[str] | None = None) -> None:
     if not Path(a.dataset).is_dir():
         ap.error(f"--dataset {a.dataset}: no such folder")
     rows = collect(a.dataset, tuple(float(x) for x in a.lambdas.split(",")), a.limit)
-    if a.out:
-        Path(a.out).write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+    report(rows, a.out, a.as_json, "lambda")
+
+
+def report(rows: list[dict[str, Any]], out: str | None, as_json: bool, column: str) -> None:
+    """Write the rows (``out``), then print the summary per band and setting (JSON or a table)."""
+    if out:
+        Path(out).write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
     result = summarise(rows)
-    if a.as_json:
+    if as_json:
         print(json.dumps(result, indent=2))
         return
-    print("band     lambda    n   acc %  conf-wrong %   NLL")
+    print(f"band     {column:20s}    n   acc %  conf-wrong %   NLL")
     for band, per in result.items():
-        for lam, v in per.items():
-            print(f"{band:8s} {lam:>6s} {v['n']:4.0f}  {v['accuracy']:5.1f}  {v['confident_wrong']:12.1f}  {v['nll']:.3f}")
+        for name, v in per.items():
+            print(f"{band:8s} {name:20s} {v['n']:4.0f}  {v['accuracy']:5.1f}  {v['confident_wrong']:12.1f}  {v['nll']:.3f}")
 
 
 if __name__ == "__main__":

@@ -18,11 +18,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from whisper_debias import PerClip, report  # noqa: E402 - the sibling recipe's clip cache and report
+from whisper_debias import report, sweep  # noqa: E402 - the sibling recipe's sweep and report
 
 # pool:slot; "product:full" is the acoustic likelihood before pooling, "mixture:confidence" the default
 SETTINGS = ("product:full", "product:confidence", "mixture:full", "tempered:confidence", "mixture:confidence")
@@ -45,39 +46,13 @@ def parse_settings(text: str) -> list[tuple[str, str, bool]]:
 def collect(dataset: str | Path, settings: list[tuple[str, str, bool]], limit: int | None = None,
             engine: str = "pocketsphinx-vocab") -> list[dict[str, Any]]:
     """Per stimulus: its band and, per setting, (P(gold), P(chosen), chosen is right)."""
-    from siftom import Observer, Settings
-    from siftom.bench.acoustic_models import heard
-    from siftom.bench.engines import engine as get_engine
-    from siftom.bench.scoring import is_correct
-    from siftom.bench.trials import dataset_vocabulary
-    from siftom.inference.model import Observation
-    from siftom.people.stimuli import load_dataset, scenario_for
-    from siftom.speech.asr import DEFAULT_NBEST
 
-    ds = load_dataset(dataset)
-    asr = get_engine(engine, dataset_vocabulary(ds.stimuli))
-    observer = Observer(Settings.load(env={}))
-    model, actions_only = observer.model("full", "acoustic"), observer.model("action-only", "acoustic")
-    lk: Any = model.likelihood
-    factor: Any = getattr(lk, "_whisper", None)
-    if factor is None:
-        raise SystemExit("the acoustic likelihood has no Whisper factor here: install siftom[whisper]")
-    cache = PerClip(factor.scorer)
-    factor._scorer = cache  # noqa: SLF001 - every setting reuses the clip's Whisper work
-    rows = []
-    for s in ds.stimuli[:limit]:
-        sc = scenario_for(s)
-        instruction, _ = heard(ds.root / s.audio, asr, DEFAULT_NBEST)
-        cache.reset()
-        per: dict[str, tuple[float, float, bool]] = {}
-        for name, pool, confidence in settings:
+    def setting(pool: str, confidence: bool) -> Callable[[Any, Any], None]:
+        def apply(lk: Any, _factor: Any) -> None:
             lk.pool, lk.whisper_slot_confidence = pool, confidence
-            post = (model if instruction is not None else actions_only).infer(Observation.from_scenario(sc, instruction))
-            per[name] = (post.prob(s.gold_command), post.commands[0][1],
-                         bool(is_correct(post.command, s.gold_command, sc.verb)))
-        rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
-                     "heard": instruction is not None, "per": per})
-    return rows
+        return apply
+
+    return sweep(dataset, {name: setting(pool, conf) for name, pool, conf in settings}, limit, engine)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -18,6 +18,7 @@ import argparse
 import hashlib
 import json
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -69,6 +70,18 @@ class PerClip:
 def collect(dataset: str | Path, lambdas: tuple[float, ...] = LAMBDAS, limit: int | None = None,
             engine: str = "pocketsphinx-vocab") -> list[dict[str, Any]]:
     """Per stimulus: its band and, per lambda, (P(gold), P(chosen), chosen is right)."""
+
+    def weight(lam: float) -> Callable[[Any, Any], None]:
+        return lambda _lk, factor: setattr(factor, "prior_weight", float(lam))
+
+    return sweep(dataset, {f"{lam:g}": weight(lam) for lam in lambdas}, limit, engine)
+
+
+def sweep(dataset: str | Path, variants: dict[str, Callable[[Any, Any], None]], limit: int | None = None,
+          engine: str = "pocketsphinx-vocab") -> list[dict[str, Any]]:
+    """Per stimulus: its band and, per variant, (P(gold), P(chosen), chosen is right) of the full
+    acoustic model; a variant sets itself on (the likelihood, its Whisper factor) before each
+    clip's inference, and every variant reuses the clip's Whisper work."""
     from siftom import Observer, Settings
     from siftom.bench.acoustic_models import heard
     from siftom.bench.engines import engine as get_engine
@@ -86,19 +99,19 @@ def collect(dataset: str | Path, lambdas: tuple[float, ...] = LAMBDAS, limit: in
     if factor is None:
         raise SystemExit("the acoustic likelihood has no Whisper factor here: install siftom[whisper]")
     cache = PerClip(factor.scorer)
-    factor._scorer = cache  # noqa: SLF001 - every lambda reuses the clip's Whisper work
+    factor._scorer = cache  # noqa: SLF001 - every variant reuses the clip's Whisper work
     rows = []
     for s in ds.stimuli[:limit]:
         sc = scenario_for(s)
         instruction, _ = heard(ds.root / s.audio, asr, DEFAULT_NBEST)
         cache.reset()
         per: dict[str, tuple[float, float, bool]] = {}
-        for lam in lambdas:
-            factor.prior_weight = float(lam)
-            # nothing heard: the actions alone answer, as in the evaluator (the same for every lambda)
+        for name, apply in variants.items():
+            apply(model.likelihood, factor)
+            # nothing heard: the actions alone answer, as in the evaluator (the same for every variant)
             post = (model if instruction is not None else actions_only).infer(Observation.from_scenario(sc, instruction))
-            per[f"{lam:g}"] = (post.prob(s.gold_command), post.commands[0][1],
-                               bool(is_correct(post.command, s.gold_command, sc.verb)))
+            per[name] = (post.prob(s.gold_command), post.commands[0][1],
+                         bool(is_correct(post.command, s.gold_command, sc.verb)))
         rows.append({"id": s.id, "snr": "clean" if s.snr_db is None else f"{s.snr_db:g} dB",
                      "heard": instruction is not None, "per": per})
     return rows

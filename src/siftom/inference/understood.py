@@ -48,7 +48,8 @@ def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand],
         sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
         w = np.exp(sc - sc.max())
         w /= w.sum()
-        keep = [k for k in range(len(hyps)) if w[k] >= MIN_WEIGHT]
+        floor = min(MIN_WEIGHT, float(w.max()))  # many equal hypotheses each weigh under the floor: keep the best
+        keep = [k for k in range(len(hyps)) if w[k] >= floor]
         texts, weights = [hyps[k].text for k in keep], list(w[keep] / w[keep].sum())
         by, who = "nbest", "the recogniser"
     u = understand(texts, weights, classes, lexicon)

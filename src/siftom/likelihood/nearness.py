@@ -100,4 +100,5 @@ def heard_texts(nbest: Sequence[Any], temperature: float = ASR_TEMPERATURE,
     s = np.array([float(h.score) for h in hyps]) / temperature
     w = np.exp(s - s.max())
     w /= w.sum()
-    return [h.text for h, wk in zip(hyps, w, strict=True) if wk >= min_weight]
+    floor = min(min_weight, float(w.max()))  # many equal hypotheses each weigh under the floor: keep the best
+    return [h.text for h, wk in zip(hyps, w, strict=True) if wk >= floor]

@@ -8,6 +8,8 @@ from typing import Any
 
 import click
 
+from siftom.cli.outputs import force_option, prepare_output
+
 
 @click.command("simulate")
 @click.argument("scenario_id")
@@ -94,32 +96,34 @@ def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_reques
 @click.option("--seeds", type=click.IntRange(min=1), default=5, show_default=True, help="seeds per scenario")
 @click.option("--seed-start", type=click.IntRange(min=0), default=0, show_default=True,
               help="first seed (seeds SEED_START .. SEED_START + SEEDS - 1)")
-@click.option("--rules", default="expected-benefit,map", show_default=True, help="comma-separated decision rules")
+@click.option("--rules", default="teammate", show_default=True,
+              help="comma-separated decision rules: teammate (the product's), expected-benefit, ask-or-act, map")
 @click.option("--max-requests", type=click.IntRange(min=0), default=3, show_default=True,
               help="the most requests per trial")
 @_channel_option
 @_ask_for_option
 @click.option("--scenario", "scenarios", multiple=True, help="only these scenario ids (default: the domain's registered ones)")
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
-              help="write one JSON line per trial here (to re-plot)")
+              help="write one JSON line per trial here (to re-plot; its folder is created)")
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="print the per-rule summary as JSON")
 @click.option("--no-progress", is_flag=True, help="no progress bar")
 def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_requests: int, channel: str,
-                     p_err: float, ask_for: str, scenarios: tuple[str, ...], out: str | None, as_json: bool,
-                     no_progress: bool) -> None:
+                     p_err: float, ask_for: str, scenarios: tuple[str, ...], out: str | None, force: bool,
+                     as_json: bool, no_progress: bool) -> None:
     """Whole trials over a domain's scenarios x seeds x rules: mean speedup, wrong fetches,
     questions and refusals per trial, per rule (docs/team-simulation.md, "Whole trials")."""
     import contextlib
-    from pathlib import Path
 
     from siftom.bench.wholetrial import markdown, run_trials, summarise
     from siftom.cli.bench import _bar, _csv
     from siftom.observer import Observer
 
     rule_list, channels = _csv(rules), _csv(channel)
+    out_path = prepare_output(out, force) if out else None
     rows = []
     with contextlib.ExitStack() as stack:
-        fh = stack.enter_context(Path(out).open("w", encoding="utf-8")) if out else None
+        fh = stack.enter_context(out_path.open("w", encoding="utf-8")) if out_path else None
         bar = stack.enter_context(_bar(f"trials {domain}", enabled=not no_progress))
         for row in run_trials(domain, range(seed_start, seed_start + seeds), rule_list, Observer(),
                               channels=channels, max_requests=max_requests, p_err=p_err,

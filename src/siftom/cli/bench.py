@@ -12,6 +12,7 @@ from contextlib import contextmanager, nullcontext
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
+from siftom.cli.outputs import force_option, prepare_output
 from siftom.errors import DatasetError
 from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.asr.base import ENGINES
@@ -200,7 +201,7 @@ def check_cmd(folder: str) -> None:
               "(= siftom with Whisper), speech-only-acoustic, siftom-phonetic-eb, siftom-phonetic-ask "
               "(the rules on the phonetic likelihood)")
 @click.option("--engine", default="pocketsphinx-vocab", show_default=True,
-              help=f"ASR engine: {ENGINES.help_line()}")
+              help=f"ASR engine: {ENGINES.help_line('')}")
 @click.option("--nbest", type=int, default=DEFAULT_NBEST, show_default=True, help="ASR hypotheses given to the models")
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
@@ -339,14 +340,17 @@ def _conditions(value: str) -> tuple[str, ...]:
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="seed of the items' objects, counts and wordings and of the noise")
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
+@force_option
 def bench_understanding_cmd(set_name: str, world_seed: int | None, worlds: int, conditions: str, limit: int | None,
-                            out: str | None, seed: int, as_json: bool) -> None:
+                            out: str | None, seed: int, as_json: bool, force: bool) -> None:
     """How often the robot understands what people say: per kind of utterance and condition."""
     from rich.console import Console
 
     from siftom.bench.understanding import WORLD_SEEDS, generate_items, run_benchmark, table
 
     conds = _conditions(conditions)
+    if out is not None:
+        prepare_output(out, force)
     ws = WORLD_SEEDS[set_name] if world_seed is None else world_seed
     items = generate_items(set_name, ws, worlds, seed)[:limit]
     meta: dict[str, str | int | None] = {"set": set_name, "world_seed": ws, "worlds_per_domain": worlds, "seed": seed, "limit": limit}

@@ -10,6 +10,7 @@ import click
 
 from siftom.bench.latency import SCENARIO, run_latency
 from siftom.bench.speed import run_inference_bench, run_planner_bench
+from siftom.cli.outputs import force_option, prepare_output
 from siftom.speech.cli_options import whisper_model_option
 
 
@@ -84,11 +85,15 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="also write the result as JSON here")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@force_option
 def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str | None, token: str | None,
-                     seed: int, in_process: bool, out: Path | None, as_json: bool) -> None:
+                     seed: int, in_process: bool, out: Path | None, as_json: bool, force: bool) -> None:
     """Several robots: N sessions stream real-time speech while /v1/infer is polled; per stream the
     delay from the end of speech to the decision, and the HTTP percentiles idle and under load."""
     from siftom.bench.robots import ServeBenchOptions, run_serve_bench
+
+    if out is not None:
+        prepare_output(out, force)
 
     res = run_serve_bench(ServeBenchOptions(streams=streams, instructions=instructions, http_rps=http_rps,
                                             url=url, token=token, seed=seed, in_process=in_process))
@@ -123,10 +128,14 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="also write the result as JSON here")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def bench_hostile_cmd(url: str | None, token: str | None, out: Path | None, as_json: bool) -> None:
+@force_option
+def bench_hostile_cmd(url: str | None, token: str | None, out: Path | None, as_json: bool, force: bool) -> None:
     """Hostile requests (huge worlds, huge names) against a server while /healthz is polled: each must
     be a 4xx naming its limit within a second, /healthz within 100 ms meanwhile."""
     from siftom.bench.hostile import run_hostile_bench
+
+    if out is not None:
+        prepare_output(out, force)
 
     res = run_hostile_bench(url, token)
     if out is not None:

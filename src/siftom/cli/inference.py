@@ -192,6 +192,10 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
         ans = infer(scene, actions_file, heard, settings=settings)
     post, body = ans.posterior, ans.to_json()
     if png is not None and scenario_id is not None:
+    heard_flags = [f for f, v in (("--transcript", transcript), ("--nbest", nbest_file), ("--audio", audio))
+                   if v is not None]
+    if len(heard_flags) > 1:
+        raise ObservationError(f"give only one of {', '.join(heard_flags)}: each is what was heard")
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
 

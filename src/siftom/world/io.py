@@ -31,7 +31,7 @@ from siftom.world.bounds import WorldTooLargeError as WorldTooLargeError
 from siftom.world.bounds import check_world_bounds as check_world_bounds
 from siftom.world.library import GoalSpec as GoalSpec
 from siftom.world.library import LoadedScene as LoadedScene
-from siftom.world.library import _need
+from siftom.world.library import _need, goal_class_notes
 from siftom.world.library import feasible_goals as feasible_goals
 from siftom.world.library import goal_library as goal_library
 from siftom.world.model import NOTHING, Goal, Item, Place, State, World
@@ -112,9 +112,10 @@ def _scene_from_json(obj: Any) -> LoadedScene:
         open_mask |= 1 << place_of(name, "open")
     target = place_of(_need(obj, "target", "world"), "target")
     start = State((human, robot), (NOTHING, NOTHING), tuple(item_at), open_mask)
-    goals = feasible_goals(GoalSpec.from_json(obj), world, target)
+    spec = GoalSpec.from_json(obj)
+    goals = feasible_goals(spec, world, target)
     verb = str(obj.get("verb", "fetch" if obj.get("goal_space") == "kitchen-v0" else "deliver"))
-    return LoadedScene(world, start, goals, verb)
+    return LoadedScene(world, start, goals, verb, notes=goal_class_notes(spec, world, target))
 
 
 _NAME_RE = re.compile(r"^[a-z][a-z' ]*[a-z]$|^[a-z]$")

@@ -101,3 +101,28 @@ def _why_unreachable(goals: list[Goal], world: World, show: int = 3) -> str:
         parts.append(f"{g.name!r} needs {', '.join(lacks)}")
     more = f"; and {len(goals) - show} more goals" if len(goals) > show else ""
     return ": " + "; ".join(parts) + more
+
+
+def goal_class_notes(spec: GoalSpec, world: World, target: int) -> tuple[str, ...]:
+    """One warning per goal of a world's own ``goals`` that its objects cannot satisfy, naming the
+    counted class the world lacks and its closest object classes (difflib), e.g. a goal counting
+    ``"tomatoes"`` in a world of ``tomato`` objects. A named goal space is not checked: most of
+    its goals are out of reach in any one world."""
+    if spec.goals is None:
+        return ()
+    have = Counter(it.cls for it in world.items)
+    out = []
+    for g in goal_library(spec, target):
+        for c, n in g.counts:
+            if have[c] >= n:
+                continue
+            if have[c] == 0:
+                close = difflib.get_close_matches(c, sorted(have), n=3, cutoff=0.6)
+                hint = (f"did you mean {' or '.join(repr(x) for x in close)}? " if close
+                        else f"the object classes are {', '.join(sorted(have)[:8])}; ")
+                out.append(f"goal {g.name!r} counts {c!r}, a class no object has, so the robot never considers "
+                           f"it: {hint}(rename the class in the goal, or add an object of class {c!r})")
+            else:
+                out.append(f"goal {g.name!r} needs {n} {c!r} and the world has {have[c]}, so the robot never "
+                           f"considers it (lower the count, or add objects of class {c!r})")
+    return tuple(out)

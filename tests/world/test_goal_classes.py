@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -16,7 +17,7 @@ SALAD = ROOT / "docs" / "examples" / "salad"
 
 
 def _salad(**goal_counts: int) -> dict[str, object]:
-    obj = json.loads((SALAD / "world.json").read_text(encoding="utf-8"))
+    obj: dict[str, Any] = json.loads((SALAD / "world.json").read_text(encoding="utf-8"))
     obj["goals"][0]["counts"] = goal_counts
     return obj
 

@@ -282,8 +282,10 @@ class OnlineInference:
             else:
                 scored = as_scores(lk.log_prob(instruction, cmds))
             whisper = scored.evidence.get("whisper_heard")
+            wlp = scored.evidence.get("whisper_logprob")
             understood, checked = understanding_of(instruction, cmds, (whisper,) if isinstance(whisper, str) else (),
-                                                   getattr(lk, "lexicon", None))
+                                                   getattr(lk, "lexicon", None),
+                                                   float(wlp) if isinstance(wlp, (int, float)) else None)
             evidence = {**scored.evidence, **checked}
             instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):

@@ -229,8 +229,7 @@ class Channel:
         got = {c for c, _, _ in self.cells}
         if got != set(CELLS):
             raise ValueError(f"channel {self.name!r} must give every cell of {CELLS}; missing {set(CELLS) - got}")
-        for k in (1, 2):
-            total = sum(c[k] for c in self.cells)
+        for total in (sum(p1 for _, p1, _ in self.cells), sum(p0 for _, _, p0 in self.cells)):
             if abs(total - 1.0) > 1e-6:
                 raise ValueError(f"channel {self.name!r}: the cells' probabilities sum to {total}, not 1")
 

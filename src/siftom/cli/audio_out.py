@@ -20,6 +20,16 @@ def _first_line(exc: BaseException) -> str:
     return (text.splitlines()[0] if text else type(exc).__name__)[:200]
 
 
+def _special(target: str | Path) -> bool:
+    """Whether ``target`` exists and is not a regular file (a device, a pipe, a socket)."""
+    import stat
+
+    try:
+        return not stat.S_ISREG(Path(target).stat().st_mode)
+    except OSError:
+        return False
+
+
 @contextmanager
 def writing_audio(target: str | Path, what: str = "the WAV file",
                   fix: str = f"give {WRITE_FIX}") -> Iterator[None]:
@@ -31,4 +41,6 @@ def writing_audio(target: str | Path, what: str = "the WAV file",
         yield
     except (OSError, sf.SoundFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else _first_line(exc)
+        if _special(target):  # a device such as /dev/full: libsndfile says only "System error"
+            reason = "it is a device or other special file, not a regular file"
         raise click.ClickException(f"cannot write {what} {str(target)!r} ({reason}); {fix}") from None

@@ -89,6 +89,29 @@ def fold_warnings(warnings: list[str], most: int = 2) -> list[str]:
     return [f"{len(warnings)} notes on this world: {'; '.join(parts)} (--json lists each with its fix)"]
 
 
+def png_target(path: Path) -> Path:
+    """``--png PATH`` checked before any work: written exactly there (no suffix added), into a
+    folder that exists, over nothing but a regular file."""
+    import stat
+
+    hint = "--png"
+    parent = path.parent
+    if not parent.is_dir():
+        raise click.BadParameter(f"the folder {str(parent)!r} does not exist; create it first or give a path in an "
+                                 "existing folder", param_hint=hint)
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return path
+    except OSError as exc:
+        raise click.BadParameter(f"cannot write {str(path)!r}: {exc.strerror}", param_hint=hint) from None
+    if not stat.S_ISREG(st.st_mode):
+        what = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file"
+        raise click.BadParameter(f"{str(path)!r} is {what}; give the path of a new or existing .png file",
+                                 param_hint=hint)
+    return path
+
+
 def _read_nbest(path: Path) -> list[Any]:
     try:
         data = loads(read_text(path, "N-best file"), f"N-best file {str(path)!r}")
@@ -150,6 +173,11 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
 
     if rule is not None:
         get_rule(rule)  # an unknown name fails before any work
+    if png is not None:
+        if scenario_id is None:
+            raise click.BadParameter("the picture is drawn for a registered scenario (--scenario); leave --png out "
+                                     "with --scene", param_hint="--png")
+        png = png_target(png)
     flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine,
                                 "infer.decide": rule}
     resolved = Settings.load(config_file, flags=flags)
@@ -164,6 +192,10 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
 
     if (scenario_id is None) == (scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
+    heard_flags = [f for f, v in (("--transcript", transcript), ("--nbest", nbest_file), ("--audio", audio))
+                   if v is not None]
+    if len(heard_flags) > 1:
+        raise ObservationError(f"give only one of {', '.join(heard_flags)}: each is what was heard")
     warnings: list[str] = []
     scene: str | LoadedScene
     if scenario_id is not None:
@@ -192,10 +224,6 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
         ans = infer(scene, actions_file, heard, settings=settings)
     post, body = ans.posterior, ans.to_json()
     if png is not None and scenario_id is not None:
-    heard_flags = [f for f, v in (("--transcript", transcript), ("--nbest", nbest_file), ("--audio", audio))
-                   if v is not None]
-    if len(heard_flags) > 1:
-        raise ObservationError(f"give only one of {', '.join(heard_flags)}: each is what was heard")
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
 

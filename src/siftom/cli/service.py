@@ -146,6 +146,17 @@ def announce(what: str, host: str, port: int, token: str | None, generated: bool
 STOP_GRACE_S = 5  # on SIGTERM, requests and streams in flight get this long before they are cut
 
 
+def interruptible() -> None:
+    """Let SIGINT stop this process from now on, also when it was started with SIGINT ignored (a
+    background job of a shell script is): the server takes SIGINT once it serves, so it takes it
+    while it starts too, rather than ignoring it until then."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 @contextmanager
 def stopped_by_signals() -> Iterator[None]:
     """SIGTERM and SIGINT stop the server cleanly, also while it warms up: the ``finally``
@@ -192,17 +203,20 @@ def check_port(host: str, port: int) -> None:
     binds them) and let go again, before anything else starts: a port in use is a one-line error
     at once, not a failure after the models began to load.
 
-    Other failures (a host that is no address here) are left to the server, which names them.
+    A host that resolves to no address, or to one that is not this machine's, is refused the same
+    way, before a token is made or printed.
 
     Raises:
-        OptionsError: the port is in use or needs privileges; the message names the port and the fix.
+        OptionsError: the host is no address here, the port is in use or needs privileges; the
+            message names the host or port and the fix.
     """
     from siftom.errors import OptionsError
 
+    fix = "give an address of this machine: 127.0.0.1 (this machine only), 0.0.0.0 (every interface) or one of its IPs"
     try:
         infos = socket.getaddrinfo(host or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
     except (OSError, UnicodeError):
-        return
+        raise OptionsError(f"--host {host!r} is not an IP address or a name this machine can resolve; {fix}") from None
     socks: list[socket.socket] = []
     try:
         for family, kind, proto, _name, addr in dict.fromkeys((i[0], i[1], i[2], "", i[4]) for i in infos):
@@ -219,6 +233,8 @@ def check_port(host: str, port: int) -> None:
         if exc.errno == errno.EACCES:
             raise OptionsError(f"port {port} on {host} needs privileges this user lacks; give a port above 1023: "
                                "--port 8000") from None
+        if exc.errno in (errno.EADDRNOTAVAIL, errno.EINVAL, errno.EAFNOSUPPORT):
+            raise OptionsError(f"--host {host!r} is not an address of this machine ({exc.strerror}); {fix}") from None
     finally:
         for sock in socks:
             sock.close()
@@ -291,6 +307,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     (``siftom config show``: sessions.*, service.*). The "llm" likelihood uses the --llm-* flags
     or SIFTOM_LLM_* (GET /healthz shows which).
     """
+    interruptible()  # before the imports: a Ctrl-C while they load stops the server as one later does
     _need_serve_extra()
     import uvicorn
 

@@ -70,7 +70,7 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
     fig.tight_layout()
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=110, format="png")  # exactly ``path``: no suffix added to a name without one
     plt.close(fig)
     return out
 

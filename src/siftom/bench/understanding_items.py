@@ -5,10 +5,12 @@ each with what a listener should understand, and the scoring of an answer agains
 
 from __future__ import annotations
 
+import json
 import re
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,15 +39,30 @@ class Expect:
         request: whether somebody asked the robot for something.
         targets: (object class, count said or None) for each object asked for.
         absent: the name of the object asked for that is not in the world ('' for none).
+        optional: classes a listener may also take as asked for (the sugar of "the cereal with a
+            bit of sugar"); each at most once beside the targets.
+        refused: classes the person ruled out ("anything but the sugar", "not the cheese"): never
+            carried out, never offered in a question.
+        over_supply: the count said is more than the world holds ("three pens" where two are):
+            any number of the target's class, up to the count said, is understood.
     """
 
     request: bool
     targets: tuple[tuple[str, int | None], ...] = ()
     absent: str = ""
+    optional: tuple[str, ...] = ()
+    refused: tuple[str, ...] = ()
+    over_supply: bool = False
 
     def to_json(self) -> dict[str, Any]:
         return {"request": self.request, "targets": [[c, n] for c, n in self.targets],
-                "absent": self.absent or None}
+                "absent": self.absent or None, "optional": list(self.optional), "refused": list(self.refused),
+                "over_supply": self.over_supply}
+
+    @property
+    def wants_object(self) -> bool:
+        """Whether the person asked for objects that are here (a silent robot ignored them)."""
+        return self.request and bool(self.targets) and not self.absent
 
 
 @dataclass(frozen=True)
@@ -53,29 +70,36 @@ class Item:
     """One utterance of the benchmark in one world.
 
     Attributes:
-        id: ``SET/DOMAIN/wW-K/KIND/J``.
-        kind: one of :data:`KINDS`.
-        domain: the domain id.
-        scenario_seed: the generator seed of the world (``world_scenario_seed``).
+        id: ``SET/DOMAIN/wW-K/KIND/J`` (generated sets) or ``blind/KIND/NN``.
+        kind: one of :data:`KINDS` or :data:`BLIND_KINDS`.
+        domain: the domain id (a world file's items: ``world:NAME``).
+        scenario_seed: the generator seed of the world (``world_scenario_seed``); None for a
+            registered scenario.
         text: what the person says.
         expect: what should be understood.
-        scenario: the scenario id (``kitchen-v0/w201-0``).
-        template: the template the text was made from.
+        scenario: the scenario id (``kitchen-v0/w201-0``, ``kitchen-v0/3``); '' for a world file.
+        template: the template the text was made from ('' for a hand-written item).
+        world: the world file of the items' data (``office``: ``data/understanding/worlds/office.json``
+            with the person's actions in ``office.actions.txt``); '' for a scenario.
+        pending: the two commands of the question the robot asked before these words ("Which one:
+            the cheese or the plate?"); the text is the person's reply. Empty: no question open.
     """
 
     id: str
     kind: str
     domain: str
-    scenario_seed: int
+    scenario_seed: int | None
     text: str
     expect: Expect
     scenario: str = ""
     template: str = ""
+    world: str = ""
+    pending: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         return {"id": self.id, "kind": self.kind, "domain": self.domain, "scenario": self.scenario,
-                "scenario_seed": self.scenario_seed, "text": self.text, "template": self.template,
-                "expected": self.expect.to_json()}
+                "scenario_seed": self.scenario_seed, "world": self.world or None, "text": self.text,
+                "template": self.template, "pending": list(self.pending) or None, "expected": self.expect.to_json()}
 
 
 @dataclass(frozen=True)
@@ -303,6 +327,165 @@ def generate_items(set_name: str = "dev", world_seed: int | None = None, worlds:
     return [item for _, item in sorted(keyed, key=lambda p: p[0])]
 
 
+# -- the blind set ---------------------------------------------------------------------------------
+
+# kinds only the hand-written sets have: an object outside the lexicon ("the stapler"), more than the
+# world holds ("three pens" where two are), a modifier ("the cereal with a bit of sugar") and a reply
+# to the robot's question (an item with ``pending``)
+EXTRA_KINDS = ("unknown", "beyond_supply", "modifier", "reply")
+BLIND_KINDS = KINDS + EXTRA_KINDS
+BLIND = "blind"
+_FIELDS = {"id", "kind", "scenario", "world", "text", "expected", "pending"}
+_EXPECTED = {"request", "targets", "absent", "optional", "refused", "over_supply"}
+
+
+def items_dir() -> Path:
+    """The folder of the hand-written item files and their worlds (``data/understanding``)."""
+    return Path(__file__).resolve().parent.parent / "data" / "understanding"
+
+
+def world_files(name: str) -> tuple[Path, Path]:
+    """(world JSON, actions) of a world of the items' data: ``worlds/NAME.json`` and
+    ``worlds/NAME.actions.txt``."""
+    folder = items_dir() / "worlds"
+    world, actions = folder / f"{name}.json", folder / f"{name}.actions.txt"
+    if not world.is_file() or not actions.is_file():
+        have = sorted(p.stem for p in folder.glob("*.json"))
+        raise DatasetError(f"no world {name!r} in {folder}; worlds: {', '.join(have) or 'none'}")
+    return world, actions
+
+
+_SCENES: dict[tuple[str, str], Any] = {}
+
+
+def scene_of(item: Item) -> Any:
+    """The :class:`~siftom.inputs.SceneInput` of an item's world with the person's actions
+    (a scenario's own, or a world file's ``.actions.txt``); cached per process."""
+    from siftom.inputs import resolve_scene
+    from siftom.people.stimuli import resolve_scenario
+
+    key = (item.world, item.scenario if not item.world else "")
+    if key not in _SCENES:
+        if item.world:
+            world, actions = world_files(item.world)
+            _SCENES[key] = resolve_scene(str(world), str(actions))
+        else:
+            _SCENES[key] = resolve_scene(resolve_scenario(item.scenario, item.domain, item.scenario_seed))
+    return _SCENES[key]
+
+
+def _str_list(v: Any, what: str) -> tuple[str, ...]:
+    if v is None:
+        return ()
+    if not isinstance(v, list) or not all(isinstance(x, str) and x for x in v):
+        raise ValueError(f"{what} must be a list of class names, got {v!r}")
+    return tuple(v)
+
+
+def _item_from_json(obj: Any) -> Item:
+    """An item of a hand-written file (one JSON object); ValueError naming what is wrong."""
+    from siftom.people.stimuli import resolve_scenario
+
+    if not isinstance(obj, dict):
+        raise ValueError(f"each line must be a JSON object, got {type(obj).__name__}")
+    extra = set(obj) - _FIELDS
+    if extra:
+        raise ValueError(f"unknown field(s) {', '.join(sorted(extra))}; fields: {', '.join(sorted(_FIELDS))}")
+    for key in ("id", "kind", "text"):
+        if not isinstance(obj.get(key), str) or not obj[key].strip():
+            raise ValueError(f"{key!r} must be a non-empty string")
+    if obj["kind"] not in BLIND_KINDS:
+        raise ValueError(f"unknown kind {obj['kind']!r}; kinds: {', '.join(BLIND_KINDS)}")
+    if bool(obj.get("scenario")) == bool(obj.get("world")):
+        raise ValueError("give exactly one of 'scenario' (a registered id) and 'world' (a file of worlds/)")
+    e = obj.get("expected")
+    if not isinstance(e, dict) or not isinstance(e.get("request"), bool):
+        raise ValueError("'expected' must be an object with 'request': true or false")
+    if set(e) - _EXPECTED:
+        raise ValueError(f"unknown expected field(s) {', '.join(sorted(set(e) - _EXPECTED))}; "
+                         f"fields: {', '.join(sorted(_EXPECTED))}")
+    targets = []
+    for t in e.get("targets") or []:
+        if (not isinstance(t, list) or len(t) != 2 or not isinstance(t[0], str)
+                or not (t[1] is None or (isinstance(t[1], int) and not isinstance(t[1], bool) and t[1] >= 1))):
+            raise ValueError(f"each target must be [class, count or null], got {t!r}")
+        targets.append((t[0], t[1]))
+    absent = e.get("absent") or ""
+    if not isinstance(absent, str):
+        raise ValueError(f"'absent' must be a name or null, got {absent!r}")
+    expect = Expect(e["request"], tuple(targets), absent, _str_list(e.get("optional"), "optional"),
+                    _str_list(e.get("refused"), "refused"), bool(e.get("over_supply", False)))
+    if (expect.targets or expect.absent) and not expect.request:
+        raise ValueError("targets or an absent object need 'request': true")
+    pending = _str_list(obj.get("pending"), "pending")
+    if pending and len(pending) != 2:
+        raise ValueError(f"'pending' must be the question's two commands, got {len(pending)}")
+    world = str(obj.get("world") or "")
+    if world:
+        world_files(world)
+        domain = f"world:{world}"
+    else:
+        domain = resolve_scenario(obj["scenario"], "", None).domain
+    item = Item(obj["id"], obj["kind"], domain, None, obj["text"], expect, str(obj.get("scenario") or ""),
+                world=world, pending=pending)
+    _check_world(item)
+    return item
+
+
+def _check_world(item: Item) -> None:
+    """The item's classes are in its world (an absent one is not); ValueError otherwise."""
+    world = scene_of(item).world
+    have = Counter(it.cls for it in world.items)
+    e = item.expect
+    for c in [c for c, _ in e.targets] + list(e.optional) + list(e.refused):
+        if c not in have:
+            raise ValueError(f"class {c!r} is not in the world; its classes: {', '.join(sorted(have))}")
+    for c, n in e.targets:
+        if n is not None and (n > have[c]) != e.over_supply:
+            raise ValueError(f"{n} {c} said where the world holds {have[c]}: set 'over_supply' "
+                             f"{'true' if n > have[c] else 'false'}")
+    if e.absent and e.absent in have:
+        raise ValueError(f"absent {e.absent!r} is in the world")
+    for cmd in item.pending:
+        m = re.fullmatch(r"(\w+)\((\w+)(?:,(\d+))?\)", cmd)
+        if m is None or m.group(2) not in have:
+            raise ValueError(f"pending command {cmd!r} must be VERB(CLASS[,N]) of a class of the world")
+
+
+def load_items(path: str | Path | None = None) -> list[Item]:
+    """The items of a hand-written JSON-lines file (default: the blind set, ``blind.jsonl``),
+    interleaved so that any prefix mixes kinds (``--limit``).
+
+    Each line: ``id``, ``kind``, ``scenario`` (a registered id) or ``world`` (a world of
+    ``data/understanding/worlds``), ``text``, ``expected`` (``request``, ``targets`` as
+    ``[[class, count or null], ...]``, ``absent``, ``optional``, ``refused``, ``over_supply``)
+    and, for a reply, ``pending`` (the question's two commands).
+    """
+    p = Path(path) if path is not None else items_dir() / f"{BLIND}.jsonl"
+    try:
+        lines = p.read_text(encoding="utf-8").splitlines()
+    except OSError as exc:
+        raise DatasetError(f"cannot read the items {p}: {exc.strerror or exc}; give a JSON-lines file") from None
+    out: list[Item] = []
+    for n, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            out.append(_item_from_json(json.loads(line)))
+        except (ValueError, DatasetError) as exc:
+            raise DatasetError(f"{p}, line {n}: {exc}; fix the line (docs/understanding.md, the item format)") from None
+    ids = [i.id for i in out]
+    if len(set(ids)) != len(ids):
+        dup = sorted({x for x in ids if ids.count(x) > 1})
+        raise DatasetError(f"{p}: item id(s) {', '.join(dup[:3])} appear twice; give each item its own id")
+    seen: Counter[str] = Counter()
+    keyed = []
+    for item in out:
+        keyed.append(((seen[item.kind], BLIND_KINDS.index(item.kind)), item))
+        seen[item.kind] += 1
+    return [item for _, item in sorted(keyed, key=lambda p: p[0])]
+
+
 # -- scoring -------------------------------------------------------------------------------------
 
 
@@ -310,31 +493,82 @@ def _squash(text: str) -> str:
     return re.sub(r"[\s_]+", "", text.lower())
 
 
+def _cls(cmd: Any) -> str:
+    return str(getattr(cmd, "obj_class", cmd))
+
+
+def carried_out(answer: Any) -> tuple[Any, ...]:
+    """The commands ``answer`` carries out (none when it asks or does nothing)."""
+    if getattr(answer, "action", None) != "act":
+        return ()
+    got = tuple(getattr(answer, "carry_out", None) or ())
+    if got:
+        return got
+    cmd = getattr(answer, "command", None)
+    return (cmd,) if cmd is not None else ()
+
+
+def offered(answer: Any) -> tuple[str, ...]:
+    """The classes of the commands the robot's question offers (none when it does not ask)."""
+    if getattr(answer, "action", None) != "ask":
+        return ()
+    out = []
+    for c in tuple(getattr(getattr(answer, "decision", None), "options", None) or ()):
+        m = re.fullmatch(r"\w+\((\w+)(?:,\d+)?\)", str(c))
+        out.append(m.group(1) if m else str(c))
+    return tuple(out)
+
+
+def said_why(answer: Any) -> str:
+    """What the robot says about its decision: the reason and, when it declines, the words."""
+    d = getattr(answer, "decision", None)
+    return f"{getattr(d, 'reason', '') or ''} {getattr(d, 'declined', '') or ''}"
+
+
 def understood(item: Item, answer: Any) -> bool:
     """Whether ``answer`` (an :class:`~siftom.answer.Answer`) understood ``item``.
 
+    * a refused object (``refused``): never carried out, never offered in a question; with no
+      target, that is all;
     * an absent object: the robot does nothing and the reason names the object;
     * no request: the robot does nothing (``action`` none, no command carried out);
-    * a request: the utterance model heard a request, the classes of ``answer.parts`` (one
-      command per understood target) are the expected ones (as a multiset), and every count
-      said is the count of a part of its class.
+    * a request: the utterance model heard a request (a reply: the robot's parts or what it
+      carries out name the objects), the classes of ``answer.parts`` (one command per
+      understood target) are the expected ones (as a multiset; each ``optional`` class may come
+      once more), and every count said is the count of a part of its class; with
+      ``over_supply``, parts of the target's classes only, none above the count said.
     """
     e = item.expect
     action = getattr(answer, "action", None)
+    if ({_cls(c) for c in carried_out(answer)} | set(offered(answer))) & set(e.refused):
+        return False
     if e.absent:
-        reason = str(getattr(getattr(answer, "decision", None), "reason", "") or "")
-        return action == "none" and _squash(e.absent) in _squash(reason)
+        return action == "none" and _squash(e.absent) in _squash(said_why(answer))
     if not e.request:
         return action == "none" and getattr(answer, "command", None) is None
-    u = getattr(answer, "understanding", None)
-    if u is None or not bool(getattr(u, "request", False)):
-        return False
+    if not e.targets:
+        return True
+    parts = tuple(getattr(answer, "parts", None) or ())
+    if item.pending:
+        parts = parts or carried_out(answer)
+    else:
+        u = getattr(answer, "understanding", None)
+        if u is None or not bool(getattr(u, "request", False)):
+            return False
     got: dict[str, list[int]] = {}
-    for p in tuple(getattr(answer, "parts", None) or ()):
-        got.setdefault(str(p.obj_class), []).append(int(p.count))
+    for p in parts:
+        got.setdefault(_cls(p), []).append(int(getattr(p, "count", 1)))
     want: dict[str, list[int | None]] = {}
     for cls, n in e.targets:
         want.setdefault(cls, []).append(n)
+    if e.over_supply:
+        return bool(got) and set(got) <= set(want) and all(
+            n is None or c <= n for cls, counts in got.items() for c in counts for n in want[cls])
+    for cls in e.optional:
+        if len(got.get(cls, [])) > len(want.get(cls, [])):
+            got[cls].pop()
+            if not got[cls]:
+                del got[cls]
     if {c: len(v) for c, v in got.items()} != {c: len(v) for c, v in want.items()}:
         return False
     for cls, counts in want.items():
@@ -346,3 +580,26 @@ def understood(item: Item, answer: Any) -> bool:
                 return False
             left.remove(n)
     return True
+
+
+def outcome(item: Item, answer: Any) -> dict[str, bool | None]:
+    """What went wrong, beside :func:`understood` (None where it cannot happen to the item):
+
+    * ``nothing``: a request for objects that are here got no action and no question;
+    * ``other_object``: a request was carried out on an object not asked for (an absent one's
+      stand-in, a refused one, or any class outside the targets and their ``optional``);
+    * ``acted_unasked`` / ``asked_unasked``: nobody asked, and the robot acted / asked back.
+    """
+    e = item.expect
+    action = getattr(answer, "action", None)
+    done = {_cls(c) for c in carried_out(answer)}
+    if e.request:
+        if e.targets:
+            other = bool(done - {c for c, _ in e.targets} - set(e.optional))
+        elif e.absent:
+            other = bool(done)
+        else:
+            other = bool(done & set(e.refused))
+        return {"nothing": action == "none" if e.wants_object else None, "other_object": other,
+                "acted_unasked": None, "asked_unasked": None}
+    return {"nothing": None, "other_object": None, "acted_unasked": action == "act", "asked_unasked": action == "ask"}

@@ -349,46 +349,56 @@ class Observer:
         return post, said
 
     def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str,
-                 answered: tuple[Question, ...] = ()) -> Pending | None:
-        """What to keep while the robot waits on the answer to ``decision``'s question."""
+                 answered: tuple[Question, ...] = (), refused: tuple[str, ...] = ()) -> Pending | None:
+        """What to keep while the robot waits on the answer to ``decision``'s question
+        (``answered``, ``refused``: the exchange's questions answered and commands refused so far)."""
         from siftom.assist.reply import request_evidence
 
         q = decision.asked
         if q is None or mode == "speech-only":
             return None
         alone = self._view(online, "action-only", "phonetic").posterior(None, top=1)
-        return Pending(q, request_evidence(post, alone), str(post.command), answered)
+        return Pending(q, request_evidence(post, alone), str(post.command), answered, refused)
 
     def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction,
                call: _Call) -> Answer | None:
         """The answer to words that reply to ``pending`` (assist/reply.py); None when they answer
-        nothing (they are then an utterance like any other)."""
+        nothing (more likely room talk than an answer, and no request: they are then an
+        utterance like any other)."""
         mode, lk, why, top, decide, heard, t0, rel = (call.mode, call.likelihood, call.why, call.top, call.decide,
                                                       call.heard, call.t0, call.reliability)
-        from siftom.assist.reply import after_reply, cell_named
+        from siftom.assist.reply import after_reply, read_reply, refused_after, reply_texts
 
         name = lk if isinstance(lk, str) else type(lk).__name__
         words = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top), name, why)
         u = words.understanding
         targets = u.targets if u is not None and u.request and not words.evidence.get("no_instruction") else ()
-        cell = cell_named(pending.question, instruction)
-        if cell is None and not targets:
-            return None
-        base = words if targets else self._view(online, "action-only", "phonetic").posterior(None, top=top)
-        post = after_reply(base, pending, cell, reliability_for(rel, pending.question.kind))
-        post = dataclasses.replace(post, transcript=instruction.text, understanding=u, evidence={
-            **words.evidence, "reply_to": pending.question.text, "reply_cell": cell})
+        texts, weights = reply_texts(instruction, words)
         world, target = online.world, online.goals[0].target
-        decision = self.decide(post, world, target, decide, answer_reliability=rel,
-                               answered=(*pending.answered, pending.question))
-        parts: tuple[RobotCommand, ...] = (post.command,)
-        if targets:
+        reading = read_reply(pending.question, texts, weights, world.classes, _lexicon_of(world))
+        if not reading.answers and not targets:
+            return None
+        refused = refused_after(pending, reading, [m.obj_class for m in targets if m.obj_class])
+        pending = dataclasses.replace(pending, refused=refused)
+        base = words if targets else self._view(online, "action-only", "phonetic").posterior(None, top=top)
+        answered = (*pending.answered, pending.question)
+        assert base.joint is not None  # not speech-only: _reply runs for the other modes
+        left = [c for c in base.joint.commands if str(c) not in set(refused)]
+        post = after_reply(base, pending, reading, reliability_for(rel, pending.question.kind)) if left else base
+        post = dataclasses.replace(post, transcript=instruction.text, understanding=u, evidence={
+            **words.evidence, "reply_to": pending.question.text, "reply_cell": reading.cell,
+            "reply": reading.to_json()})
+        if left:
+            decision = self.decide(post, world, target, decide, answer_reliability=rel, answered=answered)
+        else:
+            decision = self.decide(post, world, target, decide, nothing="every object here was refused")
+        parts: tuple[RobotCommand, ...] = (post.command,) if left else ()
+        if targets and left:
             decision, parts = said_object(decision, parts, targets[0], post, world, target, online.verb)
         decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
         post = dataclasses.replace(post, decision=decision,
                                    evidence={**post.evidence, "parts": [str(c) for c in parts]})
-        keep = self._pending(online, post, decision, mode, (*pending.answered, pending.question)) \
-            if decision.action == "ask" else None
+        keep = self._pending(online, post, decision, mode, answered, refused) if decision.action == "ask" else None
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, None if heard is None else heard.speech,
                       heard.asr if heard is not None else None, heard.vad if heard is not None else None,

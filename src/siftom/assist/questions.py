@@ -43,8 +43,11 @@ NO = ("no", "no thanks", "no thank you")
 NEITHER = ("neither", "neither of them", "none of those")
 NOTHING = ("nothing", "nothing thanks", "i don't need any")  # the count question's "anything else"
 # words that name a cell; a heard answer maps to the cell whose key words it contains
-_YES_KEYS = ("yes", "yeah")
-_NO_KEYS = ("no",)
+YES_KEYS = ("yes", "yeah", "yep", "yup")
+NO_KEYS = ("no", "nope", "nah")
+OTHER_KEYS = ("other",)  # "the other one": not the option offered (assist/reply.py reads it)
+# "the first one", "the second one", "the last one": an option of a choice by its place
+ORDINAL_KEYS = {"first": 0, "second": 1, "last": -1}
 _NOTHING_KEYS = ("nothing", "don't", "any")
 
 
@@ -140,7 +143,7 @@ def confirm_question(command: str, lexicon: Any = None) -> Question:
     cmd = _parse(command)
     what = describe(command, lexicon)
     verb = "get" if cmd is not None and cmd.verb == "fetch" else "bring"
-    return Question("confirm", f"Shall I {verb} {what}?", (command,), (YES, NO), (_YES_KEYS, _NO_KEYS))
+    return Question("confirm", f"Shall I {verb} {what}?", (command,), (YES, NO), (YES_KEYS, NO_KEYS))
 
 
 def _choice_names(a: RobotCommand, b: RobotCommand, lexicon: Any = None) -> tuple[str, str]:

@@ -18,12 +18,31 @@ A reply speaks to the question in two ways, which may both be there ("no, the su
 * it asks for an object as a request does ("the sugar please"): the instruction likelihood on
   its words.
 
-A reply that does neither (room talk, "hmm", a cough) answers nothing: it is an utterance like
-any other, and the question stays pending.
+**An answer or not is a hypothesis.** Whether the words answer the open question is weighed,
+not keyword-gated (:func:`read_reply`): each hypothesis of what was heard (the recogniser's
+N-best with its weights, or Whisper's words when it heard some) is read by the utterance model
+(``siftom.language.parse.read``: slots with their roles, negation included) against the
+question's cells, and two stories compete for its words -- *an answer* (short, made of the
+question's answer words, object names and function words, naming a cell) and *room talk*
+(anything else, which names a cell only by chance). Each cue is a likelihood ratio
+P(cue | answer) / P(cue | room talk) (:data:`P_CELL`, :data:`P_EXTRA`); P(answer | words) averages
+over the hypotheses. The reply's factor per command is the mixture of the two stories,
+
+    P(reply | c) ∝ sum_n w_n [a_n P(cells_n | c) / P(cells_n) + (1 - a_n)],
+
+``a_n`` = P(answer | hypothesis n), ``cells_n`` the cells its words allow ("not the cheese": every
+cell but the cheese's), heard through the kind's channel. Words more likely room talk than an
+answer (and asking for nothing) answer nothing: the question stays pending.
+
+**A refused option stays refused.** An option the reply refuses ("not the cheese", "neither",
+"no" to "Shall I get the cereal?") with probability over one half loses its mass for good in
+that exchange (:attr:`Pending.refused`): it is neither offered in a later question nor carried
+out, unless a later reply asks for it by name.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -31,13 +50,26 @@ from typing import Any
 import numpy as np
 
 from siftom.assist.decide import with_answer
-from siftom.assist.questions import Question, answer_log_likelihood_cells, answer_reliability
-from siftom.errors import ObservationError
+from siftom.assist.questions import (
+    NO_KEYS,
+    ORDINAL_KEYS,
+    OTHER_KEYS,
+    YES_KEYS,
+    Question,
+    answer_log_likelihood_cells,
+    answer_reliability,
+    channel,
+)
+from siftom.errors import CommandParseError, ObservationError
 from siftom.inference.model import JointPosterior, Posterior
 from siftom.observation import Instruction
+from siftom.world.commands import RobotCommand
 
 MAX_EVIDENCE = 64  # the commands whose evidence a pending question keeps (the rest: the weakest kept)
 EVIDENCE_FLOOR = -50.0  # nats below the best: a command the request's words ruled out
+# log-likelihood of a refused command: finite (an update takes finite scores), and its
+# probability is exactly 0 in double precision next to any command not refused
+REFUSED = -1.0e4
 
 
 def reply_reliability(kind: str) -> float:
@@ -81,56 +113,366 @@ class Pending:
             (best first, the best at 0); a command not listed gets the weakest listed value.
         asked: the command the robot took to be asked for.
         answered: the questions about this request answered before this one (not asked again).
+        refused: the commands the person refused in this exchange ("not the cheese",
+            "neither"): their probability is 0 from then on (module doc).
     """
 
     question: Question
     evidence: tuple[tuple[str, float], ...]
     asked: str
     answered: tuple[Question, ...] = ()
+    refused: tuple[str, ...] = ()
 
     def log_lik(self, commands: Sequence[Any]) -> np.ndarray:
-        """The request's evidence for each of ``commands``."""
+        """The request's evidence for each of ``commands`` (a refused one: :data:`REFUSED`)."""
         ev = dict(self.evidence)
         floor = min(ev.values(), default=0.0)
-        return np.array([ev.get(str(c), floor) for c in commands], dtype=np.float64)
+        refused = set(self.refused)
+        return np.array([REFUSED if str(c) in refused else ev.get(str(c), floor) for c in commands],
+                        dtype=np.float64)
 
     def to_json(self) -> dict[str, Any]:
         return {"question": self.question.to_json(), "asked": self.asked,
-                "evidence": [[c, v] for c, v in self.evidence], "answered": [q.to_json() for q in self.answered]}
+                "evidence": [[c, v] for c, v in self.evidence], "answered": [q.to_json() for q in self.answered],
+                "refused": list(self.refused)}
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any]) -> Pending:
+        """The record :meth:`to_json` wrote (one without ``answered`` or ``refused``, as older
+        versions wrote, reads as none)."""
         try:
             ev = tuple((str(c), float(v)) for c, v in obj["evidence"])
             q = Question.from_json(obj["question"])
             asked = str(obj["asked"])
             answered = tuple(Question.from_json(a) for a in obj.get("answered", ()))
+            refused = obj.get("refused", ())
+            if isinstance(refused, str) or not all(isinstance(c, str) for c in refused):
+                raise TypeError("refused must be a list of commands")
+            refused = tuple(refused)
         except (KeyError, TypeError, ValueError) as exc:
             raise ObservationError(f"a pending question needs question, asked and evidence ({exc})") from None
         if not all(np.isfinite(v) for _c, v in ev):
             raise ObservationError("a pending question's evidence must be finite numbers")
-        return cls(q, ev, asked, answered)
+        return cls(q, ev, asked, answered, refused)
 
 
-def cell_named(question: Question, instruction: Instruction) -> int | None:
-    """The cell of ``question`` the reply names: the first hypothesis, best first, that names one."""
-    texts = [h.text for h in instruction.nbest] or [instruction.text]
-    for text in texts:
-        cell = question.heard_cell(text)
-        if cell is not None:
-            return cell
-    return None
+# ----- reading a reply (module doc) ---------------------------------------------------------
+# P(cue | an answer to the question), P(cue | room talk): each ratio's two probabilities
+# the words name a cell of the question or say an answer word ("yes", "neither", "the other
+# one", an option, "not the cheese", another object): most answers do; room talk only by chance
+P_CELL = (0.90, 0.10)
+# each word outside the answer's vocabulary (the question's answer words, object names, the
+# grammar's function words): the count is geometric with these ratios, so answers average 0.1
+# such words and room talk 4 ("the weather is really nice today": weather, is, nice, today)
+P_EXTRA = (0.10, 0.80)
+PRIOR_ANSWER = 0.5  # an utterance after a question is as likely its answer as anything else
+# "not the cheese" to "Which one: the cheese or the plate?" most often means the plate: a
+# person who wants neither option says "neither" or names what they want; P(a refusal of one
+# option | neither) against P(it | the other option)
+REFUSAL_OTHER = 0.25
+# the grammar's word classes an answer is made of besides its own words and object names:
+# determiners, counts, negations and corrections, "please", fillers, "and", a request verb
+ANSWER_KINDS = frozenset({"DET", "NUM", "NEG", "MEAN", "PLEASE", "FILLER", "AND", "VERB", "ME"})
 
 
-def after_reply(base: Posterior, pending: Pending, cell: int | None, reliability: float | None = None) -> Posterior:
+@dataclass(frozen=True)
+class HeardAnswer:
+    """One hypothesis of what was heard, read as an answer to the question.
+
+    Attributes:
+        text: the words.
+        weight: the hypothesis's weight among those heard (they sum to 1).
+        p_answer: P(the words answer the question | the words), against room talk.
+        cells: per cell of the question, P(the words | the person meant that cell) up to a
+            constant ("not the cheese": 0 for the cheese, 1 for the plate, :data:`REFUSAL_OTHER`
+            for anything else); None when they name no cell.
+        refused: the options the words refuse.
+        named: the options the words ask for by name.
+        why: what was read, one line.
+    """
+
+    text: str
+    weight: float
+    p_answer: float
+    cells: tuple[float, ...] | None
+    refused: frozenset[str]
+    named: frozenset[str]
+    why: str
+
+
+@dataclass(frozen=True)
+class ReplyReading:
+    """What a reply says to the question, from every hypothesis of what was heard (module doc)."""
+
+    question: Question
+    hypotheses: tuple[HeardAnswer, ...]
+
+    @property
+    def p_answer(self) -> float:
+        """P(the words answer the open question | what was heard)."""
+        return float(sum(h.weight * h.p_answer for h in self.hypotheses))
+
+    @property
+    def answers(self) -> bool:
+        return self.p_answer > 0.5
+
+    def p_refused(self, option: str) -> float:
+        """P(the reply refuses ``option``)."""
+        return float(sum(h.weight * h.p_answer for h in self.hypotheses if option in h.refused))
+
+    @property
+    def refused(self) -> tuple[str, ...]:
+        """The options refused with probability over one half (in the question's order)."""
+        return tuple(o for o in self.question.options if self.p_refused(o) > 0.5)
+
+    @property
+    def named(self) -> tuple[str, ...]:
+        """The options asked for by name with probability over one half."""
+        return tuple(o for o in self.question.options
+                     if sum(h.weight * h.p_answer for h in self.hypotheses if o in h.named) > 0.5)
+
+    @property
+    def cell(self) -> int | None:
+        """The one cell the most probable answer names (None: it allows several, or none)."""
+        best = max(self.hypotheses, key=lambda h: h.weight * h.p_answer, default=None)
+        if best is None or best.p_answer <= 0.5 or best.cells is None:
+            return None
+        top = max(best.cells)
+        return best.cells.index(top) if top > 0 and best.cells.count(top) == 1 else None
+
+    def log_lik(self, commands: Sequence[str], prior: np.ndarray, r: float) -> np.ndarray:
+        """log P(reply | c) per command up to a constant (module doc): ``prior`` P(c) before the
+        reply, ``r`` the kind's reliability (the channel of assist/questions.py)."""
+        q = self.question
+        conf = channel(q.n_cells, r)
+        cell_of = np.array([q.cell(str(c)) for c in commands], dtype=int)
+        p = np.asarray(prior, dtype=np.float64)
+        total = np.zeros(len(commands))
+        for h in self.hypotheses:
+            lik = np.ones(len(commands))
+            if h.cells is not None:
+                heard = (np.asarray(h.cells) @ conf)[cell_of]  # sum_j P(words | j) P(heard j | c's cell)
+                z = float(p @ heard)
+                lik = heard / z if z > 0 else lik
+            total += h.weight * (h.p_answer * lik + (1.0 - h.p_answer))
+        out: np.ndarray = np.log(np.maximum(total, 1e-300))
+        out -= out.max()
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        return {"p_answer": round(self.p_answer, 6), "cell": self.cell, "refused": list(self.refused),
+                "named": list(self.named),
+                "heard": [{"text": h.text, "weight": round(h.weight, 6), "p_answer": round(h.p_answer, 6),
+                           "why": h.why} for h in self.hypotheses]}
+
+
+def _llr(p: tuple[float, float]) -> float:
+    return math.log(p[0] / p[1])
+
+
+def _parse_command(command: str) -> RobotCommand | None:
+    try:
+        return RobotCommand.parse(command)
+    except CommandParseError:
+        return None
+
+
+def _reply_words(question: Question) -> frozenset[str]:
+    """The words that answer without naming an object: the keys of the question's "anything
+    else" cell ("neither", "nothing") and the yes / no / "the other one" / "the first one" words."""
+    return frozenset(set(question.keys[-1]) | set(YES_KEYS) | set(NO_KEYS) | set(OTHER_KEYS) | set(ORDINAL_KEYS))
+
+
+def _answer_vocabulary(question: Question) -> frozenset[str]:
+    """Every word of the question's answer grammar (its phrases and keys)."""
+    words = {w for phrase in question.grammar() for w in phrase.lower().replace(",", " ").split()}
+    return frozenset(words | _reply_words(question))
+
+
+def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[float, ...] | None, frozenset[str],
+                                                                  frozenset[str], str]:
+    """One hypothesis read against ``question`` by the utterance model (module doc):
+    (log-odds it answers the question, P(the words | the person meant cell j) per cell up to a
+    constant or None when they name no cell, the options it refuses, the options it names, why).
+    ``nm``: the world's :class:`~siftom.language.understand.Namer`."""
+    from siftom.language.parse import read
+
+    reading = read(text)
+    words, kinds = reading.words, reading.kinds
+    options = question.options
+    other = question.n_cells - 1
+    parsed = {o: _parse_command(o) for o in options}
+    option_classes = {p.obj_class for p in parsed.values() if p is not None}
+    reply_words = _reply_words(question)
+    vocabulary = _answer_vocabulary(question)
+
+    def matching(slot: Any) -> tuple[set[str], bool, bool]:
+        """(options the slot names, whether it names another object, whether it names anything)."""
+        nouns = tuple(words[i] for i in slot.nouns if words[i] not in reply_words)
+        said_words = {words[i] for i in range(slot.start, slot.end)}
+        ordinal = [ORDINAL_KEYS[w] for w in said_words if w in ORDINAL_KEYS]
+        if ordinal and question.kind == "choose":  # "the first one": the option in that place
+            return {options[ordinal[0]]}, False, True
+        # "the other one", "the first one" are no count
+        count = None if said_words & (set(OTHER_KEYS) | set(ORDINAL_KEYS)) else slot.count
+        cls = None
+        if nouns:
+            naming = nm.name(nouns)
+            if naming.near:
+                cls = naming.obj_class
+            elif naming.named:
+                return set(), True, True  # a known object the world lacks: something else
+        if cls is not None:
+            cands = {o for o, p in parsed.items() if p is not None and p.obj_class == cls}
+            if count is not None and len({p.count for o in cands if (p := parsed[o]) is not None}) > 1:
+                cands = {o for o in cands if (p := parsed[o]) is not None and p.count == count}
+            return cands, cls not in option_classes, True
+        if count is not None:
+            counts = {o: p.count for o, p in parsed.items() if p is not None}
+            cands = {o for o, n in counts.items() if n == count}
+            if cands and len(cands) < len(counts):
+                return cands, False, True
+        return set(), False, False
+
+    named: set[str] = set()
+    negated: set[str] = set()
+    other_named = False
+    negated_nothing = False  # "not that one"
+    named_positions: set[int] = set()
+    for slot in reading.slots:
+        if slot.role == "context":
+            continue
+        got, elsewhere, names = matching(slot)
+        if names:
+            named_positions.update(range(slot.start, slot.end))
+        if slot.role == "target":
+            named |= got
+            other_named = other_named or (elsewhere and not got)
+        elif slot.role == "negated":
+            negated |= got
+            negated_nothing = negated_nothing or not names
+        # a retracted slot ("the cereal, I mean the flour"): taken back, neither named nor refused
+    in_negated = {i for s in reading.slots if s.role == "negated" for i in range(s.start, s.end)}
+    said = [w for i, w in enumerate(words) if i not in in_negated]
+    yes = any(w in YES_KEYS for w in said)
+    no = any(w in NO_KEYS for w in said) or negated_nothing
+    neither = any(w in question.keys[-1] for w in said)
+    other_one = any(w in OTHER_KEYS for w in said)
+    refused: set[str] = set(negated)
+    only = {other: 1.0}
+    intent: dict[int, float] | None
+    why: str
+    if named - negated:
+        intent = {question.cell(o): 1.0 for o in named - negated}
+        why = "names " + ", ".join(sorted(named - negated))
+    elif other_named:
+        intent, why = only, "asks for something else"
+    elif negated:
+        out = {question.cell(o) for o in negated}
+        intent = {k: (REFUSAL_OTHER if k == other and question.kind != "confirm" else 1.0)
+                  for k in range(question.n_cells) if k not in out}
+        why = "refuses " + ", ".join(sorted(negated))
+    elif neither or (no and question.kind != "confirm"):
+        intent, why = only, "refuses every option"
+        refused |= set(options)
+    elif yes and question.kind == "confirm":
+        intent, why = {0: 1.0}, "says yes"
+    elif (no or other_one) and question.kind == "confirm":
+        intent, why = only, "says no"
+        refused |= set(options)
+    else:
+        intent, why = None, "names no option"
+    cells = None if intent is None else tuple(intent.get(k, 0.0) for k in range(question.n_cells))
+    refused -= named - negated
+    answer_word = intent is not None or yes or no or neither or other_one
+    extra = sum(1 for i, (w, kind) in enumerate(zip(words, kinds, strict=True))
+                if w not in vocabulary and i not in named_positions and kind not in ANSWER_KINDS)
+    lo = math.log(PRIOR_ANSWER / (1 - PRIOR_ANSWER))
+    lo += _llr(P_CELL) if answer_word else _llr((1 - P_CELL[0], 1 - P_CELL[1]))
+    lo += math.log((1 - P_EXTRA[0]) / (1 - P_EXTRA[1])) + extra * _llr(P_EXTRA)
+    if extra:
+        why += f"; {extra} word{'s' if extra > 1 else ''} outside the answer's"
+    return lo, cells, frozenset(str(o) for o in refused), frozenset(str(o) for o in named - negated), why
+
+
+def reply_texts(instruction: Instruction, post: Posterior | None = None) -> tuple[list[str], list[float]]:
+    """The hypotheses of what was heard and their weights, as the utterance model reads them:
+    Whisper's words when it heard some (``post``'s understanding says whose words it read),
+    else the N-best with its weights (``siftom.inference.understood``)."""
+    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
+
+    u = post.understanding if post is not None else None
+    if post is not None and post.evidence.get("instruction_check") == "whisper" and u is not None and u.heard:
+        return [u.heard], [1.0]
+    hyps = [h for h in instruction.nbest if h.text.strip()]
+    if not hyps:
+        return [], []
+    sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
+    w = np.exp(sc - sc.max())
+    w /= w.sum()
+    floor = min(MIN_WEIGHT, float(w.max()))
+    keep = [k for k in range(len(hyps)) if w[k] >= floor]
+    total = float(w[keep].sum())
+    return [hyps[k].text for k in keep], [float(w[k]) / total for k in keep]
+
+
+def read_reply(question: Question, texts: Sequence[str], weights: Sequence[float], classes: Sequence[str],
+               lexicon: Any = None) -> ReplyReading:
+    """The reading of a reply to ``question``: each of ``texts`` (weights summing to 1) read
+    against the world's ``classes`` (``lexicon``: the world's names; None: the built-in one)."""
+    from siftom.language.understand import namer
+
+    own = {p.obj_class for o in question.options if (p := _parse_command(o)) is not None}
+    nm = namer(tuple(sorted(set(classes) | own)), lexicon)
+    hyps = []
+    for text, w in zip(texts, weights, strict=True):
+        lo, cells, refused, named, why = read_answer(question, text, nm)
+        hyps.append(HeardAnswer(text, float(w), 1.0 / (1.0 + math.exp(-lo)), cells, refused, named, why))
+    return ReplyReading(question, tuple(hyps))
+
+
+def refused_after(pending: Pending, reading: ReplyReading, asked: Sequence[str] = ()) -> tuple[str, ...]:
+    """The commands refused in the exchange after this reply: those refused before and those it
+    refuses, less any of a class the reply asks for by name (``asked``: the classes of its
+    request's targets; the options it names count too)."""
+    again = set(asked) | {p.obj_class for o in reading.named if (p := _parse_command(o)) is not None}
+    return tuple(str(c) for c in dict.fromkeys((*pending.refused, *reading.refused))
+                 if (p := _parse_command(c)) is None or p.obj_class not in again)
+
+
+def cell_named(question: Question, instruction: Instruction, classes: Sequence[str] = (),
+               lexicon: Any = None) -> int | None:
+    """The one cell of ``question`` the reply names (:attr:`ReplyReading.cell`): read by the
+    utterance model, negation included, against ``classes`` (default: the options' own)."""
+    texts, weights = reply_texts(instruction)
+    return read_reply(question, texts, weights, classes, lexicon).cell
+
+
+def _marginals(post: Posterior) -> np.ndarray:
+    """P(c) per ``post.joint.commands``."""
+    assert post.joint is not None
+    lm = np.full(len(post.joint.commands), -np.inf)
+    np.logaddexp.at(lm, post.joint.cmd_idx, post.joint.log_joint)
+    p: np.ndarray = np.exp(lm - lm.max())
+    p /= p.sum()
+    return p
+
+
+def after_reply(base: Posterior, pending: Pending, cell: int | ReplyReading | None,
+                reliability: float | None = None) -> Posterior:
     """``base`` (the reply's words, or the actions alone) with the request's evidence and the
-    named cell's added: the posterior after the exchange (module doc). ``reliability``: how often
-    an answer to the question's kind is heard as the cell it names (None: :data:`REPLY_RELIABILITY`)."""
+    reply's added: the posterior after the exchange (module doc). ``cell``: the reply's reading
+    (:func:`read_reply`), or the one cell it names as heard for certain (None: no cell).
+    ``reliability``: how often an answer to the question's kind is heard as the cell it names
+    (None: :data:`REPLY_RELIABILITY`). The pending record's refused commands get probability 0."""
     if base.joint is None:
         raise ObservationError("a reply is weighed against a posterior with its hypotheses (not speech-only)")
     commands = [str(c) for c in base.joint.commands]
     ll = pending.log_lik(commands)
-    if cell is not None:
-        r = reply_reliability(pending.question.kind) if reliability is None else reliability
+    r = reply_reliability(pending.question.kind) if reliability is None else reliability
+    if isinstance(cell, ReplyReading):
+        prior = _marginals(with_answer(base, ll))
+        ll = ll + cell.log_lik(commands, prior, r)
+    elif cell is not None:
         ll = ll + answer_log_likelihood_cells(pending.question, commands, cell, r)
     return with_answer(base, ll)

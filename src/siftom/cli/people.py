@@ -47,7 +47,7 @@ def _serve(app: Any, host: str, port: int, what: str, access: Access, generated:
     if host not in ("127.0.0.1", "localhost", "::1"):
         click.echo("note: browsers allow the microphone only on localhost or over https", err=True)
     announce(what, host, port, access.token, generated, " (Ctrl-C to stop)")
-    uvicorn.run(app, host=host, port=port, log_level="warning")
+    uvicorn.run(app, host=host, port=port, log_level="warning", proxy_headers=False)  # X-Forwarded-For: not believed
 
 
 _host = click.option("--host", default="127.0.0.1", show_default=True,

@@ -290,13 +290,16 @@ def claim_data_dir(data_dir: str) -> RunLock:
                    "default 60")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="a TOML settings file (default: SIFTOM_CONFIG); flags > SIFTOM_* > file > defaults")
+@click.option("--trusted-proxy", "trusted_proxy", multiple=True, metavar="ADDR",
+              help="the address (or network) of a reverse proxy whose X-Forwarded-For and X-Forwarded-Proto "
+                   "are believed (repeatable; default: none, every client is its connection's address)")
 @with_access_options
 @llm_options
 def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
               max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
               max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
               audio_workers: int | None, header_timeout: float | None, body_timeout: float | None,
-              config_file: Path | None,
+              config_file: Path | None, trusted_proxy: tuple[str, ...],
               token: str | None, token_file: Path | None,
               allow_host: tuple[str, ...], allow_origin: tuple[str, ...],
               llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
@@ -332,6 +335,9 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     need = settings.sessions.max_world_bytes + 4096
     if settings.max_body_bytes < need:
         settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
+    from siftom.service.hosts import proxy_options
+
+    proxy_headers, forwarded = proxy_options(trusted_proxy)  # a malformed address: one line, before anything
     token, generated = resolve_token(host, token, token_file, settings.token)
     access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
     settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
@@ -348,6 +354,7 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
                                 decode_in_worker=True)  # pocketsphinx off the GIL: other requests keep going
             app = create_app(data_dir, settings, observer)
             uvicorn.run(app, host=host, port=port, log_level="info", timeout_graceful_shutdown=STOP_GRACE_S,
+                        proxy_headers=proxy_headers, forwarded_allow_ips=forwarded,
                         http=deadline_protocol(header_timeout or HEADER_TIMEOUT_S,
                                                body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
         finally:  # also on SIGTERM / SIGINT, during warm-up too: workers stopped, folder released

@@ -127,3 +127,22 @@ class Access:
         o_port = o_port or DEFAULT_PORTS[o_scheme]
         h_port = h_port or DEFAULT_PORTS.get(o_scheme, DEFAULT_PORTS.get(scheme, "80"))
         return (o_host, o_port) == (h_host, h_port)
+
+
+def check_proxy(value: str) -> str:
+    """A ``--trusted-proxy`` value: an IP address or network (``127.0.0.1``, ``10.0.0.0/8``)."""
+    text = value.strip()
+    try:
+        return str(ipaddress.ip_network(text, strict=False))
+    except ValueError:
+        raise OptionsError(f"--trusted-proxy {value!r} is not an IP address or network; give the address the "
+                           "reverse proxy connects from, e.g. --trusted-proxy 127.0.0.1") from None
+
+
+def proxy_options(trusted: tuple[str, ...] = ()) -> tuple[bool, list[str] | None]:
+    """uvicorn's ``proxy_headers`` and ``forwarded_allow_ips``: ``X-Forwarded-For`` and
+    ``X-Forwarded-Proto`` are read only from a peer in ``trusted`` (none by default), so a client
+    cannot choose the address its wrong tokens are counted against, nor pass as another client
+    (docs/security.md)."""
+    nets = [check_proxy(t) for t in trusted]
+    return bool(nets), nets or None

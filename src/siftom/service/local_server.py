@@ -22,13 +22,18 @@ def free_port(host: str = "127.0.0.1") -> int:
 
 @contextlib.contextmanager
 def serve_in_thread(app: Any, host: str = "127.0.0.1", port: int | None = None,
-                    startup_timeout: float = 30.0) -> Iterator[str]:
+                    startup_timeout: float = 30.0, trusted_proxies: tuple[str, ...] = ()) -> Iterator[str]:
     """Run ``app`` with uvicorn in a daemon thread; yield its base URL; stop it on exit. The app's
-    lifespan does not run (no start-up work, e.g. no model warm-up)."""
+    lifespan does not run (no start-up work, e.g. no model warm-up). ``X-Forwarded-*`` headers are
+    read only from ``trusted_proxies`` (as ``siftom serve --trusted-proxy``)."""
     import uvicorn
 
+    from siftom.service.hosts import proxy_options
+
     port = port or free_port(host)
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False, lifespan="off")
+    proxy_headers, forwarded = proxy_options(trusted_proxies)
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False, lifespan="off",
+                            proxy_headers=proxy_headers, forwarded_allow_ips=forwarded)
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name="siftom-serve", daemon=True)
     thread.start()

@@ -124,7 +124,8 @@ def _mix(folder: str | Path, opts: MixOptions) -> tuple[Dataset, int]:
             rng = np.random.default_rng([opts.seed, _stable(s.id), int(round(float(snr) * 100)), _stable(noise)])
             y = mix_at_snr(x, sources[noise], float(snr), rng)
             tmp = ds.root / f"{rel}.{os.getpid()}.tmp.wav"
-            tmp.parent.mkdir(parents=True, exist_ok=True)
+            _folder_like(tmp.parent, ds.root)
+            _created_like(tmp, ds.audio_path(s))  # a private recording's copy is private from its first byte
             write_wav(tmp, y)
             os.replace(tmp, ds.root / rel)
             written += 1
@@ -135,6 +136,7 @@ def _mix(folder: str | Path, opts: MixOptions) -> tuple[Dataset, int]:
     for rel in dropped:  # copies of an earlier mix with other options
         (ds.root / rel).unlink(missing_ok=True)
     tmp = ds.root / f".{MANIFEST}.{os.getpid()}.tmp"
+    _created_like(tmp, ds.root / MANIFEST)
     tmp.write_text("".join(json.dumps(s.to_json()) + "\n" for s in out), encoding="utf-8")
     os.replace(tmp, ds.root / MANIFEST)
     _record(ds.root, opts)
@@ -154,5 +156,34 @@ def _record(root: Path, opts: MixOptions) -> None:
     if "collection" in spec or "options" not in spec:  # a built dataset keeps its build options as they were
         spec.setdefault("options", {})["noise_dir"] = opts.folder
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    _created_like(tmp, path if path.is_file() else root / MANIFEST)
     tmp.write_text(json.dumps(spec, indent=2) + "\n", encoding="utf-8")
     os.replace(tmp, path)
+
+
+def _created_like(path: Path, like: Path) -> None:
+    """Create ``path`` empty with the permission bits of ``like`` (a file the dataset has), so a
+    private collection (0600 voices and manifest, ``siftom collect``) stays private; a shared one
+    keeps its modes too."""
+    import stat
+
+    mode = stat.S_IMODE(like.stat().st_mode)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+    try:
+        os.fchmod(fd, mode)  # the mode above went through the umask
+    finally:
+        os.close(fd)
+
+
+def _folder_like(folder: Path, root: Path) -> None:
+    """``folder`` and its missing parents made with the dataset folder's permission bits."""
+    import stat
+
+    if folder.is_dir():
+        return
+    mode = stat.S_IMODE(root.stat().st_mode)
+    folder.mkdir(parents=True, exist_ok=True)
+    for d in (folder, *folder.parents):
+        if d == root or root not in d.parents:
+            break
+        os.chmod(d, mode)

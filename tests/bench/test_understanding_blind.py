@@ -300,3 +300,23 @@ def test_the_cli_runs_only_the_kinds_asked_for_and_names_a_bad_one(tmp_path: Pat
 
 def test_the_generated_sets_keep_their_kinds() -> None:
     assert BLIND_KINDS[:len(KINDS)] == KINDS and not set(EXTRA_KINDS) & set(KINDS)
+
+
+def test_the_cli_renders_a_table_from_earlier_result_files(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "b.jsonl"
+    assert main(["bench", "understanding", "--set", "blind", "--kinds", "plain,nonrequest", "--limit", "4",
+                 "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert main(["bench", "understanding", "--from", str(summary_path(out))]) == 0
+    text = capsys.readouterr().out
+    plain = summary["by_kind"]["text"]["plain"]
+    assert "| kind | blind, text |" in text
+    assert f"| plain | {100 * plain['share']:.0f} % ({plain['understood']}/{plain['n']}) |" in text
+    assert main(["bench", "understanding", "--from", str(summary_path(out)), "--measure", "acted_unasked"]) == 0
+    talk = summary["by_kind"]["text"]["nonrequest"]["acted_unasked"]
+    text = capsys.readouterr().out
+    assert f"| nonrequest | {100 * talk['share']:.0f} % ({talk['count']}/{talk['n']}) |" in text
+    assert "| plain | - |" in text  # a request cannot be "nobody asked"
+    assert main(["bench", "understanding", "--from", str(out)]) == 2  # the rows, not the summary
+    assert "not a summary" in capsys.readouterr().err

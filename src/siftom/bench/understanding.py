@@ -78,10 +78,11 @@ from siftom.errors import DatasetError
 
 __all__ = [
     "ALL_SETS", "BLIND", "BLIND_KINDS", "CONDITIONS", "CONFUSIONS", "COUNTED", "DEFAULT_WORLDS", "DOMAINS",
-    "EXTRA_KINDS", "GATES", "HOUSEHOLD", "KINDS", "KITCHEN", "MAX_COUNT", "NOISE", "NUMBER_WORDS", "PER_KIND",
-    "REPLY_EVIDENCE", "SETS", "SNR_DB", "SNRS", "TEMPLATES", "VOICES", "WORLD_SEEDS", "Expect", "Item", "Run",
-    "add_noise", "as_recorded", "generate_items", "items_of", "load_items", "outcome", "pending_for", "record",
-    "run_benchmark", "gate_lines", "gates", "scene_for", "speak", "summary_path", "table", "understood", "voices_available",
+    "EXTRA_KINDS", "GATES", "HOUSEHOLD", "KINDS", "KITCHEN", "MAX_COUNT", "MEASURES", "NOISE", "NUMBER_WORDS",
+    "PER_KIND", "REPLY_EVIDENCE", "SETS", "SNRS", "SNR_DB", "TEMPLATES", "VOICES", "WORLD_SEEDS", "Expect", "Item",
+    "Run", "add_noise", "as_recorded", "gate_lines", "gates", "generate_items", "items_of", "load_items", "markdown",
+    "outcome", "pending_for", "record", "run_benchmark", "scene_for", "speak", "summary_path", "table", "understood",
+    "voices_available",
 ]
 
 CONDITIONS = ("text", "clean", "10dB", "5dB")
@@ -528,3 +529,26 @@ def gate_lines(summary: Mapping[str, Any]) -> list[str]:
         out.append(f"{'holds' if g['holds'] else 'MISSES'}: {g['condition']} {what} {scope} {op} "
                    f"{100 * g['limit']:.0f} %: worst {worst}{miss}")
     return out
+
+
+def markdown(summaries: Sequence[tuple[str, Mapping[str, Any]]], measure: str = "understood") -> str:
+    """A Markdown table from result summaries: a row per kind, a column per (label, condition);
+    ``measure`` ``understood`` (the share understood) or one of :data:`MEASURES` (its count among
+    the items where it can happen)."""
+    if measure != "understood" and measure not in MEASURES:
+        raise DatasetError(f"unknown measure {measure!r}; choose understood or one of {', '.join(MEASURES)}")
+    cols = [(label, c, s) for label, s in summaries for c in s.get("overall", {})]
+    kinds = _order([k for _, c, s in cols for k in s["by_kind"][c]], BLIND_KINDS)
+
+    def cell(x: Mapping[str, Any] | None) -> str:
+        if measure == "understood":
+            return "-" if not x or not x["n"] else f"{100 * x['share']:.0f} % ({x['understood']}/{x['n']})"
+        y = x.get(measure) if x else None
+        return "-" if not y or not y["n"] else f"{100 * y['share']:.0f} % ({y['count']}/{y['n']})"
+
+    lines = ["| kind | " + " | ".join(f"{label}, {c}" for label, c, _ in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for k in kinds:
+        lines.append(f"| {k} | " + " | ".join(cell(s["by_kind"][c].get(k)) for _, c, s in cols) + " |")
+    lines.append("| **all** | " + " | ".join(cell(s["overall"][c]) for _, c, s in cols) + " |")
+    return "\n".join(lines)

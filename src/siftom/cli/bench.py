@@ -355,10 +355,18 @@ def _conditions(value: str) -> tuple[str, ...]:
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="seed of the items' objects, counts and wordings and of the noise")
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
+@click.option("--from", "from_files", multiple=True, type=click.Path(exists=True, dir_okay=False),
+              help="run nothing: print a Markdown table per kind from FILE.summary.json files of earlier runs "
+                   "(repeatable; a column per file and condition)")
+@click.option("--measure", type=click.Choice(["understood", "nothing", "other_object", "acted_unasked",
+                                             "asked_unasked"]), default="understood", show_default=True,
+              help="with --from: the share understood, or the share of requests answered with nothing, carried "
+                   "out on another object, nobody-asked acted on or asked back")
 @force_option
 def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: int | None, worlds: int,
                             conditions: str, kinds: str | None, voices: str | None, limit: int | None,
-                            out: str | None, seed: int, as_json: bool, force: bool) -> None:
+                            out: str | None, seed: int, as_json: bool, from_files: tuple[str, ...], measure: str,
+                            force: bool) -> None:
     """How often the robot understands what people say: per kind of utterance and condition.
 
     Beside the share understood, per kind: requests answered with nothing (no action, no
@@ -369,6 +377,7 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
     \b
     siftom bench understanding --set blind --out results/understanding/blind-text.jsonl
     siftom bench understanding --set blind --conditions 10dB,5dB --limit 40 --voices flite-slt,flite-awb
+    siftom bench understanding --from A.summary.json --from B.summary.json --measure nothing
     """
     from rich.console import Console
 
@@ -378,10 +387,29 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
         WORLD_SEEDS,
         gate_lines,
         items_of,
+        markdown,
         run_benchmark,
         table,
     )
 
+    if from_files:
+        summaries = []
+        for f in from_files:
+            try:
+                with open(f, encoding="utf-8") as fh:
+                    got = json.load(fh)
+            except (OSError, ValueError):
+                got = None
+            if not (isinstance(got, dict) and isinstance(got.get("by_kind"), dict)
+                    and isinstance(got.get("overall"), dict)):
+                raise click.BadParameter(f"{f} is not a summary of bench understanding (FILE.summary.json); "
+                                         "give the .summary.json an --out run wrote", param_hint="--from")
+            summaries.append((str(got.get("set", f)), got))
+        click.echo(markdown(summaries, measure))
+        for _, got in summaries:
+            for line in gate_lines(got):
+                click.echo(f"{got.get('set', '?')}: {line}")
+        return
     conds = _conditions(conditions)
     if out is not None:
         prepare_output(out, force)

@@ -29,6 +29,14 @@ PROBLEM_JSON = "application/problem+json"
 DISK_FULL = ("the server's disk is full, so nothing was written; DELETE the sessions you no longer need "
              "(DELETE /v1/sessions/{id} works on a full disk) and try again, or free space in the server's data "
              "folder")
+DISK_FULL_DELETE = ("the server's disk is full, so even this DELETE could not be written (the room kept for "
+                    "deletes is used up, or the disk was already short of it when the server started); free space "
+                    "in the server's data folder, then send the DELETE again")
+
+
+def disk_full_detail(method: str) -> str:
+    """What a 507 says: a DELETE is the way out of a full disk unless it is what failed."""
+    return DISK_FULL_DELETE if method == "DELETE" else DISK_FULL
 
 
 @dataclass(frozen=True)
@@ -133,7 +141,7 @@ def install_handlers(app: FastAPI) -> None:
     async def _disk_full(request: Request, exc: Exception) -> JSONResponse:
         if request.scope["type"] != "http":  # a WebSocket: as if no handler were here
             raise exc
-        return problem_response(507, "insufficient-storage", DISK_FULL)
+        return problem_response(507, "insufficient-storage", disk_full_detail(request.method))
 
     for kind in (OSError, sqlite3.Error):  # a write elsewhere than the session store (e.g. the map cache)
         @app.exception_handler(kind)
@@ -141,7 +149,7 @@ def install_handlers(app: FastAPI) -> None:
             if request.scope["type"] != "http":  # a WebSocket: as if no handler were here
                 raise exc
             if is_disk_full(exc):
-                return problem_response(507, "insufficient-storage", DISK_FULL)
+                return problem_response(507, "insufficient-storage", disk_full_detail(request.method))
             return await _bug(request, exc)
 
     @app.exception_handler(WorldTooLargeError)

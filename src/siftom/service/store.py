@@ -18,7 +18,9 @@ claimed in the same transaction as the session it created, for as long too.
 **A full disk.** A write the disk (or a quota) refuses raises :class:`DiskFullError` (the service
 answers 507). The store keeps ``RESERVE_BYTES`` of room next to its file (``*.reserve``), given
 up when a delete finds the disk full, so ``DELETE`` still works and the space of the sessions
-deleted is reused by the next ones; the reserve is made again once the disk has room.
+deleted is reused by the next ones; the reserve is made again once the disk has room (four
+times the reserve free). At start it is made whenever it fits; a disk too full even for that is
+logged, and a delete that then finds no room is a 507 saying to free space (not to delete).
 """
 
 from __future__ import annotations
@@ -132,15 +134,19 @@ class SessionStore:
         self._db.execute("PRAGMA foreign_keys=ON")
         self._db.executescript(SCHEMA)
         self.reserve = path.with_name(path.name + ".reserve")
-        self._refill_reserve()
+        self._refill_reserve(need=RESERVE_BYTES + RESERVE_BYTES // 4)
+        if not self.reserve.exists():
+            log.warning("the disk of %s has under %d KiB free: no room is kept for deleting sessions once it is "
+                        "full; free space there", path, (RESERVE_BYTES + RESERVE_BYTES // 4) // 1024)
 
     # ----- a full disk -------------------------------------------------------------------------
-    def _refill_reserve(self) -> None:
-        """Make the reserve file when it is missing and the disk has room for it (and more)."""
+    def _refill_reserve(self, need: int = 4 * RESERVE_BYTES) -> None:
+        """Make the reserve file when it is missing and the disk has ``need`` bytes free (at start:
+        room for it; later: more, so the room deletes freed is used first)."""
         if self.reserve.exists():
             return
         with contextlib.suppress(OSError):
-            if shutil.disk_usage(self.reserve.parent).free < 4 * RESERVE_BYTES:
+            if shutil.disk_usage(self.reserve.parent).free < need:
                 return
         try:
             fd = os.open(self.reserve, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
@@ -162,11 +168,12 @@ class SessionStore:
         log.warning("the disk of %s is full: its reserve was given up so sessions can be deleted", self.path)
         return True
 
-    def _checkpoint(self) -> bool:
+    def _checkpoint(self, mode: str = "PASSIVE") -> bool:
         """Copy the write-ahead log into the database (the pages of deleted sessions are reused),
-        so the next write starts the log over in the room it has; whether that worked."""
+        so the next write starts the log over in the room it has (``TRUNCATE``: and give the log's
+        room back to the disk); whether that worked."""
         try:
-            busy, _log, _done = self._db.execute("PRAGMA wal_checkpoint(PASSIVE)").fetchone()
+            busy, _log, _done = self._db.execute(f"PRAGMA wal_checkpoint({mode})").fetchone()
         except sqlite3.Error:
             return False
         return not busy
@@ -332,7 +339,7 @@ class SessionStore:
             try:
                 return self._delete(sid, key)
             except DiskFullError:
-                if not self._release_reserve():
+                if not self._release_reserve() and not self._checkpoint("TRUNCATE"):
                     raise
             gone = self._delete(sid, key)
             self._checkpoint()

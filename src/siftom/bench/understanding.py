@@ -472,47 +472,43 @@ def _pct(s: Mapping[str, Any] | None) -> str:
 
 
 def table(run: Run) -> Any:
-    """A rich table of the run per kind (rows) and condition (columns): the share understood,
-    then requests answered with nothing, carried out on another object, and nobody-asked words
-    acted on; the gates below it."""
+    """Rich tables of the run, one per condition, a row per kind: the share understood, then
+    requests answered with nothing, carried out on another object, and nobody-asked words acted
+    on (each among the items where it can happen)."""
+    from rich.console import Group
     from rich.table import Table
 
     summary = run.summary
-    conds = list(summary["overall"])
     version = (summary.get("machine") or {}).get("version", "?")
-    caption = (f"world seed {summary.get('world_seed', '?')}, " if summary.get("set") != BLIND else "") + \
-        f"{summary.get('items', '?')} items, siftom {version}"
-    t = Table(title=f"understood, {summary.get('set', '?')} set", caption=caption)
-    t.add_column("kind")
-    for c in conds:
-        t.add_column(c, justify="right")
-    if len(conds) <= 2:
-        for c in conds:
-            for head in ("nothing", "other obj", "unasked acted"):
-                t.add_column(f"{c} {head}", justify="right")
+    where = f"world seed {summary.get('world_seed')}, " if summary.get("world_seed") is not None else ""
+    kinds_of = _order([k for c in summary["overall"] for k in summary["by_kind"][c]], BLIND_KINDS)
+    domains_of = _order([d for c in summary["overall"] for d in summary["by_domain"][c]], DOMAINS)
 
-    def _cell(s: dict[str, Any] | None) -> str:
+    def _cell(s: Mapping[str, Any] | None) -> str:
         if not s or not s["n"]:
             return "-"
         return f"{s['understood']}/{s['n']} {100 * s['share']:.0f} %"
 
-    def _row(s: Mapping[str, Any]) -> list[str]:
-        cells = [_cell(s[c]) if s.get(c) else "-" for c in conds]
-        if len(conds) <= 2:
-            for c in conds:
-                x = s.get(c)
-                cells += [_pct(x[m]) if x else "-" for m in ("nothing", "other_object", "acted_unasked")]
-        return cells
+    tables = []
+    for c in summary["overall"]:
+        t = Table(title=f"{summary.get('set', '?')} set, {c}",
+                  caption=f"{where}{summary.get('items', '?')} items, siftom {version}")
+        for head in ("kind", "understood", "nothing", "other object", "unasked acted"):
+            t.add_column(head, justify="left" if head == "kind" else "right")
 
-    kinds = _order([k for c in conds for k in summary["by_kind"][c]], BLIND_KINDS)
-    for k in kinds:
-        t.add_row(k, *_row({c: summary["by_kind"][c].get(k) for c in conds}))
-    t.add_section()
-    domains = _order([d for c in conds for d in summary["by_domain"][c]], DOMAINS)
-    for d in domains:
-        t.add_row(d, *_row({c: summary["by_domain"][c].get(d) for c in conds}))
-    t.add_row("all", *_row({c: summary["overall"][c] for c in conds}), style="bold")
-    return t
+        def _row(x: Mapping[str, Any] | None) -> list[str]:
+            return [_cell(x), *(_pct(x[m]) if x else "-" for m in ("nothing", "other_object", "acted_unasked"))]
+
+        for k in kinds_of:
+            if k in summary["by_kind"][c]:
+                t.add_row(k, *_row(summary["by_kind"][c][k]))
+        t.add_section()
+        for d in domains_of:
+            if d in summary["by_domain"][c]:
+                t.add_row(d, *_row(summary["by_domain"][c][d]))
+        t.add_row("all", *_row(summary["overall"][c]), style="bold")
+        tables.append(t)
+    return Group(*tables)
 
 
 def gate_lines(summary: Mapping[str, Any]) -> list[str]:

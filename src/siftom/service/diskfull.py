@@ -1,4 +1,5 @@
-"""A full disk, recognised: the session store raises it, the HTTP layer answers it with 507."""
+"""A full disk and a damaged session store, recognised: the session store raises them, the HTTP
+layer answers a full disk with 507 and a damaged store with a 500 that says it is the server's."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import errno
 import sqlite3
 
 SQLITE_FULL = 13
+SQLITE_CORRUPT, SQLITE_NOTADB = 11, 26
 RESERVE_BYTES = 1024 * 1024  # kept free for deletes on a full disk: a delete writes a few pages to the write-ahead log
 
 
@@ -21,3 +23,21 @@ def is_disk_full(exc: BaseException) -> bool:
         return (getattr(exc, "sqlite_errorcode", None) == SQLITE_FULL
                 or "database or disk is full" in str(exc))
     return False
+
+
+def is_damaged(exc: BaseException) -> bool:
+    """Whether ``exc`` says the SQLite file is damaged (SQLITE_CORRUPT, SQLITE_NOTADB)."""
+    if not isinstance(exc, sqlite3.DatabaseError):
+        return False
+    code = getattr(exc, "sqlite_errorcode", None)
+    if code is not None and code & 0xFF in (SQLITE_CORRUPT, SQLITE_NOTADB):
+        return True
+    text = str(exc).lower()
+    return "malformed" in text or "not a database" in text or "corrupt" in text
+
+
+def damaged_fix(path: object) -> str:
+    """What the operator does about a damaged store file at ``path``."""
+    return (f"move {path} (and its -wal and -shm files) aside, e.g. to {path}.damaged, and start the server "
+            "again with an empty store (the sessions in it are lost; `sqlite3 FILE .recover` may save some), or "
+            "start it with another --data-dir")

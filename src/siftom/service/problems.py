@@ -21,7 +21,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from siftom.errors import BackendUnavailableError, NotYoursError, SiftomError, UnknownNameError
-from siftom.service.diskfull import DiskFullError, is_disk_full
+from siftom.service.diskfull import DiskFullError, damaged_fix, is_damaged, is_disk_full
 from siftom.world.io import WorldTooLargeError
 
 log = logging.getLogger("siftom.service")
@@ -32,6 +32,12 @@ DISK_FULL = ("the server's disk is full, so nothing was written; DELETE the sess
 DISK_FULL_DELETE = ("the server's disk is full, so even this DELETE could not be written (the room kept for "
                     "deletes is used up, or the disk was already short of it when the server started); free space "
                     "in the server's data folder, then send the DELETE again")
+
+
+STORE_DAMAGED = ("the server's session store is damaged (SQLite: database disk image is malformed), so this request "
+                 "could not be carried out; nothing in the request is wrong. Its operator must stop the server, "
+                 "move sessions.sqlite3 (and its -wal and -shm files) aside in the server's data folder and start "
+                 "it again (the server's log names the file)")
 
 
 def disk_full_detail(method: str) -> str:
@@ -150,6 +156,11 @@ def install_handlers(app: FastAPI) -> None:
                 raise exc
             if is_disk_full(exc):
                 return problem_response(507, "insufficient-storage", disk_full_detail(request.method))
+            if is_damaged(exc):  # the server's file, not the request: say so, and what its operator does
+                store = getattr(getattr(request.app.state, "sessions", None), "store", None)
+                where = getattr(store, "path", "sessions.sqlite3")
+                log.error("the session store %s is damaged (%s): stop the server and %s", where, exc, damaged_fix(where))
+                return problem_response(500, "store-damaged", STORE_DAMAGED)
             return await _bug(request, exc)
 
     @app.exception_handler(WorldTooLargeError)

@@ -16,14 +16,18 @@ camera frames) calls :meth:`SessionManager.append_actions` with checked
 
 from __future__ import annotations
 
+import logging
 import secrets
 import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
 
+from pydantic import ValidationError
+
 from siftom.assist.clarify import ClarifyPolicy
-from siftom.errors import ObservationError
+from siftom.assist.decision import DecisionRule
+from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
 from siftom.observer import Heard, Observer
@@ -42,6 +46,8 @@ from siftom.service.session_views import (
 from siftom.service.store import DiskFullError, KeyTaken, SessionStore
 from siftom.world.io import LoadedScene
 from siftom.world.model import HUMAN, Action, apply, check
+
+log = logging.getLogger("siftom.service")
 
 # "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
@@ -185,15 +191,18 @@ class SessionManager:
         return sess
 
     def _rebuild(self, sid: str) -> Session:
-        row = self.store.load(sid)
-        if row is None:
-            raise ProblemError(404, "unknown-session",
-                               f"no session {sid!r} (it was deleted, or expired after {self.limits.idle_s:g} s "
-                               "idle); create one with POST /v1/sessions")
-        scene, _warnings = build_scene(row.spec, self.limits.max_world_items)
-        online = self._online(scene, row.options)
-        for text in row.actions:
-            online.observe(scene.world.parse_action(text, online.state))
+        try:
+            row = self.store.load(sid)
+            if row is None:
+                raise ProblemError(404, "unknown-session",
+                                   f"no session {sid!r} (it was deleted, or expired after {self.limits.idle_s:g} s "
+                                   "idle); create one with POST /v1/sessions")
+            scene, _warnings = build_scene(row.spec, self.limits.max_world_items)
+            online = self._online(scene, row.options)
+            for text in row.actions:
+                online.observe(scene.world.parse_action(text, online.state))
+        except (ValidationError, ValueError, SiftomError) as exc:  # the stored rows, not the request
+            raise _unreadable(sid, exc) from None
         return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
                        list(row.options.warnings), row.last)
 
@@ -334,7 +343,7 @@ class SessionManager:
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                 heard: Heard | None = None, idem: Idem | None = None, decide: str | None = None,
+                 heard: Heard | None = None, idem: Idem | None = None, decide: str | DecisionRule | None = None,
                  likelihood: str | None = None) -> SessionReply:
         """What the robot does about what was heard, given everything so far (the observer's answer);
         ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`;
@@ -348,12 +357,13 @@ class SessionManager:
             return self._store_last(sess, body, idem)
 
     def prepare(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                heard: Heard | None = None, likelihood: str | None = None) -> Prepared:
+                heard: Heard | None = None, likelihood: str | None = None,
+                decide: str | DecisionRule | None = None) -> Prepared:
         """:meth:`instruct`'s answer, not stored: :meth:`commit` stores it unless the session changed
         meanwhile (a stream answers while the end of speech is still being confirmed)."""
         sess = self.get(sid)
         with sess.lock:
-            return Prepared(self._answer(sess, instruction, top, policy, heard, None, likelihood), self.revision(sid))
+            return Prepared(self._answer(sess, instruction, top, policy, heard, decide, likelihood), self.revision(sid))
 
     def commit(self, sid: str, prepared: Prepared, check: Callable[[], None] | None = None) -> SessionReply | None:
         """Store a :meth:`prepare`'d answer as the session's last; None when an action or another
@@ -373,7 +383,7 @@ class SessionManager:
         return id(sess), len(sess.actions), sess.revision
 
     def _answer(self, sess: Session, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                heard: Heard | None, decide: str | None, likelihood: str | None) -> SessionReply:
+                heard: Heard | None, decide: str | DecisionRule | None, likelihood: str | None) -> SessionReply:
         """The observer's answer as the session's JSON (its lock held)."""
         return answer_reply(self.observer, sess, instruction, top, policy, heard, decide, likelihood)
 
@@ -392,3 +402,18 @@ class SessionManager:
 
 __all__ = ["BELIEF_TOP", "SESSION_LIKELIHOODS", "Prepared", "Session", "SessionLimits", "SessionManager",
            "SessionOptions", "SessionReply", "SessionSpec", "build_scene", "check_speakable"]
+
+
+def _unreadable(sid: str, exc: Exception) -> ProblemError:
+    """A stored session that cannot be rebuilt: the server's 500 naming the session and the way out."""
+    if isinstance(exc, ValidationError):
+        errs = exc.errors()
+        where = ".".join(str(p) for p in errs[0]["loc"]) if errs else ""
+        reason = f"{where + ': ' if where else ''}{errs[0]['msg'] if errs else 'invalid'}"
+    else:
+        reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    log.error("stored session %s cannot be rebuilt: %s", sid, reason[:300])
+    return ProblemError(500, "stored-session-unreadable",
+                        f"session {sid!r} is stored but cannot be rebuilt ({reason[:200]}): its stored record was "
+                        "changed outside siftom or no longer fits this server's settings; nothing in this request "
+                        f"is wrong. DELETE /v1/sessions/{sid} and create the session again")

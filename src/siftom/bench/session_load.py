@@ -143,9 +143,12 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def serve_in_process(startup_timeout: float = 90.0, args: Sequence[str] = ()) -> Iterator[tuple[str, int]]:
+def serve_in_process(startup_timeout: float = 90.0, args: Sequence[str] = (),
+                     src: str | Path | None = None) -> Iterator[tuple[str, int]]:
     """``siftom serve [args]`` on a free loopback port in a fresh data folder, as its own process
-    (the bench does not import the service: it talks to it over HTTP); yields (url, pid)."""
+    (the bench does not import the service: it talks to it over HTTP); yields (url, pid).
+    ``src``: the source folder to serve from (default: this one's), e.g. another version's, to
+    measure both in one run."""
     import os
     import shutil
     import subprocess
@@ -156,7 +159,7 @@ def serve_in_process(startup_timeout: float = 90.0, args: Sequence[str] = ()) ->
 
     port = free_port()
     folder = tempfile.mkdtemp(prefix="siftom-load-")
-    src = str(Path(__file__).resolve().parents[2])
+    src = str(src if src is not None else Path(__file__).resolve().parents[2])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
     log = Path(folder) / "serve.log"
     with log.open("wb") as err:

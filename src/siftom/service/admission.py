@@ -9,6 +9,15 @@ arrives while ``budget`` of them are already being answered is answered with the
 likelihood instead, and its answer says so (``degraded``). Nothing is refused and no stream is
 closed for load: a person who asked gets an answer, a little less sure, in time.
 
+A degraded answer may lose confidence, never turn a decline or a question into an action: the
+phonetic likelihood scores only what the recogniser, biased to the scene's own phrasings, heard,
+so it cannot know what the full path (Whisper's open transcript) would have understood ("pass me
+the cereal" where there is no cereal: the full path declines, the recogniser hears "the bowl").
+Its decision rule is :class:`AskFirst`: where the rule would act, the robot asks the person to
+confirm the command instead; a question or a decline stays as it is. A command the person's
+answer named (yes to "Shall I get the bowl?") is carried out; one asked about and not confirmed
+is not (the robot says so and waits for the request again).
+
 The budget is the number of CPUs the process may use (``os.sched_getaffinity``), at least 1;
 ``ServiceSettings.answer_budget`` overrides it (0: never degrade).
 """
@@ -16,10 +25,17 @@ The budget is the number of CPUs the process may use (``os.sched_getaffinity``),
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from siftom.assist.decision import Decision, DecisionRule, Situation
+    from siftom.inference.model import Posterior
+    from siftom.settings import Settings
 
 DEGRADED_LIKELIHOOD = "phonetic"
 
@@ -39,6 +55,53 @@ class Slot:
 
     likelihood: str | None
     reason: str
+
+    def rule(self, chosen: str | DecisionRule | None, settings: Settings) -> str | DecisionRule | None:
+        """The decision rule for this utterance: ``chosen`` (None: the setting ``infer.decide``)
+        as it is, or when degraded, :class:`AskFirst` around it (module doc)."""
+        if self.likelihood is None:
+            return chosen
+        return AskFirst(chosen if chosen is not None else settings.infer.decide or "map", settings)
+
+
+@dataclass(frozen=True)
+class AskFirst:
+    """A degraded answer's decision rule: ``base``'s decision, except that an action the person did
+    not confirm becomes a question confirming it ("Shall I get the bowl?"), or none when they were
+    asked about it and did not confirm; a question or a decline is kept. ``settings`` give a
+    named rule its options (as the observer's)."""
+
+    base: str | DecisionRule
+    settings: Any = dataclasses.field(compare=False, repr=False)
+
+    @property
+    def name(self) -> str:
+        """The rule's name in the answer (the base rule's)."""
+        b = self.base
+        return b if isinstance(b, str) else str(getattr(b, "name", type(b).__name__))
+
+    def __call__(self, post: Posterior, where: Situation) -> Decision:
+        from siftom.assist.asking import lexicon_of
+        from siftom.assist.decide import get_rule
+        from siftom.assist.questions import confirm_question
+        from siftom.assist.teamvalue import NONE
+
+        b = self.base
+        made: Decision = (get_rule(b, **self.settings.rule_options(b)) if isinstance(b, str) else b)(post, where)
+        if made.action in ("ask", NONE):
+            return made
+        last = where.answered[-1] if where.answered else None
+        if last is not None and made.action in last.options \
+                and post.evidence.get("reply_cell") == last.cell(made.action):
+            return made  # the person's answer named this command: carry it out
+        if any(made.action in q.options for q in where.answered):  # asked, and not confirmed: say so
+            return dataclasses.replace(made, action=NONE, declined="tell me again what you need",
+                                       reason=f"answered under load with the cheaper likelihood: {made.action} "
+                                              f"was asked about and not confirmed, so the robot does not act")
+        q = confirm_question(made.action, lexicon_of(where.world))
+        return dataclasses.replace(made, action="ask", question=q.text, options=q.options, question_kind=q.kind,
+                                   asked=q, reason=f"answered under load with the cheaper likelihood, so the "
+                                                   f"robot confirms before acting: {made.reason}")
 
 
 class Admission:

@@ -26,11 +26,11 @@ from siftom.errors import SiftomError
 
 if TYPE_CHECKING:
     from siftom.options import ServiceSettings
-    from siftom.service.infer_reply import InferReply
+    from siftom.service.infer_reply import InferCall, InferReply
     from siftom.settings import Settings
 
 # builds a worker's runtime from the service's settings (a module-level function: it is pickled
-# by name into the spawned worker); the runtime answers ``infer_audio_here(*args)``
+# by name into the spawned worker); the runtime answers ``infer_audio_here(call)``
 WorkerFactory = Callable[["ServiceSettings", "Settings"], Any]
 
 _WORKER: Any = None  # the worker process's own runtime
@@ -41,10 +41,10 @@ def _start(factory: WorkerFactory, settings: ServiceSettings, full: Settings) ->
     _WORKER = factory(settings, full)
 
 
-def _infer_audio(args: tuple[Any, ...]) -> InferReply:
+def _infer_audio(call: InferCall) -> InferReply:
     if _WORKER is None:
         raise SiftomError("the audio worker did not start")
-    reply: InferReply = _WORKER.infer_audio_here(*args)
+    reply: InferReply = _WORKER.infer_audio_here(call)
     return reply
 
 
@@ -77,10 +77,10 @@ class AudioPool:
         for f in [ex.submit(_ready) for _ in range(self.size)]:
             f.result()
 
-    def infer_audio(self, *args: Any) -> InferReply:
-        """``Runtime.infer_audio_here(*args)`` in a worker; its SiftomError is raised here."""
+    def infer_audio(self, call: InferCall) -> InferReply:
+        """``Runtime.infer_audio_here(call)`` in a worker; its SiftomError is raised here."""
         try:
-            return self._executor().submit(_infer_audio, args).result()
+            return self._executor().submit(_infer_audio, call).result()
         except BrokenProcessPool:
             with self._lock:
                 self._pool = None  # a worker died (e.g. out of memory): start afresh next time

@@ -20,11 +20,12 @@ from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.scenarios.base import Scenario
 from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
-from siftom.service.infer_reply import InferReply
+from siftom.service.infer_reply import InferCall, InferReply
 from siftom.service.problems import ProblemError, read_audio_form
 from siftom.service.schemas import (
     MAX_SCENARIO_ID,
     AudioFields,
+    InferFields,
     InferRequest,
     InferResponse,
     SayRequest,
@@ -138,22 +139,25 @@ async def infer(request: Request, ctx: Ctx) -> JSONResponse:
                        f"(an audio file), not {media or 'no Content-Type'}")
 
 
+def _call(fields: InferFields, **heard: Any) -> InferCall:
+    """The validated request as the call record the runtime answers."""
+    return InferCall(fields.scenario, mode=fields.mode, likelihood=fields.likelihood, rule=fields.decide,
+                     n_actions=fields.n_actions, top=fields.top,
+                     policy=ClarifyPolicy(fields.clarify.threshold, fields.clarify.cost), **heard)
+
+
 def _infer_json(ctx: ServiceContext, req: InferRequest) -> InferReply:
-    policy = ClarifyPolicy(req.clarify.threshold, req.clarify.cost)
     nbest = [n.model_dump() for n in req.nbest] if req.nbest else None
     ins = make_instruction(transcript=req.transcript, nbest=nbest)
-    return ctx.runtime.infer(req.scenario, ins, req.mode, req.likelihood, req.n_actions, req.actions,
-                             req.top, policy, req.decide)
+    actions = tuple(req.actions) if req.actions is not None else None
+    return ctx.runtime.infer(_call(req, instruction=ins, actions=actions))
 
 
 async def _infer_audio(request: Request, ctx: ServiceContext) -> InferReply:
     fields, data = await read_audio_form(request, max_fields=16, max_part_size=ctx.settings.max_body_bytes)
     opts = AudioFields.model_validate(fields)
     ctx.lookup(opts.scenario, 422)
-    policy = ClarifyPolicy(opts.clarify.threshold, opts.clarify.cost)
-    reply: InferReply = await ctx.run_cpu(ctx.runtime.infer_audio, opts.scenario, data, opts.mode,
-                                             opts.likelihood, opts.n_actions, opts.asr_nbest, opts.top, policy,
-                                             opts.decide)
+    reply: InferReply = await ctx.run_cpu(ctx.runtime.infer_audio, _call(opts, audio=data, asr_nbest=opts.asr_nbest))
     return reply
 
 

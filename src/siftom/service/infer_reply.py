@@ -1,13 +1,59 @@
-"""The answer of ``POST /v1/infer`` as a record (:class:`InferReply`), made by the runtime in
-this process or in an audio worker process."""
+"""One ``POST /v1/infer`` call as a record (:class:`InferCall`), from the router to the runtime,
+the audio worker processes and the observer, and its answer (:class:`InferReply`), made by the
+runtime in this process or in an audio worker process."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from siftom.assist.clarify import Clarification
+from siftom.assist.clarify import Clarification, ClarifyPolicy
 from siftom.assist.route import RobotPlan
+
+if TYPE_CHECKING:
+    from siftom.assist.decision import DecisionRule
+    from siftom.observation import Instruction
+    from siftom.observer import Heard
+
+
+@dataclass(frozen=True)
+class InferCall:
+    """What one inference request asks, validated (the JSON and the multipart forms alike).
+
+    Attributes:
+        scenario: a registered scenario id.
+        instruction: the words heard (a transcript or an N-best list); None: nothing was said,
+            or a recording still to be recognised.
+        audio: the uploaded recording (the multipart form), None for words; once recognised,
+            ``heard`` and ``instruction`` say what was heard in it.
+        heard: the clip the instruction was recognised from.
+        mode: full SIFToM or an ablation (None: the model's setting).
+        likelihood: the instruction likelihood (None: the setting ``infer.likelihood``).
+        rule: the decision rule, a name or a rule (None: the setting ``infer.decide``).
+        n_actions: the scenario's first n observed actions (None: all).
+        actions: the person's actions instead of the scenario's.
+        top: commands, goals and hypotheses returned (None: ``infer.top``).
+        asr_nbest: hypotheses asked of the recogniser (None: ``infer.nbest``).
+        policy: when the clarification asks.
+    """
+
+    scenario: str
+    instruction: Instruction | None = None
+    audio: bytes | None = dataclasses.field(default=None, repr=False)
+    heard: Heard | None = None
+    mode: str | None = None
+    likelihood: str | None = None
+    rule: str | DecisionRule | None = None
+    n_actions: int | None = None
+    actions: tuple[str, ...] | None = None
+    top: int | None = None
+    asr_nbest: int | None = None
+    policy: ClarifyPolicy = dataclasses.field(default_factory=ClarifyPolicy)
+
+    def with_(self, **changes: Any) -> InferCall:
+        """This call with some fields changed (what was heard, the likelihood under load)."""
+        return dataclasses.replace(self, **changes)
 
 
 @dataclass(frozen=True)

@@ -25,13 +25,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from siftom.answer import Answer
-from siftom.assist.clarify import ClarifyPolicy, clarify
+from siftom.assist.clarify import clarify
 from siftom.assist.route import RobotPlan, robot_plan
 from siftom.errors import AudioError, ObservationError, SiftomError
 from siftom.inputs import SceneInput
 from siftom.memo import Memo
-from siftom.observation import Instruction
-from siftom.observer import Heard, Observer
+from siftom.observer import Observer
 from siftom.options import (
     SERVICE_LIKELIHOODS,
     ServiceSettings,
@@ -41,11 +40,11 @@ from siftom.options import (
 from siftom.private import private_dir
 from siftom.scenarios.base import Scenario, get_scenario, scenario_ids
 from siftom.service.admission import Admission
-from siftom.service.infer_reply import InferReply
+from siftom.service.infer_reply import InferCall, InferReply
 from siftom.settings import Settings
 from siftom.settings.llm import LLMStatus
 
-__all__ = ["SERVICE_LIKELIHOODS", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
+__all__ = ["SERVICE_LIKELIHOODS", "InferCall", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
            "scenario_vocabulary", "service_llm_config"]
 
 T = TypeVar("T")
@@ -174,26 +173,25 @@ class Runtime:
         return self._plans.get(
             (sid, n, str(cmd)), lambda: robot_plan(sc, state, cmd, max_time=self.settings.plan_max_time))
 
-    def answer(self, sid: str, instruction: Instruction | None, mode: str | None, likelihood: str | None,
-               n_actions: int | None, actions: list[str] | None, top: int | None, decide: str | None,
-               heard: Heard | None = None) -> Answer:
-        """The observer's answer for a scenario (thread-safe)."""
-        self.check_likelihood(likelihood)
-        scene = self.scene(sid, n_actions, actions)
+    def answer(self, call: InferCall) -> Answer:
+        """The observer's answer to ``call`` (thread-safe)."""
+        self.check_likelihood(call.likelihood)
+        actions = list(call.actions) if call.actions is not None else None
+        scene = self.scene(call.scenario, call.n_actions, actions)
         obs = self.observer
-        return obs.answer(obs.online(scene, mode), instruction, likelihood=likelihood, decide=decide, top=top,
-                          heard=heard, mode=mode)
+        return obs.answer(obs.online(scene, call.mode), call.instruction, likelihood=call.likelihood,
+                          decide=call.rule, top=call.top, heard=call.heard, mode=call.mode)
 
-    def infer(self, sid: str, instruction: Instruction | None, mode: str | None, likelihood: str | None,
-              n_actions: int | None, actions: list[str] | None, top: int | None, policy: ClarifyPolicy,
-              decide: str | None = None, heard: Heard | None = None) -> InferReply:
+    def infer(self, call: InferCall) -> InferReply:
         """The answer of ``POST /v1/infer``."""
-        ans = self.answer(sid, instruction, mode, likelihood, n_actions, actions, top, decide, heard)
-        top = top or self.observer.settings.infer.top
-        plan = self.plan(sid, n_actions, actions, str(ans.command) if ans.command is not None else None)
-        return InferReply(sid, ans.to_json(top=top),
+        ans = self.answer(call)
+        top = call.top or self.observer.settings.infer.top
+        actions = list(call.actions) if call.actions is not None else None
+        plan = self.plan(call.scenario, call.n_actions, actions, str(ans.command) if ans.command is not None else None)
+        instruction = call.instruction
+        return InferReply(call.scenario, ans.to_json(top=top),
                           tuple((h.text, h.score) for h in (instruction.nbest if instruction else ())),
-                          clarify(ans.commands, policy), plan)
+                          clarify(ans.commands, call.policy), plan)
 
     # ----- audio -------------------------------------------------------------------------
     def decode_audio(self, data: bytes) -> np.ndarray:
@@ -227,32 +225,28 @@ class Runtime:
         sc = self.scenario(sid)
         return self.observer.recogniser(sc.world, sc.verb).transcribe(audio, nbest)
 
-    def infer_audio(self, sid: str, data: bytes, mode: str | None, likelihood: str | None, n_actions: int | None,
-                    asr_nbest: int | None, top: int | None, policy: ClarifyPolicy,
-                    decide: str | None = None) -> InferReply:
-        """Detect speech in an uploaded recording, recognise it and infer (the observer's path),
+    def infer_audio(self, call: InferCall) -> InferReply:
+        """Detect speech in the call's recording, recognise it and infer (the observer's path),
         in an audio worker process when ``audio_workers`` > 0.
 
         Without speech the posterior comes from the actions alone and the action is none.
         """
-        self.check_likelihood(likelihood)
-        self.scenario(sid)  # an unknown id fails before decoding
-        args = (sid, data, mode, likelihood, n_actions, asr_nbest, top, policy, decide)
+        self.check_likelihood(call.likelihood)
+        self.scenario(call.scenario)  # an unknown id fails before decoding
         if self.audio_pool is not None:
-            reply: InferReply = self.audio_pool.infer_audio(*args)
+            reply: InferReply = self.audio_pool.infer_audio(call)
             return reply
-        return self.infer_audio_here(*args)
+        return self.infer_audio_here(call)
 
-    def infer_audio_here(self, sid: str, data: bytes, mode: str | None, likelihood: str | None,
-                         n_actions: int | None, asr_nbest: int | None, top: int | None, policy: ClarifyPolicy,
-                         decide: str | None = None) -> InferReply:
+    def infer_audio_here(self, call: InferCall) -> InferReply:
         """:meth:`infer_audio` in this process."""
-        sc = self.scenario(sid)
-        x = self.decode_audio(data)
-        heard = self.observer.hear(x, sc.world, sc.verb, nbest=asr_nbest)
-        with self.admission.slot(likelihood) as slot:  # past the CPU budget the default likelihood gives way
-            reply = self.infer(sid, heard.instruction, mode, slot.likelihood or likelihood, n_actions, None, top,
-                               policy, decide, heard)
+        sc = self.scenario(call.scenario)
+        x = self.decode_audio(call.audio or b"")
+        heard = self.observer.hear(x, sc.world, sc.verb, nbest=call.asr_nbest)
+        call = call.with_(audio=None, heard=heard, instruction=heard.instruction, actions=None)
+        with self.admission.slot(call.likelihood) as slot:  # past the CPU budget the default likelihood gives way
+            reply = self.infer(call.with_(likelihood=slot.likelihood or call.likelihood,
+                                          rule=slot.rule(call.rule, self.observer.settings)))
         return dataclasses.replace(reply, degraded=slot.reason)
 
     # ----- speech synthesis ----------------------------------------------------------------

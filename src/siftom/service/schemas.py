@@ -44,8 +44,9 @@ class ClarifyOptions(Strict):
     cost: float = Field(default=DEFAULT_COST, ge=0.0, le=1.0)
 
 
-class InferOptions(Strict):
-    """Fields shared by the JSON and the audio (multipart) forms of ``POST /v1/infer``."""
+class InferFields(Strict):
+    """Fields shared by the JSON and the audio (multipart) forms of ``POST /v1/infer`` (the options
+    of inference itself are :class:`siftom.options.InferOptions`)."""
 
     scenario: str = Field(min_length=1, max_length=MAX_SCENARIO_ID, examples=["kitchen-cereal-v0"],
                           description="a registered scenario id (GET /v1/scenarios)")
@@ -65,7 +66,7 @@ class InferOptions(Strict):
                                             "infer.decide, teammate)")
 
 
-class InferRequest(InferOptions):
+class InferRequest(InferFields):
     """An observation as JSON: a transcript or an N-best list (or neither: actions alone)."""
 
     transcript: str | None = Field(default=None, min_length=1, max_length=MAX_TEXT_CHARS,
@@ -200,7 +201,7 @@ AUDIO_FORM_SCHEMA: dict[str, Any] = {
 }
 
 
-class AudioFields(InferOptions):
+class AudioFields(InferFields):
     """The non-file fields of the multipart form."""
 
     asr_nbest: int | None = Field(default=None, ge=1, le=MAX_ASR_NBEST)

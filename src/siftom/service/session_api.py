@@ -181,5 +181,6 @@ def _answer_audio(ctx: ServiceContext, session_id: str, data: bytes, opts: Audio
     # the server's CPU budget, shared with streams (admission.py)
     with rt.admission.slot(sess.options.likelihood) as slot:
         body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),
-                            heard=heard, idem=idem, likelihood=slot.likelihood)
+                            heard=heard, idem=idem, likelihood=slot.likelihood,
+                            decide=slot.rule(sess.options.decide, rt.observer.settings))
     return SessionReply({**body.to_json(), "degraded": slot.reason})

@@ -8,6 +8,7 @@ import json
 from typing import Any
 
 from siftom.assist.clarify import Clarification, ClarifyPolicy, clarify
+from siftom.assist.decision import DecisionRule
 from siftom.assist.reply import Pending
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
@@ -120,7 +121,7 @@ def actions_reply(sess: Session, online: OnlineInference, n: int, added: list[st
 
 
 def answer_reply(observer: Observer, sess: Session, instruction: Instruction | None, top: int | None,
-                 policy: ClarifyPolicy, heard: Heard | None, decide: str | None,
+                 policy: ClarifyPolicy, heard: Heard | None, decide: str | DecisionRule | None,
                  likelihood: str | None) -> SessionReply:
     """The observer's answer as the session's JSON (its lock held)."""
     top = top or observer.settings.infer.top

@@ -95,7 +95,8 @@ class StreamRun:
         # past the CPU budget the default likelihood gives way, and the answer says so
         with self.ctx.runtime.admission.slot(self.sess.options.likelihood) as slot:
             prepared = self.mgr.prepare(self.sid, rec.instruction, self.params.top, self.params.policy,
-                                        heard=heard, likelihood=slot.likelihood)
+                                        heard=heard, likelihood=slot.likelihood,
+                                        decide=slot.rule(self.sess.options.decide, self.ctx.runtime.observer.settings))
         return StreamPrepared(prepared, slot.reason)
 
     def _commit(self, prepared: StreamPrepared) -> StreamAnswer | None:

@@ -36,8 +36,13 @@ def test_the_load_test_counts_requests_against_a_running_server(tmp_path):
     assert (res.requests, res.ok, res.errors, res.concurrency, res.url) == (6, 6, 0, 2, url)
     assert res.p50_ms <= res.p90_ms <= res.p99_ms <= res.max_ms
     assert set(json.loads(json.dumps(res.to_json()))) == {
-        "requests", "ok", "errors", "concurrency", "seconds", "rps", "p50_ms", "p90_ms", "p99_ms", "max_ms", "url"}
+        "requests", "ok", "errors", "concurrency", "seconds", "rps", "p50_ms", "p90_ms", "p99_ms", "max_ms", "url",
+        "machine"}
     assert res.summary().startswith("6/6 ok, concurrency 2") and "req/s" in res.summary()
+    # where it was measured: the CPUs, the processor and the load as the measured phase began
+    m = res.to_json()["machine"]
+    assert m["cpus"] >= 1 and m["processor"] and len(m["load_avg_before"]) == 3
+    assert f"{m['cpus']} CPUs ({m['processor']}), load " in res.summary()
 
 
 def test_bad_budgets_are_refused_before_any_server_starts():

@@ -15,11 +15,12 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
+from siftom.bench.machine import Machine
 from siftom.errors import SiftomError
 
 # JSON bodies of POST /v1/infer (the service's InferRequest; tests/bench/test_load_tools.py checks them)
@@ -70,6 +71,8 @@ class LoadResult:
         rps: ok requests per second.
         p50_ms, p90_ms, p99_ms, max_ms: latency percentiles of all requests.
         url: where the server listened.
+        machine: where the client ran and its load when the measured phase began (the
+            server's machine too when it was started here).
     """
 
     requests: int
@@ -83,10 +86,11 @@ class LoadResult:
     p99_ms: float
     max_ms: float
     url: str
+    machine: Machine = field(default_factory=Machine)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict for JSON output."""
-        return asdict(self)
+        return asdict(self) | {"machine": self.machine.to_json()}
 
     def meets(self, min_rps: float = 50.0, max_p99_ms: float = 200.0) -> bool:
         """Whether the service target is met (>= 50 req/s, p99 < 200 ms, no errors)."""
@@ -97,7 +101,7 @@ class LoadResult:
         met = f" ({'meets' if self.meets() else 'MISSES'} >= 50 req/s, p99 < 200 ms)" if verdict else ""
         return (f"{self.ok}/{self.requests} ok, concurrency {self.concurrency}, {self.seconds:.2f} s: "
                 f"{self.rps:.1f} req/s; latency p50 {self.p50_ms:.1f} ms, p90 {self.p90_ms:.1f} ms, "
-                f"p99 {self.p99_ms:.1f} ms, max {self.max_ms:.1f} ms{met}")
+                f"p99 {self.p99_ms:.1f} ms, max {self.max_ms:.1f} ms{met}{self.machine.summary()}")
 
 
 async def _drive(url: str, bodies: Sequence[dict[str, Any] | AudioBody], n: int, concurrency: int,
@@ -156,8 +160,9 @@ def run_load_test(requests: int = 500, concurrency: int = 8, warmup: int = 20,
             return run_load_test(requests, concurrency, warmup, bodies, base, timeout)
     if warmup:
         asyncio.run(_drive(url, bodies, warmup, min(concurrency, warmup), timeout))
+    where = Machine.here()
     lat, ok, secs = asyncio.run(_drive(url, bodies, requests, concurrency, timeout))
     ms = np.asarray(lat) * 1000.0
     p50, p90, p99 = (float(np.percentile(ms, q)) for q in (50, 90, 99))
     return LoadResult(requests, ok, requests - ok, concurrency, round(secs, 3), round(ok / secs, 1),
-                      round(p50, 1), round(p90, 1), round(p99, 1), round(float(ms.max()), 1), url)
+                      round(p50, 1), round(p90, 1), round(p99, 1), round(float(ms.max()), 1), url, where)

@@ -59,6 +59,13 @@ class Machine:
                    python=platform.python_version(), version=__version__,
                    load_avg=tuple(round(x, 2) for x in os.getloadavg()))
 
+    def summary(self) -> str:
+        """'; 2 CPUs (AMD EPYC), load 1.52' for a console line ('' for an empty record)."""
+        if self.cpus is None:
+            return ""
+        load = f", load {self.load_avg[0]:g}" if self.load_avg else ""
+        return f"; {self.cpus} CPUs ({self.processor or 'unknown processor'}){load}"
+
     def to_json(self, form: Form = "service") -> dict[str, Any]:
         """The ``machine`` entry of a result file of ``form`` (module doc)."""
         if form == "results":

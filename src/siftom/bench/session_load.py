@@ -25,12 +25,13 @@ import asyncio
 import contextlib
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from siftom.bench.machine import Machine
 from siftom.errors import SiftomError
 
 TARGET_P99_MS = 200.0
@@ -38,7 +39,8 @@ TARGET_P99_MS = 200.0
 
 @dataclass(frozen=True)
 class SessionLoadResult:
-    """What the session load test measured (latencies in ms, over all streamed requests)."""
+    """What the session load test measured (latencies in ms, over all streamed requests); ``machine``:
+    where the client ran and its load when the test began."""
 
     sessions: int
     actions_per_session: int
@@ -59,9 +61,10 @@ class SessionLoadResult:
     create_max_ms: float
     server_cpu_ms_per_request: float | None
     url: str
+    machine: Machine = field(default_factory=Machine)
 
     def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+        return asdict(self) | {"machine": self.machine.to_json()}
 
     def meets(self, max_p99_ms: float = TARGET_P99_MS) -> bool:
         """The sessions target: no errors, nothing lost, p99 < 200 ms per streamed request."""
@@ -77,7 +80,7 @@ class SessionLoadResult:
                 f"p99 actions {self.actions_p99_ms:.1f} ms, instructions p50 {self.instruction_p50_ms:.1f} ms, "
                 f"p99 {self.instruction_p99_ms:.1f} ms; creating a session: p50 {self.create_p50_ms:.1f} ms, "
                 f"max {self.create_max_ms:.1f} ms; server CPU {self.server_cpu_ms_per_request} ms per streamed "
-                "request")
+                f"request{self.machine.summary()}")
 
 
 def _vh(world: Any, a: Any) -> str:
@@ -259,6 +262,7 @@ def run_session_load(sessions: int = 50, actions: int = 10, interval: float = 1.
     work = workload(sessions, actions)
     if warmup:  # load the likelihood's lexicon and the planner once, unmeasured
         asyncio.run(_run(url, work[:1], 0.0, timeout))
+    where = Machine.here()
     lat, create_lat, errors, lost, secs, cpu = asyncio.run(_run(url, work, interval, timeout, _pid, seed))
     ms = np.asarray([t for _p, t in lat] or [0.0]) * 1000.0
     act = np.asarray([t for p, t in lat if p == "actions"] or [0.0]) * 1000.0
@@ -270,4 +274,4 @@ def run_session_load(sessions: int = 50, actions: int = 10, interval: float = 1.
                              round(p99, 1), round(float(ms.max()), 1), round(float(np.percentile(act, 99)), 1),
                              round(float(np.percentile(ins, 50)), 1), round(float(np.percentile(ins, 99)), 1),
                              round(float(np.percentile(cms, 50)), 1),
-                             round(float(cms.max()), 1), round(cpu, 2) if cpu is not None else None, url)
+                             round(float(cms.max()), 1), round(cpu, 2) if cpu is not None else None, url, where)

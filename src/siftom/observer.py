@@ -349,16 +349,18 @@ class Observer:
         return post, said
 
     def _pending(self, online: OnlineInference, post: Posterior, decision: Decision, mode: str,
-                 answered: tuple[Question, ...] = (), refused: tuple[str, ...] = ()) -> Pending | None:
+                 answered: tuple[Question, ...] = (), refused: tuple[str, ...] = (),
+                 before: Pending | None = None) -> Pending | None:
         """What to keep while the robot waits on the answer to ``decision``'s question
-        (``answered``, ``refused``: the exchange's questions answered and commands refused so far)."""
+        (``answered``, ``refused``: the exchange's questions answered and commands refused so far;
+        ``before``: the record the reply answered, whose evidence the refused commands keep)."""
         from siftom.assist.reply import request_evidence
 
         q = decision.asked
         if q is None or mode == "speech-only":
             return None
         alone = self._view(online, "action-only", "phonetic").posterior(None, top=1)
-        return Pending(q, request_evidence(post, alone), str(post.command), answered, refused)
+        return Pending(q, request_evidence(post, alone, before, refused), str(post.command), answered, refused)
 
     def _reply(self, online: OnlineInference, pending: Pending, instruction: Instruction,
                call: _Call) -> Answer | None:
@@ -393,12 +395,14 @@ class Observer:
         else:
             decision = self.decide(post, world, target, decide, nothing="every object here was refused")
         parts: tuple[RobotCommand, ...] = (post.command,) if left else ()
-        if targets and left:
-            decision, parts = said_object(decision, parts, targets[0], post, world, target, online.verb)
+        if targets and left:  # the object asked for: the first target that names one ("none of those, the X")
+            said = next((m for m in targets if m.obj_class or m.named), targets[0])
+            decision, parts = said_object(decision, parts, said, post, world, target, online.verb)
         decision = dataclasses.replace(decision, reason=f"reply to {pending.question.text!r}: {decision.reason}")
         post = dataclasses.replace(post, decision=decision,
                                    evidence={**post.evidence, "parts": [str(c) for c in parts]})
-        keep = self._pending(online, post, decision, mode, answered, refused) if decision.action == "ask" else None
+        keep = self._pending(online, post, decision, mode, answered, refused, pending) \
+            if decision.action == "ask" else None
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, None if heard is None else heard.speech,
                       heard.asr if heard is not None else None, heard.vad if heard is not None else None,

@@ -17,12 +17,17 @@ from siftom.observer import Observer
 SCENE = "kitchen-cereal-v0"
 
 
+# what a recogniser heard in noise: the flour, the cereal (likelier by the actions), or an object lost
+FLOUR_OR_CEREAL = Instruction.from_nbest([("can you get me the flour", 0.0), ("can you get me the cereal", -5.0),
+                                          ("can you get me the", -20.0)])
+
+
 @pytest.fixture(scope="module")
 def asked():
-    """The README's example: "pass me the silver" (the cereal at P ~ 0.8) is asked about."""
+    """A request heard as the flour or the cereal is asked about ("the cereal or the flour?")."""
     obs = Observer()
     online = obs.online(resolve_scene(SCENE, None))
-    first = obs.answer(online, Instruction.from_text("pass me the silver"))
+    first = obs.answer(online, FLOUR_OR_CEREAL)
     assert first.action == "ask" and "fetch(cereal)" in first.decision.options, first.decision
     assert first.pending is not None and first.to_json()["awaiting_reply"] is True
     return obs, online, first

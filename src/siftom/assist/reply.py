@@ -88,19 +88,28 @@ def log_marginals(joint: JointPosterior) -> dict[str, float]:
     return {str(c): float(v) for c, v in zip(joint.commands, lm, strict=True)}
 
 
-def request_evidence(post: Posterior, alone: Posterior) -> tuple[tuple[str, float], ...]:
+def request_evidence(post: Posterior, alone: Posterior, before: Pending | None = None,
+                     refused: Sequence[str] = ()) -> tuple[tuple[str, float], ...]:
     """The log-likelihood ratio of what was heard per command, best first, the best at 0 (module doc):
-    ``post``, the posterior with the words; ``alone``, the one from the same actions without them."""
+    ``post``, the posterior with the words; ``alone``, the one from the same actions without them.
+    A command ``refused`` in the exchange keeps the evidence ``before`` (the record the reply
+    answered) gave it: its probability is 0 while refused, and should the person ask for it
+    again by name, the request's words for it are as they were."""
     if post.joint is None or alone.joint is None:
         return ()
     with_words, without = log_marginals(post.joint), log_marginals(alone.joint)
     ratio = {c: v - without[c] for c, v in with_words.items() if c in without and np.isfinite(without[c])}
-    finite = {c: v for c, v in ratio.items() if np.isfinite(v)}
+    out = set(refused)
+    finite = {c: v for c, v in ratio.items() if np.isfinite(v) and c not in out}
     if not finite:
         return ()
     best = max(finite.values())
     ranked = sorted(((c, max(v - best, EVIDENCE_FLOOR)) for c, v in finite.items()), key=lambda cv: -cv[1])
-    return tuple((c, round(v, 6)) for c, v in ranked[:MAX_EVIDENCE])
+    kept = ranked[:MAX_EVIDENCE]
+    if before is not None and out:
+        ev, floor = dict(before.evidence), min((v for _c, v in before.evidence), default=0.0)
+        kept = sorted(kept + [(c, ev.get(c, floor)) for c in out], key=lambda cv: -cv[1])
+    return tuple((c, round(v, 6)) for c, v in kept)
 
 
 @dataclass(frozen=True)
@@ -171,8 +180,10 @@ PRIOR_ANSWER = 0.5  # an utterance after a question is as likely its answer as a
 # option | neither) against P(it | the other option)
 REFUSAL_OTHER = 0.25
 # the grammar's word classes an answer is made of besides its own words and object names:
-# determiners, counts, negations and corrections, "please", fillers, "and", a request verb
-ANSWER_KINDS = frozenset({"DET", "NUM", "NEG", "MEAN", "PLEASE", "FILLER", "AND", "VERB", "ME"})
+# determiners, counts, negations and corrections, "please", fillers, "and", and the words of a
+# request frame ("no, I need the milk", "could you get the flour")
+ANSWER_KINDS = frozenset({"DET", "NUM", "NEG", "MEAN", "PLEASE", "FILLER", "AND", "VERB", "ME", "MODAL", "YOU",
+                          "SELF", "WANT"})
 
 
 @dataclass(frozen=True)
@@ -367,6 +378,8 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
         why = "names " + ", ".join(sorted(named - negated))
     elif other_named:
         intent, why = only, "asks for something else"
+        if neither:  # "none of those, I need the milk"
+            refused |= set(options)
     elif negated:
         out = {question.cell(o) for o in negated}
         intent = {k: (REFUSAL_OTHER if k == other and question.kind != "confirm" else 1.0)
@@ -384,7 +397,8 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
         intent, why = None, "names no option"
     cells = None if intent is None else tuple(intent.get(k, 0.0) for k in range(question.n_cells))
     refused -= named - negated
-    answer_word = intent is not None or yes or no or neither or other_one
+    # asking for another object is a request (the utterance model weighs that), not an answer word
+    answer_word = (intent is not None and not (other_named and not named)) or yes or no or neither or other_one
     extra = sum(1 for i, (w, kind) in enumerate(zip(words, kinds, strict=True))
                 if w not in vocabulary and i not in named_positions and kind not in ANSWER_KINDS)
     lo = math.log(PRIOR_ANSWER / (1 - PRIOR_ANSWER))

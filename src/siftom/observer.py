@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from siftom.answer import NOTHING_ASKED, Answer
-from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
+from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, ask_if_unsure, get_rule
 from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.requested import absent, combine_parts, request_parts, said_object
@@ -426,7 +426,12 @@ class Observer:
         if nothing:
             reason = nothing + (f" ({post.evidence['no_instruction_reason']})"
                                 if nothing == NO_INSTRUCTION and post.evidence.get("no_instruction_reason") else "")
-            return Decision(name, NONE, NONE, 0.0, 0.0, reason=reason)
+            silent = Decision(name, NONE, NONE, 0.0, 0.0, reason=reason)
+            if nothing != NO_INSTRUCTION or name != "teammate":
+                return silent
+            # words that may have asked: silence costs a person who asked more than a question
+            # costs one who did not (assist/decide.py, ask_if_unsure)
+            return ask_if_unsure(silent, _p_request(post), answered)
         made = get_rule(rule, **self.settings.rule_options(rule)) if isinstance(rule, str) else rule
         if post.joint is None or post.joint.state is None:  # speech-only: no state to value actions in
             return MapRule()(post, None)
@@ -500,6 +505,15 @@ class Observer:
     def describe(self) -> dict[str, Any]:
         """The resolved values this observer runs with (``/healthz``, ``siftom config show``)."""
         return {key: value for key, value, _ in self.settings.show()}
+
+
+def _p_request(post: Posterior) -> float:
+    """P(somebody asked) the utterance model gave the words of ``post`` (0 when none)."""
+    u = post.understanding
+    if u is not None:
+        return float(u.p_request)
+    got = post.evidence.get("understanding")
+    return float(got.get("p_request", 0.0)) if isinstance(got, Mapping) else 0.0
 
 
 class _Locked:

@@ -58,4 +58,4 @@ def with_answer(post: Posterior, log_lik: Sequence[float] | np.ndarray, transcri
 
     return replace(post, command=commands[0][0], commands=commands, goals=goals, hypotheses=(),
                    transcript=(post.transcript + " | " + transcript).strip(" |"),
-                   joint=JointPosterior(j.goals, j.commands, j.goal_idx, j.cmd_idx, lj, j.state))
+                   joint=JointPosterior(j.goals, j.commands, j.goal_idx, j.cmd_idx, lj, j.state, j.log_words))

@@ -257,6 +257,25 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
 
 
 OPEN_QUESTION = "Sorry, what do you need?"
+# P(somebody asked) above which words read as no request still get "Sorry, what do you need?"
+# from the teammate. Silence after a request costs the person the wait and a second request
+# (about two exchanges on top of the one a question takes, C_ignored = 3 C_q); the question costs
+# a person who asked one exchange (C_q) and one who did not the same interruption (C_q). Asking
+# is worth it when P C_ignored > P C_q + (1 - P) C_q, i.e. P > 1/3 (docs/decisions.md, "Silence
+# has a price", gives both sides measured).
+ASK_WHEN_UNSURE = 1.0 / 3.0
+
+
+def ask_if_unsure(silent: Decision, p_request: float, answered: Sequence[Question] = ()) -> Decision:
+    """``silent`` (no action: the words read as no request), or "Sorry, what do you need?" when
+    they may still have asked (``p_request`` >= :data:`ASK_WHEN_UNSURE`) and it was not asked
+    already in this exchange."""
+    q = Question("open", OPEN_QUESTION, (), ((),), ((),))
+    if p_request < ASK_WHEN_UNSURE or any(a.text == q.text for a in answered):
+        return silent
+    return Decision(silent.rule, "ask", NONE, 0.0, float("nan"), q.text, (), 0.0, DEFAULT_ASK_COST,
+                    f"{silent.reason}; but P(somebody asked) = {p_request:.2f} >= {ASK_WHEN_UNSURE:.2f}: silence "
+                    "would cost a person who asked more than a question costs one who did not", (), q.kind, q)
 
 
 def _sentence(text: str) -> str:
@@ -309,6 +328,9 @@ class TeammateRule(AskOrActRule):
                 (f"{c} (P = {q:.2f})" for c, q in post.commands if str(c) != top), "something else")
             return dataclasses.replace(made, reason=f"asked for {top} (P = {p:.2f}), or {alt}: {made.reason}")
         if made.action != NONE:
+            unsure = self._unheard(post, where, made.action, post.prob(made.action))
+            if unsure is not None:
+                return unsure
             return dataclasses.replace(made, reason=f"asked for {top} (P = {p:.2f}): {made.reason}")
         # expected benefit would do nothing; a request is never ignored
         why_not = decline_reason(top, where)
@@ -316,6 +338,9 @@ class TeammateRule(AskOrActRule):
             return Decision(self.name, NONE, NONE, 0.0, 0.0, reason=f"asked for {top}, but {why_not}",
                             declined=_sentence(why_not))
         if p >= self.confident:  # understood: carried out, whatever the robot guesses of its worth
+            unsure = self._unheard(post, where, top, p)
+            if unsure is not None:
+                return unsure
             valued = dict(made.benefits).get(top, float("nan"))  # loss-averse, as expected benefit weighed it
             tv = _values(post, where)
             raw = float(tv.expected()[tv.actions.index(top)]) if top in tv.actions else float("nan")
@@ -326,6 +351,30 @@ class TeammateRule(AskOrActRule):
                                    f"the best question is worth {made.evi:.1f} steps <= its cost {made.ask_cost:.1f})",
                             benefits=made.benefits)
         return self._choose(post, where, top, p)
+
+    def _unheard(self, post: Posterior, where: Situation, command: str, p: float) -> Decision | None:
+        """A question instead of carrying out ``command`` when the words do not back it (the
+        plan alone chose it; assist/wordsback.py): a choice with the object the words favour,
+        else "Shall I get the butter?"; None when they back it or the question was answered."""
+        from siftom.assist.questions import choose_question, confirm_question
+        from siftom.assist.wordsback import MIN_LIFT, words_say
+
+        said = words_say(post, command)
+        if said is None or said.back:
+            return None
+        lex = _lexicon(where.world)
+        fav = said.favoured
+        if fav is not None and fav.obj_class != RobotCommand.parse(command).obj_class and not decline_reason(
+                str(fav), where):
+            q = choose_question(command, str(fav), lex)
+        else:
+            q = confirm_question(command, lex)
+        if where.settled(q):
+            return None
+        return Decision(self.name, "ask", command, p, float("nan"), q.text, q.options, 0.0,
+                        question_cost(q, self.ask_cost, self.cost_model),
+                        f"asked for {command} (P = {p:.2f}) by what the person is doing, but the words do not "
+                        f"say it (they lift it {said.lift:.1f} nats < {MIN_LIFT:g}): asking", (), q.kind, q)
 
     def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
         """Ask which of the two likeliest objects it was (or what was needed, with one)."""

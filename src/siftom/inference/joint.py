@@ -51,6 +51,8 @@ class JointPosterior:
     ``goal_idx[i]`` indexes ``goals`` (``len(goals)`` is the unknown goal), ``cmd_idx[i]``
     indexes ``commands``; ``log_joint[i]`` is the unnormalised log probability, so another
     factor that depends on the command alone (a second utterance) can be added exactly.
+    ``log_words[k]``: what the words alone say of command k (the instruction term, log
+    P(words | command) up to a constant), None when nothing was heard.
     """
 
     goals: tuple[Goal, ...]
@@ -59,3 +61,4 @@ class JointPosterior:
     cmd_idx: np.ndarray
     log_joint: np.ndarray
     state: State | None = None
+    log_words: np.ndarray | None = None

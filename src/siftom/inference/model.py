@@ -333,7 +333,8 @@ class OnlineInference:
             n_actions=self.n_actions, seconds=time.perf_counter() - t0,
             transcript=instruction.text if instruction is not None else "",
             joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
-                                 self.state),
+                                 self.state, instr if instruction is not None and self.model.likelihood is not None
+                                 else None),
             evidence=evidence, understanding=understood,
         )
         if self.model.on_step is not None:

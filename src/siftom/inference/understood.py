@@ -94,6 +94,13 @@ def understanding_of(instruction: Instruction, commands: Sequence[RobotCommand],
     return u, evidence
 
 
+def typed(instruction: Instruction) -> bool:
+    """Whether the words are one transcript with no recording and no recogniser's scores behind
+    them (typed text, or a transcript given as the words said)."""
+    return (not instruction.has_audio and len(instruction.nbest) == 1 and not instruction.scene_words
+            and instruction.nbest[0].score == 0.0)
+
+
 def read_words(text: str) -> tuple[str, ...]:
     """The words the utterance model reads in ``text``."""
     from siftom.language.parse import read

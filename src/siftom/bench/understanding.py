@@ -545,6 +545,8 @@ def markdown(summaries: Sequence[tuple[str, Mapping[str, Any]]], measure: str = 
     lines = ["| kind | " + " | ".join(f"{label}, {c}" for label, c, _ in cols) + " |",
              "|---|" + "---|" * len(cols)]
     for k in kinds:
-        lines.append(f"| {k} | " + " | ".join(cell(s["by_kind"][c].get(k)) for _, c, s in cols) + " |")
+        cells = [cell(s["by_kind"][c].get(k)) for _, c, s in cols]
+        if any(x != "-" for x in cells):
+            lines.append(f"| {k} | " + " | ".join(cells) + " |")
     lines.append("| **all** | " + " | ".join(cell(s["overall"][c]) for _, c, s in cols) + " |")
     return "\n".join(lines)

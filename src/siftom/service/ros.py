@@ -17,6 +17,10 @@ asyncio transport), so nothing of ROS has to be installed next to siftom:
 
 A message that is not a JSON object (a list, a string, null), or whose ``data`` has the wrong
 type, is answered with an error line and otherwise ignored: nothing a robot sends stops the bridge.
+Text and action lines are capped as over HTTP: a text of more than
+:data:`~siftom.service.schemas.MAX_TEXT_CHARS` characters, an action line longer than that or an
+actions message of more than :data:`~siftom.service.session_schemas.MAX_ACTIONS_PER_REQUEST`
+lines is refused with an error line, before any work.
 
 Bounded, whatever the robot sends: the audio waiting for the listener is at most
 :data:`AUDIO_QUEUE_S` seconds (the oldest is dropped first, with an error line); text messages
@@ -60,6 +64,7 @@ AUDIO_QUEUE_S = 10.0  # seconds of audio waiting for the listener at most (docs/
 TEXT_WORKERS = 2  # threads answering text messages
 TEXT_PENDING = 8  # text messages waiting for them at most
 HELD_DECISIONS = 50  # decisions kept while the decision topic is not advertised
+SHOWN_CHARS = 80  # of a refused text, in its error line
 
 
 class AudioQueue:
@@ -229,10 +234,27 @@ class RosBridge:
         return data
 
     def _on_actions(self, msg: Any) -> None:
+        from siftom.service.schemas import MAX_TEXT_CHARS
+        from siftom.service.session_schemas import MAX_ACTIONS_PER_REQUEST
+
         data = self._text_data(msg, self.topics.actions)
         if data is None:
             return
+        topic = self.topics.actions
+        if len(data) > MAX_ACTIONS_PER_REQUEST * (MAX_TEXT_CHARS + 1):  # refused before it is even split
+            self._out(ListenerError(f"ignored a message of {len(data)} characters on {topic}: send at most "
+                                    f"{MAX_ACTIONS_PER_REQUEST} action lines of at most {MAX_TEXT_CHARS} characters "
+                                    "per message", topic=topic))
+            return
         lines = [ln.strip() for ln in data.splitlines() if ln.strip() and not ln.startswith("#")]
+        long = next((k for k, ln in enumerate(lines) if len(ln) > MAX_TEXT_CHARS), None)
+        if len(lines) > MAX_ACTIONS_PER_REQUEST or long is not None:
+            what = (f"{len(lines)} action lines" if long is None
+                    else f"an action line of {len(lines[long])} characters (line {long + 1})")
+            self._out(ListenerError(f"ignored a message on {topic} with {what}: send at most "
+                                    f"{MAX_ACTIONS_PER_REQUEST} lines of at most {MAX_TEXT_CHARS} characters per "
+                                    "message, as over HTTP", topic=topic))
+            return
         try:
             added = self.home.observe(lines)
             self._out(ActionsObserved(tuple(added), len(self.home.actions)))
@@ -240,9 +262,16 @@ class RosBridge:
             self._out(ListenerError(str(exc), actions=tuple(lines)))
 
     def _on_text(self, msg: Any) -> None:
+        from siftom.service.schemas import MAX_TEXT_CHARS
+
         data = self._text_data(msg, self.topics.text)
         text = (data or "").strip()
         if not text:
+            return
+        if len(text) > MAX_TEXT_CHARS:  # a sentence, not a paragraph: refused before any work
+            self._out(ListenerError(f"ignored a text of {len(text)} characters on {self.topics.text}: an "
+                                    f"instruction has at most {MAX_TEXT_CHARS} characters, as over HTTP; send "
+                                    "one utterance per message", heard=text[:SHOWN_CHARS] + "…"))
             return
         with self._lock:
             busy = self._text_pending >= TEXT_PENDING

@@ -53,7 +53,44 @@ def said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Me
     here = _already_here(decision, mention, post, world, target, verb)
     if here is not None:  # understood, but nothing of it is left to bring: say so
         decision, parts = here
+    more = None if here is not None else beyond_supply(decision, mention, post, world, target, verb)
+    if more is not None:
+        return more
     return absent(decision, mention) or decision, parts
+
+
+# rules that ask (the others carry out what there is)
+_ASKING_RULES = ("teammate", "ask-or-act")
+
+
+def beyond_supply(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
+                  verb: str) -> tuple[Decision, tuple[RobotCommand, ...]] | None:
+    """More asked for than the world holds ("bring me three pens" where two are left): the
+    objects there are, never another object; a rule that asks confirms first ("There are only
+    two pens here. Shall I bring both?"). None when the count said is not beyond what is left."""
+    from siftom.assist.asking import lexicon_of
+    from siftom.assist.decide import left_to_bring
+    from siftom.assist.questions import NO, NO_KEYS, YES, YES_KEYS, Question, _noun
+    from siftom.likelihood.phrasing import number_word
+
+    if mention.obj_class is None or not mention.count or post.joint is None or post.joint.state is None:
+        return None
+    where = Situation(world, post.joint.state, target)
+    left, _ = left_to_bring(str(RobotCommand(verb, mention.obj_class, 1)), where)
+    if not 0 < left < mention.count:
+        return None
+    cmd = RobotCommand(verb, mention.obj_class, left if verb != "fetch" else 1)
+    noun = _noun(RobotCommand(verb, mention.obj_class, left), lexicon_of(world))
+    there = f"There is only one {noun}" if left == 1 else f"There are only {number_word(left)} {noun}"
+    # a fetch carries one object: of several left, it offers one
+    them = "it" if left == 1 else "one of them" if verb == "fetch" else "both" if left == 2 else "them"
+    why = f"asked for {mention.count} {mention.obj_class}, {left} left to bring: the ones there are, nothing else"
+    if decision.rule not in _ASKING_RULES:
+        return Decision(decision.rule, str(cmd), str(cmd), post.prob(str(cmd)), float("nan"), reason=why), (cmd,)
+    get = "get" if verb == "fetch" else "bring"
+    q = Question("confirm", f"{there} here. Shall I {get} {them}?", (str(cmd),), (YES, NO), (YES_KEYS, NO_KEYS))
+    return Decision(decision.rule, "ask", str(cmd), post.prob(str(cmd)), float("nan"), q.text, q.options,
+                    reason=f"{why}; asking first", question_kind=q.kind, asked=q), (cmd,)
 
 
 def _names_category_of(mention: Mention, obj_class: str, world: World) -> bool:

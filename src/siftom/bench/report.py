@@ -21,6 +21,7 @@ from siftom.bench.metrics import (
     N_BOOT,
     ROOM_BREAKDOWNS,
     SEP,
+    bootstrap_ci,
     breakdown,
     group_key,
     has_rooms,
@@ -96,6 +97,50 @@ def _summarise(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BO
     allw = [r["transcript"]["wer"] for r in rows if r.get("transcript", {}).get("wer") is not None]
     out["asr_wer"]["all"] = round(float(np.mean(allw)), 4) if allw else None
     return out
+
+
+RECORDED = "human"  # the voice of a stimulus a person recorded (the dataset format's default)
+
+
+def participants(rows: Sequence[dict[str, Any]], seed: int = 0, n_boot: int = N_BOOT) -> dict[str, Any]:
+    """Per participant of a set of collected recordings (rows whose voice is a person's, by their
+    ``speaker``), per model: accuracy, questions per trial and speedup, each with its bootstrap CI,
+    and the trials. Synthetic voices are left out (their table is the per-voice one)."""
+    by: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        if r.get("voice", RECORDED) == RECORDED:
+            by[str(r.get("speaker", "?"))].append(r)
+    out: dict[str, Any] = {}
+    for who in sorted(by, key=label_order):
+        out[who] = {}
+        for m in _models_in(by[who]):
+            trials = [r["models"][m] for r in by[who] if m in r["models"]]
+            s = summarise_model(trials, seed=seed, n_boot=n_boot).to_json()
+            asked = np.array([1.0 if t.get("asked") else 0.0 for t in trials])
+            q_ci = bootstrap_ci(asked, n_boot, seed + 2)
+            out[who][m] = {"accuracy": s["accuracy"], "accuracy_ci": s["accuracy_ci"],
+                           "questions_per_trial": s["questions_per_trial"],
+                           "questions_ci": [_round4(q_ci[0]), _round4(q_ci[1])],
+                           "speedup": s["speedup"], "speedup_ci": s["speedup_ci"], "n": s["n"]}
+    return out
+
+
+def _round4(x: float) -> float | None:
+    return None if not np.isfinite(x) else round(float(x), 4)
+
+
+def participants_table(parts: dict[str, Any]) -> str:
+    """The Markdown table of :func:`participants`: one row per participant and model."""
+    lines = ["| participant | model | accuracy [95 % CI] | questions / trial [95 % CI] | speedup [95 % CI] | n |",
+             "|---|---|---|---|---|---|"]
+    for who, per in parts.items():
+        for m, v in per.items():
+            sp = "–" if v["speedup"] is None else f"{v['speedup']:+.3f}"
+            q = "–" if v["questions_per_trial"] is None else f"{v['questions_per_trial']:.2f}"
+            qci = "" if v["questions_ci"][0] is None else f"[{v['questions_ci'][0]:.2f}, {v['questions_ci'][1]:.2f}]"
+            lines.append(f"| {who} | {m} | {_pct(v['accuracy'])} {_ci(v['accuracy_ci'])} | {q} {qci} "
+                         f"| {sp} {_ci(v['speedup_ci'], False)} | {v['n']} |")
+    return "\n".join(lines)
 
 
 def _pct(x: float | None) -> str:
@@ -243,6 +288,12 @@ def _render_report(summary: dict[str, Any], run: dict[str, Any], figures: Sequen
                   _breakdown_table(summary["breakdowns"][by], models, titles[by]), ""]
     if FIG_SNR in names:
         parts += [f"![accuracy by SNR]({FIG_SNR})", ""]
+    if summary.get("participants"):
+        parts += ["## By participant (collected recordings)", "",
+                  "Each participant's recordings (the manifest's `speaker`; the voice table above has them "
+                  "all as `human`). CIs: percentile bootstrap over that participant's stimuli; with a few "
+                  "recordings each they are wide.", "",
+                  participants_table(summary["participants"]), ""]
     parts += _rooms_section(summary, models)
     parts += ["## The paper, for comparison", "",
               "| paper (Simulated Experiment) | value |", "|---|---|"]
@@ -287,6 +338,7 @@ def write_report(out: str | Path, seed: int | None = None, figures: bool = True)
         summary["human"] = people.to_json()
     if rated:
         summary["ratings"] = {m: r.to_json() for m, r in rated.items()}
+    summary["participants"] = participants(rows, seed)
     _write(root / "summary.json", json.dumps(summary, indent=2) + "\n")
     figs = render_figures(rows + human, summary, root) if figures else []
     from siftom.bench import reliability

@@ -10,7 +10,9 @@ from typing import Any
 
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.errors import SiftomError
-from siftom.service.stream_settings import CLOSE_BAD_PARAMETER, CLOSE_UNSUPPORTED
+from siftom.service.problems import ProblemError
+from siftom.service.schemas import MAX_TEXT_CHARS
+from siftom.service.stream_settings import CLOSE_BAD_PARAMETER, CLOSE_TOO_BIG, CLOSE_UNSUPPORTED
 from siftom.speech.audio import SAMPLE_RATE
 
 # the query parameters of WS /v1/sessions/{id}/listen (``token`` is taken out before: access.py)
@@ -18,6 +20,7 @@ QUERY_PARAMS = ("top", "threshold", "cost", "nbest", "partial", "rate", "channel
 MAX_CHANNELS = 8
 RATES = (8000, 192_000)  # the sample rates a client may declare (resampled to 16 kHz)
 MAX_COMMAND_ACTIONS = 100
+MAX_COMMAND_CHARS = MAX_COMMAND_ACTIONS * (MAX_TEXT_CHARS + 8) + 100  # a text message's JSON, at most
 
 
 class StreamClosed(Exception):
@@ -129,6 +132,9 @@ class StreamCommand:
         """The command in ``text``; anything else closes the stream (1003)."""
         from siftom.safejson import loads
 
+        if text is not None and len(text) > MAX_COMMAND_CHARS:  # closed before it is parsed
+            raise StreamClosed(CLOSE_TOO_BIG, f"a text message of {len(text)} characters; send at most "
+                               f"{MAX_COMMAND_CHARS} ({MAX_COMMAND_ACTIONS} action lines)")
         try:
             obj = loads(text or "", "a text message")  # too deep, too long a number: not a command either
         except SiftomError:
@@ -142,3 +148,10 @@ class StreamCommand:
                 return cls(False, tuple(acts))
         raise StreamClosed(CLOSE_UNSUPPORTED, 'text messages are {"type": "end"} or {"type": "actions", '
                            '"actions": [lines]}; send audio as binary messages')
+
+    def check_lines(self) -> None:
+        """A 422 (an ``error`` event; the stream goes on) for an action line longer than HTTP takes."""
+        for k, line in enumerate(self.actions):
+            if len(line) > MAX_TEXT_CHARS:
+                raise ProblemError(422, "validation", f"actions[{k}] has {len(line)} characters; an action line "
+                                   f"has at most {MAX_TEXT_CHARS}, as over HTTP; nothing was added")

@@ -182,7 +182,14 @@ class StreamRun:
         # the observer's recogniser for this world (pocketsphinx biased to its command phrasings)
         rec_eng = await self.ctx.run_cpu(self.ctx.runtime.observer.recogniser, scene.world, scene.verb)
         options = SegmentOptions(max_utterance_s=self.limits.max_utterance_s)
-        self._recognise = recogniser(rec_eng.engine, self.params.nbest, rec_eng.lock)
+        hear = recogniser(rec_eng.engine, self.params.nbest, rec_eng.lock)
+        admission = self.ctx.runtime.admission
+
+        def recognise(samples: Any) -> Recognised:  # in the queue the CPU budget sees (admission.py)
+            with admission.recognising():
+                return hear(samples)
+
+        self._recognise = recognise
         # answered while the end of speech is confirmed, written once it is (if no action came meanwhile)
         self._listener = StreamListener(self._recognise, self._answer, options,
                                         version=lambda: self.mgr.revision(self.sid), commit=self._commit)
@@ -224,7 +231,7 @@ class StreamRun:
             command = StreamCommand.from_text(text)
             if command.end:
                 await self._end(worker)
-            await self._actions(list(command.actions))
+            await self._actions(command)
 
     async def _audio(self, data: bytes) -> None:
         limits, pcm = self.limits, self.pcm
@@ -249,10 +256,11 @@ class StreamRun:
             await self._partial_task
         raise StreamClosed(CLOSE_NORMAL, "end of stream")
 
-    async def _actions(self, lines: list[str]) -> None:
+    async def _actions(self, command: StreamCommand) -> None:
         """``{"type": "actions", ...}``: append them; an ``actions`` event, or an ``error`` one."""
         try:
-            added, n = await self.ctx.run_cpu(_append, self.mgr, self.sid, lines)
+            command.check_lines()
+            added, n = await self.ctx.run_cpu(_append, self.mgr, self.sid, list(command.actions))
             await self._send({"event": "actions", "added": added, "n_actions": n})
         except (SiftomError, ProblemError) as exc:
             await self._send({"event": "error", "status": getattr(exc, "status", 422),

@@ -156,6 +156,19 @@ def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     return nxt in _NEW_PHRASE or (nxt == "DET" and words[at + 1] in _DEFINITE)
 
 
+def _repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str) -> bool:
+    """Whether the marker at ``at`` is an edit term after a target: a correction word, "never
+    mind", or a "no" before a count ("three mugs, no, three cups": the count starts the repair,
+    it does not quantify a negation)."""
+    w = words[at]
+    nxt = words[at + 1] if at + 1 < len(words) else ""
+    if w == "never" and nxt == "mind":
+        return True
+    if w == "no" and at + 1 < len(kinds) and kinds[at + 1] == "NUM":
+        return True
+    return kind == "MEAN"
+
+
 _Pieces = list[tuple[str, list[tuple[str, int]]]]
 
 
@@ -187,6 +200,9 @@ class _RoleReader:
     related: set[int] = field(default_factory=set)  # slots made context by a relation word or a copula
     retract: int | None = None  # the target a correction takes back once another follows
     said_count: int | None = None  # a count heard as its homophone ("to", "for")
+    asyndetic: list[int] = field(default_factory=list)  # targets followed by another with nothing between
+    listed: bool = False  # a slot joined by "and": the targets are a list ("the oil, the coffee and the tea")
+    _slot_piece: int = -1  # the piece of the last slot
 
     def _last_target(self) -> int | None:
         return next((k for k in range(len(self.slots) - 1, -1, -1) if self.slots[k].role == "target"), None)
@@ -197,6 +213,8 @@ class _RoleReader:
         if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
                 and self.pending == "context":
             self.pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
+        if _repairs(words, self.kinds_of_words, at, kind) and self._last_target() is not None:
+            kind = "MEAN"  # "the jam, never mind, the honey", "make that the honey", "three mugs, no, three cups"
         if kind == "NEG" and _rejects(words, self.kinds_of_words, at):
             # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
             # oats"): what came before is taken back, the next slot is asked for
@@ -273,10 +291,22 @@ class _RoleReader:
         if role == "target" and _is_here(kinds, j):
             role = "context"
             self.related.add(len(slots))
+        if role == "target" and slots and slots[-1].role == "target" and not self.joined \
+                and all(k == "FILLER" for k in kinds[self._slot_piece + 1:j]) and self._slot_piece >= 0:
+            self.asyndetic.append(len(slots) - 1)  # "the jam the honey": a repair, unless a list follows
+        if self.joined:
+            self.listed = True
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
+        self._slot_piece = j
         self.pending, self.joined = "", False
 
     def reading(self, truncated: bool) -> Reading:
+        if not self.listed:
+            # two objects asked for with nothing between them: the second repairs the first (a
+            # list of two says "and"; in spoken repairs of commands many have no edit term)
+            for k in self.asyndetic:
+                s = self.slots[k]
+                self.slots[k] = Slot("retracted", s.start, s.end, s.nouns, s.count)
         slots, frame = self.slots, self.frame
         if frame and self.told:
             # a statement before a request ("I think we're out of milk, could you bring some"): what

@@ -88,11 +88,13 @@ results: setup
 	$(MAKE) pages
 
 # the generated parts of the docs, no re-run: docs/results/*.md, the README's table, the numbers in
-# docs/benchmark.md (from results/*.json) and the constants table (from the code)
+# docs/benchmark.md (from results/*.json) and the constants table (from the code); the README's
+# picture, drawn by `siftom demo` (a minute; the outputs the pages quote are checked by make test)
 pages: setup
 	$(BIN)/siftom bench pages --results results/ --docs docs/results --readme README.md \
 	    --fill docs/benchmark.md --fill docs/explanation/constants.md --fill docs/decisions.md \
 	    --fill docs/streaming.md
+	$(BIN)/siftom demo --out build/demo > /dev/null && cp build/demo/demo.png docs/img/demo.png
 
 lint: setup
 	$(BIN)/ruff check src tests

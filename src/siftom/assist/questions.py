@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from siftom.assist import phrasing_en
 from siftom.errors import CommandParseError, ObservationError
 from siftom.likelihood.phrasing import number_word
 from siftom.world.commands import RobotCommand
@@ -65,7 +66,7 @@ def _noun(cmd: RobotCommand, lexicon: Any = None) -> str:
 
     lex = lexicon if lexicon is not None else default_lexicon()
     name = lex.entry(cmd.obj_class).names[0]  # unlisted classes get a default entry
-    return name.plural if cmd.count > 1 else name.singular
+    return phrasing_en.noun(name.singular, name.plural, cmd.count)
 
 
 def describe(command: str, lexicon: Any = None) -> str:
@@ -73,9 +74,11 @@ def describe(command: str, lexicon: Any = None) -> str:
     cmd = _parse(command)
     if cmd is None:
         return command
-    if cmd.count == 1:
-        return f"the {_noun(cmd, lexicon)}" if cmd.verb == "fetch" else f"one {_noun(cmd, lexicon)}"
-    return f"{number_word(cmd.count)} {_noun(cmd, lexicon)}"
+    from siftom.likelihood.lexicon import default_lexicon
+
+    entry = (lexicon if lexicon is not None else default_lexicon()).entry(cmd.obj_class)
+    return phrasing_en.object_phrase(entry.names[0].singular, entry.names[0].plural, cmd.count,
+                                     counted=cmd.verb != "fetch", mass=entry.mass)
 
 
 @dataclass(frozen=True)
@@ -164,7 +167,9 @@ def choose_question(a: str, b: str, lexicon: Any = None) -> Question:
     cells = tuple((n, f"{n} please") for n in (na, nb)) + (NEITHER,)
     wa, wb = set(na.split()) - {"the"}, set(nb.split()) - {"the"}
     keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), ("neither", "none"))
-    text = f"Which one: {describe(a, lexicon)} or {describe(b, lexicon)}?"
+    # the count is said where it tells the two apart ("two plates or three plates"), else the names
+    text = phrasing_en.which_one([describe(a, lexicon), describe(b, lexicon)] if ca.obj_class == cb.obj_class
+                                 else [na, nb])
     return Question("choose", text, (a, b), cells, keys)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 
+from siftom.assist import phrasing_en
 from siftom.assist.decide import Decision, Situation, decline_reason
 from siftom.assist.teamvalue import NONE
 from siftom.inference.model import Posterior
@@ -25,8 +26,8 @@ def absent(decision: Decision, mention: Mention) -> Decision | None:
     if mention.obj_class is not None or not mention.named:
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0,
-                    reason=f"there is no {mention.named} here: the robot does not bring something else instead",
-                    declined=f"Sorry, there is no {mention.named} here.")
+                    reason=f"{phrasing_en.none_here(mention.named)}: the robot does not bring something else instead",
+                    declined=phrasing_en.sorry(phrasing_en.none_here(mention.named)))
 
 
 def _already_here(decision: Decision, mention: Mention, post: Posterior, world: World, target: int,
@@ -43,7 +44,7 @@ def _already_here(decision: Decision, mention: Mention, post: Posterior, world: 
     if not why:
         return None
     return Decision(decision.rule, NONE, NONE, 0.0, 0.0, reason=f"asked for {asked}, but {why}",
-                    declined=f"Sorry, {why}."), (asked,)
+                    declined=phrasing_en.sorry(why)), (asked,)
 
 
 def said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Mention, post: Posterior,

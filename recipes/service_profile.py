@@ -12,7 +12,10 @@ thread hop), with timers around the parts a request passes through:
 * reply: ``Runtime.infer`` around the answer (the answer's JSON, the clarification, the plan);
 * serialisation: ``JSONResponse.render`` (the JSON bytes).
 
-Each figure is the median per request over the rounds (each round the mean over its requests).
+Each figure is CPU time of the one thread that runs the request (``time.thread_time``: on a
+machine shared with other work it leaves out the time spent waiting for a core), the median per
+request over the rounds (each round the mean over its requests); ``wall`` is the request's wall
+time. Children run with one BLAS thread (``OMP_NUM_THREADS=1``).
 With ``--against SRC`` the rounds alternate between this tree and the tree at ``SRC`` (a
 ``src`` folder, e.g. of ``git worktree add /tmp/ref REF``), each round a fresh process, and the
 ratios this/against are printed beside the figures, so both are measured under the same load.
@@ -38,7 +41,7 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parents[1] / "src"
-PHASES = ("total", "middleware", "validation", "observer", "decision", "reply", "serialisation")
+PHASES = ("wall", "total", "middleware", "validation", "observer", "decision", "reply", "serialisation")
 BODIES: tuple[dict[str, Any], ...] = (  # the load test's (siftom.bench.loadtest.DEFAULT_BODIES)
     {"scenario": "kitchen-cereal-v0", "transcript": "can you pass me the cereal"},
     {"scenario": "kitchen-cereal-v0", "transcript": "pass me the sugar"},
@@ -51,7 +54,7 @@ BODIES: tuple[dict[str, Any], ...] = (  # the load test's (siftom.bench.loadtest
 
 
 class Timers:
-    """Seconds spent inside wrapped callables, by label (nested calls counted where they run)."""
+    """CPU seconds of this thread inside wrapped callables, by label (nested calls counted where they run)."""
 
     def __init__(self) -> None:
         self.spent: dict[str, float] = {}
@@ -62,11 +65,11 @@ class Timers:
         spent = self.spent
 
         def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = time.perf_counter()
+            t0 = time.thread_time()
             try:
                 return fn(*args, **kwargs)
             finally:
-                spent[label] = spent.get(label, 0.0) + time.perf_counter() - t0
+                spent[label] = spent.get(label, 0.0) + time.thread_time() - t0
 
         if isinstance(raw, classmethod):
             setattr(owner, name, classmethod(lambda cls, *a, **k: timed(*a, **k)))
@@ -78,11 +81,11 @@ class Timers:
         spent = self.spent
 
         async def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = time.perf_counter()
+            t0 = time.thread_time()
             try:
                 return await fn(*args, **kwargs)
             finally:
-                spent[label] = spent.get(label, 0.0) + time.perf_counter() - t0
+                spent[label] = spent.get(label, 0.0) + time.thread_time() - t0
 
         setattr(owner, name, timed)
 
@@ -143,24 +146,25 @@ def measure(requests: int, warmup: int = 3) -> dict[str, float]:
     app = create_app()
     encoded = [json.dumps(b).encode() for b in BODIES]
 
-    async def run() -> tuple[float, int]:
+    async def run() -> tuple[float, float, int]:
         for _ in range(warmup):
             for b in encoded:
                 await _post(app, b)
         timers.spent.clear()
         n = 0
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         while n < requests:
             await _post(app, encoded[n % len(encoded)])
             n += 1
-        return time.perf_counter() - t0, n
+        return time.perf_counter() - t0, time.thread_time() - c0, n
 
     try:
-        total, n = asyncio.run(run())
+        wall, total, n = asyncio.run(run())
     finally:
         app.state.runtime.close()
     s = timers.spent
     ms = {
+        "wall": wall,
         "total": total,
         "middleware": total - s.get("endpoint", 0.0),
         "validation": s.get("validation", 0.0),
@@ -174,7 +178,7 @@ def measure(requests: int, warmup: int = 3) -> dict[str, float]:
 
 def _round(src: Path, requests: int) -> dict[str, float]:
     """One round in a fresh process running the tree at ``src``."""
-    env = {**os.environ, "PYTHONPATH": str(src), "MPLBACKEND": "Agg"}
+    env = {**os.environ, "PYTHONPATH": str(src), "MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1"}
     res = subprocess.run([sys.executable, __file__, "--worker", "--requests", str(requests)], env=env,
                          capture_output=True, text=True, timeout=600)
     if res.returncode != 0:
@@ -237,7 +241,8 @@ def main() -> None:
         return
     m = out["machine"]
     print(f"{m['cpus']} CPUs ({m['processor']}), load {m['load_avg_before']}; {a.rounds} rounds x "
-          f"{a.requests} requests; ms per POST /v1/infer (median of rounds)")
+          f"{a.requests} requests; ms per POST /v1/infer (CPU of the request's thread; wall: its wall "
+          "time; median of rounds)")
     this = out["ms_per_request"]["this"]
     other = out["ms_per_request"].get("against")
     print(f"{'phase':14s} {'this':>8s}" + (f" {'against':>8s} {'ratio':>6s}" if other else ""))

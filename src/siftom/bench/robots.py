@@ -6,7 +6,8 @@ sessions are created over the kitchen scenario (after one untimed instruction st
 the server up) and each streams its own recording through
 ``WS /v1/sessions/{id}/listen`` in 20 ms chunks at real-time pace (instructions from
 :mod:`siftom.bench.stream` with pauses drawn per stream, starts staggered over the first
-seconds), while ``/v1/infer`` is polled ``http_rps`` times a second. For every instruction the
+seconds; with ``burst`` every stream sends the same recording from the same instant, so the
+speech of all streams ends at once), while ``/v1/infer`` is polled ``http_rps`` times a second. For every instruction the
 delay is the time from the end of its speech (known from the recording) to the arrival of its
 ``decision`` (or ``no_speech``) event; an instruction without an event by the end of the stream
 (plus ``grace_s``) is missed. The result names the machine and the load average beside the
@@ -60,6 +61,8 @@ class ServeBenchOptions:
         in_process: also stream the first stream's recording through an in-process listener
             (``siftom bench stream``'s, the default likelihood) in the same run, for the ratio
             of the WebSocket's delay to it.
+        burst: every stream sends the first stream's recording, all starting at once: their
+            speech ends at the same instant (a lab of robots hearing one person, a noisy dinner).
     """
 
     streams: int = 8
@@ -72,6 +75,7 @@ class ServeBenchOptions:
     seed: int = 0
     grace_s: float = 10.0
     in_process: bool = False
+    burst: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.streams <= 64:
@@ -281,6 +285,8 @@ async def _run(opts: ServeBenchOptions, url: str) -> tuple[dict[str, float], dic
         stop = asyncio.Event()
         poll = asyncio.create_task(_infer_times(client, None, opts.http_rps, stop)) if opts.http_rps > 0 else None
         starts = rng.uniform(0, 2.0, opts.streams)
+        if opts.burst:  # one recording, one start: every stream's speech ends at the same instant
+            audios, truths, starts = [audios[0]] * opts.streams, [truths[0]] * opts.streams, np.zeros(opts.streams)
         outcomes = await asyncio.gather(*(_one_stream(url, headers, s, a, t, float(d), opts.grace_s)
                                           for s, a, t, d in zip(sessions, audios, truths, starts, strict=True)))
         stop.set()

@@ -80,6 +80,8 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
 @click.option("--url", default=None, help="a running server (default: start siftom serve on loopback)")
 @click.option("--token", default=None, help="the running server's token")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="pauses and stream starts")
+@click.option("--burst", is_flag=True,
+              help="every stream sends the same recording from the same instant: all speech ends at once")
 @click.option("--in-process", is_flag=True,
               help="also stream the first recording through an in-process listener, for the WebSocket's overhead")
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -87,7 +89,8 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @force_option
 def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str | None, token: str | None,
-                     seed: int, in_process: bool, out: Path | None, as_json: bool, force: bool) -> None:
+                     seed: int, burst: bool, in_process: bool, out: Path | None, as_json: bool,
+                     force: bool) -> None:
     """Several robots: N sessions stream real-time speech while /v1/infer is polled; per stream the
     delay from the end of speech to the decision, and the HTTP percentiles idle and under load."""
     from siftom.bench.robots import ServeBenchOptions, run_serve_bench
@@ -96,7 +99,8 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
         prepare_output(out, force)
 
     res = run_serve_bench(ServeBenchOptions(streams=streams, instructions=instructions, http_rps=http_rps,
-                                            url=url, token=token, seed=seed, in_process=in_process))
+                                            url=url, token=token, seed=seed, in_process=in_process,
+                                            burst=burst))
     data = res.to_json()
     if out is not None:
         from siftom.bench.speech import write_json
@@ -106,7 +110,8 @@ def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str 
         click.echo(json.dumps(data, indent=2))
         return
     m = res.machine
-    click.echo(f"{streams} streams x {instructions} instructions, /v1/infer at {http_rps:g}/s; "
+    click.echo(f"{streams} streams x {instructions} instructions{' (burst: speech ends at once)' if burst else ''}, "
+               f"/v1/infer at {http_rps:g}/s; "
                f"{m.cpus} CPUs ({m.processor}), load before {m.load_avg}, after {res.load_avg_after}")
     click.echo(f"decisions {res.answered}/{res.expected}; end of speech -> decision p50 {res.delay_p50_s} s, "
                f"p90 {res.delay_p90_s} s")

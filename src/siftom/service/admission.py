@@ -18,8 +18,17 @@ confirm the command instead; a question or a decline stays as it is. A command t
 answer named (yes to "Shall I get the bowl?") is carried out; one asked about and not confirmed
 is not (the robot says so and waits for the request again).
 
+The count is of the whole queue: an utterance whose speech has ended and that waits for the
+recogniser or is being recognised (:meth:`Admission.recognising`) counts as much as one being
+answered, and an utterance that joined the queue behind ``budget`` others counts them when its
+turn comes, so in a burst (several robots hearing speech end at the same instant) every
+utterance past the first ``budget`` is scored by the cheaper likelihood: the last of the burst
+too, whose recognition waited behind all the others. And at most ``budget`` answers compute at once; the next
+waits for a share (up to ``SHARE_WAIT_S``, then it runs anyway), so the HTTP requests' threads
+keep a share of the interpreter while many streams are answered.
+
 The budget is the number of CPUs the process may use (``os.sched_getaffinity``), at least 1;
-``ServiceSettings.answer_budget`` overrides it (0: never degrade).
+``Admission(budget=0)`` never degrades.
 """
 
 from __future__ import annotations
@@ -28,6 +37,7 @@ import contextlib
 import dataclasses
 import os
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -38,6 +48,8 @@ if TYPE_CHECKING:
     from siftom.settings import Settings
 
 DEGRADED_LIKELIHOOD = "phonetic"
+# how long an answer waits for a CPU share before it runs anyway (a share is a priority, never a stall)
+SHARE_WAIT_S = 0.5
 
 
 def cpu_budget() -> int:
@@ -105,37 +117,70 @@ class AskFirst:
 
 
 class Admission:
-    """Counts utterances being answered; past ``budget`` at once, the next is degraded (module doc)."""
+    """Counts utterances being recognised and answered; past ``budget`` of them at once, the next is
+    degraded, and at most ``budget`` answers compute at once (module doc)."""
 
-    def __init__(self, budget: int | None = None) -> None:
+    def __init__(self, budget: int | None = None, share_wait_s: float = SHARE_WAIT_S) -> None:
         self.budget = cpu_budget() if budget is None else max(0, int(budget))
-        self._lock = threading.Lock()
-        self.in_flight = 0
+        self.share_wait_s = share_wait_s
+        self._cond = threading.Condition()
+        self.in_flight = 0  # utterances inside :meth:`slot`
+        self.hearing = 0  # utterances inside :meth:`recognising`: their speech ended, not yet answered
+        self.computing = 0  # answers holding one of the ``budget`` CPU shares
         self.answered = 0
         self.degraded = 0
+        self._ahead = threading.local()  # per thread: the queue ahead of the utterance it recognised last
+
+    @contextlib.contextmanager
+    def recognising(self) -> Iterator[None]:
+        """Count an utterance while it waits for the recogniser and is recognised: it is in the
+        queue before its answer is, and the answers being admitted meanwhile see it. The queue
+        ahead of it when it joined is kept for this thread's next :meth:`slot` (its answer): the
+        last of a burst has waited behind the others even when the queue is empty by its turn."""
+        with self._cond:
+            self._ahead.n = self.hearing + self.in_flight
+            self.hearing += 1
+        try:
+            yield
+        finally:
+            with self._cond:
+                self.hearing -= 1
 
     @contextlib.contextmanager
     def slot(self, asked: str | None = None) -> Iterator[Slot]:
         """Hold a place while one utterance is answered; the slot says how to score it. ``asked``:
-        the likelihood the request or session chose; only the default (None or ``auto``) gives way."""
-        with self._lock:
-            busy = self.in_flight
-            crowded = self.budget > 0 and busy >= self.budget and asked in (None, "auto")
+        the likelihood the request or session chose; only the default (None or ``auto``) gives way.
+        The answer then waits (at most ``share_wait_s``) for one of the ``budget`` CPU shares."""
+        ahead, self._ahead.n = getattr(self._ahead, "n", 0), 0
+        with self._cond:
+            busy, queued = self.in_flight, self.hearing
+            crowded = self.budget > 0 and max(busy + queued, ahead) >= self.budget and asked in (None, "auto")
             self.in_flight += 1
             self.answered += 1
             self.degraded += crowded
+            deadline = time.monotonic() + self.share_wait_s
+            while 0 < self.budget <= self.computing and (left := deadline - time.monotonic()) > 0:
+                self._cond.wait(left)
+            self.computing += 1
         try:
-            if crowded:
+            if crowded and ahead > busy + queued:
+                yield Slot(DEGRADED_LIKELIHOOD, f"answered with the {DEGRADED_LIKELIHOOD} likelihood: {ahead} "
+                                                f"utterances were ahead of it in the queue on {self.budget} CPUs")
+            elif crowded:
+                also = f" and {queued} more being recognised" if queued else ""
                 yield Slot(DEGRADED_LIKELIHOOD, f"answered with the {DEGRADED_LIKELIHOOD} likelihood: {busy} "
-                                                f"utterances were being answered on {self.budget} CPUs")
+                                                f"utterances were being answered{also} on {self.budget} CPUs")
             else:
                 yield Slot(None, "")
         finally:
-            with self._lock:
+            with self._cond:
                 self.in_flight -= 1
+                self.computing -= 1
+                self._cond.notify()
 
     def stats(self) -> dict[str, int]:
-        """For /healthz: the budget, utterances in flight, answered and degraded so far."""
-        with self._lock:
-            return {"budget": self.budget, "in_flight": self.in_flight, "answered": self.answered,
-                    "degraded": self.degraded}
+        """For /healthz: the budget, utterances in flight (answered now) and being recognised,
+        answered and degraded so far."""
+        with self._cond:
+            return {"budget": self.budget, "in_flight": self.in_flight, "recognising": self.hearing,
+                    "answered": self.answered, "degraded": self.degraded}

@@ -242,7 +242,8 @@ class Runtime:
         """:meth:`infer_audio` in this process."""
         sc = self.scenario(call.scenario)
         x = self.decode_audio(call.audio or b"")
-        heard = self.observer.hear(x, sc.world, sc.verb, nbest=call.asr_nbest)
+        with self.admission.recognising():  # in the queue the CPU budget sees
+            heard = self.observer.hear(x, sc.world, sc.verb, nbest=call.asr_nbest)
         call = call.with_(audio=None, heard=heard, instruction=heard.instruction, actions=None)
         with self.admission.slot(call.likelihood) as slot:  # past the CPU budget the default likelihood gives way
             reply = self.infer(call.with_(likelihood=slot.likelihood or call.likelihood,

@@ -177,7 +177,8 @@ def _answer_audio(ctx: ServiceContext, session_id: str, data: bytes, opts: Audio
     x = rt.decode_audio(data)
     # voice-activity detection first (silence or noise is not words), then the observer's
     # recogniser for this world (biased to its command phrasings)
-    heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
+    with rt.admission.recognising():  # in the queue the CPU budget sees (admission.py)
+        heard = rt.observer.hear(x, sess.scene.world, sess.scene.verb, nbest=opts.asr_nbest)
     # the server's CPU budget, shared with streams (admission.py)
     with rt.admission.slot(sess.options.likelihood) as slot:
         body = mgr.instruct(session_id, heard.instruction, opts.top, ClarifyPolicy(opts.threshold, opts.cost),

@@ -5,6 +5,11 @@ Audio comes in as binary messages and is cut into utterances by the session's
 while audio keeps flowing, in the order spoken. An answer is prepared without side effects and
 stored as the session's last once the end of speech is confirmed (unless an action came
 meanwhile). A stream that closes cancels the utterances it has not answered.
+
+A stream holds one of the server's ``max_streams`` slots, so it must send about real-time audio:
+once the audio received lags the wall time since ``ready`` by more than the lag allowance
+(:data:`~siftom.service.stream_settings.MAX_LAG_S`, or ``max_idle_s`` if less), it is closed
+with 4408, whatever else it sends (a few bytes now and then do not keep a slot).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from siftom.service.stream_settings import (
     CLOSE_NORMAL,
     CLOSE_TOO_BIG,
     CLOSE_UNSUPPORTED,
+    MAX_LAG_S,
 )
 from siftom.service.stream_state import StreamGone
 
@@ -82,6 +88,9 @@ class StreamRun:
         self._partial_task: asyncio.Task[None] | None = None
         self._listener: StreamListener[StreamPrepared, StreamAnswer] | None = None
         self._recognise: Any = None
+        self.max_lag_s = min(MAX_LAG_S, self.limits.max_idle_s)
+        self._t0 = 0.0  # when ``ready`` was sent (event-loop clock)
+        self._audio_s = 0.0  # seconds of audio received since
 
     # ----- answers (worker threads) ------------------------------------------------------------
     def _answer(self, rec: Recognised, utt: Utterance) -> StreamPrepared:
@@ -198,7 +207,8 @@ class StreamRun:
         await self._send({"event": "ready", "session": self.sid, "sample_rate": self.pcm.rate,
                           "channels": self.pcm.channels, "format": "s16le", "n_actions": len(self.sess.actions),
                           "limits": {"max_utterance_s": limits.max_utterance_s, "max_idle_s": limits.max_idle_s,
-                                     "max_chunk_bytes": limits.max_chunk_bytes}})
+                                     "max_chunk_bytes": limits.max_chunk_bytes, "max_lag_s": self.max_lag_s}})
+        self._t0 = asyncio.get_running_loop().time()
         try:
             await self._receive(worker)
         except StreamClosed:
@@ -214,19 +224,33 @@ class StreamRun:
                 self._partial_task.cancel()
             self._listener.close()
 
+    def _lag(self) -> float:
+        """Seconds the audio received lags the wall time since ``ready``."""
+        return asyncio.get_running_loop().time() - self._t0 - self._audio_s
+
+    def _lagging(self) -> StreamClosed:
+        return StreamClosed(CLOSE_IDLE, f"audio {self._lag():.0f} s behind real time (at most {self.max_lag_s:g} s); "
+                            "stream audio in real time, silence included")
+
     async def _receive(self, worker: asyncio.Task[None]) -> None:
         limits = self.limits
         while True:
+            idle = limits.max_idle_s
+            wait = min(idle, max(0.0, self.max_lag_s - self._lag()))  # until the slot's audio is too late
             try:
-                msg = await asyncio.wait_for(self.ws.receive(), timeout=limits.max_idle_s)
+                msg = await asyncio.wait_for(self.ws.receive(), timeout=wait)
             except TimeoutError:
-                raise StreamClosed(CLOSE_IDLE, f"nothing received for {limits.max_idle_s:g} s (max_idle_s); "
+                if wait < idle:
+                    raise self._lagging() from None
+                raise StreamClosed(CLOSE_IDLE, f"nothing received for {idle:g} s (max_idle_s); "
                                    "send audio continuously, silence included") from None
             if msg["type"] == "websocket.disconnect":
                 return
             data, text = msg.get("bytes"), msg.get("text")
             if data is not None:
                 await self._audio(data)
+                if self._lag() > self.max_lag_s:  # bytes now and then: not a stream of speech
+                    raise self._lagging()
                 continue
             command = StreamCommand.from_text(text)
             if command.end:
@@ -243,6 +267,7 @@ class StreamRun:
                                if pcm.channels == 1 else f"16-bit PCM with {pcm.channels} channels needs "
                                f"a multiple of {pcm.frame_bytes} bytes per message (whole frames)")
         assert self._listener is not None
+        self._audio_s += len(data) / pcm.frame_bytes / pcm.rate
         await self._handle(self._listener.feed(pcm.convert(data)))
 
     async def _end(self, worker: asyncio.Task[None]) -> None:

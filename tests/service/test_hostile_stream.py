@@ -4,6 +4,7 @@ parsed (1009)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from pathlib import Path
@@ -77,3 +78,38 @@ def test_a_huge_text_message_is_closed_before_it_is_parsed(served):
         code, reason = got.wait(10)
     assert code == 1009 and str(MAX_COMMAND_CHARS) in reason, (code, reason)
     assert time.perf_counter() - t0 < 2
+
+
+# ----- a slot needs about real-time audio ---------------------------------------------------------
+
+def test_a_trickle_of_bytes_does_not_hold_a_stream_slot(tmp_path):
+    """Two clients that send 2 bytes a second (within max_idle_s, far from real time) held both
+    slots for ever and every robot got 1013; now each is closed once its audio lags wall time by
+    the allowance (here max_idle_s, 2 s), with a reason saying so, and a real client gets a slot."""
+    limits = StreamLimits(max_streams=2, max_idle_s=2.0)
+    app = create_app(tmp_path / "data", ServiceSettings(stream=limits))
+    with serve_in_thread(app) as url, contextlib.ExitStack() as stack:
+        trickles = [stack.enter_context(ws_client.connect(ws_url(url, new_session(url)))) for _ in range(2)]
+        got = [Collector(ws) for ws in trickles]
+        assert got[0].ready()["limits"]["max_lag_s"] == 2.0
+        got[1].ready()
+        t0 = time.monotonic()
+        while any(g.close is None for g in got) and time.monotonic() - t0 < 8:
+            for ws, g in zip(trickles, got, strict=True):
+                if g.close is None:
+                    ws.send(b"\x00\x00")
+            time.sleep(0.5)
+        took = time.monotonic() - t0
+        for g in got:
+            code, reason = g.wait(5)
+            assert code == 4408 and "behind real time" in reason and "at most 2 s" in reason, (code, reason)
+        assert took < 4, took
+        with ws_client.connect(ws_url(url, new_session(url))) as ws:  # a slot is free again
+            real = Collector(ws)
+            real.ready()
+            for _ in range(60):  # 3 s of real-time silence keeps it open
+                ws.send(b"\x00" * 1600)
+                time.sleep(0.05)
+            assert real.close is None
+            ws.send(json.dumps({"type": "end"}))
+            assert real.wait(10)[0] == 1000

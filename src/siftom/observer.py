@@ -38,11 +38,18 @@ from siftom.answer import NOTHING_ASKED, Answer
 from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, ask_if_unsure, get_rule
 from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
-from siftom.assist.requested import absent, combine_parts, request_parts, said_object
+from siftom.assist.requested import (
+    absent,
+    combine_parts,
+    request_parts,
+    said_object,
+    written_absent,
+)
 from siftom.assist.teamvalue import NONE
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, with_likelihood
 from siftom.inference.model import OnlineInference, Posterior, SIFToM
+from siftom.inference.understood import typed
 from siftom.inputs import SceneInput
 from siftom.language.record import Mention
 from siftom.likelihood.base import Instruction, InstructionLikelihood
@@ -291,6 +298,11 @@ class Observer:
         nothing = (NO_SPEECH if speech is False else NO_INSTRUCTION if not said
                    else NOTHING_ASKED if instruction is None else "")
         understood = post.understanding if said and instruction is not None else None
+        if understood is not None and understood.request and instruction is not None and typed(instruction) \
+                and mode != "speech-only":
+            # written words are not misheard: a word like no object here may name one that is not
+            understood = written_absent(understood, online.world, _lexicon_of(online.world))
+            post = dataclasses.replace(post, understanding=understood)
         targets = understood.targets if understood is not None and understood.request else ()
         named, left_out = request_parts(targets, MAX_PARTS)
         parts: tuple[RobotCommand, ...] = ()
@@ -374,7 +386,10 @@ class Observer:
         name = lk if isinstance(lk, str) else type(lk).__name__
         words = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top), name, why)
         u = words.understanding
-        targets = u.targets if u is not None and u.request and not words.evidence.get("no_instruction") else ()
+        # the objects of the world the reply asks for ("no, the sugar"); words naming nothing here
+        # are not weighed as a reply (an utterance like any other says what they name)
+        targets = tuple(m for m in u.targets if m.obj_class) \
+            if u is not None and u.request and not words.evidence.get("no_instruction") else ()
         texts, weights = reply_texts(instruction, words)
         world, target = online.world, online.goals[0].target
         reading = read_reply(pending.question, texts, weights, world.classes, _lexicon_of(world))

@@ -54,7 +54,7 @@ def written_absent(u: Understanding, world: World, lexicon: object = None) -> Un
 
     if not any(m.role == "target" and m.obj_class is None and not m.named and m.words for m in u.mentions):
         return u
-    nm = namer(tuple(world.classes), lexicon)  # type: ignore[arg-type]
+    nm = namer(tuple(world.classes), lexicon)
 
     def far(m: Mention) -> bool:
         r = float(np.min(nm.costs(m.words.split())))

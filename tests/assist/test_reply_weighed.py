@@ -117,22 +117,84 @@ def test_a_recording_of_room_talk_leaves_the_question_waiting():
     assert got.pending == first.pending
 
 
-# ----- room talk and real replies ------------------------------------------------------------
+# ----- room talk and real replies to the questions the robot asks -----------------------------
+
+# the questions: (scene, actions, what was heard, the question the robot asks)
+QUESTIONS = {
+    "confirm": (SALAD, SALAD_ACTIONS[:4], "can you get me the potato", "Shall I get the tomato?"),
+    "choose": (CEREAL, None, CEREAL_OR_FLOUR, "Which one: the cereal or the flour?"),
+    "choose-3": (CEREAL, CEREAL_3, FLOUR_OR_CEREAL, "Which one: the flour or the cereal?"),
+    "salad": (SALAD, SALAD_ACTIONS, heard("cheese", "plate"), "Which one: the cheese or the plate?"),
+    "salad-3": (SALAD, SALAD_ACTIONS[:3], heard("tomato", "potato"), "Which one: the tomato or the potato?"),
+    "count": ("household-table-v0/6", None, "bring me some plates", "How many plates?"),
+}
+_ASKED: dict[str, object] = {}
+
+
+def asked(name: str):
+    """(scene, actions, the answer that asked ``QUESTIONS[name]``), asked once."""
+    if name not in _ASKED:
+        scene, actions, words, question = QUESTIONS[name]
+        _ASKED[name] = (scene, actions, ask(scene, actions, words, question))
+    return _ASKED[name]
+
 
 ROOM_TALK = ["the weather is really nice today", "hmm what a day", "did you see the game last night",
              "I think it's going to rain", "my phone battery is dead", "oh no I forgot to call my mother",
-             "where did I leave my keys", "I'm so tired this morning", "let me check my email", "thanks",
-             "can you believe what he said", "what time is it"]
+             "where did I leave my keys", "I'm so tired this morning", "I will be back in a minute", "thanks",
+             "can you believe what he said", "what time is it", "the kids are still asleep", "wow it is cold in here",
+             "I should water the plants"]
 
 
+@pytest.mark.parametrize("question", list(QUESTIONS))
 @pytest.mark.parametrize("talk", ROOM_TALK)
-def test_room_talk_after_a_question_is_no_answer(talk):
-    first = ask(CEREAL, None, CEREAL_OR_FLOUR, "Which one: the cereal or the flour?")
-    got = siftom.infer(CEREAL, None, talk, pending=first.pending)
+def test_room_talk_after_a_question_is_no_answer(talk, question):
+    scene, actions, first = asked(question)
+    got = siftom.infer(scene, actions, talk, pending=first.pending)
     assert got.action == "none" and got.command is None and got.reply_to is None, got.decision
     assert got.pending == first.pending
     texts, weights = reply_texts(Instruction.from_text(talk))
     assert read_reply(first.pending.question, texts, weights, ()).p_answer < 0.5
+
+
+# a reply to one of QUESTIONS, and what is right: ("act", c) carries c out; ("about", c) carries c
+# out or asks about it; ("not", cs) is taken as the reply and neither carries out nor offers any of cs
+REPLIES = [
+    ("confirm", "yes", ("act", "fetch(tomato)")), ("confirm", "yeah please", ("act", "fetch(tomato)")),
+    ("confirm", "yep", ("act", "fetch(tomato)")), ("confirm", "no", ("not", ["fetch(tomato)"])),
+    ("confirm", "no thanks", ("not", ["fetch(tomato)"])), ("confirm", "nope", ("not", ["fetch(tomato)"])),
+    ("confirm", "the other one", ("not", ["fetch(tomato)"])), ("confirm", "no, the other one", ("not", ["fetch(tomato)"])),
+    ("confirm", "not the tomato", ("not", ["fetch(tomato)"])), ("confirm", "no, the potato", ("about", "fetch(potato)")),
+    ("choose", "the cereal", ("act", "fetch(cereal)")), ("choose", "flour please", ("act", "fetch(flour)")),
+    ("choose", "neither", ("not", ["fetch(cereal)", "fetch(flour)"])),
+    ("choose", "neither of them", ("not", ["fetch(cereal)", "fetch(flour)"])),
+    ("choose", "none of those", ("not", ["fetch(cereal)", "fetch(flour)"])),
+    ("choose", "not the cereal", ("not", ["fetch(cereal)"])), ("choose", "the second one", ("act", "fetch(flour)")),
+    ("choose", "the flour, not the cereal", ("act", "fetch(flour)")), ("choose", "no, the sugar", ("act", "fetch(sugar)")),
+    ("choose-3", "neither", ("not", ["fetch(cereal)", "fetch(flour)"])), ("choose-3", "the cereal", ("act", "fetch(cereal)")),
+    ("salad", "not the cheese", ("not", ["fetch(cheese)"])), ("salad", "the plate", ("act", "fetch(plate)")),
+    ("salad", "no, not the cheese, the bowl", ("about", "fetch(bowl)")),
+    ("salad-3", "no, not the tomato, the onion", ("about", "fetch(onion)")), ("salad-3", "the potato", ("act", "fetch(potato)")),
+    ("salad-3", "not the tomato", ("not", ["fetch(tomato)"])),
+    ("count", "three", ("act", "deliver(plate,3)")), ("count", "two please", ("act", "deliver(plate,2)")),
+    ("count", "just one plate", ("act", "deliver(plate,1)")), ("count", "four plates", ("act", "deliver(plate,4)")),
+    ("count", "nothing thanks", ("not", [f"deliver(plate,{n})" for n in range(1, 9)])),
+    ("count", "not three, four", ("act", "deliver(plate,4)")),
+]
+
+
+@pytest.mark.parametrize(("question", "reply", "right"), REPLIES)
+def test_a_reply_to_a_question_the_robot_asked_is_read_right(question, reply, right):
+    scene, actions, first = asked(question)
+    got = siftom.infer(scene, actions, reply, pending=first.pending)
+    how, want = right
+    assert got.reply_to == first.decision.question, got.decision
+    if how == "act":
+        assert got.action == "act" and str(got.command) == want, got.decision
+    elif how == "about":
+        assert (got.action == "act" and str(got.command) == want) or (got.action == "ask" and want in offered(got))
+    else:
+        assert not offered(got) & set(want) and str(got.command) not in want, got.decision
 
 
 CLASSES = resolve_scene(CEREAL, None).world.classes

@@ -316,16 +316,13 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
     option_classes = {p.obj_class for p in parsed.values() if p is not None}
     reply_words = _reply_words(question)
     vocabulary = _answer_vocabulary(question)
+    # "the other one", "the second one": "one" stands for an option, it is no count
+    pronoun_one = any(w in OTHER_KEYS or w in ORDINAL_KEYS for w in words)
 
     def matching(slot: Any) -> tuple[set[str], bool, bool]:
         """(options the slot names, whether it names another object, whether it names anything)."""
         nouns = tuple(words[i] for i in slot.nouns if words[i] not in reply_words)
-        said_words = {words[i] for i in range(slot.start, slot.end)}
-        ordinal = [ORDINAL_KEYS[w] for w in said_words if w in ORDINAL_KEYS]
-        if ordinal and question.kind == "choose":  # "the first one": the option in that place
-            return {options[ordinal[0]]}, False, True
-        # "the other one", "the first one" are no count
-        count = None if said_words & (set(OTHER_KEYS) | set(ORDINAL_KEYS)) else slot.count
+        count = None if pronoun_one and slot.count == 1 else slot.count
         cls = None
         if nouns:
             naming = nm.name(nouns)
@@ -364,6 +361,10 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
             negated_nothing = negated_nothing or not names
         # a retracted slot ("the cereal, I mean the flour"): taken back, neither named nor refused
     in_negated = {i for s in reading.slots if s.role == "negated" for i in range(s.start, s.end)}
+    if question.kind == "choose":  # "the first one", "not the second one": an option by its place
+        for i, w in enumerate(words):
+            if w in ORDINAL_KEYS:
+                (negated if i in in_negated else named).add(options[ORDINAL_KEYS[w]])
     said = [w for i, w in enumerate(words) if i not in in_negated]
     yes = any(w in YES_KEYS for w in said)
     no = any(w in NO_KEYS for w in said) or negated_nothing
@@ -478,7 +479,13 @@ def after_reply(base: Posterior, pending: Pending, cell: int | ReplyReading | No
     reply's added: the posterior after the exchange (module doc). ``cell``: the reply's reading
     (:func:`read_reply`), or the one cell it names as heard for certain (None: no cell).
     ``reliability``: how often an answer to the question's kind is heard as the cell it names
-    (None: :data:`REPLY_RELIABILITY`). The pending record's refused commands get probability 0."""
+    (None: :data:`REPLY_RELIABILITY`). The pending record's refused commands get probability 0.
+
+    What the words say of each command (``joint.log_words``, which the decision reads) is what
+    the whole exchange said: the request's evidence and the reply's, beside the reply's own
+    instruction term when ``base`` has one."""
+    import dataclasses
+
     if base.joint is None:
         raise ObservationError("a reply is weighed against a posterior with its hypotheses (not speech-only)")
     commands = [str(c) for c in base.joint.commands]
@@ -489,4 +496,8 @@ def after_reply(base: Posterior, pending: Pending, cell: int | ReplyReading | No
         ll = ll + cell.log_lik(commands, prior, r)
     elif cell is not None:
         ll = ll + answer_log_likelihood_cells(pending.question, commands, cell, r)
-    return with_answer(base, ll)
+    post = with_answer(base, ll)
+    own = base.joint.log_words
+    said = ll + (np.asarray(own, dtype=np.float64) if own is not None and np.shape(own) == ll.shape else 0.0)
+    assert post.joint is not None
+    return dataclasses.replace(post, joint=dataclasses.replace(post.joint, log_words=said))

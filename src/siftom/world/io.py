@@ -64,6 +64,7 @@ def _scene_from_json(obj: Any) -> LoadedScene:
     raw_places = _need(obj, "places", "world")
     if not isinstance(raw_places, list) or not raw_places:
         raise ObservationError("world: 'places' must be a non-empty list")
+    check_types(obj)  # every field's JSON type, named with its fix, before anything is built
     places = []
     for k, p in enumerate(raw_places):
         if not isinstance(p, dict):
@@ -119,6 +120,96 @@ def _scene_from_json(obj: Any) -> LoadedScene:
 
 
 _NAME_RE = re.compile(r"^[a-z][a-z' ]*[a-z]$|^[a-z]$")
+
+_PLACE_EG = '{"name": "fridge", "kind": "container", "room": "kitchen", "pos": [5, 1]}'
+_ITEM_EG = '{"name": "milk_1", "class": "milk", "at": "fridge"}'
+_DOOR_EG = '{"rooms": ["kitchen", "dining"], "pos": [2, 0]}'
+
+
+def _json_type(v: Any) -> str:
+    """``v``'s JSON type, as a message names it."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "true/false"
+    if isinstance(v, int | float):
+        return f"the number {v!r}"[:40]
+    if isinstance(v, str):
+        return f"the text {v[:30]!r}"
+    return "a list" if isinstance(v, list) else "an object" if isinstance(v, dict) else type(v).__name__
+
+
+def _wrong(where: str, want: str, got: Any, example: str) -> ObservationError:
+    return ObservationError(f"{where} must be {want}, got {_json_type(got)}; e.g. {example} (docs/world.md)")
+
+
+def _text(v: Any, where: str, example: str, required: bool = True) -> None:
+    if v is None and not required:
+        return
+    if not isinstance(v, str) or not v.strip():
+        raise _wrong(where, "a name (text)", v, example)
+
+
+def _named(d: dict[str, Any], key: str, where: str, example: str) -> None:
+    """``d[key]`` is there and is a name (text)."""
+    if key not in d:
+        raise ObservationError(f"{where}: missing {key!r}; e.g. {example} (docs/world.md)")
+    _text(d[key], f"{where}.{key}", example)
+
+
+def _xy(v: Any, where: str, example: str) -> None:
+    if not (isinstance(v, list) and len(v) == 2
+            and all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)):
+        raise _wrong(where, "[x, y] in metres (two numbers)", v, example)
+
+
+def _list(v: Any, where: str, example: str) -> list[Any]:
+    if not isinstance(v, list):
+        raise _wrong(where, "a list", v, example)
+    return v
+
+
+def _obj(v: Any, where: str, example: str) -> dict[str, Any]:
+    if not isinstance(v, dict):
+        raise _wrong(where, "an object", v, example)
+    return v
+
+
+def check_types(obj: dict[str, Any]) -> None:
+    """Refuse a world JSON field of the wrong JSON type, naming the field and the fix (a list
+    where a name goes, ``"open": "fridge"`` for ``["fridge"]``), before anything reads it."""
+    for k, p in enumerate(_list(obj["places"], "places", f"[{_PLACE_EG}]")):
+        p = _obj(p, f"places[{k}]", _PLACE_EG)
+        _named(p, "name", f"places[{k}]", '"fridge"')
+        for key, eg in (("kind", '"container"'), ("room", '"kitchen"')):
+            _text(p.get(key), f"places[{k}].{key}", eg, required=False)
+        if "pos" in p:
+            _xy(p["pos"], f"places[{k}].pos", "[5, 1]")
+        if "closable" in p and not isinstance(p["closable"], bool):
+            raise _wrong(f"places[{k}].closable", "true or false", p["closable"], "true")
+    for k, d in enumerate(_list(obj.get("doors", []), "doors", f"[{_DOOR_EG}]")):
+        d = _obj(d, f"doors[{k}]", _DOOR_EG)
+        rooms = _need(d, "rooms", f"doors[{k}]")
+        if not (isinstance(rooms, list) and len(rooms) == 2 and all(isinstance(r, str) and r for r in rooms)):
+            raise _wrong(f"doors[{k}].rooms", "a list of two room names", rooms, '["kitchen", "dining"]')
+        _xy(_need(d, "pos", f"doors[{k}]"), f"doors[{k}].pos", "[2, 0]")
+    for k, it in enumerate(_list(_need(obj, "items", "world"), "items", f"[{_ITEM_EG}]")):
+        it = _obj(it, f"items[{k}]", _ITEM_EG)
+        for key, eg in (("name", '"milk_1"'), ("class", '"milk"'), ("at", '"fridge"')):
+            _named(it, key, f"items[{k}]", eg)
+    agents = _obj(obj.get("agents", {}), "agents", '{"human": "counter", "robot": "counter"}')
+    for who in ("human", "robot"):
+        _text(agents.get(who), f"agents.{who}", '"counter"', required=False)
+    for k, name in enumerate(_list(obj.get("open", []), "open", '["fridge"] (a list of place names)')):
+        _text(name, f"open[{k}]", '"fridge"')
+    _text(obj.get("target"), "target", '"table" (the place the goal objects go to)', required=False)
+    for key, eg in (("verb", '"deliver" or "fetch"'), ("goal_space", '"household-table-v0" or "kitchen-v0"')):
+        _text(obj.get(key), key, eg, required=False)
+    goals = obj.get("goals")
+    if isinstance(goals, list):
+        for k, g in enumerate(goals):
+            if isinstance(g, dict):
+                _text(g.get("name"), f"goals[{k}].name", '"salad"', required=False)
 
 
 def spoken_names(raw: Any, classes: set[str]) -> tuple[tuple[str, tuple[str, ...]], ...]:

@@ -6,6 +6,7 @@ Every error response is ``application/problem+json`` with ``type``, ``title``, `
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import sqlite3
@@ -175,9 +176,16 @@ def install_handlers(app: FastAPI) -> None:
     app.add_middleware(_KeepConnectionMiddleware)
 
 
+STOPPING = ("the server is stopping and its grace for requests in flight ran out before this one was answered; "
+            "it may or may not have been carried out: send it again once the server is back (with the same "
+            "Idempotency-Key, a change is made once)")
+
+
 class _KeepConnectionMiddleware:
     """Answer an unhandled exception with a 500 problem here, so it does not reach the server,
-    which would drop the keep-alive connection (the client's next request would be reset)."""
+    which would drop the keep-alive connection (the client's next request would be reset). A
+    request still running when the server's stop grace ends (uvicorn cancels it) is a 503
+    problem, not the server's plain-text 500."""
 
     def __init__(self, app: ASGIApp) -> None:
         self.app = app
@@ -191,6 +199,11 @@ class _KeepConnectionMiddleware:
             await self.app(scope, receive, out)
         except _TooLarge:
             raise
+        except asyncio.CancelledError:
+            if out.started:
+                raise
+            log.warning("stopping: %s %s cancelled before its answer", scope.get("method"), scope.get("path"))
+            await send_problem(send, 503, "stopping", STOPPING, close=True, headers=((b"retry-after", b"5"),))
         except Exception:
             if out.started:
                 raise
@@ -210,13 +223,14 @@ class _TrackedSend:
         await self.send(msg)
 
 
-async def send_problem(send: Send, status: int, slug: str, detail: str, close: bool = False) -> None:
+async def send_problem(send: Send, status: int, slug: str, detail: str, close: bool = False,
+                       headers: tuple[tuple[bytes, bytes], ...] = ()) -> None:
     """Send a whole problem-details response on a raw ASGI ``send``."""
     body = json.dumps(ProblemBody(status, slug, detail).to_json()).encode()
-    headers = [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode())]
+    headers = ((b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode()), *headers)
     if close:
-        headers.append((b"connection", b"close"))
-    await send({"type": "http.response.start", "status": status, "headers": headers})
+        headers = (*headers, (b"connection", b"close"))
+    await send({"type": "http.response.start", "status": status, "headers": list(headers)})
     await send({"type": "http.response.body", "body": body})
 
 

@@ -39,8 +39,8 @@ from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, ask
 from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.requested import (
-    absent,
     combine_parts,
+    one_command_once,
     request_parts,
     said_object,
     written_absent,
@@ -315,9 +315,9 @@ class Observer:
             part_posts = [with_likelihood(view.posterior(dataclasses.replace(instruction, focus=k), top=top),
                                           lk if isinstance(lk, str) else type(lk).__name__, why)
                           for k in named]
-            parts = tuple(pp.command for pp in part_posts)
-            decisions = [self._decide_part(pp, world, target, decide, targets[k], rel)
-                         for pp, k in zip(part_posts, named, strict=True)]
+            decided = [self._decide_part(pp, world, target, decide, targets[k], rel, online.verb)
+                       for pp, k in zip(part_posts, named, strict=True)]
+            decisions, parts = one_command_once([d for d, _ in decided], tuple(c for _, c in decided))
             decision = combine_parts(decisions, left_out, MAX_PARTS)
         else:
             if targets:
@@ -424,10 +424,12 @@ class Observer:
                       time.perf_counter() - t0, timings, True, parts, (), keep)
 
     def _decide_part(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None,
-                     mention: Mention, rel: float | Mapping[str, float]) -> Decision:
-        """The rule's decision on one part of a request with several (an absent object: none)."""
+                     mention: Mention, rel: float | Mapping[str, float], verb: str) -> tuple[Decision, RobotCommand]:
+        """The rule's decision on one part of a request with several, on its own slot: an absent
+        object, or one of which nothing is left to bring, is declined with its reason."""
         made = self.decide(post, world, target, rule, answer_reliability=rel)
-        return absent(made, mention) or made
+        decision, parts = said_object(made, (post.command,), mention, post, world, target, verb)
+        return decision, parts[0] if parts else post.command
 
     def decide(self, post: Posterior, world: World, target: int, rule: str | DecisionRule | None = None,
                nothing: str = "", answer_reliability: float | Mapping[str, float] | None = None,

@@ -158,6 +158,21 @@ def request_parts(targets: Sequence[Mention], most: int) -> tuple[list[int], lis
     return named[:most], [targets[k] for k in named[most:]]
 
 
+def one_command_once(decisions: Sequence[Decision], parts: tuple[RobotCommand, ...]
+                     ) -> tuple[list[Decision], tuple[RobotCommand, ...]]:
+    """The parts' decisions with a command carried out for an earlier part not carried out again
+    (two slots whose posteriors chose the same object: one request, one fetch)."""
+    out: list[Decision] = []
+    done: set[str] = set()
+    for d in decisions:
+        if d.action not in (NONE, "ask") and d.action in done:
+            d = Decision(d.rule, NONE, NONE, 0.0, 0.0, reason=f"{d.action} is carried out for another part already")
+        elif d.action not in (NONE, "ask"):
+            done.add(d.action)
+        out.append(d)
+    return out, parts
+
+
 def combine_parts(decisions: Sequence[Decision], left_out: Sequence[Mention] = (), most: int = 0) -> Decision:
     """One decision for a request of several parts: act on the parts the rule acts on (the
     first part's decision carries them), else the first part's ask or none; the reason names
@@ -167,7 +182,9 @@ def combine_parts(decisions: Sequence[Decision], left_out: Sequence[Mention] = (
     if acting:
         reason = "; ".join(f"{d.command if d.action not in (NONE, 'ask') else d.action}: {d.reason}"
                            for d in decisions if d.reason)
-        decision = dataclasses.replace(acting[0], reason=reason)
+        # what it turns down of the request it says while carrying out the rest
+        said = " ".join(d.declined for d in decisions if d.declined)
+        decision = dataclasses.replace(acting[0], reason=reason, declined=said)
     if left_out:
         names = ", ".join(m.obj_class or m.named for m in left_out)
         decision = dataclasses.replace(decision, reason=f"{decision.reason}; not taken this time (at most "

@@ -120,7 +120,7 @@ def read(text: str) -> Reading:
     """The slots and roles of ``text`` (module doc); at most :data:`MAX_WORDS` words are read."""
     from lark import Token, Tree
 
-    words = tuple(normalize_text(text))
+    words = _uncontract(tuple(normalize_text(text)))
     truncated = len(words) > MAX_WORDS
     words = words[:MAX_WORDS]
     if not words:
@@ -140,6 +140,28 @@ def read(text: str) -> Reading:
         pieces.append(("np" if child.data == "np" else items[0][0], items))
     kinds = tuple(k for _, items in pieces for k, _ in items)
     return _roles(words, pieces, truncated, kinds)
+
+
+# where an object already is ("the onion's already chopped"): after a noun's "'s", a copula
+_HERE_WORDS = frozenset({"already", "here", "there", "done", "finished", "ready", "gone", "out"})
+
+
+def _uncontract(words: tuple[str, ...]) -> tuple[str, ...]:
+    """``words`` with a noun's "'s" read as "is" where a statement of where it is follows ("the
+    onion's already chopped": the onion is context, not a second object asked for)."""
+    if not any(w.endswith("'s") for w in words):
+        return words
+    out: list[str] = []
+    for k, w in enumerate(words):
+        nxt = words[k + 1] if k + 1 < len(words) else ""
+        if w.endswith("'s") and len(w) > 2 and nxt in _HERE_WORDS and w not in _CONTRACTED:
+            out.extend((w[:-2], "is"))
+        else:
+            out.append(w)
+    return tuple(out)
+
+
+_CONTRACTED = frozenset({"it's", "that's", "there's", "here's", "where's", "what's", "let's", "he's", "she's"})
 
 
 def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
@@ -291,8 +313,11 @@ class _RoleReader:
         if role == "target" and _is_here(kinds, j):
             role = "context"
             self.related.add(len(slots))
+        if items[0][0] == "DET" and words[items[0][1]] == "of" and slots and self._slot_piece == j - 1:
+            role = slots[-1].role  # "a bit of brown sugar", "a can of beans": one phrase
         if role == "target" and slots and slots[-1].role == "target" and not self.joined \
-                and all(k == "FILLER" for k in kinds[self._slot_piece + 1:j]) and self._slot_piece >= 0:
+                and all(k == "FILLER" for k in kinds[self._slot_piece + 1:j]) and self._slot_piece >= 0 \
+                and not _is_here(kinds, j):
             self.asyndetic.append(len(slots) - 1)  # "the jam the honey": a repair, unless a list follows
         if self.joined:
             self.listed = True

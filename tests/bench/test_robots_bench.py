@@ -63,3 +63,10 @@ def test_the_streaming_page_is_generated_from_the_service_results(tmp_path):
     assert "| robots-2 | 2 × 2 | 4/4 |" in page and "2.9×" in page and "siftom 9.9" in page
     with pytest.raises(DatasetError, match="siftom bench hostile --out"):
         fill_page("<!-- gen:service hostile --><!-- /gen -->", [], None, ServiceResults())
+
+
+@pytest.mark.slow
+def test_a_burst_sends_one_recording_to_every_stream_at_once_and_each_is_answered():
+    res = run_serve_bench(ServeBenchOptions(streams=3, instructions=1, http_rps=0, idle_requests=1, burst=True))
+    assert res.options["burst"] is True and res.expected == 3 and res.answered == 3
+    assert all(len(st["delays_s"]) == 1 and st["delays_s"][0] is not None for st in res.streams)

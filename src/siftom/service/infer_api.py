@@ -19,7 +19,14 @@ from pydantic import BaseModel, ConfigDict
 from siftom.api import make_instruction
 from siftom.assist.clarify import ClarifyPolicy
 from siftom.scenarios.base import Scenario
-from siftom.service.context import Ctx, ServiceContext, is_json, media_type, problems
+from siftom.service.context import (
+    Ctx,
+    ServiceContext,
+    is_json,
+    media_type,
+    problems,
+    service_context,
+)
 from siftom.service.infer_reply import InferCall, InferReply
 from siftom.service.problems import ProblemError, read_audio_form
 from siftom.service.schemas import (
@@ -121,12 +128,13 @@ async def scenario_detail(ctx: Ctx, scenario_id: str = SID_PARAM) -> JSONRespons
 
 @router.post("/v1/infer", tags=["inference"], openapi_extra={"requestBody": INFER_BODY},
              responses={200: {"model": InferResponse}, **problems(400, 404, 413, 415, 422, 501, 503)})
-async def infer(request: Request, ctx: Ctx) -> JSONResponse:
+async def infer(request: Request) -> JSONResponse:
     """Infer the robot command from the human's actions and what was heard.
 
     Send JSON (InferRequest) with a transcript or an N-best list, or multipart/form-data
     (AudioInferForm) with an ``audio`` file that the server transcribes first.
     """
+    ctx = service_context(request)  # the app's context, without a dependency to solve per request
     media = media_type(request)
     if is_json(media):
         req = InferRequest.model_validate_json(await request.body())

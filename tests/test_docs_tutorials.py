@@ -222,13 +222,15 @@ def test_every_block_runs_or_names_what_runs_it() -> None:
             if how == "output":
                 continue
             if how == "not run":
-                if re.search(r"^\$ .*\n(?!\$ )\S", b.code, re.MULTILINE):
+                if re.search(r"^\$ .*\n(?!\$ )\S", b.code, re.MULTILINE) or "# ->" in b.code:
                     wrong.append(f"{where} does not run, so it quotes no output: say how to produce it")
                 continue
             if b.lang not in RUNS:
                 wrong.append(f"{where}: a {b.lang!r} block cannot run (mark it <!-- not run: REASON -->)")
                 continue
             if how == "dry":
+                if "# ->" in b.code:
+                    wrong.append(f"{where} does not run, so it quotes no output: say how to produce it")
                 if b.lang == "console" and any(e is not None for _c, e in console_expectations(b.code, where, b.line, None)):
                     wrong.append(f"{where} does not run, so it quotes no output: say how to produce it")
                 for line in script_commands(b.code):

@@ -311,8 +311,8 @@ def _slow(page: Path) -> bool:
     return any(b.how in ("slow", "serve slow") for b in blocks_of(page.read_text(encoding="utf-8")))
 
 
-def _runs(page: Path) -> bool:
-    return any(b.how in ("run", "serve", "slow", "serve slow") for b in blocks_of(page.read_text(encoding="utf-8")))
+def _fast(page: Path) -> bool:
+    return any(b.how in ("run", "serve") for b in blocks_of(page.read_text(encoding="utf-8")))
 
 
 def _run_page(page: Path, tmp_path: Path, with_slow: bool) -> None:
@@ -324,23 +324,25 @@ def _run_page(page: Path, tmp_path: Path, with_slow: bool) -> None:
     env.setdefault("COLUMNS", "100")
     blocks = blocks_of(page.read_text(encoding="utf-8"))
     wrong: list[str] = []
-    for k, b in enumerate(blocks):
-        output = blocks[k + 1] if k + 1 < len(blocks) and blocks[k + 1].how == "output" else None
-        if b.how == "run" or (b.how == "slow" and with_slow):
-            _run_block(page, k, b, b.code, work, env, output, wrong)
-        elif b.how == "serve" or (b.how == "serve slow" and with_slow):
-            pytest.importorskip("fastapi", reason="siftom serve needs the serve extra")
-            server = _Server(work, env)
-            try:
+    server: _Server | None = None  # one server for the page's serve blocks, as a reader keeps one running
+    try:
+        for k, b in enumerate(blocks):
+            output = blocks[k + 1] if k + 1 < len(blocks) and blocks[k + 1].how == "output" else None
+            if b.how == "run" or (b.how == "slow" and with_slow):
+                _run_block(page, k, b, b.code, work, env, output, wrong)
+            elif b.how == "serve" or (b.how == "serve slow" and with_slow):
+                pytest.importorskip("fastapi", reason="siftom serve needs the serve extra")
+                server = server or _Server(work, env)
                 code = b.code.replace("localhost:8000", f"localhost:{server.port}")
                 _run_block(page, k, b, code.replace("127.0.0.1:8000", f"127.0.0.1:{server.port}"), work, env,
                            output, wrong)
-            finally:
-                server.stop()
+    finally:
+        if server is not None:
+            server.stop()
     assert not wrong, "what the page states differs from what the code prints (edit the page):\n\n" + "\n\n".join(wrong)
 
 
-FAST = [p for p in PAGES if any(b.how in ("run", "serve") for b in blocks_of(p.read_text(encoding="utf-8")))]
+FAST = [p for p in PAGES if _fast(p)]
 SLOW = [p for p in PAGES if _slow(p)]
 
 

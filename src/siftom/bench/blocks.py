@@ -178,9 +178,14 @@ def _service_block(kind: str, service: ServiceResults) -> str:
         if h is None:
             raise DatasetError("gen:service hostile: no results/service/hostile.json; write it with "
                                "siftom bench hostile --out")
-        lines = ["| input | status | answered in (s) | slowest /healthz meanwhile (ms) | says |", "|---|---|---|---|---|"]
-        lines += [f"| {x.input} | {x.status} | {x.seconds} | {x.healthz_max_ms} | "
-                  f"{x.detail[:70].replace('|', '/')}… |" for x in h.rows]
+        lines = ["| input | must get | got | answered in (s) | slowest /healthz meanwhile (ms) | says |",
+                 "|---|---|---|---|---|---|"]
+        for x in h.rows:
+            must = f"{'4xx' if x.expect == 0 else x.expect} within {x.within_s:g} s"
+            got = str(x.status) if x.ran else "not run"
+            health = "–" if x.healthz_max_ms is None else x.healthz_max_ms
+            lines.append(f"| {x.input} | {must} | {got} | {x.seconds} | {health} | "
+                         f"{x.detail[:70].replace('|', '/')}… |")
         return "\n" + "\n".join(lines) + f"\n\n{_stamp([h.machine])}. Regenerated from `results/service/hostile.json` " \
             "by `make pages`.\n"
     raise DatasetError(f"gen:service {kind}: use robots or hostile")

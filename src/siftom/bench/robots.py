@@ -148,7 +148,8 @@ def _pcts(ms: list[float]) -> dict[str, float]:
 
 @contextlib.contextmanager
 def local_server(token: str | None) -> Any:
-    """``siftom serve`` on a free loopback port; yields its URL once ``/healthz`` answers."""
+    """``siftom serve`` on a free loopback port (with ``token``, if given); yields its URL once
+    ``/healthz`` answers."""
     import socket
 
     import httpx
@@ -157,7 +158,8 @@ def local_server(token: str | None) -> Any:
         s.bind(("127.0.0.1", 0))
         port = int(s.getsockname()[1])
     cmd = [sys.executable, "-m", "siftom.cli", "serve", "--host", "127.0.0.1", "--port", str(port)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    env = {**os.environ, "SIFTOM_TOKEN": token} if token else None
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + 120

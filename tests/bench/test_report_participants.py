@@ -7,7 +7,10 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from siftom.bench.report import participants, write_report
+from siftom.cli import main
 
 
 def _row(sid: str, speaker: str, voice: str, correct: bool, asked: bool, speedup: float) -> dict[str, Any]:
@@ -53,3 +56,12 @@ def test_a_synthetic_set_has_no_participant_section(tmp_path: Path) -> None:
     (out / "results.jsonl").write_text(json.dumps(ROWS[-1]) + "\n")
     assert write_report(out, figures=False)["participants"] == {}
     assert "## By participant" not in (out / "report.md").read_text()
+
+
+def test_siftom_report_prints_the_participant_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in ROWS))
+    assert main(["report", str(out), "--no-figures"]) in (0, None)
+    printed = capsys.readouterr().out
+    assert "by participant:" in printed and "| p1 | siftom | 100.0 %" in printed

@@ -218,7 +218,7 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
     from siftom.backends.config import llm_configured
     from siftom.bench.evaluate import EvalOptions, evaluate
     from siftom.bench.models import default_models, eval_model
-    from siftom.bench.report import main_table, write_report
+    from siftom.bench.report import main_table, participants_table, write_report
 
     configured = llm_configured() or flags_given(llm_backend, llm_base_url, llm_model)
     default = default_models(llm=configured)
@@ -245,6 +245,8 @@ def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int
         click.echo(json.dumps(summary, indent=2))
         return
     click.echo(main_table(summary))
+    if summary.get("participants"):  # collected recordings: each participant's rows too
+        click.echo("\nby participant:\n" + participants_table(summary["participants"]))
     click.echo(f"\n{run.evaluated} stimuli evaluated, {run.resumed} resumed, in {run.seconds:.0f} s; "
                f"wrote {out}/results.jsonl, summary.json, report.md and figures")
 
@@ -262,7 +264,7 @@ def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None,
                no_figures: bool) -> None:
     """Re-render summary.json, report.md and the figures from RESULTS/results.jsonl
     (and RESULTS/human.jsonl, RESULTS/ratings.jsonl when present)."""
-    from siftom.bench.report import main_table, write_report
+    from siftom.bench.report import main_table, participants_table, write_report
     from siftom.bench.runlock import RunLock
 
     with RunLock(results) if os.path.isdir(results) else nullcontext():
@@ -276,6 +278,8 @@ def report_cmd(results: str, seed: int | None, as_json: bool, human: str | None,
             import_ratings(r, results)
         summary = write_report(results, seed=seed, figures=not no_figures)
     click.echo(json.dumps(summary, indent=2) if as_json else main_table(summary))
+    if summary.get("participants") and not as_json:
+        click.echo("\nby participant:\n" + participants_table(summary["participants"]))
 
 
 @click.command("sweep")

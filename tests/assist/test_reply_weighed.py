@@ -299,3 +299,18 @@ def test_a_session_hears_not_the_cheese_and_room_talk(client):
     assert got["reply_to"] == first["decision"]["question"]
     assert "fetch(cheese)" not in set(got["decision"]["options"]) | set(got.get("carry_out") or []), got["decision"]
     assert got["command"] != "fetch(cheese)"
+
+
+@pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+def test_a_session_leaves_its_question_waiting_after_recorded_room_talk(client):
+    from siftom.speech.audio import wav_bytes
+    from siftom.speech.tts import synthesize
+
+    sid = client.post("/v1/sessions/from-scenario", json={"scenario": CEREAL}).json()["id"]
+    nbest = [{"text": t, "score": v} for t, v in CEREAL_OR_FLOUR]
+    first = client.post(f"/v1/sessions/{sid}/instruction", json={"nbest": nbest}).json()
+    assert first["decision"]["question"] == "Which one: the cereal or the flour?", first["decision"]
+    clip = wav_bytes(synthesize("the weather is really nice today", "flite-slt"))
+    got = client.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("talk.wav", clip, "audio/wav")}).json()
+    assert got["action"] == "none" and got["command"] is None and got["reply_to"] is None, got.get("decision")
+    assert got["awaiting_reply"] is True and got["awaiting"] == first["awaiting"]

@@ -168,7 +168,8 @@ class Pending:
 # ----- reading a reply (module doc) ---------------------------------------------------------
 # P(cue | an answer to the question), P(cue | room talk): each ratio's two probabilities
 # the words name a cell of the question or say an answer word ("yes", "neither", "the other
-# one", an option, "not the cheese", another object): most answers do; room talk only by chance
+# one", an option, "not the cheese"): most answers do; room talk only by chance (asking for
+# another object is a request, which the utterance model weighs, not an answer word)
 P_CELL = (0.90, 0.10)
 # each word outside the answer's vocabulary (the question's answer words, object names, the
 # grammar's function words): the count is geometric with these ratios, so answers average 0.1

@@ -6,6 +6,10 @@
 * ASR: the observer's recogniser per scenario vocabulary, each behind a lock (a decoder holds
   one utterance at a time, and holds the GIL while it decodes); with ``audio_workers`` > 0,
   audio requests run in worker processes instead, several at once (service/audio_pool.py).
+  Streams share a pool of recognisers per vocabulary, one per CPU of the admission budget (the
+  observer's and those of helper observers built from the same settings: the same engine, the
+  same transcript), so the utterances of a burst decode side by side
+  (:meth:`Runtime.stream_recogniser`).
 * Maps: matplotlib's pyplot is not thread-safe; rendering is serialised and PNGs are cached
   in the service's own folder under names it makes (a hash), never a client's string.
 """
@@ -16,11 +20,13 @@ import contextlib
 import dataclasses
 import hashlib
 import io
+import queue
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -43,6 +49,10 @@ from siftom.service.admission import Admission
 from siftom.service.infer_reply import InferCall, InferReply
 from siftom.settings import Settings
 from siftom.settings.llm import LLMStatus
+
+if TYPE_CHECKING:
+    from siftom.inference.stream import Recognised
+    from siftom.world.model import World
 
 __all__ = ["SERVICE_LIKELIHOODS", "InferCall", "InferReply", "Runtime", "ServiceSettings", "available_likelihoods", "default_data_dir",
            "scenario_vocabulary", "service_llm_config"]
@@ -83,6 +93,9 @@ class Runtime:
 
             self.audio_pool = AudioPool(settings, self.observer.settings, worker_runtime)
         self._warm: threading.Thread | None = None
+        self._hearers: list[Observer] = []  # helper observers: more recognisers per vocabulary
+        self._pools: dict[int, tuple[Any, queue.SimpleQueue[Any]]] = {}  # per vocabulary: free recognisers
+        self._pools_lock = threading.Lock()
 
     def warm_up(self) -> None:
         """Start loading the default audio model in the background (once), so that the first
@@ -219,6 +232,40 @@ class Runtime:
             raise AudioError(f"cannot read the upload as audio ({type(exc).__name__}); send WAV, FLAC or OGG, "
                              "e.g. convert with: sox IN -r 16000 -c 1 -b 16 OUT.wav") from None
         return to_mono16k(x, rate)
+
+    def stream_recogniser(self, world: World, verb: str, nbest: int) -> Callable[[np.ndarray], Recognised]:
+        """A stream's recognition of its utterances: the first free recogniser of the scene's pool
+        (one per CPU of the admission budget), counted in the admission queue meanwhile."""
+        from siftom.inference.stream import recogniser
+
+        pool = self._pool(world, verb)
+        admission = self.admission
+
+        def recognise(samples: np.ndarray) -> Recognised:
+            with admission.recognising():
+                rec = pool.get()
+                try:
+                    return recogniser(rec.engine, nbest, rec.lock)(samples)
+                finally:
+                    pool.put(rec)
+
+        return recognise
+
+    def _pool(self, world: World, verb: str) -> queue.SimpleQueue[Any]:
+        first = self.observer.recogniser(world, verb)  # one per vocabulary (the observer's memo)
+        with self._pools_lock:
+            got = self._pools.get(id(first))
+            if got is not None and got[0] is first:
+                return got[1]
+            obs = self.observer
+            while len(self._hearers) < self.admission.budget - 1:
+                self._hearers.append(Observer(obs.settings, offered=obs.offered, max_audio_seconds=obs.max_audio_seconds,
+                                              decode_in_worker=obs.decode_in_worker))
+            pool: queue.SimpleQueue[Any] = queue.SimpleQueue()
+            for rec in (first, *(h.recogniser(world, verb) for h in self._hearers)):
+                pool.put(rec)
+            self._pools[id(first)] = (first, pool)
+            return pool
 
     def transcribe(self, sid: str, audio: np.ndarray, nbest: int) -> Any:
         """N-best transcript with a decoder biased to the scenario's phrasings (thread-safe)."""

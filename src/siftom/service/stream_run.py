@@ -184,21 +184,15 @@ class StreamRun:
     async def run(self) -> None:
         """Send ``ready``, then read messages until the client ends, leaves or breaks a limit
         (:class:`StreamClosed` says how to close)."""
-        from siftom.inference.stream import StreamListener, recogniser
+        from siftom.inference.stream import StreamListener
         from siftom.speech.segment import SegmentOptions
 
         scene = self.sess.scene
-        # the observer's recogniser for this world (pocketsphinx biased to its command phrasings)
-        rec_eng = await self.ctx.run_cpu(self.ctx.runtime.observer.recogniser, scene.world, scene.verb)
+        # the observer's recognisers for this world (pocketsphinx biased to its command phrasings),
+        # one per CPU of the budget, in the queue the budget sees (Runtime.stream_recogniser)
+        self._recognise = await self.ctx.run_cpu(self.ctx.runtime.stream_recogniser, scene.world, scene.verb,
+                                                 self.params.nbest)
         options = SegmentOptions(max_utterance_s=self.limits.max_utterance_s)
-        hear = recogniser(rec_eng.engine, self.params.nbest, rec_eng.lock)
-        admission = self.ctx.runtime.admission
-
-        def recognise(samples: Any) -> Recognised:  # in the queue the CPU budget sees (admission.py)
-            with admission.recognising():
-                return hear(samples)
-
-        self._recognise = recognise
         # answered while the end of speech is confirmed, written once it is (if no action came meanwhile)
         self._listener = StreamListener(self._recognise, self._answer, options,
                                         version=lambda: self.mgr.revision(self.sid), commit=self._commit)

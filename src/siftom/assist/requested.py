@@ -60,10 +60,11 @@ def written_absent(u: Understanding, world: World, lexicon: object = None) -> Un
         r = float(np.min(nm.costs(m.words.split())))
         return float(np.exp(-SLOT_SHARPNESS * max(0.0, r - SLOT_SLACK))) < WRITTEN_SLIP
 
-    unnamed = [m for m in u.mentions if m.role == "target" and m.obj_class is None and not m.named and m.words]
-    if not all(far(m) for m in unnamed):
-        # one of the words may be a slip for an object ("any chance you could grab the chapel"):
-        # the others are the words around it, and the posterior weighs the slip
+    targets = [m for m in u.mentions if m.role == "target"]
+    unnamed = [m for m in targets if m.obj_class is None and not m.named and m.words]
+    if any(m.obj_class is not None or m.named for m in targets) or not all(far(m) for m in unnamed):
+        # another target names an object ("bring the plate my way"), or one of the words may be a
+        # slip for one ("any chance you could grab the chapel"): the rest are the words around it
         return u
     return dataclasses.replace(u, mentions=tuple(dataclasses.replace(m, named=m.words) if m in unnamed else m
                                                  for m in u.mentions))

@@ -191,6 +191,14 @@ def _repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str)
     return kind == "MEAN"
 
 
+# negating verbs: they refuse the object that follows them ("forget the milk", "leave the cereal")
+_VERB_NEG = frozenset({"forget", "leave"})
+# hesitations between two objects asked for that leave them adjacent ("the carrot, uh, the onion")
+_HESITATIONS = frozenset({"um", "uh", "er", "erm", "hmm"})
+# a phrase after an object that starts with one of these says whose or where, not which ("the
+# plate my way"): no repair
+_POSSESSIVE = frozenset({"my", "your", "our"})
+
 _Pieces = list[tuple[str, list[tuple[str, int]]]]
 
 
@@ -237,6 +245,11 @@ class _RoleReader:
             self.pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
         if _repairs(words, self.kinds_of_words, at, kind) and self._last_target() is not None:
             kind = "MEAN"  # "the jam, never mind, the honey", "make that the honey", "three mugs, no, three cups"
+        elif kind == "FILLER" and words[at] == "but" and at > 0 and words[at - 1] in ("anything", "everything"):
+            kind = "NEG"  # "anything but the sugar": the sugar is refused
+        elif kind == "NEG" and words[at] in _VERB_NEG and (at + 1 >= len(words)
+                                                           or self.kinds_of_words[at + 1] not in ("DET", "WORD", "NUM")):
+            return  # "before I forget, ...", "leave it": no object follows to refuse
         if kind == "NEG" and _rejects(words, self.kinds_of_words, at):
             # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
             # oats"): what came before is taken back, the next slot is asked for
@@ -316,7 +329,9 @@ class _RoleReader:
         if items[0][0] == "DET" and words[items[0][1]] == "of" and slots and self._slot_piece == j - 1:
             role = slots[-1].role  # "a bit of brown sugar", "a can of beans": one phrase
         if role == "target" and slots and slots[-1].role == "target" and not self.joined \
-                and all(k == "FILLER" for k in kinds[self._slot_piece + 1:j]) and self._slot_piece >= 0 \
+                and all(k == "FILLER" and words[self.pieces[i][1][0][1]] in _HESITATIONS
+                        for i, k in enumerate(kinds[self._slot_piece + 1:j], self._slot_piece + 1)) \
+                and self._slot_piece >= 0 and words[items[0][1]] not in _POSSESSIVE \
                 and not _is_here(kinds, j):
             self.asyndetic.append(len(slots) - 1)  # "the jam the honey": a repair, unless a list follows
         if self.joined:

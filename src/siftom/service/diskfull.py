@@ -6,6 +6,8 @@ from __future__ import annotations
 import errno
 import sqlite3
 
+from siftom.errors import SiftomError
+
 SQLITE_FULL = 13
 SQLITE_CORRUPT, SQLITE_NOTADB = 11, 26
 RESERVE_BYTES = 1024 * 1024  # kept free for deletes on a full disk: a delete writes a few pages to the write-ahead log
@@ -13,6 +15,10 @@ RESERVE_BYTES = 1024 * 1024  # kept free for deletes on a full disk: a delete wr
 
 class DiskFullError(Exception):
     """A write was refused because the disk (or the user's quota) is full."""
+
+
+class StoreDamagedError(SiftomError):
+    """The session store's file is damaged or is not a session store (at start)."""
 
 
 def is_disk_full(exc: BaseException) -> bool:
@@ -41,3 +47,12 @@ def damaged_fix(path: object) -> str:
     return (f"move {path} (and its -wal and -shm files) aside, e.g. to {path}.damaged, and start the server "
             "again with an empty store (the sessions in it are lost; `sqlite3 FILE .recover` may save some), or "
             "start it with another --data-dir")
+
+
+def first_line(exc: BaseException) -> str:
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0][:300]
+
+
+def schema_clash(exc: BaseException) -> bool:
+    """A file that is a database but not a session store (a table of that name with other columns)."""
+    return isinstance(exc, sqlite3.OperationalError) and ("no such column" in str(exc) or "has no column" in str(exc))

@@ -3,12 +3,16 @@
 
 from __future__ import annotations
 
+import logging
 import threading
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from pydantic import ValidationError
+
 from siftom.errors import ObservationError, SiftomError
 from siftom.inference.model import OnlineInference
+from siftom.service.problems import ProblemError
 from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 from siftom.world.io import (
     GoalSpec,
@@ -19,6 +23,8 @@ from siftom.world.io import (
     scene_from_json,
     unmentioned_class_warnings,
 )
+
+log = logging.getLogger("siftom.service")
 
 
 @dataclass(eq=False)
@@ -109,3 +115,18 @@ def _ignored_goal_space(spec: SessionSpec) -> str | None:
         return (f"goal_space {space!r} was ignored: the world lists its own goals, which come first; leave "
                 "them out of the world (or send goals) to choose the library")
     return None
+
+
+def unreadable(sid: str, exc: Exception) -> ProblemError:
+    """A stored session that cannot be rebuilt: the server's 500 naming the session and the way out."""
+    if isinstance(exc, ValidationError):
+        errs = exc.errors()
+        where = ".".join(str(p) for p in errs[0]["loc"]) if errs else ""
+        reason = f"{where + ': ' if where else ''}{errs[0]['msg'] if errs else 'invalid'}"
+    else:
+        reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    log.error("stored session %s cannot be rebuilt: %s", sid, reason[:300])
+    return ProblemError(500, "stored-session-unreadable",
+                        f"session {sid!r} is stored but cannot be rebuilt ({reason[:200]}): its stored record was "
+                        "changed outside siftom or no longer fits this server's settings; nothing in this request "
+                        f"is wrong. DELETE /v1/sessions/{sid} and create the session again")

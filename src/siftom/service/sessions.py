@@ -16,7 +16,6 @@ camera frames) calls :meth:`SessionManager.append_actions` with checked
 
 from __future__ import annotations
 
-import logging
 import secrets
 import threading
 import time
@@ -35,7 +34,7 @@ from siftom.options import SessionLimits
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
 from siftom.service.session_records import Prepared, SessionOptions, SessionReply, SessionSpec
-from siftom.service.session_scene import Session, build_scene, check_speakable
+from siftom.service.session_scene import Session, build_scene, check_speakable, unreadable
 from siftom.service.session_views import (
     BELIEF_TOP,
     actions_reply,
@@ -46,8 +45,6 @@ from siftom.service.session_views import (
 from siftom.service.store import DiskFullError, KeyTaken, SessionStore
 from siftom.world.io import LoadedScene
 from siftom.world.model import HUMAN, Action, apply, check
-
-log = logging.getLogger("siftom.service")
 
 # "auto": spoken instructions (audio) get the acoustic likelihood when the whisper extra is installed,
 # transcripts the phonetic one (siftom.likelihood.registry.resolve_likelihood)
@@ -192,8 +189,7 @@ class SessionManager:
 
     def _rebuild(self, sid: str) -> Session:
         try:
-            row = self.store.load(sid)
-            if row is None:
+            if (row := self.store.load(sid)) is None:
                 raise ProblemError(404, "unknown-session",
                                    f"no session {sid!r} (it was deleted, or expired after {self.limits.idle_s:g} s "
                                    "idle); create one with POST /v1/sessions")
@@ -202,7 +198,7 @@ class SessionManager:
             for text in row.actions:
                 online.observe(scene.world.parse_action(text, online.state))
         except (ValidationError, ValueError, SiftomError) as exc:  # the stored rows, not the request
-            raise _unreadable(sid, exc) from None
+            raise unreadable(sid, exc) from None
         return Session(row.id, row.created, row.spec, row.options, scene, online, list(row.actions),
                        list(row.options.warnings), row.last)
 
@@ -402,18 +398,3 @@ class SessionManager:
 
 __all__ = ["BELIEF_TOP", "SESSION_LIKELIHOODS", "Prepared", "Session", "SessionLimits", "SessionManager",
            "SessionOptions", "SessionReply", "SessionSpec", "build_scene", "check_speakable"]
-
-
-def _unreadable(sid: str, exc: Exception) -> ProblemError:
-    """A stored session that cannot be rebuilt: the server's 500 naming the session and the way out."""
-    if isinstance(exc, ValidationError):
-        errs = exc.errors()
-        where = ".".join(str(p) for p in errs[0]["loc"]) if errs else ""
-        reason = f"{where + ': ' if where else ''}{errs[0]['msg'] if errs else 'invalid'}"
-    else:
-        reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-    log.error("stored session %s cannot be rebuilt: %s", sid, reason[:300])
-    return ProblemError(500, "stored-session-unreadable",
-                        f"session {sid!r} is stored but cannot be rebuilt ({reason[:200]}): its stored record was "
-                        "changed outside siftom or no longer fits this server's settings; nothing in this request "
-                        f"is wrong. DELETE /v1/sessions/{sid} and create the session again")

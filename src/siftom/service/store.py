@@ -37,11 +37,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from siftom.errors import SiftomError
 from siftom.private import FILE_MODE, create_private, private_dir
-from siftom.service.diskfull import RESERVE_BYTES, damaged_fix, is_damaged
+from siftom.service.diskfull import RESERVE_BYTES, damaged_fix, first_line, is_damaged, schema_clash
 from siftom.service.diskfull import SQLITE_FULL as SQLITE_FULL
 from siftom.service.diskfull import DiskFullError as DiskFullError
+from siftom.service.diskfull import StoreDamagedError as StoreDamagedError
 from siftom.service.diskfull import is_disk_full as is_disk_full
 from siftom.service.session_records import SessionOptions, SessionReply, SessionSpec
 
@@ -104,19 +104,6 @@ class Creation:
     reply: SessionReply | None
 
 
-class StoreDamagedError(SiftomError):
-    """The session store's file is damaged or is not a session store (at start)."""
-
-
-def _first_line(exc: BaseException) -> str:
-    return (str(exc).strip().splitlines() or [type(exc).__name__])[0][:300]
-
-
-def _schema_clash(exc: BaseException) -> bool:
-    """A file that is a database but not a session store (a table of that name with other columns)."""
-    return isinstance(exc, sqlite3.OperationalError) and ("no such column" in str(exc) or "has no column" in str(exc))
-
-
 class KeyTaken(Exception):
     """Another request with this Idempotency-Key created a session first."""
 
@@ -153,9 +140,9 @@ class SessionStore:
                 raise sqlite3.DatabaseError(f"database disk image is malformed: {'; '.join(problems)[:300]}")
         except sqlite3.DatabaseError as exc:
             self._db.close()
-            if not is_damaged(exc) and not _schema_clash(exc):
+            if not is_damaged(exc) and not schema_clash(exc):
                 raise
-            raise StoreDamagedError(f"the session store {path} cannot be read ({_first_line(exc)}); "
+            raise StoreDamagedError(f"the session store {path} cannot be read ({first_line(exc)}); "
                                     f"{damaged_fix(path)}") from None
         self.reserve = path.with_name(path.name + ".reserve")
         self._refill_reserve(need=RESERVE_BYTES + RESERVE_BYTES // 4)

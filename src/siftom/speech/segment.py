@@ -22,6 +22,7 @@ clip, so a recording and a stream are cut the same way. An utterance starts only
 
 from __future__ import annotations
 
+import dataclasses
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -273,10 +274,19 @@ class UtteranceSegmenter:
         return events
 
     def finish(self) -> list[Event]:
-        """The stream ended: an utterance in progress ends here (``end_of_stream``)."""
+        """The stream ended: an utterance in progress ends as it would had the microphone kept
+        recording silence (its end and post-roll seen, so a file that stops just after the
+        speech is heard as a stream of it is, and as a door that gets it whole: one cut for
+        every door); one the silence does not end ends here (``end_of_stream``)."""
         if not self._in_speech:
             return []
-        return [self._end("end_of_stream", keep=len(self._frames))]
+        events = self.feed(np.zeros((self._min_silence + self._post + 1) * FRAME - len(self._pending),
+                                    dtype=np.float32))
+        if self._in_speech:
+            events.append(self._end("end_of_stream", keep=len(self._frames)))
+        # it ended because the stream did
+        return [dataclasses.replace(e, utterance=dataclasses.replace(e.utterance, reason="end_of_stream"))
+                if isinstance(e, SpeechEnded) else e for e in events]
 
     # ----- one frame ---------------------------------------------------------------------------
     def _frame(self, frame: np.ndarray) -> list[Event]:

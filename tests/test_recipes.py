@@ -282,3 +282,16 @@ def test_dereverb_front_end_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: 
     assert set(out["groups"]["all"]) == {"as-is", "wpe"} and out["groups"]["all"]["wpe"]["n"] == 2
     assert "dry" in out["groups"] and out["front_end"]["seconds_per_clip"] > 0
     assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 2
+
+
+def test_service_profile_recipe_breaks_a_request_down_by_part(tmp_path: Path) -> None:
+    pytest.importorskip("fastapi", reason="needs the serve extra")
+    res = _run(str(RECIPES / "service_profile.py"), "--rounds", "1", "--requests", "12", "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    ms = out["ms_per_request"]["this"]
+    assert set(ms) == {"wall", "total", "middleware", "validation", "observer", "decision", "reply", "serialisation"}
+    assert all(v > 0 for v in ms.values()), ms
+    parts = sum(v for k, v in ms.items() if k not in ("total", "wall"))
+    assert 0.8 * ms["total"] <= parts <= 1.05 * ms["total"], ms  # the parts account for the request
+    assert out["machine"]["cpus"] >= 1 and out["machine"]["processor"]

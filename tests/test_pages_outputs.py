@@ -77,3 +77,8 @@ def test_console_outputs_follow_their_command() -> None:
     assert got[0][1] is not None and got[0][1].text == "line one\n..." and got[0][1].where == "page.md:5"
     assert got[1][1] is None
     assert got[2][1] is not None and got[2][1].text == "three"
+
+
+def test_a_bare_expression_is_refused() -> None:
+    _said, bad = python_expectations("res = 1\nres, res + 1   # (1, 2)\n", "page.md", 3, None)
+    assert len(bad) == 1 and bad[0].startswith("page.md:4: a bare expression prints nothing")

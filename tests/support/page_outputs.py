@@ -22,6 +22,7 @@ code prints something else, the page is fixed by editing its text to what the fa
 
 from __future__ import annotations
 
+import ast
 import re
 from dataclasses import dataclass
 
@@ -122,9 +123,13 @@ COMMENT = re.compile(r"(?<![\"'])#\s?(->)?\s?(.*)$")
 
 def python_expectations(code: str, where: str, first_line: int, tol: float | None) -> tuple[dict[int, Expected], list[str]]:
     """The ``# ->`` outputs of a python block by block line (1-based), and the misuse found: a
-    remark after a ``print`` that states no output."""
+    remark after a ``print`` that states no output, a bare expression (it prints nothing)."""
     out: dict[int, Expected] = {}
     bad: list[str] = []
+    for node in ast.walk(ast.parse(code)):  # REPL style: `res.speedup, res.questions` shows nothing in a script
+        if isinstance(node, ast.Expr) and not isinstance(node.value, (ast.Call, ast.Constant, ast.Await)):
+            bad.append(f"{where}:{first_line + node.lineno - 1}: a bare expression prints nothing when the block "
+                       f"runs: print it and state `# -> WHAT IT PRINTS`: {ast.unparse(node)[:80]}")
     for k, line in enumerate(code.split("\n"), start=1):
         at = f"{where}:{first_line + k - 1}"
         if "# ->" in line:

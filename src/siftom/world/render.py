@@ -70,7 +70,10 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
     fig.tight_layout()
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110, format="png")  # exactly ``path``: no suffix added to a name without one
+    from siftom import __version__
+
+    # exactly ``path``: no suffix added to a name without one; the version that drew it in its metadata
+    fig.savefig(out, dpi=110, format="png", metadata={"Software": f"siftom {__version__}"})
     plt.close(fig)
     return out
 

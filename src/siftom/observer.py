@@ -381,16 +381,25 @@ class Observer:
         utterance like any other)."""
         mode, lk, why, top, decide, heard, t0, rel = (call.mode, call.likelihood, call.why, call.top, call.decide,
                                                       call.heard, call.t0, call.reliability)
-        from siftom.assist.reply import after_reply, read_reply, refused_after, reply_texts
+        from siftom.assist.reply import (
+            after_reply,
+            heard_after,
+            read_reply,
+            refused_after,
+            reply_texts,
+        )
 
         name = lk if isinstance(lk, str) else type(lk).__name__
-        words = with_likelihood(self._view(online, mode, lk).posterior(instruction, top=top), name, why)
+        view = self._view(online, mode, lk)
+        words = with_likelihood(view.posterior(instruction, top=top), name, why)
         u = words.understanding
         # the objects of the world the reply asks for ("no, the sugar"); words naming nothing here
         # are not weighed as a reply (an utterance like any other says what they name)
         targets = tuple(m for m in u.targets if m.obj_class) \
             if u is not None and u.request and not words.evidence.get("no_instruction") else ()
-        texts, weights = reply_texts(instruction, words)
+        # the reply's own words: Whisper given the question before them (assist/reply.py, heard_after)
+        after = heard_after(pending.question, instruction, view.model.likelihood)
+        texts, weights = reply_texts(instruction, words, after)
         world, target = online.world, online.goals[0].target
         reading = read_reply(pending.question, texts, weights, world.classes, _lexicon_of(world))
         if not reading.answers and not targets:

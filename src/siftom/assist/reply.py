@@ -346,6 +346,7 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
     named: set[str] = set()
     negated: set[str] = set()
     other_named = False
+    unnamed = False
     negated_nothing = False  # "not that one"
     named_positions: set[int] = set()
     for slot in reading.slots:
@@ -357,6 +358,10 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
         if slot.role == "target":
             named |= got
             other_named = other_named or (elsewhere and not got)
+            # a noun phrase naming nothing here: an object all the same, misheard ("not the
+            # tomato, the indian" for "the onion"): something else than the options
+            unnamed = unnamed or (not names and any(words[i] not in reply_words for i in slot.nouns)
+                                  and not reading.bare(slot))
         elif slot.role == "negated":
             negated |= got
             negated_nothing = negated_nothing or not names
@@ -382,6 +387,8 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
         intent, why = only, "asks for something else"
         if neither:  # "none of those, I need the milk"
             refused |= set(options)
+    elif negated and unnamed:
+        intent, why = only, "refuses " + ", ".join(sorted(negated)) + " and asks for something else"
     elif negated:
         out = {question.cell(o) for o in negated}
         intent = {k: (REFUSAL_OTHER if k == other and question.kind != "confirm" else 1.0)
@@ -411,12 +418,45 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
     return lo, cells, frozenset(str(o) for o in refused), frozenset(str(o) for o in named - negated), why
 
 
-def reply_texts(instruction: Instruction, post: Posterior | None = None) -> tuple[list[str], list[float]]:
-    """The hypotheses of what was heard and their weights, as the utterance model reads them:
-    Whisper's words when it heard some (``post``'s understanding says whose words it read),
-    else the N-best with its weights (``siftom.inference.understood``)."""
-    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
+def heard_after(question: Question, instruction: Instruction, likelihood: Any) -> tuple[str, float] | None:
+    """Whisper's words for a recorded reply, transcribed with the robot's question as the text
+    before it (Whisper's prompt), and their mean token log-probability; None without a recording
+    or a Whisper model in ``likelihood`` (the acoustic likelihood's own).
 
+    After a question the conversation is the question: with the scene's object names as the
+    prompt, Whisper tiny.en wrote "not the cheese" as "nut the cheese", "no" as "nove" and
+    "neither" as nothing; with the question it writes them as said, and room talk as said."""
+    factor = getattr(likelihood, "_whisper", None)
+    if factor is None or not instruction.has_audio:
+        return None
+    from siftom.speech.audio import as_audio
+
+    x = instruction.samples if instruction.samples is not None else (
+        as_audio(instruction.audio) if instruction.audio is not None else None)
+    if x is None or not len(x):
+        return None
+    from siftom.errors import SiftomError
+
+    try:
+        scorer = factor.scorer
+        words, logprob = scorer.hear_encoded(scorer.encode(x), prompt=question.text)
+    except SiftomError:  # a clip Whisper cannot take: the reply is read from the other words heard
+        return None
+    return " ".join(words), float(logprob)
+
+
+def reply_texts(instruction: Instruction, post: Posterior | None = None,
+                after: tuple[str, float] | None = None) -> tuple[list[str], list[float]]:
+    """The hypotheses of what was heard and their weights, as the utterance model reads them:
+    Whisper's words for the reply (``after``, :func:`heard_after`) when it heard some and its
+    decoding did not fail (Whisper's own ``logprob_threshold``); else Whisper's words of the
+    request path (``post``'s understanding says whose words it read); else the N-best with its
+    weights (``siftom.inference.understood``)."""
+    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
+    from siftom.speech.whisper_score import LOGPROB_THRESHOLD
+
+    if after is not None and after[0].strip() and after[1] >= LOGPROB_THRESHOLD:
+        return [after[0]], [1.0]
     u = post.understanding if post is not None else None
     if post is not None and post.evidence.get("instruction_check") == "whisper" and u is not None and u.heard:
         return [u.heard], [1.0]
@@ -450,8 +490,10 @@ def read_reply(question: Question, texts: Sequence[str], weights: Sequence[float
 def refused_after(pending: Pending, reading: ReplyReading, asked: Sequence[str] = ()) -> tuple[str, ...]:
     """The commands refused in the exchange after this reply: those refused before and those it
     refuses, less any of a class the reply asks for by name (``asked``: the classes of its
-    request's targets; the options it names count too)."""
-    again = set(asked) | {p.obj_class for o in reading.named if (p := _parse_command(o)) is not None}
+    request's targets, unless this reply refuses them -- its request may have been read from
+    other words; the options it names count too)."""
+    now = {p.obj_class for o in reading.refused if (p := _parse_command(o)) is not None}
+    again = (set(asked) - now) | {p.obj_class for o in reading.named if (p := _parse_command(o)) is not None}
     return tuple(str(c) for c in dict.fromkeys((*pending.refused, *reading.refused))
                  if (p := _parse_command(c)) is None or p.obj_class not in again)
 

@@ -79,7 +79,7 @@ def test_utterances_waiting_for_the_recogniser_count_as_the_queue():
     assert adm.stats()["recognising"] == 0 and adm.stats()["degraded"] == 1
 
 
-def test_at_most_the_budget_of_answers_compute_at_once_and_a_share_never_stalls():
+def test_at_most_the_budget_of_degraded_answers_compute_at_once_and_a_share_never_stalls():
     adm = Admission(budget=2, share_wait_s=5.0)
     running, most = 0, 0
     lock = threading.Lock()
@@ -88,7 +88,8 @@ def test_at_most_the_budget_of_answers_compute_at_once_and_a_share_never_stalls(
     def answer() -> None:
         nonlocal running, most
         go.wait()
-        with adm.slot():
+        with adm.slot() as s:
+            assert s.likelihood == DEGRADED_LIKELIHOOD
             with lock:
                 running += 1
                 most = max(most, running)
@@ -96,14 +97,17 @@ def test_at_most_the_budget_of_answers_compute_at_once_and_a_share_never_stalls(
             with lock:
                 running -= 1
 
-    threads = [threading.Thread(target=answer) for _ in range(6)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert most == 2 and adm.stats()["answered"] == 6
+    with adm.slot() as a, adm.slot() as b:  # two answers on the full path: they take no share
+        assert (a.likelihood, b.likelihood) == (None, None)
+        threads = [threading.Thread(target=answer) for _ in range(6)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    assert most == 2 and adm.stats()["answered"] == 8
     short = Admission(budget=1, share_wait_s=0.05)
-    with short.slot():
+    with short.slot(), short.slot() as held:  # the full path, then a degraded answer holding the share
+        assert held.likelihood == DEGRADED_LIKELIHOOD
         t0 = time.monotonic()
         with short.slot() as late:  # the share is held: after share_wait_s it runs anyway
             assert time.monotonic() - t0 < 1.0 and late.likelihood == DEGRADED_LIKELIHOOD

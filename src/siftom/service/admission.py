@@ -23,9 +23,10 @@ recogniser or is being recognised (:meth:`Admission.recognising`) counts as much
 answered, and an utterance that joined the queue behind ``budget`` others counts them when its
 turn comes, so in a burst (several robots hearing speech end at the same instant) every
 utterance past the first ``budget`` is scored by the cheaper likelihood: the last of the burst
-too, whose recognition waited behind all the others. And at most ``budget`` answers compute at once; the next
-waits for a share (up to ``SHARE_WAIT_S``, then it runs anyway), so the HTTP requests' threads
-keep a share of the interpreter while many streams are answered.
+too, whose recognition waited behind all the others. And at most ``budget`` of these cheaper
+answers compute at once; the next waits for a share (up to ``SHARE_WAIT_S``, then it runs
+anyway), so the HTTP requests' threads keep a share of the interpreter while many streams are
+answered.
 
 The budget is the number of CPUs the process may use (``os.sched_getaffinity``), at least 1;
 ``Admission(budget=0)`` never degrades.
@@ -150,7 +151,9 @@ class Admission:
     def slot(self, asked: str | None = None) -> Iterator[Slot]:
         """Hold a place while one utterance is answered; the slot says how to score it. ``asked``:
         the likelihood the request or session chose; only the default (None or ``auto``) gives way.
-        The answer then waits (at most ``share_wait_s``) for one of the ``budget`` CPU shares."""
+        A degraded answer then waits (at most ``share_wait_s``) for one of the ``budget`` CPU
+        shares; one scored by the full path does not wait (it runs when few others do, and its
+        audio model computes outside the interpreter's lock)."""
         ahead, self._ahead.n = getattr(self._ahead, "n", 0), 0
         with self._cond:
             busy, queued = self.in_flight, self.hearing
@@ -158,10 +161,11 @@ class Admission:
             self.in_flight += 1
             self.answered += 1
             self.degraded += crowded
-            deadline = time.monotonic() + self.share_wait_s
-            while 0 < self.budget <= self.computing and (left := deadline - time.monotonic()) > 0:
-                self._cond.wait(left)
-            self.computing += 1
+            if crowded:  # the cheaper answers compute at most budget at once (module doc)
+                deadline = time.monotonic() + self.share_wait_s
+                while self.budget <= self.computing and (left := deadline - time.monotonic()) > 0:
+                    self._cond.wait(left)
+                self.computing += 1
         try:
             if crowded and ahead > busy + queued:
                 yield Slot(DEGRADED_LIKELIHOOD, f"answered with the {DEGRADED_LIKELIHOOD} likelihood: {ahead} "
@@ -175,8 +179,9 @@ class Admission:
         finally:
             with self._cond:
                 self.in_flight -= 1
-                self.computing -= 1
-                self._cond.notify()
+                if crowded:
+                    self.computing -= 1
+                    self._cond.notify()
 
     def stats(self) -> dict[str, int]:
         """For /healthz: the budget, utterances in flight (answered now) and being recognised,

@@ -114,6 +114,9 @@ class Runtime:
         when it is a temporary one made for this runtime. Safe to call twice."""
         if self.audio_pool is not None:
             self.audio_pool.close()
+        with self._pools_lock:  # the helper recognisers' worker processes stop once collected
+            self._pools.clear()
+            self._hearers.clear()
         while self.closers:
             with contextlib.suppress(Exception):  # closing what is already closed
                 self.closers.pop()()

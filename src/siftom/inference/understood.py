@@ -36,7 +36,8 @@ def hearings_of(instruction: Instruction, also_heard: Sequence[str] = (),
         sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
         w = np.exp(sc - sc.max())
         w /= w.sum()
-        keep = [k for k in range(len(hyps)) if w[k] >= MIN_WEIGHT]
+        floor = min(MIN_WEIGHT, float(w.max()))  # many equal hypotheses each weigh under the floor: keep the best
+        keep = [k for k in range(len(hyps)) if w[k] >= floor]
         out.append(Hearing(tuple(hyps[k].text for k in keep), tuple(float(x) for x in w[keep] / w[keep].sum()),
                            SCENE if instruction.scene_words else OPEN,
                            SCENE_RELIABILITY if instruction.scene_words else 1.0, "the recogniser"))

@@ -152,6 +152,7 @@ def _fake_serve(monkeypatch) -> dict:
     """Run ``siftom serve`` up to uvicorn without building the models or listening."""
     import uvicorn
 
+    import siftom.cli.service as service_cli
     import siftom.service.app as app_module
 
     got: dict = {}
@@ -162,6 +163,7 @@ def _fake_serve(monkeypatch) -> dict:
 
     monkeypatch.setattr(app_module, "create_app", fake_create_app)
     monkeypatch.setattr(uvicorn, "run", lambda app, **kw: got.update(kw))
+    monkeypatch.setattr(service_cli, "check_port", lambda host, port: None)  # a LAN address this machine may lack
     monkeypatch.delenv("SIFTOM_TOKEN", raising=False)
     monkeypatch.delenv("SIFTOM_SERVICE_TOKEN", raising=False)
     return got

@@ -186,9 +186,9 @@ def _service_block(kind: str, service: ServiceResults) -> str:
             health = "–" if x.healthz_max_ms is None else x.healthz_max_ms
             lines.append(f"| {x.input} | {must} | {got} | {x.seconds} | {health} | "
                          f"{x.detail[:70].replace('|', '/')}… |")
-        load = f" (load average {h.machine.load_avg[0]} before the run)" if h.machine.load_avg else ""
+        busy = f" (load average {h.machine.load_avg[0]} before the run)" if h.machine.load_avg else ""
         verdict = "every case met its floor" if h.meets else "not every case met its floor"
-        return "\n" + "\n".join(lines) + f"\n\n{_stamp([h.machine])}{load}: {verdict}. Regenerated from " \
+        return "\n" + "\n".join(lines) + f"\n\n{_stamp([h.machine])}{busy}: {verdict}. Regenerated from " \
             "`results/service/hostile.json` by `make pages`.\n"
     raise DatasetError(f"gen:service {kind}: use robots or hostile")
 

@@ -70,10 +70,8 @@ def render_scenario(scenario: Any, path: str | Path, posterior: Any = None, comm
     fig.tight_layout()
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    from siftom import __version__
-
     # exactly ``path``: no suffix added to a name without one; the version that drew it in its metadata
-    fig.savefig(out, dpi=110, format="png", metadata={"Software": f"siftom {__version__}"})
+    fig.savefig(out, dpi=110, format="png", metadata={"Software": f"siftom {_version()}"})
     plt.close(fig)
     return out
 
@@ -152,3 +150,13 @@ def _draw_posterior(bx: Any, posterior: Any, doing: str | None) -> None:
     said = f"robot: {doing}" if doing is not None else f"most probable: {posterior.command}"
     bx.set_title(f"{heard}\n{textwrap.shorten(said, 60)}", fontsize=9)
     bx.tick_params(axis="y", labelsize=8)
+
+
+def _version() -> str:
+    """The installed siftom's version (read from its metadata: the world layer imports no door)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("siftom")
+    except PackageNotFoundError:
+        return "unknown"

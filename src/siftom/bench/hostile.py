@@ -21,6 +21,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import secrets
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -340,9 +341,7 @@ def run_hostile_bench(url: str | None = None, token: str | None = None) -> Hosti
     where = Machine.here()
     with contextlib.ExitStack() as stack:
         if url is None:
-            from siftom.service.access import new_token
-
-            token = token or new_token()
+            token = token or secrets.token_urlsafe(32)  # what ``siftom serve`` makes: 43 URL-safe characters
             url = stack.enter_context(local_server(token))
         rows = asyncio.run(_all(url, token))
     rows += _ros_rows()

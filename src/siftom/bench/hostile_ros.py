@@ -1,18 +1,26 @@
 """The ROS bridge under hostile messages, for ``siftom bench hostile``: a local relay that speaks
 the part of the rosbridge v2 protocol a topic bridge uses (subscribe, advertise, publish
-forwarded to subscribers), a :class:`~siftom.service.ros.RosBridge` on it, and a robot that
-publishes oversized text and action lines, then one instruction that must still be answered."""
+forwarded to subscribers), ``siftom ros`` on it as its own process (the bench does not import the
+service: it reads the bridge's JSON lines), and a robot that publishes oversized text and action
+lines, then one instruction that must still be answered."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
 import json
+import os
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
+
+from siftom.errors import SiftomError
 
 SPOKEN = "can you get me the tomato"
 
@@ -86,21 +94,62 @@ class RosOutcome:
     said: str
 
 
+def _bridge_process(relay_url: str, scenario: str, log: Any) -> subprocess.Popen[str]:
+    """``siftom ros`` on ``relay_url`` as its own process (the bench does not import the service):
+    its JSON lines on stdout, its notes on ``log``."""
+    src = str(Path(__file__).resolve().parents[2])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+    return subprocess.Popen([sys.executable, "-m", "siftom.cli", "ros", "--rosbridge", relay_url,
+                             "--scenario", scenario, "--text-topic", "/speech/text", "--audio-topic", ""],
+                            env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log, text=True,
+                            encoding="utf-8", errors="replace")
+
+
+def _read_lines(proc: subprocess.Popen[str], lines: list[tuple[float, dict[str, Any]]]) -> None:
+    """Each JSON line the bridge prints, with the time it came."""
+    assert proc.stdout is not None
+    for raw in proc.stdout:
+        with contextlib.suppress(ValueError):
+            obj = json.loads(raw)
+            if isinstance(obj, dict):
+                lines.append((time.monotonic(), obj))
+
+
+def _wait_subscribed(relay: Relay, proc: subprocess.Popen[str], log: Any, timeout: float) -> None:
+    """Until the bridge subscribes to its text and action topics on the relay."""
+    deadline = time.monotonic() + timeout
+    while not all(relay.subscribers.get(t) for t in ("/speech/text", "/siftom/actions")):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            log.flush()
+            log.seek(0)
+            tail = log.read()[-400:].strip()
+            raise SiftomError(f"siftom ros did not subscribe on {relay.url} within {timeout:g} s"
+                              + (f": {tail}" if tail else ""))
+        time.sleep(0.05)
+
+
+def _stop(proc: subprocess.Popen[str]) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
 @contextlib.contextmanager
-def bridged(scenario: str = "kitchen-cereal-v0") -> Iterator[Any]:
-    """A relay, a bridge on it (text topic ``/speech/text``) and a robot connection; yields
-    ``send(topic, data) -> RosOutcome``."""
+def bridged(scenario: str = "kitchen-cereal-v0", startup_timeout: float = 90.0) -> Iterator[Any]:
+    """A relay, ``siftom ros`` on it as its own process (text topic ``/speech/text``) and a robot
+    connection; yields ``send(topic, data) -> RosOutcome``."""
     from websockets.sync.client import connect
 
-    from siftom.listener import HomeListener, load_home
-    from siftom.service.ros import RosBridge, RosTopics
-
     lines: list[tuple[float, dict[str, Any]]] = []
-    with Relay() as relay:
-        bridge = RosBridge(HomeListener(load_home(scenario=scenario)), relay.url, RosTopics(text="/speech/text"),
-                           out=lambda e: lines.append((time.monotonic(), e.to_json())))
+    with Relay() as relay, tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as log:
+        proc = _bridge_process(relay.url, scenario, log)
         decisions: list[tuple[float, str]] = []
         try:
+            threading.Thread(target=_read_lines, args=(proc, lines), daemon=True).start()
+            _wait_subscribed(relay, proc, log, startup_timeout)
             with connect(relay.url, max_size=2**24) as robot:
                 robot.send(json.dumps({"op": "subscribe", "topic": "/siftom/decision"}))
 
@@ -130,5 +179,4 @@ def bridged(scenario: str = "kitchen-cereal-v0") -> Iterator[Any]:
 
                 yield send
         finally:
-            bridge.stop()
-            bridge._terminate()
+            _stop(proc)

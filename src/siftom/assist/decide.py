@@ -43,6 +43,9 @@ from siftom.assist.decision import Situation as Situation
 from siftom.assist.decision import joint_of as _joint
 from siftom.assist.questions import KINDS, Question
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
+from siftom.assist.unsure import ASK_WHEN_UNSURE as ASK_WHEN_UNSURE
+from siftom.assist.unsure import OPEN_QUESTION as OPEN_QUESTION
+from siftom.assist.unsure import ask_if_unsure as ask_if_unsure
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.model import Posterior
 from siftom.registry import Registry
@@ -256,28 +259,6 @@ def left_to_bring(command: str, where: Situation) -> tuple[int, int]:
     return len(items) - len(there), len(there)
 
 
-OPEN_QUESTION = "Sorry, what do you need?"
-# P(somebody asked) above which words read as no request still get "Sorry, what do you need?"
-# from the teammate. Silence after a request costs the person the wait and a second request
-# (about two exchanges on top of the one a question takes, C_ignored = 3 C_q); the question costs
-# a person who asked one exchange (C_q) and one who did not the same interruption (C_q). Asking
-# is worth it when P C_ignored > P C_q + (1 - P) C_q, i.e. P > 1/3 (docs/decisions.md, "Silence
-# has a price", gives both sides measured).
-ASK_WHEN_UNSURE = 1.0 / 3.0
-
-
-def ask_if_unsure(silent: Decision, p_request: float, answered: Sequence[Question] = ()) -> Decision:
-    """``silent`` (no action: the words read as no request), or "Sorry, what do you need?" when
-    they may still have asked (``p_request`` >= :data:`ASK_WHEN_UNSURE`) and it was not asked
-    already in this exchange."""
-    q = Question("open", OPEN_QUESTION, (), ((),), ((),))
-    if p_request < ASK_WHEN_UNSURE or any(a.text == q.text for a in answered):
-        return silent
-    return Decision(silent.rule, "ask", NONE, 0.0, float("nan"), q.text, (), 0.0, DEFAULT_ASK_COST,
-                    f"{silent.reason}; but P(somebody asked) = {p_request:.2f} >= {ASK_WHEN_UNSURE:.2f}: silence "
-                    "would cost a person who asked more than a question costs one who did not", (), q.kind, q)
-
-
 def _sentence(text: str) -> str:
     """``text`` as a sentence the robot says: "Sorry, the honey is already with you."."""
     return f"Sorry, {text.rstrip('.')}."
@@ -353,28 +334,15 @@ class TeammateRule(AskOrActRule):
         return self._choose(post, where, top, p)
 
     def _unheard(self, post: Posterior, where: Situation, command: str, p: float) -> Decision | None:
-        """A question instead of carrying out ``command`` when the words do not back it (the
-        plan alone chose it; assist/wordsback.py): a choice with the object the words favour,
-        else "Shall I get the butter?"; None when they back it or the question was answered."""
-        from siftom.assist.questions import choose_question, confirm_question
-        from siftom.assist.wordsback import MIN_LIFT, words_say
+        """A question instead of ``command`` when the words do not back it (assist/wordsback.py)."""
+        from siftom.assist.wordsback import unheard_question
 
-        said = words_say(post, command)
-        if said is None or said.back:
+        if (q := unheard_question(post, where, command, _lexicon(where.world), decline_reason)) is None:
             return None
-        lex = _lexicon(where.world)
-        fav = said.favoured
-        if fav is not None and fav.obj_class != RobotCommand.parse(command).obj_class and not decline_reason(
-                str(fav), where):
-            q = choose_question(command, str(fav), lex)
-        else:
-            q = confirm_question(command, lex)
-        if where.settled(q):
-            return None
-        return Decision(self.name, "ask", command, p, float("nan"), q.text, q.options, 0.0,
-                        question_cost(q, self.ask_cost, self.cost_model),
-                        f"asked for {command} (P = {p:.2f}) by what the person is doing, but the words do not "
-                        f"say it (they lift it {said.lift:.1f} nats < {MIN_LIFT:g}): asking", (), q.kind, q)
+        question, why = q
+        return Decision(self.name, "ask", command, p, float("nan"), question.text, question.options, 0.0,
+                        question_cost(question, self.ask_cost, self.cost_model),
+                        f"asked for {command} (P = {p:.2f}) {why}", (), question.kind, question)
 
     def _choose(self, post: Posterior, where: Situation, top: str, p: float) -> Decision:
         """Ask which of the two likeliest objects it was (or what was needed, with one)."""

@@ -21,12 +21,17 @@ both rhymes, and flat words lift nothing.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from siftom.inference.model import Posterior
 from siftom.world.commands import RobotCommand
+
+if TYPE_CHECKING:
+    from siftom.assist.questions import Question
 
 # nats: the words must make the chosen object at least e^MIN_LIFT times likelier than the
 # typical class. On the understanding benchmark's dev set at 10 dB (80 items, 22 carried out),
@@ -68,3 +73,26 @@ def words_say(post: Posterior, command: RobotCommand | str) -> WordsSay | None:
     lift = float(lw[best[cmd.obj_class]] - np.median(per))
     top = max(best.values(), key=lambda k: lw[k])
     return WordsSay(lift, j.commands[top])
+
+
+def unheard_question(post: Posterior, where: Any, command: str, lexicon: Any,
+                     decline_reason: Callable[[str, Any], str]) -> tuple[Question, str] | None:
+    """The question to ask instead of carrying out ``command`` when the words do not back it: a
+    choice with the object the words favour ("Which one: the butter or the garlic?"), else
+    "Shall I get the butter?"; with the reason's tail. None when they back it, or the question
+    was answered in this exchange (``where.settled``)."""
+    from siftom.assist.questions import choose_question, confirm_question
+
+    said = words_say(post, command)
+    if said is None or said.back:
+        return None
+    fav = said.favoured
+    if fav is not None and fav.obj_class != RobotCommand.parse(command).obj_class and not decline_reason(
+            str(fav), where):
+        q = choose_question(command, str(fav), lexicon)
+    else:
+        q = confirm_question(command, lexicon)
+    if where.settled(q):
+        return None
+    return q, (f"by what the person is doing, but the words do not say it (they lift it {said.lift:.1f} "
+               f"nats < {MIN_LIFT:g}): asking")

@@ -25,6 +25,14 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
+from siftom.language.edits import (
+    _HESITATIONS,
+    _POSSESSIVE,
+    _VERB_NEG,
+    _rejects,
+    _repairs,
+    _uncontract,
+)
 from siftom.likelihood.numbers import NUMBER_WORDS
 from siftom.likelihood.phonemes import normalize_text
 
@@ -41,10 +49,6 @@ _COUNT_LIKE = {"to": 2, "for": 4}
 _ASKS_BEFORE = frozenset({"VERB", "ME", "WANT", "MEAN", "PLEASE"})  # where a count, not a relation, comes next
 # "I'd", "we'd": a wish ("I'd love the tea"), not a statement, whatever verb follows
 _WISHING = frozenset({"i'd", "we'd"})
-# determiners that cannot follow a quantifier "no": after "no" they start a new phrase, so the
-# "no" answers or rejects what came before ("no, the flour"), it does not negate the slot
-_DEFINITE = frozenset({"the", "a", "an", "that", "this", "these", "those", "my", "your", "our"})
-_NEW_PHRASE = frozenset({"SELF", "YOU", "ME", "VERB", "MODAL", "PLEASE", "NEG", "MEAN", "FILLER", "WH"})
 
 
 @dataclass(frozen=True)
@@ -141,63 +145,6 @@ def read(text: str) -> Reading:
     kinds = tuple(k for _, items in pieces for k, _ in items)
     return _roles(words, pieces, truncated, kinds)
 
-
-# where an object already is ("the onion's already chopped"): after a noun's "'s", a copula
-_HERE_WORDS = frozenset({"already", "here", "there", "done", "finished", "ready", "gone", "out"})
-
-
-def _uncontract(words: tuple[str, ...]) -> tuple[str, ...]:
-    """``words`` with a noun's "'s" read as "is" where a statement of where it is follows ("the
-    onion's already chopped": the onion is context, not a second object asked for)."""
-    if not any(w.endswith("'s") for w in words):
-        return words
-    out: list[str] = []
-    for k, w in enumerate(words):
-        nxt = words[k + 1] if k + 1 < len(words) else ""
-        if w.endswith("'s") and len(w) > 2 and nxt in _HERE_WORDS and w not in _CONTRACTED:
-            out.extend((w[:-2], "is"))
-        else:
-            out.append(w)
-    return tuple(out)
-
-
-_CONTRACTED = frozenset({"it's", "that's", "there's", "here's", "where's", "what's", "let's", "he's", "she's"})
-
-
-def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
-    """Whether the "no" at ``at`` answers or rejects what came before rather than negating the
-    phrase after it. A quantifier "no" takes a noun or a count ("no sugar", "no more milk", "no
-    need to bring the cup", "no two plates"); a "no" that starts a new phrase -- a definite
-    determiner, a subject, a request, another negation, a filler, or nothing -- does not ("no,
-    the flour", "no I need the oats", "no, bring the honey", "no, not the sugar", "no thanks")."""
-    if words[at] != "no":
-        return False
-    if at + 1 >= len(words):
-        return True
-    nxt = kinds[at + 1]
-    return nxt in _NEW_PHRASE or (nxt == "DET" and words[at + 1] in _DEFINITE)
-
-
-def _repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str) -> bool:
-    """Whether the marker at ``at`` is an edit term after a target: a correction word, "never
-    mind", or a "no" before a count ("three mugs, no, three cups": the count starts the repair,
-    it does not quantify a negation)."""
-    w = words[at]
-    nxt = words[at + 1] if at + 1 < len(words) else ""
-    if w == "never" and nxt == "mind":
-        return True
-    if w == "no" and at + 1 < len(kinds) and kinds[at + 1] == "NUM":
-        return True
-    return kind == "MEAN"
-
-
-# negating verbs: they refuse the object that follows them ("forget the milk", "leave the cereal")
-_VERB_NEG = frozenset({"forget", "leave"})
-# hesitations between two objects asked for that leave them adjacent ("the carrot, uh, the onion")
-_HESITATIONS = frozenset({"um", "uh", "er", "erm", "hmm"})
-# a phrase after an object that starts with one of these says whose or where, not which ("the
-# plate my way"): no repair
-_POSSESSIVE = frozenset({"my", "your", "our"})
 
 _Pieces = list[tuple[str, list[tuple[str, int]]]]
 
@@ -326,9 +273,10 @@ class _RoleReader:
         if role == "target" and _is_here(kinds, j):
             role = "context"
             self.related.add(len(slots))
-        if items[0][0] == "DET" and words[items[0][1]] == "of" and slots and self._slot_piece == j - 1:
+        continued = items[0][0] == "DET" and words[items[0][1]] == "of" and bool(slots) and self._slot_piece == j - 1
+        if continued:
             role = slots[-1].role  # "a bit of brown sugar", "a can of beans": one phrase
-        if role == "target" and slots and slots[-1].role == "target" and not self.joined \
+        if role == "target" and slots and slots[-1].role == "target" and not self.joined and not continued and nouns \
                 and all(k == "FILLER" and words[self.pieces[i][1][0][1]] in _HESITATIONS
                         for i, k in enumerate(kinds[self._slot_piece + 1:j], self._slot_piece + 1)) \
                 and self._slot_piece >= 0 and words[items[0][1]] not in _POSSESSIVE \

@@ -279,7 +279,7 @@ class _RoleReader:
         if role == "target" and slots and slots[-1].role == "target" and not self.joined and not continued and nouns \
                 and all(k == "FILLER" and words[self.pieces[i][1][0][1]] in _HESITATIONS
                         for i, k in enumerate(kinds[self._slot_piece + 1:j], self._slot_piece + 1)) \
-                and self._slot_piece >= 0 and words[items[0][1]] not in _POSSESSIVE \
+                and self._slot_piece >= 0 and _parallel(words, self.kinds_of_words, slots[-1].start, items[0][1]) \
                 and not _is_here(kinds, j):
             self.asyndetic.append(len(slots) - 1)  # "the jam the honey": a repair, unless a list follows
         if self.joined:
@@ -308,6 +308,15 @@ class _RoleReader:
             slots[k] = Slot("target", slots[k].start, slots[k].end, slots[k].nouns, slots[k].count)
         slots = _anaphora(slots)
         return Reading(self.words, tuple(slots), frame, self.question, truncated, self.kinds_of_words)
+
+
+def _parallel(words: tuple[str, ...], kinds: tuple[str, ...], a: int, b: int) -> bool:
+    """Whether the phrases starting at ``a`` and ``b`` start alike, as a repair restates ("the jam
+    the honey", "three mugs three cups"); "the cereal some honey" (a recogniser's words run on)
+    and "the plate my way" (whose or where) are no repair."""
+    if kinds[a] != kinds[b] or words[b] in _POSSESSIVE:
+        return False
+    return words[a] == words[b] if kinds[a] == "DET" else kinds[a] in ("NUM", "WORD")
 
 
 def _anaphora(slots: list[Slot]) -> list[Slot]:

@@ -54,7 +54,7 @@ from siftom.concurrency import make_once as _once
 from siftom.errors import ObservationError, SiftomError
 from siftom.likelihood.alignscores import FAILED as FAILED
 from siftom.likelihood.alignscores import RawScores as RawScores
-from siftom.likelihood.alignscores import combine_scores
+from siftom.likelihood.alignscores import align_phrasings, combine_scores
 from siftom.likelihood.alignscores import temperature_for_snr as temperature_for_snr
 from siftom.likelihood.base import Scores, as_scores
 from siftom.likelihood.keyphrases import (  # re-exported: the acoustic likelihood's words
@@ -366,18 +366,7 @@ class AcousticLikelihood:
                items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]
                ) -> tuple[list[list[tuple[float, float]]], int]:
         """(score, log prior) items per command, and how many distinct texts were aligned."""
-        per_cmd: list[list[tuple[str, float]]] = []
-        texts: dict[str, None] = {}
-        for c in commands:
-            items = [(str(t), float(lp)) for t, lp in items_of(c)]
-            if not items:
-                raise SiftomError(f"no phrasings for command {c}; the phrasing function returned none")
-            per_cmd.append(items)
-            texts.update(dict.fromkeys(t for t, _ in items))
-        unique = list(texts)
-        result = self.aligner.score(x, unique)
-        score = dict(zip(unique, result.scores, strict=True))
-        return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd], len(unique)
+        return align_phrasings(self.aligner, x, commands, items_of)
 
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
                        heard: str | None = None) -> Scores:

@@ -3,13 +3,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from siftom.errors import SiftomError
 from siftom.logspace import logsumexp
+
+if TYPE_CHECKING:
+    from siftom.speech.acoustic import ForcedAligner
+    from siftom.world.commands import RobotCommand
 
 FAILED = -1e5  # alignment scores at or below this are failures (siftom.speech.acoustic.FAILED_SCORE)
 
@@ -78,3 +83,22 @@ def whisper_term(raw: RawScores, n: int, whisper_temperature: float) -> np.ndarr
     w = np.full(n, float(np.min(raw.whisper)))
     w[raw.keep] = raw.whisper
     return w / whisper_temperature
+
+
+def align_phrasings(aligner: ForcedAligner, x: np.ndarray, commands: Sequence[RobotCommand],
+                    items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]
+                    ) -> tuple[list[list[tuple[float, float]]], int]:
+    """(score, log prior) items per command, each of ``items_of(command)``'s phrasings aligned to
+    ``x`` by ``aligner`` once per distinct text, and how many distinct texts were aligned."""
+    per_cmd: list[list[tuple[str, float]]] = []
+    texts: dict[str, None] = {}
+    for c in commands:
+        items = [(str(t), float(lp)) for t, lp in items_of(c)]
+        if not items:
+            raise SiftomError(f"no phrasings for command {c}; the phrasing function returned none")
+        per_cmd.append(items)
+        texts.update(dict.fromkeys(t for t, _ in items))
+    unique = list(texts)
+    result = aligner.score(x, unique)
+    score = dict(zip(unique, result.scores, strict=True))
+    return [[(float(score[t]), lp) for t, lp in items] for items in per_cmd], len(unique)

@@ -72,10 +72,11 @@ def test_the_same_seed_gives_the_same_trial(observer, sid):
 
 def test_a_wrong_command_costs_the_remedy(observer):
     sc = get_scenario("kitchen-cereal-v0")
-    # an object word near no object of the world: a request that names another object is
-    # never acted on as salt (the observer's named-instead check), so the words name none
+    # the object word lost: a request that names another object is never acted on as salt (the
+    # observer's named-instead check), and a typed word for an object not here is declined, so
+    # the words name none
     def vague(command, rng):  # noqa: ANN001, ANN202
-        return "could you get me the thingamajig"
+        return "could you get me the uh"
 
     alone = simulate_trial(sc, observer, seed=0, rule=never, max_requests=1, speak=vague, ask_for="unstarted")
     wrong = simulate_trial(sc, observer, seed=0, rule=always("fetch(salt)"), max_requests=1, speak=vague,

@@ -41,6 +41,7 @@ from siftom.assist.decision import Decision as Decision
 from siftom.assist.decision import DecisionRule as DecisionRule
 from siftom.assist.decision import Situation as Situation
 from siftom.assist.decision import joint_of as _joint
+from siftom.assist.phrasing_en import already_with_you, be
 from siftom.assist.questions import KINDS, Question
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
 from siftom.assist.unsure import ASK_WHEN_UNSURE as ASK_WHEN_UNSURE
@@ -272,8 +273,8 @@ def decline_reason(command: str, where: Situation) -> str:
         return ""
     name = _lexicon(where.world).entry(cmd.obj_class).singular
     if there:
-        return f"the {name} is already with you"
-    return f"there is no {name} left to bring"
+        return already_with_you(name)  # "the scissors are already with you"
+    return f"there {be(name)} no {name} left to bring"
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from siftom.answer import NOTHING_ASKED, Answer
-from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, ask_if_unsure, get_rule
+from siftom.assist.decide import Decision, DecisionRule, MapRule, Situation, get_rule
 from siftom.assist.questions import Question, reliability_for
 from siftom.assist.reply import REPLY_RELIABILITY, Pending
 from siftom.assist.requested import (
@@ -46,6 +46,7 @@ from siftom.assist.requested import (
     written_absent,
 )
 from siftom.assist.teamvalue import NONE
+from siftom.assist.unsure import ask_if_unsure
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.listen import NO_INSTRUCTION, NO_SPEECH, with_likelihood
 from siftom.inference.model import OnlineInference, Posterior, SIFToM

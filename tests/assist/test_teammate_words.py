@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 import siftom
-from siftom.assist.decide import ASK_WHEN_UNSURE, OPEN_QUESTION, Decision, ask_if_unsure
+from siftom.assist.decision import Decision
+from siftom.assist.unsure import ASK_WHEN_UNSURE, OPEN_QUESTION, ask_if_unsure
 from siftom.assist.wordsback import MIN_LIFT, words_say
 from siftom.observation import Instruction
 

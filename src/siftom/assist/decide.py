@@ -44,9 +44,7 @@ from siftom.assist.decision import joint_of as _joint
 from siftom.assist.phrasing_en import already_with_you, be
 from siftom.assist.questions import KINDS, Question
 from siftom.assist.teamvalue import NONE, TeamValues, team_values
-from siftom.assist.unsure import ASK_WHEN_UNSURE as ASK_WHEN_UNSURE
 from siftom.assist.unsure import OPEN_QUESTION as OPEN_QUESTION
-from siftom.assist.unsure import ask_if_unsure as ask_if_unsure
 from siftom.errors import ObservationError, unknown_name
 from siftom.inference.model import Posterior
 from siftom.registry import Registry

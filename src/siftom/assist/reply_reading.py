@@ -6,7 +6,7 @@ hypothesis of what was heard read by the utterance model, an answer or room talk
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -153,22 +153,9 @@ def _answer_vocabulary(question: Question) -> frozenset[str]:
     return frozenset(words | _reply_words(question))
 
 
-def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[float, ...] | None, frozenset[str],
-                                                                  frozenset[str], str]:
-    """One hypothesis read against ``question`` by the utterance model (:mod:`siftom.assist.reply`):
-    (log-odds it answers the question, P(the words | the person meant cell j) per cell up to a
-    constant or None when they name no cell, the options it refuses, the options it names, why).
-    ``nm``: the world's :class:`~siftom.language.understand.Namer`."""
-    from siftom.language.parse import read
-
-    reading = read(text)
-    words, kinds = reading.words, reading.kinds
-    options = question.options
-    other = question.n_cells - 1
-    parsed = {o: _parse_command(o) for o in options}
-    option_classes = {p.obj_class for p in parsed.values() if p is not None}
-    reply_words = _reply_words(question)
-    vocabulary = _answer_vocabulary(question)
+def _slot_matcher(words: Sequence[str], nm: Any, parsed: dict[str, RobotCommand | None], option_classes: set[str],
+                  reply_words: frozenset[str]) -> Callable[[Any], tuple[set[str], bool, bool]]:
+    """What a slot of the reply's reading names among the options (:func:`read_answer`)."""
     # "the other one", "the second one": "one" stands for an option, it is no count
     pronoun_one = any(w in OTHER_KEYS or w in ORDINAL_KEYS for w in words)
 
@@ -194,6 +181,54 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
             if cands and len(cands) < len(counts):
                 return cands, False, True
         return set(), False, False
+
+    return matching
+
+
+def _intent(question: Question, named: set[str], negated: set[str], other_named: bool, unnamed: bool,
+            said: tuple[bool, bool, bool, bool]) -> tuple[dict[int, float] | None, str, bool]:
+    """(P(the words | the person meant cell j) per cell named, None for none; why; whether the
+    words refuse every option) from what the reply names and refuses and whether it says yes,
+    no, neither or "the other one" (``said``)."""
+    yes, no, neither, other_one = said
+    other = question.n_cells - 1
+    only = {other: 1.0}
+    if named - negated:
+        return {question.cell(o): 1.0 for o in named - negated}, "names " + ", ".join(sorted(named - negated)), False
+    if other_named:  # "none of those, I need the milk" refuses every option
+        return only, "asks for something else", neither
+    if negated and unnamed:
+        return only, "refuses " + ", ".join(sorted(negated)) + " and asks for something else", False
+    if negated:
+        out = {question.cell(o) for o in negated}
+        intent = {k: (REFUSAL_OTHER if k == other and question.kind != "confirm" else 1.0)
+                  for k in range(question.n_cells) if k not in out}
+        return intent, "refuses " + ", ".join(sorted(negated)), False
+    if neither or (no and question.kind != "confirm"):
+        return only, "refuses every option", True
+    if yes and question.kind == "confirm":
+        return {0: 1.0}, "says yes", False
+    if (no or other_one) and question.kind == "confirm":
+        return only, "says no", True
+    return None, "names no option", False
+
+
+def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[float, ...] | None, frozenset[str],
+                                                                  frozenset[str], str]:
+    """One hypothesis read against ``question`` by the utterance model (:mod:`siftom.assist.reply`):
+    (log-odds it answers the question, P(the words | the person meant cell j) per cell up to a
+    constant or None when they name no cell, the options it refuses, the options it names, why).
+    ``nm``: the world's :class:`~siftom.language.understand.Namer`."""
+    from siftom.language.parse import read
+
+    reading = read(text)
+    words, kinds = reading.words, reading.kinds
+    options = question.options
+    parsed = {o: _parse_command(o) for o in options}
+    option_classes = {p.obj_class for p in parsed.values() if p is not None}
+    reply_words = _reply_words(question)
+    vocabulary = _answer_vocabulary(question)
+    matching = _slot_matcher(words, nm, parsed, option_classes, reply_words)
 
     named: set[str] = set()
     negated: set[str] = set()
@@ -228,34 +263,9 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
     no = any(w in NO_KEYS for w in said) or negated_nothing
     neither = any(w in question.keys[-1] for w in said)
     other_one = any(w in OTHER_KEYS for w in said)
-    refused: set[str] = set(negated)
-    only = {other: 1.0}
-    intent: dict[int, float] | None
-    why: str
-    if named - negated:
-        intent = {question.cell(o): 1.0 for o in named - negated}
-        why = "names " + ", ".join(sorted(named - negated))
-    elif other_named:
-        intent, why = only, "asks for something else"
-        if neither:  # "none of those, I need the milk"
-            refused |= set(options)
-    elif negated and unnamed:
-        intent, why = only, "refuses " + ", ".join(sorted(negated)) + " and asks for something else"
-    elif negated:
-        out = {question.cell(o) for o in negated}
-        intent = {k: (REFUSAL_OTHER if k == other and question.kind != "confirm" else 1.0)
-                  for k in range(question.n_cells) if k not in out}
-        why = "refuses " + ", ".join(sorted(negated))
-    elif neither or (no and question.kind != "confirm"):
-        intent, why = only, "refuses every option"
-        refused |= set(options)
-    elif yes and question.kind == "confirm":
-        intent, why = {0: 1.0}, "says yes"
-    elif (no or other_one) and question.kind == "confirm":
-        intent, why = only, "says no"
-        refused |= set(options)
-    else:
-        intent, why = None, "names no option"
+    intent, why, refuses_all = _intent(question, named, negated, other_named, unnamed,
+                                       (yes, no, neither, other_one))
+    refused: set[str] = set(negated) | (set(options) if refuses_all else set())
     cells = None if intent is None else tuple(intent.get(k, 0.0) for k in range(question.n_cells))
     refused -= named - negated
     # asking for another object is a request (the utterance model weighs that), not an answer word

@@ -21,7 +21,7 @@ prior over commands; ``action-only`` drops the instruction term.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -281,11 +281,7 @@ class OnlineInference:
                 scored = as_scores(lk.log_prob(instruction, cmds, context=ctx))  # type: ignore[call-arg]
             else:
                 scored = as_scores(lk.log_prob(instruction, cmds))
-            whisper = scored.evidence.get("whisper_heard")
-            wlp = scored.evidence.get("whisper_logprob")
-            understood, checked = understanding_of(instruction, cmds, (whisper,) if isinstance(whisper, str) else (),
-                                                   getattr(lk, "lexicon", None),
-                                                   float(wlp) if isinstance(wlp, (int, float)) else None)
+            understood, checked = _understood(instruction, cmds, scored.evidence, getattr(lk, "lexicon", None))
             evidence = {**scored.evidence, **checked}
             instr = scored.log_probs * cfg.speech_weight
             if instr.shape != (len(cmds),) or not np.all(np.isfinite(instr)):
@@ -333,8 +329,7 @@ class OnlineInference:
             n_actions=self.n_actions, seconds=time.perf_counter() - t0,
             transcript=instruction.text if instruction is not None else "",
             joint=JointPosterior(() if cfg.mode == "speech-only" else self.goals, tuple(cmds), goal_all, cmd_all, lj,
-                                 self.state, instr if instruction is not None and self.model.likelihood is not None
-                                 else None),
+                                 self.state, None if understood is None else instr),
             evidence=evidence, understanding=understood,
         )
         if self.model.on_step is not None:
@@ -397,3 +392,12 @@ class OnlineInference:
 @lru_cache(maxsize=65536)
 def _command(verb: str, cls: str, n: int) -> RobotCommand:
     return RobotCommand(verb, cls, n)
+
+
+def _understood(instruction: Instruction, cmds: Sequence[RobotCommand], evidence: Mapping[str, Any],
+                lexicon: Any) -> tuple[Any, Any]:
+    """The utterance model's reading of what was heard, with Whisper's words (and their
+    confidence) where the likelihood heard them (inference/understood.py)."""
+    whisper, wlp = evidence.get("whisper_heard"), evidence.get("whisper_logprob")
+    return understanding_of(instruction, cmds, (whisper,) if isinstance(whisper, str) else (), lexicon,
+                            float(wlp) if isinstance(wlp, (int, float)) else None)

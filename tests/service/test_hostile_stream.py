@@ -107,8 +107,8 @@ def test_a_trickle_of_bytes_does_not_hold_a_stream_slot(tmp_path):
         with ws_client.connect(ws_url(url, new_session(url))) as ws:  # a slot is free again
             real = Collector(ws)
             real.ready()
-            for _ in range(60):  # 3 s of real-time silence keeps it open
-                ws.send(b"\x00" * 1600)
+            for _ in range(60):  # 3 s of silence streamed at least as fast as real time keeps it open
+                ws.send(b"\x00" * 3200)  # 0.1 s of audio each 0.05 s: ahead of wall time on a loaded machine
                 time.sleep(0.05)
             assert real.close is None
             ws.send(json.dumps({"type": "end"}))

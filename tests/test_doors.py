@@ -42,6 +42,8 @@ TEXTS = [
     ("room talk", "need an", False),
     ("correction", "no, not the sugar, the honey", None),
     ("several things", "could you get me the cereal and the sugar", None),
+    ("repair with no edit term", "the jam the honey", None),
+    ("more than the world holds", "bring me three bowls", None),
 ]
 NBEST = [{"text": "pass me the silver", "score": -1.0}, {"text": "pass me the cereal", "score": -3.0}]
 

@@ -355,7 +355,8 @@ class Observer:
                 said = False
             if not said and gate and mode != "speech-only":
                 alone = self._view(online, "action-only", "phonetic").posterior(None, top=top)
-                post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence)
+                post = dataclasses.replace(alone, transcript=post.transcript, evidence=post.evidence,
+                                           understanding=post.understanding)
         if heard is not None:
             post = dataclasses.replace(post, evidence={**post.evidence, "speech_heard": heard.speech,
                                                        "instruction_heard": heard.speech and said})

@@ -95,7 +95,39 @@ def _summarize(rows: Sequence[dict[str, Any]], conditions: Sequence[str],
                                     if any(r["kind"] == k and r["domain"] == d for r in rc)}
         out["seconds_per_item"][c] = round(float(np.mean([r["seconds"] for r in rc])), 4) if rc else None
     out["gates"] = gates(out)
+    out["request_calibration"] = {c: request_calibration([r for r in rows if r["condition"] == c]) for c in conds}
     return out
+
+
+CALIBRATION_BINS = 5  # equal-width bins of P(somebody asked) for the reliability diagram
+
+
+def request_calibration(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """How well P(somebody asked) is calibrated on ``rows`` (those with an understanding): per
+    equal-width bin, the items, their mean P and the share that were requests (a reliability
+    diagram to re-plot), the expected calibration error (the bins' |share - mean P|, weighed by
+    their items) and the Brier score."""
+    got = [(float(r["understanding"]["p_request"]), bool(r["expected"]["request"])) for r in rows
+           if r.get("understanding") and r["understanding"].get("p_request") is not None and not r.get("pending")]
+    if not got:
+        return {"n": 0, "bins": [], "ece": None, "brier": None}
+    p = np.array([g[0] for g in got])
+    y = np.array([g[1] for g in got], dtype=float)
+    k = np.minimum((p * CALIBRATION_BINS).astype(int), CALIBRATION_BINS - 1)
+    bins = [{"from": b / CALIBRATION_BINS, "to": (b + 1) / CALIBRATION_BINS, "n": int((k == b).sum()),
+             "mean_p": round(float(p[k == b].mean()), 4) if (k == b).any() else None,
+             "requests": round(float(y[k == b].mean()), 4) if (k == b).any() else None}
+            for b in range(CALIBRATION_BINS)]
+    ece = sum(int((k == b).sum()) * abs(float(y[k == b].mean()) - float(p[k == b].mean()))
+              for b in range(CALIBRATION_BINS) if (k == b).any()) / len(got)
+    return {"n": len(got), "bins": bins, "ece": round(float(ece), 4), "brier": round(float(np.mean((p - y) ** 2)), 4)}
+
+
+def calibration_lines(summary: Mapping[str, Any]) -> list[str]:
+    """One line per condition: the calibration of P(somebody asked) (:func:`request_calibration`)."""
+    return [f"P(somebody asked), {c}: ECE {v['ece']:.3f}, Brier {v['brier']:.3f} over {v['n']} items "
+            "(reliability diagram: request_calibration in the summary)"
+            for c, v in summary.get("request_calibration", {}).items() if v.get("n")]
 
 
 def _pct(s: Mapping[str, Any] | None) -> str:

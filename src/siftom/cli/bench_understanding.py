@@ -93,6 +93,7 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
         run_benchmark,
         table,
     )
+    from siftom.bench.understanding_report import calibration_lines
 
     if from_files:
         summaries = []
@@ -137,7 +138,7 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
         click.echo(json.dumps(run.summary, indent=2))
         return
     Console().print(table(run))
-    for line in gate_lines(run.summary):
+    for line in gate_lines(run.summary) + calibration_lines(run.summary):
         click.echo(line)
     click.echo(f"{len(items)} items x {len(conds)} conditions in {run.seconds:.0f} s"
                + (f"; wrote {', '.join(run.files)}" if run.files else ""))

@@ -81,12 +81,14 @@ class Understanding:
         return {"request": self.request, "p_request": round(self.p_request, 6),
                 "targets": [m.to_json() for m in self.targets],
                 "context": [m.to_json() for m in self.context],
-                "negated": [m.to_json() for m in self.negated],
+                "negated": [m.to_json() for m in self.mentions if m.role == "negated"],
+                "retracted": [m.to_json() for m in self.mentions if m.role == "retracted"],
                 "heard": self.heard, "reason": self.reason}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Understanding:
-        mentions = [Mention.from_json(m) for key in ("targets", "context", "negated") for m in d.get(key, [])]
+        mentions = [Mention.from_json(m) for key in ("targets", "context", "negated", "retracted")
+                    for m in d.get(key, [])]
         return cls(bool(d["request"]), float(d["p_request"]), tuple(mentions), str(d.get("heard", "")),
                    str(d.get("reason", "")))
 

@@ -19,6 +19,7 @@ question's value (the answer channel, ``Situation.answer_reliability``, measured
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 from siftom.errors import ObservationError
 
@@ -33,8 +34,10 @@ DEFAULT_TURN_GAP_S = 0.2
 DEFAULT_ROBOT_LATENCY_S = 0.5
 
 
+@lru_cache(maxsize=8192)
 def n_words(text: str) -> int:
-    """Spoken words in a phrase ("Which one: two plates or three plates?" -> 7)."""
+    """Spoken words in a phrase ("Which one: two plates or three plates?" -> 7); a question's
+    answer phrases are counted for every question valued, so the counts are kept."""
     return len([w for w in text.replace(":", " ").replace("?", " ").split() if any(ch.isalnum() for ch in w)])
 
 
@@ -66,6 +69,7 @@ class QuestionCost:
         """The exchange in world steps (what it adds to the team's completion time)."""
         return self.seconds(question, answer) / self.step_seconds
 
+    @lru_cache(maxsize=4096)  # noqa: B019 -- frozen and hashable: the cache keys on the time model too
     def expected_steps(self, question: str, answers: tuple[tuple[str, ...], ...]) -> float:
         """The cost before the answer is known: the mean answer length over the grammar's phrases."""
         phrases = [p for cell in answers for p in cell]

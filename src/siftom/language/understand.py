@@ -15,11 +15,14 @@ the world ("banana" where there is none).
   recogniser's words for noise); they rarely hold a frame, and a slot names an object only by
   chance.
 
-Each cue is a likelihood ratio P(cue | request) / P(cue | no request) (the table below); with
-even prior odds, log-odds(request) is their sum, and P(request | words) averages over the
-N-best hypotheses with their weights. The ratios are stated as the two probabilities they come
-from, so each can be read and argued with; docs/understanding.md gives the reasoning and what
-``siftom bench understanding`` measured with them.
+A reading falls in one cell (a request frame or none, crossed with what its target slots do),
+and each kind of recogniser is a :class:`Channel`: the two distributions over the cells, under a
+request and under nobody asked (``OPEN_CELLS``, ``SCENE_CELLS``). Every recogniser that heard the
+utterance is a :class:`Hearing` with its reliability; :func:`understand_heard` weighs them all
+(with even prior odds, log-odds(request) is the sum over hearings of each one's reliability times
+the log ratio of its hypotheses' mixed cell probabilities), so no one transcript decides.
+docs/understanding.md ("Channels") gives the reasoning, the data each table was counted or stated
+on, and what ``siftom bench understanding`` measured with them.
 """
 
 from __future__ import annotations
@@ -278,7 +281,6 @@ SCENE_CELLS: dict[str, tuple[float, float]] = {
 }
 OPEN = _channel("open", {c: p[0] for c, p in OPEN_CELLS.items()}, {c: p[1] for c, p in OPEN_CELLS.items()})
 SCENE = _channel("scene", {c: p[0] for c, p in SCENE_CELLS.items()}, {c: p[1] for c, p in SCENE_CELLS.items()})
-CHANNELS = {c.name: c for c in (OPEN, SCENE)}
 
 
 def cue_cell(reading: Reading, nm: Namer) -> tuple[str, str]:
@@ -305,12 +307,6 @@ def _cue_log_probs(reading: Reading, nm: Namer, ch: Channel) -> tuple[float, flo
     cell, why = cue_cell(reading, nm)
     l1, l0 = ch.log_probs(cell)
     return l1, l0, why
-
-
-def request_log_odds(reading: Reading, nm: Namer, channel: Channel = OPEN) -> tuple[float, str]:
-    """log-odds(request | words) for one reading and the cue that decided (module doc)."""
-    l1, l0, why = _cue_log_probs(reading, nm, channel)
-    return math.log(PRIOR_REQUEST / (1 - PRIOR_REQUEST)) + l1 - l0, why
 
 
 @dataclass(frozen=True)

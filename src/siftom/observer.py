@@ -462,7 +462,16 @@ class Observer:
             return ask_if_unsure(silent, _p_request(post), answered)
         made = get_rule(rule, **self.settings.rule_options(rule)) if isinstance(rule, str) else rule
         if post.joint is None or post.joint.state is None:  # speech-only: no state to value actions in
-            return MapRule()(post, None)
+            mapped = MapRule()(post, None)
+            if getattr(made, "confirms", False) and mapped.action not in ("ask", NONE) and not answered:
+                # a rule that confirms before acting (a degraded answer's) asks here too
+                from siftom.assist.asking import lexicon_of
+                from siftom.assist.questions import confirm_question
+
+                q = confirm_question(mapped.action, lexicon_of(world))
+                return dataclasses.replace(mapped, rule=name, action="ask", question=q.text, options=q.options,
+                                           question_kind=q.kind, asked=q, reason=f"confirms first: {mapped.reason}")
+            return mapped
         rel = REPLY_RELIABILITY if answer_reliability is None else answer_reliability
         return made(post, Situation(world, post.joint.state, target, rel, answered=answered))
 

@@ -88,3 +88,12 @@ def test_a_degraded_recording_on_a_session_asks_before_acting(client):
     assert body["likelihood"] == DEGRADED_LIKELIHOOD
     assert body["action"] == "ask" and body["command"] is None, body["decision"]
     assert body["decision"]["question"] == "Shall I get the bowl?" and body["awaiting"] is not None
+
+
+def test_a_degraded_speech_only_answer_asks_before_acting(observer, salad):
+    # speech-only inference has no state to value actions in, so no rule runs: it confirms anyway
+    rule = DEGRADED.rule(None, observer.settings)
+    idle = _answer(observer, salad, "pass me the bowl", None, mode="speech-only")
+    assert idle.action == "act" and str(idle.command) == "fetch(bowl)"
+    asked = _answer(observer, salad, "pass me the bowl", rule, mode="speech-only")
+    assert asked.action == "ask" and asked.command is None and asked.decision.question == "Shall I get the bowl?"

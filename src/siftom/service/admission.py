@@ -86,6 +86,7 @@ class AskFirst:
 
     base: str | DecisionRule
     settings: Any = dataclasses.field(compare=False, repr=False)
+    confirms: bool = True  # the observer asks first with it where no rule values actions (speech-only)
 
     @property
     def name(self) -> str:

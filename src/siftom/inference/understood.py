@@ -25,20 +25,15 @@ def hearings_of(instruction: Instruction, also_heard: Sequence[str] = (),
                 also_logprob: float | None = None) -> list[Any]:
     """Every recogniser's words of one utterance as evidence (``siftom.language.understand.Hearing``):
     the N-best with its weights, through the scene channel when its recogniser writes only the
-    scene's phrasings; and an open-vocabulary recogniser's transcript (Whisper's) with its own
-    confidence, exp(mean token log-probability), as its reliability."""
+    scene's phrasings; and an open-vocabulary recogniser's transcript (Whisper's) with its
+    :func:`transcript_reliability` as its reliability."""
     from siftom.language.understand import OPEN, SCENE, Hearing
-    from siftom.likelihood.nearness import ASR_TEMPERATURE, MIN_WEIGHT
+    from siftom.likelihood.nearness import heard_weights
 
     out: list[Any] = []
-    hyps = [h for h in instruction.nbest if h.text.strip()]
-    if hyps:
-        sc = np.array([float(h.score) for h in hyps]) / ASR_TEMPERATURE
-        w = np.exp(sc - sc.max())
-        w /= w.sum()
-        floor = min(MIN_WEIGHT, float(w.max()))  # many equal hypotheses each weigh under the floor: keep the best
-        keep = [k for k in range(len(hyps)) if w[k] >= floor]
-        out.append(Hearing(tuple(hyps[k].text for k in keep), tuple(float(x) for x in w[keep] / w[keep].sum()),
+    heard = heard_weights(instruction.nbest)
+    if heard:
+        out.append(Hearing(tuple(t for t, _ in heard), tuple(w for _, w in heard),
                            SCENE if instruction.scene_words else OPEN,
                            SCENE_RELIABILITY if instruction.scene_words else 1.0, "the recogniser"))
     for t in also_heard:

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 # determiners that cannot follow a quantifier "no": after "no" they start a new phrase, so the
 # "no" answers or rejects what came before ("no, the flour"), it does not negate the slot
-_DEFINITE = frozenset({"the", "a", "an", "that", "this", "these", "those", "my", "your", "our"})
-_NEW_PHRASE = frozenset({"SELF", "YOU", "ME", "VERB", "MODAL", "PLEASE", "NEG", "MEAN", "FILLER", "WH"})
+DEFINITE = frozenset({"the", "a", "an", "that", "this", "these", "those", "my", "your", "our"})
+NEW_PHRASE = frozenset({"SELF", "YOU", "ME", "VERB", "MODAL", "PLEASE", "NEG", "MEAN", "FILLER", "WH"})
 
 
 # where an object already is ("the onion's already chopped"): after a noun's "'s", a copula
-_HERE_WORDS = frozenset({"already", "here", "there", "done", "finished", "ready", "gone", "out"})
+HERE_WORDS = frozenset({"already", "here", "there", "done", "finished", "ready", "gone", "out"})
 
 
-def _uncontract(words: tuple[str, ...]) -> tuple[str, ...]:
+def uncontract(words: tuple[str, ...]) -> tuple[str, ...]:
     """``words`` with a noun's "'s" read as "is" where a statement of where it is follows ("the
     onion's already chopped": the onion is context, not a second object asked for)."""
     if not any(w.endswith("'s") for w in words):
@@ -22,17 +22,17 @@ def _uncontract(words: tuple[str, ...]) -> tuple[str, ...]:
     out: list[str] = []
     for k, w in enumerate(words):
         nxt = words[k + 1] if k + 1 < len(words) else ""
-        if w.endswith("'s") and len(w) > 2 and nxt in _HERE_WORDS and w not in _CONTRACTED:
+        if w.endswith("'s") and len(w) > 2 and nxt in HERE_WORDS and w not in CONTRACTED:
             out.extend((w[:-2], "is"))
         else:
             out.append(w)
     return tuple(out)
 
 
-_CONTRACTED = frozenset({"it's", "that's", "there's", "here's", "where's", "what's", "let's", "he's", "she's"})
+CONTRACTED = frozenset({"it's", "that's", "there's", "here's", "where's", "what's", "let's", "he's", "she's"})
 
 
-def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
+def rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     """Whether the "no" at ``at`` answers or rejects what came before rather than negating the
     phrase after it. A quantifier "no" takes a noun or a count ("no sugar", "no more milk", "no
     need to bring the cup", "no two plates"); a "no" that starts a new phrase -- a definite
@@ -43,10 +43,10 @@ def _rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     if at + 1 >= len(words):
         return True
     nxt = kinds[at + 1]
-    return nxt in _NEW_PHRASE or (nxt == "DET" and words[at + 1] in _DEFINITE)
+    return nxt in NEW_PHRASE or (nxt == "DET" and words[at + 1] in DEFINITE)
 
 
-def _repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str) -> bool:
+def repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str) -> bool:
     """Whether the marker at ``at`` is an edit term after a target: a correction word, "never
     mind", or a "no" before a count ("three mugs, no, three cups": the count starts the repair,
     it does not quantify a negation)."""
@@ -60,9 +60,9 @@ def _repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str)
 
 
 # negating verbs: they refuse the object that follows them ("forget the milk", "leave the cereal")
-_VERB_NEG = frozenset({"forget", "leave"})
+VERB_NEG = frozenset({"forget", "leave"})
 # hesitations between two objects asked for that leave them adjacent ("the carrot, uh, the onion")
-_HESITATIONS = frozenset({"um", "uh", "er", "erm", "hmm"})
+HESITATIONS = frozenset({"um", "uh", "er", "erm", "hmm"})
 # a phrase after an object that starts with one of these says whose or where, not which ("the
 # plate my way"): no repair
-_POSSESSIVE = frozenset({"my", "your", "our"})
+POSSESSIVE = frozenset({"my", "your", "our"})

@@ -26,12 +26,12 @@ from functools import lru_cache
 from pathlib import Path
 
 from siftom.language.edits import (
-    _HESITATIONS,
-    _POSSESSIVE,
-    _VERB_NEG,
-    _rejects,
-    _repairs,
-    _uncontract,
+    HESITATIONS,
+    POSSESSIVE,
+    VERB_NEG,
+    rejects,
+    repairs,
+    uncontract,
 )
 from siftom.likelihood.numbers import NUMBER_WORDS
 from siftom.likelihood.phonemes import normalize_text
@@ -124,7 +124,7 @@ def read(text: str) -> Reading:
     """The slots and roles of ``text`` (module doc); at most :data:`MAX_WORDS` words are read."""
     from lark import Token, Tree
 
-    words = _uncontract(tuple(normalize_text(text)))
+    words = uncontract(tuple(normalize_text(text)))
     truncated = len(words) > MAX_WORDS
     words = words[:MAX_WORDS]
     if not words:
@@ -190,14 +190,14 @@ class _RoleReader:
         if kind in ("COP", "HAVE", "VERB", "MODAL", "WANT") and at > 0 and words[at - 1] == "to" \
                 and self.pending == "context":
             self.pending = ""  # "to" before a verb is its infinitive ("has to be", "to get"): it relates nothing
-        if _repairs(words, self.kinds_of_words, at, kind) and self._last_target() is not None:
+        if repairs(words, self.kinds_of_words, at, kind) and self._last_target() is not None:
             kind = "MEAN"  # "the jam, never mind, the honey", "make that the honey", "three mugs, no, three cups"
         elif kind == "FILLER" and words[at] == "but" and at > 0 and words[at - 1] in ("anything", "everything"):
             kind = "NEG"  # "anything but the sugar": the sugar is refused
-        elif kind == "NEG" and words[at] in _VERB_NEG and (at + 1 >= len(words)
+        elif kind == "NEG" and words[at] in VERB_NEG and (at + 1 >= len(words)
                                                            or self.kinds_of_words[at + 1] not in ("DET", "WORD", "NUM")):
             return  # "before I forget, ...", "leave it": no object follows to refuse
-        if kind == "NEG" and _rejects(words, self.kinds_of_words, at):
+        if kind == "NEG" and rejects(words, self.kinds_of_words, at):
             # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
             # oats"): what came before is taken back, the next slot is asked for
             self.retract = self._last_target()
@@ -277,7 +277,7 @@ class _RoleReader:
         if continued:
             role = slots[-1].role  # "a bit of brown sugar", "a can of beans": one phrase
         if role == "target" and slots and slots[-1].role == "target" and not self.joined and not continued and nouns \
-                and all(k == "FILLER" and words[self.pieces[i][1][0][1]] in _HESITATIONS
+                and all(k == "FILLER" and words[self.pieces[i][1][0][1]] in HESITATIONS
                         for i, k in enumerate(kinds[self._slot_piece + 1:j], self._slot_piece + 1)) \
                 and self._slot_piece >= 0 and _parallel(words, self.kinds_of_words, slots[-1].start, items[0][1]) \
                 and not _is_here(kinds, j):
@@ -314,7 +314,7 @@ def _parallel(words: tuple[str, ...], kinds: tuple[str, ...], a: int, b: int) ->
     """Whether the phrases starting at ``a`` and ``b`` start alike, as a repair restates ("the jam
     the honey", "three mugs three cups"); "the cereal some honey" (a recogniser's words run on)
     and "the plate my way" (whose or where) are no repair."""
-    if kinds[a] != kinds[b] or words[b] in _POSSESSIVE:
+    if kinds[a] != kinds[b] or words[b] in POSSESSIVE:
         return False
     return words[a] == words[b] if kinds[a] == "DET" else kinds[a] in ("NUM", "WORD")
 

@@ -89,16 +89,24 @@ def word_costs(text: str, words: frozenset[str]) -> list[tuple[str, int, float]]
     return out
 
 
-def heard_texts(nbest: Sequence[Any], temperature: float = ASR_TEMPERATURE,
-                min_weight: float = MIN_WEIGHT) -> list[str]:
+def heard_weights(nbest: Sequence[Any], temperature: float = ASR_TEMPERATURE,
+                  min_weight: float = MIN_WEIGHT) -> list[tuple[str, float]]:
     """The N-best hypotheses (objects with ``text`` and ``score``) that carry at least
-    ``min_weight`` of the weight softmax(score / temperature): what was heard, not what the
-    decoder could also have fitted."""
-    hyps = [h for h in nbest if h.text]
+    ``min_weight`` of the weight softmax(score / temperature), with their weights renormalised:
+    what was heard, not what the decoder could also have fitted."""
+    hyps = [h for h in nbest if h.text.strip()]
     if not hyps:
         return []
     s = np.array([float(h.score) for h in hyps]) / temperature
     w = np.exp(s - s.max())
     w /= w.sum()
     floor = min(min_weight, float(w.max()))  # many equal hypotheses each weigh under the floor: keep the best
-    return [h.text for h, wk in zip(hyps, w, strict=True) if wk >= floor]
+    kept = [(h.text, float(wk)) for h, wk in zip(hyps, w, strict=True) if wk >= floor]
+    total = sum(wk for _, wk in kept)
+    return [(t, wk / total) for t, wk in kept]
+
+
+def heard_texts(nbest: Sequence[Any], temperature: float = ASR_TEMPERATURE,
+                min_weight: float = MIN_WEIGHT) -> list[str]:
+    """The texts of :func:`heard_weights`."""
+    return [t for t, _ in heard_weights(nbest, temperature, min_weight)]

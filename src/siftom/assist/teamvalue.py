@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from siftom.inference.model import JointPosterior
+from siftom.memo import Memo
 from siftom.planning.choice import chosen
 from siftom.planning.costtogo import ClassTables, CostToGo, SparseGoals
 from siftom.world.commands import RobotCommand
@@ -219,37 +220,73 @@ def _row_goals(joint: JointPosterior, col: dict[str, int], rows: np.ndarray, cmd
     return N
 
 
-def _team_times(world: World, s: State, target: int, kmax: int, live: list[tuple[int, int]], sp: SparseGoals,
-                need: np.ndarray, on_t: np.ndarray, tabs: ClassTables) -> np.ndarray:
-    """``max(H, R) + remedy`` per robot delivery (class, count > 0) and distinct goal row."""
-    C, U = len(world.classes), len(sp)
+# per world: what a state's robot deliveries cost and leave behind, by (state, target, kmax,
+# deliveries); a function of the world and the state alone, so shared by every request on them
+_DELIVERIES: weakref.WeakKeyDictionary[World, Memo[_Deliveries]] = weakref.WeakKeyDictionary()
+_DELIVERIES_PER_WORLD = 512
+
+
+@dataclass(frozen=True, eq=False)
+class _Deliveries:
+    """The robot's side of a state's deliveries (class, count > 0), and the human's tables with
+    each delivery's objects out of play appended (row ``C + r`` for delivery ``r``)."""
+
+    cls: np.ndarray  # (L,) class of each delivery
+    n: np.ndarray  # (L,) objects it brings
+    robot: np.ndarray  # (L,) R: the robot's cost-to-go of each
+    tables: ClassTables  # the human's tables, the reserved rows of each delivery appended
+    remedy: int  # steps to clear one wrong object: 2 + 2 d(target, nearest other open surface)
+
+
+def _deliveries(world: World, s: State, target: int, kmax: int, live: tuple[tuple[int, int], ...],
+                on_t: np.ndarray, tabs: ClassTables) -> _Deliveries:
+    """The deliveries ``live`` in state ``s`` (``on_t`` and ``tabs``: the state's, so not in the key)."""
+    per = _DELIVERIES.get(world)
+    if per is None:
+        per = _DELIVERIES.setdefault(world, Memo[_Deliveries]("teamvalue.deliveries", _DELIVERIES_PER_WORLD))
+    return per.get((s, target, kmax, live), lambda: _make_deliveries(world, s, target, kmax, live, on_t, tabs))
+
+
+def _make_deliveries(world: World, s: State, target: int, kmax: int, live: tuple[tuple[int, int], ...],
+                     on_t: np.ndarray, tabs: ClassTables) -> _Deliveries:
+    C = len(world.classes)
     ctg_h, ctg_r = _ctg(world, target, kmax, HUMAN), _ctg(world, target, kmax, ROBOT)
     # robot: one batched call over the distinct deliveries
     R_goals = np.zeros((len(live), C), dtype=np.int64)
     for r, (c, n) in enumerate(live):
         R_goals[r, c] = on_t[c] + n
     R = ctg_r.values(ctg_r.tables(s), R_goals, s.agent_at[ROBOT], s.held[ROBOT])
-    # human: the goal minus the useful part, with the robot's objects out of play; the
-    # reserved rows of the changed class are appended to the tables (as successor_values does)
+    # human: the reserved rows of the changed class are appended to the tables (as
+    # successor_values does)
     extra = []
-    idx_parts, cnt_parts, held_parts = [], [], []
-    hold_h = s.held[HUMAN]
-    hc = int(world.item_class_idx[hold_h]) if hold_h != NOTHING else -1
-    useful_all = np.zeros((len(live), U), dtype=np.int64)
-    for r, (c, n) in enumerate(live):
+    for c, n in live:
         taken = _taken(world, s, ctg_h, target, c, n, s.agent_at[ROBOT])
         item_at = tuple(HELD if i in taken else loc for i, loc in enumerate(s.item_at))
         extra.append(ctg_h._class_rows(c, item_at, s.open_mask))
-        useful = np.minimum(n, need[:, c])
-        useful_all[r] = useful
-        hit = (sp.idx == c) & (sp.cnt > 0)
-        idx_parts.append(np.where(sp.idx == c, C + r, sp.idx))
-        cnt_parts.append(sp.cnt - hit * useful[:, None])
-        held_parts.append(np.full(U, C + r if hc == c else hc, dtype=np.int64))
-    H = ctg_h._values(tabs.extend(extra), np.concatenate(idx_parts), np.concatenate(cnt_parts),
-                      np.array([s.agent_at[HUMAN]]), np.concatenate(held_parts))[0].reshape(len(live), U)
-    wrong = np.array([n for _c, n in live])[:, None] - useful_all
-    out: np.ndarray = np.maximum(H, R[:, None]) + wrong * (2 + 2 * aside_distance(world, target))
+    return _Deliveries(np.array([c for c, _n in live], dtype=np.int64), np.array([n for _c, n in live], dtype=np.int64),
+                       np.asarray(R), tabs.extend(extra), 2 + 2 * aside_distance(world, target))
+
+
+def _team_times(world: World, s: State, target: int, kmax: int, live: list[tuple[int, int]], sp: SparseGoals,
+                need: np.ndarray, on_t: np.ndarray, tabs: ClassTables) -> np.ndarray:
+    """``max(H, R) + remedy`` per robot delivery (class, count > 0) and distinct goal row."""
+    C, U, L = len(world.classes), len(sp), len(live)
+    dv = _deliveries(world, s, target, kmax, tuple(live), on_t, tabs)
+    ctg_h = _ctg(world, target, kmax, HUMAN)
+    # human: the goal minus the useful part, with the robot's objects out of play (all deliveries
+    # at once: row r * U + u is delivery r under goal row u)
+    hold_h = s.held[HUMAN]
+    hc = int(world.item_class_idx[hold_h]) if hold_h != NOTHING else -1
+    useful_all = np.minimum(dv.n[:, None], need[:, dv.cls].T)  # (L, U)
+    is_c = sp.idx[None, :, :] == dv.cls[:, None, None]  # (L, U, m)
+    hit = is_c & (sp.cnt > 0)[None, :, :]
+    ext = (C + np.arange(L, dtype=np.int64))[:, None, None]
+    idx = np.where(is_c, ext, sp.idx[None, :, :]).reshape(L * U, -1)
+    cnt = (sp.cnt[None, :, :] - hit * useful_all[:, :, None]).reshape(L * U, -1)
+    held = np.repeat(np.where(dv.cls == hc, C + np.arange(L, dtype=np.int64), hc), U)
+    H = ctg_h._values(dv.tables, idx, cnt, np.array([s.agent_at[HUMAN]]), held)[0].reshape(L, U)
+    wrong = dv.n[:, None] - useful_all
+    out: np.ndarray = np.maximum(H, dv.robot[:, None]) + wrong * dv.remedy
     return out
 
 

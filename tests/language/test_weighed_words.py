@@ -80,6 +80,16 @@ def test_a_channel_missing_a_cell_is_refused_naming_it() -> None:
     ("could you bring me the beans, the onion's already chopped", [("target", "beans"), ("context", "onion"),
                                                                    ("context", "chopped")]),
     ("the cereal with a bit of brown sugar", [("target", "cereal"), ("context", "bit"), ("context", "brown sugar")]),
+    # a bare "no" between two names restates; after a relation or a list it quantifies
+    ("pasta, no, olive oil", [("retracted", "pasta"), ("target", "olive oil")]),
+    ("the pasta with no garlic", [("target", "pasta"), ("negated", "garlic")]),
+    ("cereal and no milk", [("target", "cereal"), ("negated", "milk")]),
+    # the speaker as the request verb's subject tells what they do; a modal before it still asks
+    ("hmm, where did I put that", [("context", "")]),
+    ("get the tortilla, I'll put the ham in it", [("target", "tortilla"), ("context", "ham")]),
+    ("I will put the bowl away, bring me the milk", [("context", "bowl away"), ("target", "milk")]),
+    ("can I get the milk", [("target", "milk")]),
+    ("let's get the milk", [("target", "milk")]),
 ])
 def test_repairs_negations_and_statements_are_read_as_said(text: str, roles: list[tuple[str, str]] | None) -> None:
     r = read(text)

@@ -43,6 +43,10 @@ def rejects(words: tuple[str, ...], kinds: tuple[str, ...], at: int) -> bool:
     if at + 1 >= len(words):
         return True
     nxt = kinds[at + 1]
+    if nxt == "WORD" and at > 0 and kinds[at - 1] == "WORD" and (at < 2 or kinds[at - 2] not in ("CTX", "AND")):
+        # right after an object's name, a bare "no" and another name restate it ("pasta, no, olive
+        # oil"); a quantifier "no" follows a relation or a list ("with no garlic", "and no ice")
+        return True
     return nxt in NEW_PHRASE or (nxt == "DET" and words[at + 1] in DEFINITE)
 
 

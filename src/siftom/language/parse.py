@@ -174,6 +174,7 @@ class _RoleReader:
     question: bool = False
     joined: bool = False  # "and" since the last slot
     told: set[int] = field(default_factory=set)  # slots of a statement the speaker made ("I saw the egg ...")
+    own: bool = False  # the speaker's own doing since the last request frame ("I'll put the ham in it")
     related: set[int] = field(default_factory=set)  # slots made context by a relation word or a copula
     retract: int | None = None  # the target a correction takes back once another follows
     said_count: int | None = None  # a count heard as its homophone ("to", "for")
@@ -226,6 +227,10 @@ class _RoleReader:
             self.asking, self.question = True, True
         elif kind == "SELF" and words[items[0][1]] not in _WISHING and _tells(words_of(pieces, j + 1)):
             self.asking = True  # "I saw ...", "we bought ...": the speaker tells, nobody is asked
+        elif kind == "VERB" and _speaker_does(words, kinds, pieces, j):
+            # "where did I put that", "I'll put the ham in it": the speaker is the verb's subject, so
+            # it tells what they do (or ask about their own doing); nobody is asked for the object
+            self.asking, self.own = True, True
         elif kind == "AND":
             self.joined = True
             return
@@ -234,7 +239,7 @@ class _RoleReader:
             if kind in ("VERB", "MODAL") and self.pending == "context":
                 self.pending = ""  # "I need to get the X": "to" before a verb relates nothing
             if kind in ("VERB", "MODAL"):
-                self.asking = False
+                self.asking, self.own = False, False
         self.joined = False if kind not in ("FILLER",) else self.joined
 
     def slot(self, j: int, items: list[tuple[str, int]]) -> None:
@@ -265,7 +270,7 @@ class _RoleReader:
                 self.related.add(len(slots))
         elif self.asking:
             role = "context"
-            if not self.question:
+            if not self.question and not self.own:
                 self.told.add(len(slots))
         else:
             role = "target"
@@ -351,6 +356,28 @@ def _tells(nxt: tuple[str, ...]) -> bool:
     """"I" or "we" followed by a verb the grammar does not know as a request ("I saw", "we
     bought"): a statement. The verb is read as the first word of a bare noun phrase."""
     return bool(nxt) and nxt[0] == "WORD"
+
+
+# modals that make "I <modal> <verb>" the speaker's own plan ("I'll put", "we will take")
+_PLANS = frozenset({"will", "shall", "'ll"})
+
+
+def _speaker_does(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: int) -> bool:
+    """Whether the request verb at piece ``j`` has the speaker as its subject: "I" or "we" right
+    before it, or before "will"/"shall" before it ("I'll put", "where did I put", "we will get"),
+    and not after a modal that asks ("can I get", "could we have" ask the robot) or a wish ("I'd
+    get"); "let's" invites the robot in, so it is no statement."""
+    k = j - 1
+    while k >= 0 and kinds[k] == "FILLER":
+        k -= 1
+    if k >= 1 and kinds[k] == "MODAL" and words[pieces[k][1][0][1]] in _PLANS:
+        k -= 1
+    if k < 0 or kinds[k] != "SELF":
+        return False
+    subject = words[pieces[k][1][0][1]]
+    if subject in _WISHING or subject == "let's":
+        return False
+    return not (k >= 1 and kinds[k - 1] == "MODAL")
 
 
 def _has_frame(kinds: list[str], j: int) -> bool:

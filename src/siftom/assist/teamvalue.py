@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -31,9 +32,10 @@ from siftom.memo import Memo
 from siftom.planning.choice import chosen
 from siftom.planning.costtogo import ClassTables, CostToGo, SparseGoals
 from siftom.world.commands import RobotCommand
-from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, State, World
+from siftom.world.model import HELD, HUMAN, NOTHING, ROBOT, Goal, State, World
 
 NONE = "none"
+V = TypeVar("V")
 # hypotheses kept for the decision: the most probable ones up to this mass (at most MAX_ROWS)
 KEEP_MASS = 0.9999
 MAX_ROWS = 256
@@ -154,10 +156,9 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     rows, prob, kept = _keep_rows(joint)
     on_t, avail, held_h = _counts(world, s, target)
     cmds = joint.commands
-    cmd_cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
-    cmd_n = np.array([c.count for c in cmds], dtype=np.int64)
+    cmd_cls, cmd_n, actions = _command_arrays(world, cmds)
     c_of = joint.cmd_idx[rows]
-    N = _row_goals(joint, col, rows, cmd_cls, cmd_n, on_t + held_h)
+    N = _row_goals(joint, col, rows, cmd_cls, cmd_n, on_t + held_h, _goal_matrix(world, joint.goals))
     uniq, u_of = np.unique(N, axis=0, return_inverse=True)
     u_of = u_of.reshape(-1)
     kmax = max(4, int(uniq.max()) if uniq.size else 4, int(cmd_n.max()) if len(cmd_n) else 4)
@@ -167,11 +168,7 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     v_single = ctg_h.values(tabs, sp, s.agent_at[HUMAN], s.held[HUMAN])
     # distinct robot deliveries (class, effective count)
     n_eff = np.minimum(cmd_n, avail[cmd_cls])
-    deliveries: dict[tuple[int, int], int] = {}
-    act_col = np.empty(len(cmds), dtype=np.int64)
-    for a in range(len(cmds)):
-        key = (int(cmd_cls[a]), int(n_eff[a]))
-        act_col[a] = deliveries.setdefault(key, len(deliveries))
+    deliveries, act_col = _distinct_deliveries(cmd_cls, n_eff)
     D = list(deliveries)
     ben = np.zeros((len(uniq), len(D)))
     live = [j for j, (_c, n) in enumerate(D) if n > 0]
@@ -180,8 +177,58 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
         l_team = _team_times(world, s, target, kmax, [D[j] for j in live], sp, need, on_t, tabs)
         ben[:, live] = (v_single[None, :] - l_team).T
     benefit = np.concatenate([ben[u_of][:, act_col], np.zeros((len(rows), 1))], axis=1)
-    return TeamValues(tuple(str(c) for c in cmds) + (NONE,), prob, c_of, benefit, kept,
+    return TeamValues(actions, prob, c_of, benefit, kept,
                       np.asarray(v_single, dtype=np.float64)[u_of], float(prefix))
+
+
+# per world: the goal-count matrix of a goal space (kept with the tuple it was made from, looked
+# up by identity and checked on the way out: hashing a few hundred goals costs what it saves),
+# and the class and count of each command of a command list
+_GOALS: weakref.WeakKeyDictionary[World, Memo[tuple[object, np.ndarray]]] = weakref.WeakKeyDictionary()
+_COMMANDS: weakref.WeakKeyDictionary[World, Memo[tuple[np.ndarray, np.ndarray, tuple[str, ...]]]] = weakref.WeakKeyDictionary()
+
+
+def _per_world(table: weakref.WeakKeyDictionary[World, Memo[V]], world: World, name: str) -> Memo[V]:
+    got = table.get(world)
+    return got if got is not None else table.setdefault(world, Memo[V](name, 64))
+
+
+def _goal_matrix(world: World, goals: tuple[Goal, ...]) -> np.ndarray:
+    """Counts of each goal by class, shape (len(goals) + 1, C): the last row (the unknown goal) zero."""
+    memo = _per_world(_GOALS, world, "teamvalue.goals")
+    got = memo.peek(id(goals))
+    if got is not None and got[0] is goals:
+        return got[1]
+    col = {c: k for k, c in enumerate(world.classes)}
+    gmat = np.zeros((len(goals) + 1, len(col)), dtype=np.int64)
+    for g, goal in enumerate(goals):
+        for name, count in goal.counts:
+            gmat[g, col[name]] = count
+    gmat.flags.writeable = False
+    memo.put(id(goals), (goals, gmat))
+    return gmat
+
+
+def _command_arrays(world: World, cmds: tuple[RobotCommand, ...]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """The class index and the count of each command, and the actions (the commands as text, then none)."""
+    memo = _per_world(_COMMANDS, world, "teamvalue.commands")
+    got = memo.peek(cmds)
+    if got is not None:
+        return got
+    col = {c: k for k, c in enumerate(world.classes)}
+    cls = np.array([col[c.obj_class] for c in cmds], dtype=np.int64)
+    n = np.array([c.count for c in cmds], dtype=np.int64)
+    cls.flags.writeable = n.flags.writeable = False
+    return memo.put(cmds, (cls, n, tuple(str(c) for c in cmds) + (NONE,)))
+
+
+def _distinct_deliveries(cmd_cls: np.ndarray, n_eff: np.ndarray) -> tuple[dict[tuple[int, int], int], np.ndarray]:
+    """The distinct (class, effective count) pairs in first-seen order, and each command's."""
+    deliveries: dict[tuple[int, int], int] = {}
+    act_col = np.empty(len(cmd_cls), dtype=np.int64)
+    for a, key in enumerate(zip(cmd_cls.tolist(), n_eff.tolist(), strict=True)):
+        act_col[a] = deliveries.setdefault(key, len(deliveries))
+    return deliveries, act_col
 
 
 def _counts(world: World, s: State, target: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -202,16 +249,12 @@ def _counts(world: World, s: State, target: int) -> tuple[np.ndarray, np.ndarray
 
 
 def _row_goals(joint: JointPosterior, col: dict[str, int], rows: np.ndarray, cmd_cls: np.ndarray,
-               cmd_n: np.ndarray, handled: np.ndarray) -> np.ndarray:
-    """A goal vector per kept row: a known goal's counts, or (unknown goal) exactly the command
-    asked for on top of what is handled (on the target or in the human's hands)."""
+               cmd_n: np.ndarray, handled: np.ndarray, gmat: np.ndarray) -> np.ndarray:
+    """A goal vector per kept row: a known goal's counts (``gmat``), or (unknown goal) exactly
+    the command asked for on top of what is handled (on the target or in the human's hands)."""
     G = len(joint.goals)
-    gmat = np.zeros((G + 1, len(col)), dtype=np.int64)
-    for g, goal in enumerate(joint.goals):
-        for name, count in goal.counts:
-            gmat[g, col[name]] = count
     g_of, c_of = joint.goal_idx[rows], joint.cmd_idx[rows]
-    N: np.ndarray = gmat[g_of].copy()
+    N: np.ndarray = gmat[g_of]
     unk = np.flatnonzero(g_of == G)
     if len(unk):
         k = cmd_cls[c_of[unk]]

@@ -10,7 +10,7 @@ import numpy as np
 
 from siftom.assist.askcost import QuestionCost
 from siftom.assist.decision import Situation
-from siftom.assist.questions import KINDS, Question, candidate_questions, evi
+from siftom.assist.questions import KINDS, Question, candidate_questions, evi_weighted
 from siftom.assist.teamvalue import TeamValues
 from siftom.inference.model import Posterior
 from siftom.world.model import World
@@ -81,11 +81,14 @@ def best_questions(tv: TeamValues, post: Posterior, where: Situation, loss_avers
         return []
     v0 = float((tv.prob @ tv.utility(loss_aversion, spent, unit)).max())
     out = []
+    weighted: dict[float, np.ndarray] = {}  # prob * utility after a question, by the time inside it
     for q in qs:
         c = question_cost(q, ask_cost, cost_model)
-        u_after = tv.utility(loss_aversion, spent + (c if time_as_loss else 0.0), unit)
+        t = spent + (c if time_as_loss else 0.0)
+        if t not in weighted:
+            weighted[t] = tv.prob[:, None] * tv.utility(loss_aversion, t, unit)
         # the gain of asking over acting now, in the utility's unit (the time inside it, or paid after)
-        net = evi(q, tv.actions, tv.prob, tv.row_cmd, u_after, v0, where.reliability(q.kind), 0.0)
+        net = evi_weighted(q, tv.actions, weighted[t], tv.row_cmd, v0, where.reliability(q.kind), 0.0)
         if not time_as_loss:
             net -= c if unit == "steps" else float(tv.prob @ (tv.speedup() - tv.speedup(c)).max(axis=1))
         out.append((net, c, q))

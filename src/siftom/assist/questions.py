@@ -27,6 +27,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from itertools import combinations
 from typing import Any
 
@@ -36,6 +37,7 @@ import numpy.typing as npt
 from siftom.assist import phrasing_en
 from siftom.errors import CommandParseError, ObservationError
 from siftom.likelihood.phrasing import number_word
+from siftom.memo import Memo, memo
 from siftom.world.commands import RobotCommand
 
 KINDS = ("confirm", "choose", "count")
@@ -194,8 +196,27 @@ def count_question(obj_class: str, commands: Sequence[str], lexicon: Any = None)
 
 def candidate_questions(ranked: Sequence[str], actions: Sequence[str], pool: int = 4,
                         kinds: Sequence[str] = KINDS, lexicon: Any = None) -> list[Question]:
-    """Questions about the ``pool`` most probable commands ``ranked`` (all of them in ``actions``)."""
-    top = [c for c in ranked if c in actions][:pool]
+    """Questions about the ``pool`` most probable commands ``ranked`` (all of them in ``actions``).
+
+    A function of its arguments alone (questions are frozen), so the lists are kept: by the
+    top commands, the actions, the kinds and the lexicon (by identity: hashing a whole lexicon
+    costs more than building the questions; the kept entry holds it, so its identity is not
+    reused while the entry lives)."""
+    top = tuple(c for c in ranked if c in actions)[:pool]
+    key = (top, tuple(actions), tuple(kinds), id(lexicon))
+    got = _CANDIDATES.peek(key)
+    if got is not None and got[0] is lexicon:
+        return list(got[1])
+    out = _candidate_questions(top, actions, kinds, lexicon)
+    _CANDIDATES.put(key, (lexicon, tuple(out)))
+    return out
+
+
+_CANDIDATES: Memo[tuple[Any, tuple[Question, ...]]] = memo("questions.candidates", 2048)
+
+
+def _candidate_questions(top: Sequence[str], actions: Sequence[str], kinds: Sequence[str],
+                         lexicon: Any) -> list[Question]:
     out: list[Question] = []
     if "confirm" in kinds:
         out += [confirm_question(c, lexicon) for c in top]
@@ -228,12 +249,33 @@ def channel(n_cells: int, r: float) -> np.ndarray:
 def evi(question: Question, actions: Sequence[str], prob: np.ndarray, row_cmd: np.ndarray,
         u_after: np.ndarray, v0: float, r: float, ask_cost: float) -> float:
     """EVI (steps) of ``question`` (module doc) from per-row utilities after asking ``u_after``."""
-    cell_of = np.array([question.cell(a) for a in actions])
+    return evi_weighted(question, actions, prob[:, None] * u_after, row_cmd, v0, r, ask_cost)
+
+
+def evi_weighted(question: Question, actions: Sequence[str], w: np.ndarray, row_cmd: np.ndarray,
+                 v0: float, r: float, ask_cost: float) -> float:
+    """:func:`evi` from the probability-weighted utilities ``w = prob[:, None] * u_after`` (the
+    same for every question of one time: made once for them all)."""
+    cell_of = cells_of(question.options, question.n_cells, tuple(actions))
     row_cell = cell_of[row_cmd] if len(row_cmd) else np.array([], dtype=int)
-    w = prob[:, None] * u_after
     cells = np.stack([w[row_cell == k].sum(axis=0) for k in range(question.n_cells)])
-    v = float((channel(question.n_cells, r) @ cells).max(axis=1).sum())
+    v = float((_channel(question.n_cells, float(r)) @ cells).max(axis=1).sum())
     return v - v0 + ask_cost
+
+
+@lru_cache(maxsize=8192)
+def cells_of(options: tuple[str, ...], n_cells: int, actions: tuple[str, ...]) -> np.ndarray:
+    """The cell of each action (:meth:`Question.cell`), read-only."""
+    out = np.array([options.index(a) if a in options else n_cells - 1 for a in actions], dtype=np.int64)
+    out.flags.writeable = False
+    return out
+
+
+@lru_cache(maxsize=256)
+def _channel(n_cells: int, r: float) -> np.ndarray:
+    out = channel(n_cells, r)
+    out.flags.writeable = False
+    return out
 
 
 def answer_log_likelihood_cells(question: Question, commands: Sequence[str], heard: int | None,

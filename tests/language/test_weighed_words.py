@@ -90,6 +90,10 @@ def test_a_channel_missing_a_cell_is_refused_naming_it() -> None:
     ("I will put the bowl away, bring me the milk", [("context", "bowl away"), ("target", "milk")]),
     ("can I get the milk", [("target", "milk")]),
     ("let's get the milk", [("target", "milk")]),
+    # a bare word between a negated auxiliary and a noun phrase is the verb it negates
+    ("please don't touch the bowls", [("negated", "bowls")]),
+    ("do not drag the pasta", [("negated", "pasta")]),
+    ("no sugar", [("negated", "sugar")]),
 ])
 def test_repairs_negations_and_statements_are_read_as_said(text: str, roles: list[tuple[str, str]] | None) -> None:
     r = read(text)

@@ -47,6 +47,16 @@ _COUNTS = {"both": 2, "pair": 2, "single": 1, "couple": 2}
 # relation words a recogniser writes for a count ("bring me to plates" for "two plates")
 _COUNT_LIKE = {"to": 2, "for": 4}
 _ASKS_BEFORE = frozenset({"VERB", "ME", "WANT", "MEAN", "PLEASE"})  # where a count, not a relation, comes next
+# negated auxiliaries: a bare word after one, before a noun phrase, is the verb they negate
+_AUX_NEG = frozenset({"don't", "dont", "won't", "wont", "doesn't", "shouldn't", "needn't", "never"})
+_AUXILIARIES = frozenset({"do", "does", "did", "will", "would", "should", "could", "can", "must"})
+
+
+def _aux_neg(words: tuple[str, ...], at: int) -> bool:
+    """Whether the negation at ``at`` negates a verb ("don't", "won't", "do not", "please never")."""
+    return words[at] in _AUX_NEG or (words[at] == "not" and at > 0 and words[at - 1] in _AUXILIARIES)
+
+
 # "I'd", "we'd": a wish ("I'd love the tea"), not a statement, whatever verb follows
 _WISHING = frozenset({"i'd", "we'd"})
 
@@ -245,10 +255,13 @@ class _RoleReader:
     def slot(self, j: int, items: list[tuple[str, int]]) -> None:
         words, kinds, slots = self.words, self.kinds, self.slots
         before = next((k for k in reversed(kinds[:j]) if k != "FILLER"), "")
-        if before in ("SELF", "YOU", "MODAL") and items[0][0] == "WORD":
-            # a bare word after a subject or a modal is a verb, not an object ("I'd love the tea",
-            # "I saw eggs", "you know", "I should water the plants"); the words after it, if any,
-            # are the slot
+        if items[0][0] == "WORD" and (before in ("SELF", "YOU", "MODAL") or (
+                before == "NEG" and _aux_neg(words, _last(self.pieces, j, "NEG")) and len(items) == 1
+                and words_of(self.pieces, j + 1)[:1] in (("DET",), ("NUM",)))):
+            # a bare word after a subject, a modal or a negated auxiliary is a verb, not an object
+            # ("I'd love the tea", "I saw eggs", "you know", "I should water the plants", "don't
+            # drag the pasta" as a recogniser wrote "don't grab"); the words after it, if any, are
+            # the slot
             if before == "SELF" and words[_last(self.pieces, j, "SELF")] in _WISHING:
                 self.frame = True
             items = items[1:]

@@ -313,16 +313,18 @@ class OnlineInference:
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple(ScoredCommand(cmds[k], p) for k, p in zip(corder.tolist(), cm[corder].tolist(), strict=True))
+        commands = tuple(map(ScoredCommand._make, zip(map(cmds.__getitem__, corder.tolist()), cm[corder].tolist(),
+                                                      strict=True)))
         gorder = np.argsort(-gm, kind="stable")
         gorder = gorder[gm[gorder] > 0]
-        goals = tuple(ScoredGoal(goal_names[k], p) for k, p in zip(gorder.tolist(), gm[gorder].tolist(), strict=True))
+        goals = tuple(map(ScoredGoal._make, zip(map(goal_names.__getitem__, gorder.tolist()), gm[gorder].tolist(),
+                                                strict=True)))
         order = np.argsort(-lj, kind="stable")[:top]
-        labels = [goal_names[g] for g in goal_all.tolist()]
-        if cfg.mode != "speech-only" and len(unk_cmds):  # the off-plan rows, valued as the unknown goal
-            labels[len(labels) - len(unk_cmds):] = [OFF_PLAN] * len(unk_cmds)
-        hyps = tuple(JointHypothesis(labels[i], cmds[cmd_all[i]], float(p[i]), float(terms[i, 0]),
-                                float(terms[i, 1]), float(terms[i, 2])) for i in order)
+        # the off-plan rows (the last len(unk_cmds)) are labelled apart, valued as the unknown goal
+        off_from = len(goal_all) - len(unk_cmds) if cfg.mode != "speech-only" and len(unk_cmds) else len(goal_all)
+        hyps = tuple(JointHypothesis(OFF_PLAN if i >= off_from else goal_names[goal_all[i]], cmds[cmd_all[i]],
+                                     float(p[i]), float(terms[i, 0]), float(terms[i, 1]), float(terms[i, 2]))
+                     for i in order.tolist())
         post = Posterior(
             command=commands[0][0], commands=commands, goals=goals, hypotheses=hyps, mode=cfg.mode,
             likelihood=getattr(self.model.likelihood, "name", "none") if instruction is not None else "none",

@@ -139,6 +139,7 @@ class Lexicon:
     entries: tuple[LexEntry, ...]
     categories: tuple[Category, ...] = ()
     _index: dict[str, LexEntry] = field(init=False, repr=False, compare=False, hash=False)
+    _classes: tuple[str, ...] = field(init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
         index: dict[str, LexEntry] = {}
@@ -147,6 +148,7 @@ class Lexicon:
                 raise LexiconError(f"class {e.obj_class!r} is listed twice in the lexicon; merge the entries")
             index[e.obj_class] = e
         object.__setattr__(self, "_index", index)
+        object.__setattr__(self, "_classes", tuple(index))
         for c in self.categories:
             missing = [k for k in c.classes if k not in index]
             if missing:
@@ -161,7 +163,7 @@ class Lexicon:
     @property
     def classes(self) -> tuple[str, ...]:
         """Class ids listed in the lexicon, in order."""
-        return tuple(e.obj_class for e in self.entries)
+        return self._classes
 
     def __contains__(self, obj_class: object) -> bool:
         return obj_class in self._index

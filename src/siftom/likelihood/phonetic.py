@@ -11,11 +11,12 @@ from __future__ import annotations
 import itertools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from siftom.errors import ObservationError
-from siftom.language.understand import SLOT_SHARPNESS
+from siftom.language.understand import SLOT_SHARPNESS, Namer, namer
 from siftom.likelihood.background import R_FAR, R_NEAR, MeaningVocabulary, lexicon_words
 from siftom.likelihood.base import Scores
 from siftom.likelihood.editdistance import (
@@ -55,6 +56,12 @@ class _Plan:
 
 
 _TOKENS = itertools.count()
+
+
+@lru_cache(maxsize=256)
+def _namer_of(lexicon: Lexicon, classes: tuple[str, ...]) -> Namer:
+    """The utterance model's namer of the lexicon's classes and ``classes`` (kept: one per scene)."""
+    return namer(tuple(sorted(set(lexicon.classes) | set(classes))), lexicon)
 # the memos of every phonetic likelihood (keyed by its configuration: siftom.memo)
 _PLANS: Memo[_Plan] = memo("phonetic.plans", 256)
 _CONTENTS: Memo[tuple[np.ndarray, np.ndarray]] = memo("phonetic.contents", 65536)
@@ -257,9 +264,9 @@ class PhoneticLikelihood:
         by the utterance model: only the words that ask for the target(s) of ``instruction.focus``
         (the request frame and the target slots; negated, taken-back and context objects are
         background, siftom.language)."""
-        from siftom.language.understand import focus_text, namer
+        from siftom.language.understand import focus_text
 
-        nm = namer(tuple(sorted(set(self.lexicon.classes) | set(classes))), self.lexicon)
+        nm = _namer_of(self.lexicon, tuple(classes))
         scores = np.array([h.score for h in instruction.nbest], dtype=float) / self.asr_temperature
         logw = scores - logsumexp(scores)
         merged: dict[str, float] = {}

@@ -196,6 +196,9 @@ class OnlineInference:
         self.part_prior = HelpfulPartPrior(cfg.help_kappa)
         self.actions = BoltzmannActions(cfg.betas, cfg.epsilon, len(gs.sp))  # one row per human subgoal
         self.unknown_actions = UniformActions()
+        # values of this state (a new dict with every action, so a copy that is advanced, e.g.
+        # a view with another model, never shares it with the original): :meth:`_kept`
+        self._memo: dict[str, Any] = {}
 
     # ----- actions ---------------------------------------------------------------------------
     def observe(self, action: Action) -> None:
@@ -230,6 +233,14 @@ class OnlineInference:
         self._tabs = self.ctg.retable(self._tabs, s2, changed_classes(self.world, self.state, action))
         self.state = s2
         self.n_actions += 1
+        self._memo = {}
+
+    def _kept(self, name: str, make: Callable[[], Any]) -> Any:
+        """``make()``, a function of the actions observed so far alone, made once per state."""
+        got = self._memo.get(name)
+        if got is None:
+            got = self._memo[name] = make()
+        return got
 
     # ----- hypotheses ------------------------------------------------------------------------
     def candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[RobotCommand]]:
@@ -237,8 +248,13 @@ class OnlineInference:
         pair, the command indices of the unknown-goal hypothesis, and the command list.
 
         The robot's part for goal g and class c is every object of c the goal still needs: not
-        yet on the target and not in the human's hands.
+        yet on the target and not in the human's hands. Made once per state (the arrays are
+        read-only).
         """
+        goal_idx, cmd_of, rows, unk, cmds = self._kept("candidates", self._candidates)
+        return goal_idx, cmd_of, rows, unk, list(cmds)
+
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[RobotCommand, ...]]:
         done = self._done()
         left = self._N_goal[self._pair_goal, self._pair_cls] - done[self._pair_cls]
         keep = np.flatnonzero(left >= 1)
@@ -248,7 +264,10 @@ class OnlineInference:
         classes = self.world.classes
         cmds = [_command(self.verb, classes[int(code) // K], int(code) % K) for code in codes]
         inv = inv.reshape(-1)
-        return (self._pair_goal[keep], inv[: len(known)], self._pair_row[keep], inv[len(known):], cmds)
+        out = (self._pair_goal[keep], inv[: len(known)], self._pair_row[keep], inv[len(known):])
+        for a in out:
+            a.flags.writeable = False
+        return (*out, tuple(cmds))
 
     def _done(self) -> np.ndarray:
         """Objects of each class on the target or in the person's hands."""
@@ -341,7 +360,16 @@ class OnlineInference:
     def _prior_and_actions(self, goal_idx: np.ndarray, rows: np.ndarray,
                            n_unknown: int) -> tuple[np.ndarray, np.ndarray, float, float]:
         """log P(g) P(pi_r | g) and the action term per known hypothesis; the same for each
-        unknown-goal command (a constant each)."""
+        unknown-goal command (a constant each). Made once per state for its own candidates."""
+        own = self._memo.get("candidates")
+        if own is not None and goal_idx is own[0] and rows is own[2] and n_unknown == len(own[3]):
+            got: tuple[np.ndarray, np.ndarray, float, float] = self._kept(
+                "prior_and_actions", lambda: _read_only(self._make_prior_and_actions(goal_idx, rows, n_unknown)))
+            return got
+        return self._make_prior_and_actions(goal_idx, rows, n_unknown)
+
+    def _make_prior_and_actions(self, goal_idx: np.ndarray, rows: np.ndarray,
+                                n_unknown: int) -> tuple[np.ndarray, np.ndarray, float, float]:
         n_goals = len(self.goals)
         prior = (self.goal_prior.log_known(goal_idx, n_goals)
                  + self.part_prior.log_prob(self._steps_saved(goal_idx, rows), goal_idx, n_goals))
@@ -389,6 +417,11 @@ class OnlineInference:
         saved: np.ndarray = np.minimum(v_goal[goal_idx] - v_rows[rows], 1e3)
         return saved
 
+
+
+def _read_only(terms: tuple[np.ndarray, np.ndarray, float, float]) -> tuple[np.ndarray, np.ndarray, float, float]:
+    terms[0].flags.writeable = terms[1].flags.writeable = False
+    return terms
 
 
 @lru_cache(maxsize=65536)

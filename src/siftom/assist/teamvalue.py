@@ -159,8 +159,7 @@ def team_values(joint: JointPosterior, world: World, target: int, state: State |
     cmd_cls, cmd_n, actions = _command_arrays(world, cmds)
     c_of = joint.cmd_idx[rows]
     N = _row_goals(joint, col, rows, cmd_cls, cmd_n, on_t + held_h, _goal_matrix(world, joint.goals))
-    uniq, u_of = np.unique(N, axis=0, return_inverse=True)
-    u_of = u_of.reshape(-1)
+    uniq, u_of = _unique_rows(N)
     kmax = max(4, int(uniq.max()) if uniq.size else 4, int(cmd_n.max()) if len(cmd_n) else 4)
     ctg_h = _ctg(world, target, kmax, HUMAN)
     tabs = ctg_h.tables(s)
@@ -246,6 +245,18 @@ def _counts(world: World, s: State, target: int) -> tuple[np.ndarray, np.ndarray
     if s.held[HUMAN] != NOTHING:
         held_h[int(world.item_class_idx[s.held[HUMAN]])] = 1
     return on_t, avail, held_h
+
+
+def _unique_rows(N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of ``N`` and the index of each row among them (in some fixed order:
+    every value is computed row by row). Rows compared as raw bytes: several times faster than
+    ``np.unique(axis=0)``, which compares them field by field."""
+    a = np.ascontiguousarray(N)
+    if a.shape[0] == 0:
+        return a, np.zeros(0, dtype=np.intp)
+    rows = a.view(np.dtype((np.void, a.dtype.itemsize * a.shape[1]))).reshape(-1)
+    _, first, inv = np.unique(rows, return_index=True, return_inverse=True)
+    return a[first], inv.reshape(-1)
 
 
 def _row_goals(joint: JointPosterior, col: dict[str, int], rows: np.ndarray, cmd_cls: np.ndarray,

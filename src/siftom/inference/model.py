@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Any
 
 import numpy as np
@@ -53,6 +53,8 @@ OnStep = Callable[[str, "OnlineInference", Any], None]
 UNKNOWN = "unknown"
 OFF_PLAN = "off-plan"  # a request for something outside the person's plan (hypotheses only)
 _changed_classes = changed_classes  # the name the speed benchmark imports
+_SCORED_COMMAND: Callable[[tuple[RobotCommand, float]], ScoredCommand] = partial(tuple.__new__, ScoredCommand)
+_SCORED_GOAL: Callable[[tuple[str, float]], ScoredGoal] = partial(tuple.__new__, ScoredGoal)
 
 
 @dataclass(frozen=True, eq=False)
@@ -332,12 +334,13 @@ class OnlineInference:
         gm = np.bincount(goal_all, weights=p, minlength=len(goal_names))
         corder = np.lexsort((np.arange(len(cmds)), -cm))
         corder = corder[cm[corder] > 0] if (cm > 0).any() else corder
-        commands = tuple(map(ScoredCommand._make, zip(map(cmds.__getitem__, corder.tolist()), cm[corder].tolist(),
-                                                      strict=True)))
+        # tuple.__new__ is what a NamedTuple's constructor calls, without its Python frame
+        commands = tuple(map(_SCORED_COMMAND, zip(map(cmds.__getitem__, corder.tolist()), cm[corder].tolist(),
+                                                  strict=True)))
         gorder = np.argsort(-gm, kind="stable")
         gorder = gorder[gm[gorder] > 0]
-        goals = tuple(map(ScoredGoal._make, zip(map(goal_names.__getitem__, gorder.tolist()), gm[gorder].tolist(),
-                                                strict=True)))
+        goals = tuple(map(_SCORED_GOAL, zip(map(goal_names.__getitem__, gorder.tolist()), gm[gorder].tolist(),
+                                            strict=True)))
         order = np.argsort(-lj, kind="stable")[:top]
         # the off-plan rows (the last len(unk_cmds)) are labelled apart, valued as the unknown goal
         off_from = len(goal_all) - len(unk_cmds) if cfg.mode != "speech-only" and len(unk_cmds) else len(goal_all)

@@ -277,7 +277,7 @@ def _row_goals(joint: JointPosterior, col: dict[str, int], rows: np.ndarray, cmd
 # per world: what a state's robot deliveries cost and leave behind, by (state, target, kmax,
 # deliveries); a function of the world and the state alone, so shared by every request on them
 _DELIVERIES: weakref.WeakKeyDictionary[World, Memo[_Deliveries]] = weakref.WeakKeyDictionary()
-_DELIVERIES_PER_WORLD = 512
+_DELIVERIES_PER_WORLD = 128
 
 
 @dataclass(frozen=True, eq=False)

@@ -98,11 +98,10 @@ def cells(records: list[dict[str, Any]], who: str) -> tuple[dict[str, float], di
 def log_odds(records: list[dict[str, Any]], transcript: Any, scene_r: float, slope: float, mid: float) -> list[float]:
     """log-odds(request) of each record with the transcript channel ``transcript`` and the given
     reliabilities (siftom.language.understand.understand_heard's sum)."""
-    from siftom.language.understand import OPEN, SCENE, Hearing, _weigh, namer
+    from siftom.language.understand import OPEN, SCENE, Hearing, hearing_log_odds
 
     out = []
     for rec in records:
-        nm = namer(tuple(rec["classes"]))
         lo = 0.0
         for h in rec["hearings"]:
             if h["who"] == "Whisper":
@@ -112,7 +111,7 @@ def log_odds(records: list[dict[str, Any]], transcript: Any, scene_r: float, slo
             else:
                 ch = SCENE if h["channel"] == "scene" else OPEN
                 r = scene_r if h["channel"] == "scene" else h["reliability"]
-            lo += _weigh(Hearing(tuple(h["texts"]), tuple(h["weights"]), ch, r, h["who"]), nm).llr
+            lo += hearing_log_odds(Hearing(tuple(h["texts"]), tuple(h["weights"]), ch, r, h["who"]), rec["classes"])
         out.append(lo)
     return out
 
@@ -136,7 +135,7 @@ def main() -> None:
     from scipy.optimize import minimize
 
     from siftom.inference.understood import SCENE_RELIABILITY, TRANSCRIPT_MIDPOINT, TRANSCRIPT_SLOPE
-    from siftom.language.understand import OPEN, _channel
+    from siftom.language.understand import OPEN, make_channel
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--set", default="dev")
@@ -161,7 +160,7 @@ def main() -> None:
         print(f"{who}: {n1} requests, {n0} that asked nothing")
         print("  " + ", ".join(f'"{c}": ({p1[c]:.3f}, {p0[c]:.3f})' for c in p1))
     p1, p0, _, _ = cells(records, "Whisper")
-    counted = _channel("transcript", p1, p0)
+    counted = make_channel("transcript", p1, p0)
     now = (SCENE_RELIABILITY, TRANSCRIPT_SLOPE, TRANSCRIPT_MIDPOINT)
     print("log loss, requests < 1/3, asked-nothing >= 1/3:")
     print("  stated open cells, source reliabilities:", loss(records, log_odds(records, OPEN, *now)))
@@ -171,7 +170,7 @@ def main() -> None:
         return loss(records, log_odds(records, counted, float(t[0]), float(t[1]), float(t[2])))[0]
 
     fit = minimize(f, list(now), method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-4, "maxiter": 200})
-    best = tuple(float(x) for x in fit.x)
+    best = (min(1.0, max(0.0, float(fit.x[0]))), float(fit.x[1]), float(fit.x[2]))  # a weight is in [0, 1]
     print("  counted cells, fitted reliabilities", tuple(round(x, 3) for x in best), loss(records, log_odds(records, counted, *best)))
     if args.check:
         other = out.with_name(f"{args.check}.jsonl")

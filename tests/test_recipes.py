@@ -295,3 +295,28 @@ def test_service_profile_recipe_breaks_a_request_down_by_part(tmp_path: Path) ->
     parts = sum(v for k, v in ms.items() if k not in ("total", "wall"))
     assert 0.8 * ms["total"] <= parts <= 1.05 * ms["total"], ms  # the parts account for the request
     assert out["machine"]["cpus"] >= 1 and out["machine"]["processor"]
+
+
+def test_channel_cells_counts_and_fits_captured_hearings(tmp_path: Path) -> None:
+    """The recipe reads captured hearings (as its own run keeps them), counts each recogniser's
+    cells and prints the log loss with the stated and the counted tables."""
+    import json
+
+    hear = [{"id": "a", "condition": "10dB", "request": True, "classes": ["milk", "cereal"],
+             "hearings": [{"texts": ["pass me the milk", "pass me the"], "weights": [0.7, 0.3], "channel": "scene",
+                           "reliability": 0.7, "who": "the recogniser"},
+                          {"texts": ["pass me the milk"], "weights": [1.0], "channel": "open", "reliability": 0.9,
+                           "who": "Whisper"}]},
+            {"id": "b", "condition": "10dB", "request": False, "classes": ["milk", "cereal"],
+             "hearings": [{"texts": ["the weather is nice"], "weights": [1.0], "channel": "scene", "reliability": 0.7,
+                           "who": "the recogniser"},
+                          {"texts": ["the weather is nice today"], "weights": [1.0], "channel": "open",
+                           "reliability": 0.8, "who": "Whisper"}]}]
+    (tmp_path / "h.json").write_text(json.dumps(hear))
+    res = _run(str(RECIPES / "channel_cells.py"), "--hearings", str(tmp_path / "h.json"), "--out",
+               str(tmp_path / "o" / "x.jsonl"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "Whisper: 1 requests, 1 that asked nothing" in res.stdout
+    # the stated table reads both right: a request well above 1/3, the weather talk below
+    stated = next(line for line in res.stdout.splitlines() if line.strip().startswith("stated open cells"))
+    assert stated.rstrip().endswith("0.0, 0.0)")

@@ -341,6 +341,16 @@ def _weigh(h: Hearing, nm: Namer) -> _Heard:
     return _Heard(h, readings, min(1.0, max(0.0, h.reliability)) * (l1 - l0), cues[0][2])
 
 
+def make_channel(name: str, request: dict[str, float], nobody: dict[str, float]) -> Channel:
+    """A channel from its two distributions over :data:`CELLS` (normalised; every cell given)."""
+    return _channel(name, request, nobody)
+
+
+def hearing_log_odds(h: Hearing, classes: Sequence[str], lexicon: Lexicon | None = None) -> float:
+    """What one hearing adds to log-odds(somebody asked) in :func:`understand_heard`."""
+    return _weigh(h, namer(tuple(classes), lexicon)).llr
+
+
 def understand(texts: Sequence[str], weights: Sequence[float], classes: Sequence[str],
                lexicon: Lexicon | None = None) -> Understanding:
     """The understanding of what was heard: ``texts`` (N-best hypotheses or a transcript) with

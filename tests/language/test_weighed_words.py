@@ -90,6 +90,7 @@ def test_a_channel_missing_a_cell_is_refused_naming_it() -> None:
     ("I will put the bowl away, bring me the milk", [("context", "bowl away"), ("target", "milk")]),
     ("can I get the milk", [("target", "milk")]),
     ("let's get the milk", [("target", "milk")]),
+    ("bring bread a i'm hand tortilla", [("target", "bread"), ("target", ""), ("target", "tortilla")]),
     # a bare word between a negated auxiliary and a noun phrase is the verb it negates
     ("please don't touch the bowls", [("negated", "bowls")]),
     ("do not drag the pasta", [("negated", "pasta")]),

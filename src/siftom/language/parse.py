@@ -373,13 +373,16 @@ def _tells(nxt: tuple[str, ...]) -> bool:
 
 # modals that make "I <modal> <verb>" the speaker's own plan ("I'll put", "we will take")
 _PLANS = frozenset({"will", "shall", "'ll"})
+# subjects before which a request verb is no statement: "let's" invites the robot in; "I'm" and
+# "we're" take no bare verb ("I'm hand the tortilla" is a recogniser's run-on, not English)
+_NOT_PLANS = frozenset({"let's", "i'm", "we're"})
 
 
 def _speaker_does(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: int) -> bool:
     """Whether the request verb at piece ``j`` has the speaker as its subject: "I" or "we" right
     before it, or before "will"/"shall" before it ("I'll put", "where did I put", "we will get"),
     and not after a modal that asks ("can I get", "could we have" ask the robot) or a wish ("I'd
-    get"); "let's" invites the robot in, so it is no statement."""
+    get"); "let's", "I'm" and "we're" are no such subject (:data:`_NOT_PLANS`)."""
     k = j - 1
     while k >= 0 and kinds[k] == "FILLER":
         k -= 1
@@ -388,7 +391,7 @@ def _speaker_does(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: 
     if k < 0 or kinds[k] != "SELF":
         return False
     subject = words[pieces[k][1][0][1]]
-    if subject in _WISHING or subject == "let's":
+    if subject in _WISHING or subject in _NOT_PLANS:
         return False
     return not (k >= 1 and kinds[k - 1] == "MODAL")
 

@@ -388,17 +388,36 @@ class OnlineInference:
         rho = self.model.config.off_plan
         if rho <= 0 or n_unknown == 0 or len(prior) == 0:
             return -np.inf, 0.0
+        own = self._memo.get("prior_and_actions")
+        if own is not None and prior is own[0] and act is own[1]:  # this state's own terms: kept
+            mass, marginal = self._kept("off_plan_mass", lambda: self._masses(prior, act))
+        else:
+            mass, marginal = self._masses(prior, act)
+        return float(np.log(rho) - np.log(n_unknown) + mass), marginal
+
+    @staticmethod
+    def _masses(prior: np.ndarray, act: np.ndarray) -> tuple[float, float]:
+        """log sum of the prior, and the actions' log marginal likelihood under it."""
         mass = float(logsumexp(prior))
-        return (float(np.log(rho) - np.log(n_unknown) + mass), float(logsumexp(prior + act)) - mass)
+        return mass, float(logsumexp(prior + act)) - mass
 
     def _bringable(self, unk_cmds: np.ndarray, cmds: Sequence[RobotCommand]) -> np.ndarray:
         """0 for a command the robot could carry out now, -inf for one asking for more objects
         of a class than are left to bring (a person does not ask for what is already in front of
-        them): the off-plan request's support."""
+        them): the off-plan request's support. Kept per state for its own candidates."""
+        own = self._memo.get("candidates")
+        if own is not None and unk_cmds is own[3]:
+            got: np.ndarray = self._kept("bringable", lambda: self._make_bringable(unk_cmds, cmds))
+            return got
+        return self._make_bringable(unk_cmds, cmds)
+
+    def _make_bringable(self, unk_cmds: np.ndarray, cmds: Sequence[RobotCommand]) -> np.ndarray:
         left = self._class_total - self._done()
         classes = {c: k for k, c in enumerate(self.world.classes)}
         ok = np.array([cmds[int(i)].count <= left[classes[cmds[int(i)].obj_class]] for i in unk_cmds], dtype=bool)
-        return np.where(ok, 0.0, -np.inf)
+        out: np.ndarray = np.where(ok, 0.0, -np.inf)
+        out.flags.writeable = False
+        return out
 
     def _context(self, goal_idx: np.ndarray, cmd_of: np.ndarray, rows: np.ndarray, unk_cmds: np.ndarray,
                  cmds: Sequence[RobotCommand]) -> np.ndarray:

@@ -292,6 +292,15 @@ class _Deliveries:
     remedy: int  # steps to clear one wrong object: 2 + 2 d(target, nearest other open surface)
 
 
+def clear_state_caches(world: World) -> None:
+    """Forget what was kept for ``world``'s states (benchmarks call this to time work from scratch)."""
+    for per in _CTG.get(world, {}).values():
+        per.clear_state_cache()
+    got = _DELIVERIES.get(world)
+    if got is not None:
+        got.clear()
+
+
 def _deliveries(world: World, s: State, target: int, kmax: int, live: tuple[tuple[int, int], ...],
                 on_t: np.ndarray, tabs: ClassTables) -> _Deliveries:
     """The deliveries ``live`` in state ``s`` (``on_t`` and ``tabs``: the state's, so not in the key)."""

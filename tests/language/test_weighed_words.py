@@ -91,6 +91,7 @@ def test_a_channel_missing_a_cell_is_refused_naming_it() -> None:
     ("can I get the milk", [("target", "milk")]),
     ("let's get the milk", [("target", "milk")]),
     ("bring bread a i'm hand tortilla", [("target", "bread"), ("target", ""), ("target", "tortilla")]),
+    ("but we bring me the beans", [("target", "beans")]),
     # a bare word between a negated auxiliary and a noun phrase is the verb it negates
     ("please don't touch the bowls", [("negated", "bowls")]),
     ("do not drag the pasta", [("negated", "pasta")]),

@@ -391,8 +391,8 @@ def _speaker_does(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: 
     if k < 0 or kinds[k] != "SELF":
         return False
     subject = words[pieces[k][1][0][1]]
-    if subject in _WISHING or subject in _NOT_PLANS:
-        return False
+    if subject in _WISHING or subject in _NOT_PLANS or (j + 1 < len(kinds) and kinds[j + 1] == "ME"):
+        return False  # nobody brings themselves something: "we bring me the beans" misheard "could you"
     return not (k >= 1 and kinds[k - 1] == "MODAL")
 
 

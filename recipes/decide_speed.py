@@ -72,8 +72,7 @@ def run_decision_bench(repeats: int = 20) -> dict:
             rule(post, where)  # warm-up
 
             def run(rule=rule, post=post, where=where) -> None:
-                for per in teamvalue._CTG.get(where.world, {}).values():
-                    per.clear_state_cache()
+                teamvalue.clear_state_caches(where.world)
                 rule(post, where)
 
             row[f"{name}_ms"] = round(_median_ms(run, repeats), 3)

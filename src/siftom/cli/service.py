@@ -203,6 +203,35 @@ def claim_data_dir(data_dir: str) -> RunLock:
     return lock
 
 
+@dataclasses.dataclass(frozen=True)
+class ServeOptions:
+    """The ``siftom serve`` flags as one record (click's keyword arguments, by name)."""
+
+    host: str
+    port: int
+    data_dir: str | None
+    max_sessions: int | None
+    session_idle: float | None
+    max_world_bytes: int | None
+    max_world_items: int | None
+    max_session_actions: int | None
+    max_streams: int | None
+    max_utterance: float | None
+    stream_idle: float | None
+    audio_workers: int | None
+    header_timeout: float | None
+    body_timeout: float | None
+    config_file: Path | None
+    trusted_proxy: tuple[str, ...]
+    token: str | None
+    token_file: Path | None
+    allow_host: tuple[str, ...]
+    allow_origin: tuple[str, ...]
+    llm_backend: str | None
+    llm_base_url: str | None
+    llm_model: str | None
+
+
 @click.command("serve")
 @whisper_model_option
 @click.option("--host", default="127.0.0.1", show_default=True, help="interface to listen on")
@@ -241,14 +270,7 @@ def claim_data_dir(data_dir: str) -> RunLock:
                    "are believed (repeatable; default: none, every client is its connection's address)")
 @with_access_options
 @llm_options
-def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | None, session_idle: float | None,
-              max_world_bytes: int | None, max_world_items: int | None, max_session_actions: int | None,
-              max_streams: int | None, max_utterance: float | None, stream_idle: float | None,
-              audio_workers: int | None, header_timeout: float | None, body_timeout: float | None,
-              config_file: Path | None, trusted_proxy: tuple[str, ...],
-              token: str | None, token_file: Path | None,
-              allow_host: tuple[str, ...], allow_origin: tuple[str, ...],
-              llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
+def serve_cmd(**flags: Any) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
     Beyond loopback every request needs a token (printed at start with a ready URL, or given with
@@ -256,6 +278,11 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     (``siftom config show``: sessions.*, service.*). The "llm" likelihood uses the --llm-* flags
     or SIFTOM_LLM_* (GET /healthz shows which).
     """
+    _serve(ServeOptions(**flags))
+
+
+def _serve(opts: ServeOptions) -> None:
+    """Run ``siftom serve`` with the flags in ``opts``."""
     interruptible()  # before the imports: a Ctrl-C while they load stops the server as one later does
     _need_serve_extra()
     import uvicorn
@@ -268,14 +295,15 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
     from siftom.settings import Settings
 
     flags: dict[str, object] = {
-        "sessions.max_sessions": max_sessions, "sessions.idle_s": session_idle,
-        "sessions.max_world_bytes": max_world_bytes, "sessions.max_world_items": max_world_items,
-        "sessions.max_actions": max_session_actions, "service.audio_workers": audio_workers,
-        "stream.max_streams": max_streams, "stream.max_utterance_s": max_utterance, "stream.max_idle_s": stream_idle}
-    if flags_given(llm_backend, llm_base_url, llm_model):
-        cfg = llm_config(llm_backend, llm_base_url, llm_model)
+        "sessions.max_sessions": opts.max_sessions, "sessions.idle_s": opts.session_idle,
+        "sessions.max_world_bytes": opts.max_world_bytes, "sessions.max_world_items": opts.max_world_items,
+        "sessions.max_actions": opts.max_session_actions, "service.audio_workers": opts.audio_workers,
+        "stream.max_streams": opts.max_streams, "stream.max_utterance_s": opts.max_utterance,
+        "stream.max_idle_s": opts.stream_idle}
+    if flags_given(opts.llm_backend, opts.llm_base_url, opts.llm_model):
+        cfg = llm_config(opts.llm_backend, opts.llm_base_url, opts.llm_model)
         flags.update({"llm.backend": cfg.backend, "llm.base_url": cfg.base_url, "llm.model": cfg.model})
-    loaded = Settings.load(config_file, flags=flags)
+    loaded = Settings.load(opts.config_file, flags=flags)
     settings = loaded.service
     # a world of max_world_bytes must fit in a request body
     need = settings.sessions.max_world_bytes + 4096
@@ -283,26 +311,28 @@ def serve_cmd(host: str, port: int, data_dir: str | None, max_sessions: int | No
         settings = dataclasses.replace(settings, max_body_bytes=max(ServiceSettings().max_body_bytes, need))
     from siftom.service.hosts import proxy_options
 
-    proxy_headers, forwarded = proxy_options(trusted_proxy)  # a malformed address: one line, before anything
-    token, generated = resolve_token(host, token, token_file, settings.token)
-    access = access_for(host, token, (*settings.allowed_hosts, *allow_host), (*settings.allowed_origins, *allow_origin))
+    proxy_headers, forwarded = proxy_options(opts.trusted_proxy)  # a malformed address: one line, before anything
+    token, generated = resolve_token(opts.host, opts.token, opts.token_file, settings.token)
+    access = access_for(opts.host, token, (*settings.allowed_hosts, *opts.allow_host),
+                        (*settings.allowed_origins, *opts.allow_origin))
     settings = dataclasses.replace(settings, token=token, allowed_hosts=access.hosts, allowed_origins=access.origins)
     private_umask()  # sessions, ratings, maps: 0600 files in 0700 folders
     # the port first: in use, it is a one-line error before any model loads (or starts loading)
-    check_port(host, port)
+    check_port(opts.host, opts.port)
     with stopped_by_signals():
         lock, app = None, None
         try:
-            lock = claim_data_dir(data_dir) if data_dir is not None else None
-            announce("web page", host, port, token, generated, " , API schema at /openapi.json")
+            lock = claim_data_dir(opts.data_dir) if opts.data_dir is not None else None
+            announce("web page", opts.host, opts.port, token, generated, " , API schema at /openapi.json")
             # every request goes through one observer built from these settings (as siftom.infer does)
             observer = Observer(loaded, offered=settings.offered, max_audio_seconds=settings.max_audio_seconds,
                                 decode_in_worker=True)  # pocketsphinx off the GIL: other requests keep going
-            app = create_app(data_dir, settings, observer)
-            uvicorn.run(app, host=host, port=port, log_level="info", timeout_graceful_shutdown=STOP_GRACE_S,
+            app = create_app(opts.data_dir, settings, observer)
+            uvicorn.run(app, host=opts.host, port=opts.port, log_level="info",
+                        timeout_graceful_shutdown=STOP_GRACE_S,
                         proxy_headers=proxy_headers, forwarded_allow_ips=forwarded,
-                        http=deadline_protocol(header_timeout or HEADER_TIMEOUT_S,
-                                               body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
+                        http=deadline_protocol(opts.header_timeout or HEADER_TIMEOUT_S,
+                                               opts.body_timeout or BODY_TIMEOUT_S))  # slow clients cut off
         finally:  # also on SIGTERM / SIGINT, during warm-up too: workers stopped, folder released
             if app is not None:
                 app.state.runtime.close()

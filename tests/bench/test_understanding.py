@@ -20,6 +20,7 @@ from siftom.bench.understanding import (
     Expect,
     Item,
     generate_items,
+    outcome,
     summary_path,
     understood,
 )
@@ -180,6 +181,7 @@ class Understood:
 @dataclass(frozen=True)
 class Decision:
     reason: str = ""
+    declined: str = ""
 
 
 @dataclass(frozen=True)
@@ -238,12 +240,22 @@ def test_no_request_is_understood_when_the_robot_does_nothing(kind: str) -> None
 
 def test_an_absent_object_is_understood_when_the_robot_does_nothing_and_says_why() -> None:
     banana = item("absent", Expect(True, (), absent="banana"))
-    assert understood(banana, FakeAnswer("none", decision=Decision("there is no banana here")))
+    assert understood(banana, FakeAnswer("none", decision=Decision(declined="Sorry, there is no banana here.")))
     assert not understood(banana, FakeAnswer("none", decision=Decision("no instruction heard")))
     assert not understood(banana, FakeAnswer("act", Cmd("bowl"), decision=Decision("banana? a bowl then")))
     glass = item("absent", Expect(True, (), absent="wine glass"))
-    assert understood(glass, FakeAnswer("none", decision=Decision("there is no wineglass here")))
-    assert understood(glass, FakeAnswer("none", decision=Decision("asked for a wine glass (not here)")))
+    assert understood(glass, FakeAnswer("none", decision=Decision(declined="there is no wineglass here")))
+
+
+def test_silence_to_a_request_for_an_absent_object_ignores_the_person() -> None:
+    # an explanation in the record names the object, but the robot said nothing: the person was ignored
+    banana = item("absent", Expect(True, (), absent="banana"))
+    silent = FakeAnswer("none", decision=Decision("no instruction heard (Whisper heard 'the banana')"))
+    assert not understood(banana, silent)
+    assert outcome(banana, silent)["nothing"] is True
+    declined = FakeAnswer("none", decision=Decision("there is no banana here", "Sorry, there is no banana here."))
+    assert outcome(banana, declined)["nothing"] is False
+    assert outcome(banana, FakeAnswer("ask"))["nothing"] is False
 
 
 # -- the command line ------------------------------------------------------------------------------

@@ -96,6 +96,15 @@ def test_a_channel_missing_a_cell_is_refused_naming_it() -> None:
     ("please don't touch the bowls", [("negated", "bowls")]),
     ("do not drag the pasta", [("negated", "pasta")]),
     ("no sugar", [("negated", "sugar")]),
+    # "<word> me <object>" opening a clause is a request, whatever verb was heard
+    ("drink me the napkins", [("target", "napkins")]),
+    ("has me the beans", [("target", "beans")]),
+    ("and fix me a sandwich", [("target", "sandwich")]),
+    ("I have the beans", [("context", "beans")]),
+    # a slot before a negated verb with an object of its own is its subject, not the request
+    ("stop, don't grab the pasta", [("context", "stop"), ("negated", "pasta")]),
+    ("the kids don't want the milk", [("context", "kids"), ("negated", "milk")]),
+    ("the milk, don't forget it", [("target", "milk")]),
 ])
 def test_repairs_negations_and_statements_are_read_as_said(text: str, roles: list[tuple[str, str]] | None) -> None:
     r = read(text)

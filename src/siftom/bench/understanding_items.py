@@ -303,9 +303,10 @@ def offered(answer: Any) -> tuple[str, ...]:
 
 
 def said_why(answer: Any) -> str:
-    """What the robot says about its decision: the reason and, when it declines, the words."""
-    d = getattr(answer, "decision", None)
-    return f"{getattr(d, 'reason', '') or ''} {getattr(d, 'declined', '') or ''}"
+    """What the robot says when it declines: the decline of the answer and of each of its parts
+    (its explanation, ``reason``, is for whoever reads the record, not said to the person)."""
+    decisions = (getattr(answer, "decision", None), *tuple(getattr(answer, "part_decisions", None) or ()))
+    return " ".join(str(getattr(d, "declined", "") or "") for d in decisions).strip()
 
 
 def understood(item: Item, answer: Any) -> bool:
@@ -313,7 +314,8 @@ def understood(item: Item, answer: Any) -> bool:
 
     * a refused object (``refused``): never carried out, never offered in a question; with no
       target, that is all;
-    * an absent object: the robot does nothing and the reason names the object;
+    * an absent object: the robot does nothing and says why, naming the object ("Sorry, there is
+      no banana here."); staying silent ignores the person;
     * no request: the robot does nothing (``action`` none, no command carried out);
     * a request: the utterance model heard a request (a reply: the robot's parts or what it
       carries out name the objects), the classes of ``answer.parts`` (one command per
@@ -368,7 +370,8 @@ def understood(item: Item, answer: Any) -> bool:
 def outcome(item: Item, answer: Any) -> dict[str, bool | None]:
     """What went wrong, beside :func:`understood` (None where it cannot happen to the item):
 
-    * ``nothing``: a request for objects that are here got no action and no question;
+    * ``nothing``: a request got no action, no question and, for an object that is not here, no
+      decline said;
     * ``other_object``: a request was carried out on an object not asked for (an absent one's
       stand-in, a refused one, or any class outside the targets and their ``optional``);
     * ``acted_unasked`` / ``asked_unasked``: nobody asked, and the robot acted / asked back.
@@ -383,6 +386,7 @@ def outcome(item: Item, answer: Any) -> dict[str, bool | None]:
             other = bool(done)
         else:
             other = bool(done & set(e.refused))
-        return {"nothing": action == "none" if e.wants_object else None, "other_object": other,
+        silent = action == "none" and not (e.absent and said_why(answer))
+        return {"nothing": silent if e.wants_object or e.absent else None, "other_object": other,
                 "acted_unasked": None, "asked_unasked": None}
     return {"nothing": None, "other_object": None, "acted_unasked": action == "act", "asked_unasked": action == "ask"}

@@ -227,6 +227,8 @@ class _RoleReader:
             self.pending = self.pending if self.pending == "negated" else ""
         elif kind == "CTX" and self.pending != "negated":
             self.pending = "context"
+        elif kind == "HAVE" and _verb_before_me(kinds, j):
+            self.frame = True  # "has me the beans" as heard for "pass me the beans": no possession
         elif kind == "HAVE" and self.pending != "negated" and not _asks_to_have(kinds, j) \
                 and not (at + 1 < len(words) and words[at + 1] == "to"):
             self.pending = "context"  # "I already have the sugar"
@@ -267,6 +269,12 @@ class _RoleReader:
             items = items[1:]
             if not items:
                 return
+        if len(items) == 1 and items[0][0] == "WORD" and _verb_before_me(kinds, j):
+            # "drink me the napkins", "fix me a sandwich": a word opening a clause before "me" and an
+            # object is the verb of a request (a request verb the recogniser misheard, or one the
+            # grammar does not list), not an object
+            self.frame = True
+            return
         nouns = tuple(p for k, p in items if k == "WORD")
         counts = [c for k, p in items if k in ("NUM", "DET") for c in [_count(words[p])] if c is not None]
         if self.retract is not None:
@@ -291,6 +299,12 @@ class _RoleReader:
         if role == "target" and _is_here(kinds, j):
             role = "context"
             self.related.add(len(slots))
+        elif role == "target" and _before_negated_verb(words, self.pieces, j) \
+                and not repairs(words, self.kinds_of_words, self.pieces[j + 1][1][0][1], "NEG"):
+            # "stop, don't grab the pasta", "the kids don't want the milk": a slot before a negated
+            # verb that takes an object of its own is that verb's subject, or a clause of its own
+            # ("the jam, never mind, the honey" is a repair)
+            role = "context"
         continued = items[0][0] == "DET" and words[items[0][1]] == "of" and bool(slots) and self._slot_piece == j - 1
         if continued:
             role = slots[-1].role  # "a bit of brown sugar", "a can of beans": one phrase
@@ -407,6 +421,21 @@ def _has_frame(kinds: list[str], j: int) -> bool:
     if k == "WANT":  # with its subject: "I need", "we still need" (a bare "need an" is no frame)
         return any(x == "SELF" for x in kinds[max(0, j - 3):j])
     return False
+
+
+def _before_negated_verb(words: tuple[str, ...], pieces: list[tuple[str, list[tuple[str, int]]]], j: int) -> bool:
+    """Whether the slot at ``j`` is followed by a negated verb ("don't", "won't") with an object
+    after it."""
+    if j + 1 >= len(pieces) or pieces[j + 1][0] != "NEG" or not _aux_neg(words, pieces[j + 1][1][0][1]):
+        return False
+    return any(kind == "np" for kind, _ in pieces[j + 2:])
+
+
+def _verb_before_me(kinds: list[str], j: int) -> bool:
+    """Whether the piece at ``j`` opens a clause and is followed by "me" (or "us") and an object:
+    the imperative "<verb> me <object>" of a request, whatever the verb was heard as."""
+    before = next((k for k in reversed(kinds[:j]) if k != "FILLER"), "")
+    return before in ("", "AND", "PLEASE") and kinds[j + 1:j + 2] == ["ME"] and kinds[j + 2:j + 3] == ["np"]
 
 
 def _asks_to_have(kinds: list[str], j: int) -> bool:

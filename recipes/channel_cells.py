@@ -160,7 +160,7 @@ def main() -> None:
         print(f"{who}: {n1} requests, {n0} that asked nothing")
         print("  " + ", ".join(f'"{c}": ({p1[c]:.3f}, {p0[c]:.3f})' for c in p1))
     p1, p0, _, _ = cells(records, "Whisper")
-    counted = make_channel("transcript", p1, p0)
+    counted = make_channel("transcript", p1, p0, as_said=False)
     now = (SCENE_RELIABILITY, TRANSCRIPT_SLOPE, TRANSCRIPT_MIDPOINT)
     print("log loss, requests < 1/3, asked-nothing >= 1/3:")
     print("  stated open cells, source reliabilities:", loss(records, log_odds(records, OPEN, *now)))

@@ -113,3 +113,19 @@ def test_repairs_negations_and_statements_are_read_as_said(text: str, roles: lis
         assert ("target", "plate") in got and ("retracted", "plate") not in got
     else:
         assert got == roles
+
+
+def test_a_transcript_speaks_as_far_as_it_is_the_words_said() -> None:
+    # the words as said with probability r, else misheard: at r = 1 the channel's full ratio, at
+    # r = 0 nothing, and in between never more than the words as said would say
+    from siftom.language.understand import OPEN, Hearing, hearing_log_odds
+
+    classes = ["beans", "milk"]
+    for text in ("i'm on the phone", "pass me the beans"):
+        full = hearing_log_odds(Hearing((text,), (1.0,), OPEN, 1.0), classes)
+        odds = [hearing_log_odds(Hearing((text,), (1.0,), OPEN, r), classes) for r in (0.0, 0.2, 0.5, 0.8, 1.0)]
+        assert odds[0] == pytest.approx(0.0) and odds[-1] == pytest.approx(full)
+        assert all(abs(a) <= abs(b) + 1e-12 for a, b in zip(odds, odds[1:], strict=False))
+    # a garbled room-talk reading at low confidence no longer outweighs a request in the N-best
+    low = hearing_log_odds(Hearing(("i'm on the phone",), (1.0,), OPEN, 0.3), classes)
+    assert -1.5 < low < 0.0

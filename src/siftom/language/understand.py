@@ -19,8 +19,12 @@ A reading falls in one cell (a request frame or none, crossed with what its targ
 and each kind of recogniser is a :class:`Channel`: the two distributions over the cells, under a
 request and under nobody asked (``OPEN_CELLS``, ``SCENE_CELLS``). Every recogniser that heard the
 utterance is a :class:`Hearing` with its reliability; :func:`understand_heard` weighs them all
-(with even prior odds, log-odds(request) is the sum over hearings of each one's reliability times
-the log ratio of its hypotheses' mixed cell probabilities), so no one transcript decides.
+(with even prior odds, log-odds(request) is the sum over hearings of the log ratio of each one's
+cell probabilities under the two hypotheses), so no one transcript decides. A transcript read
+through a channel stated for the words as said (``open``) is those words with probability its
+reliability, and else a mishearing whose cell is drawn as any utterance's is, which says nothing
+about either hypothesis; a channel counted on a recogniser's own outputs (``scene``) holds its
+errors already, and its reliability tempers it.
 docs/understanding.md ("Channels") gives the reasoning, the data each table was counted or stated
 on, and what ``siftom bench understanding`` measured with them.
 """
@@ -227,6 +231,9 @@ class Channel:
 
     name: str
     cells: tuple[tuple[str, float, float], ...]
+    # the cells describe the words as said (stated: "open"), not a recogniser's outputs with its
+    # errors in them (counted on them: "scene"); see :func:`_weigh`
+    as_said: bool = True
 
     def __post_init__(self) -> None:
         got = {c for c, _, _ in self.cells}
@@ -244,7 +251,7 @@ class Channel:
         raise KeyError(cell)
 
 
-def _channel(name: str, request: dict[str, float], nobody: dict[str, float]) -> Channel:
+def _channel(name: str, request: dict[str, float], nobody: dict[str, float], as_said: bool = True) -> Channel:
     """A channel from the two distributions over :data:`CELLS`."""
     def fill(d: dict[str, float]) -> dict[str, float]:
         missing = set(CELLS) - set(d)
@@ -254,7 +261,7 @@ def _channel(name: str, request: dict[str, float], nobody: dict[str, float]) -> 
         return {c: d[c] / total for c in CELLS}  # stated to a few digits: normalised
 
     r, n = fill(request), fill(nobody)
-    return Channel(name, tuple((c, r[c], n[c]) for c in CELLS))
+    return Channel(name, tuple((c, r[c], n[c]) for c in CELLS), as_said)
 
 
 # How people speak (docs/understanding.md, "Channels"): (P(cell | request), P(cell | nobody asked)).
@@ -280,7 +287,9 @@ SCENE_CELLS: dict[str, tuple[float, float]] = {
     "frame-negated": (0.002, 0.008), "frame-context": (0.027, 0.008), "frame-empty": (0.027, 0.053),
 }
 OPEN = _channel("open", {c: p[0] for c, p in OPEN_CELLS.items()}, {c: p[1] for c, p in OPEN_CELLS.items()})
-SCENE = _channel("scene", {c: p[0] for c, p in SCENE_CELLS.items()}, {c: p[1] for c, p in SCENE_CELLS.items()})
+SCENE = _channel("scene", {c: p[0] for c, p in SCENE_CELLS.items()}, {c: p[1] for c, p in SCENE_CELLS.items()},
+                 as_said=False)
+
 
 
 def cue_cell(reading: Reading, nm: Namer) -> tuple[str, str]:
@@ -326,24 +335,42 @@ class Hearing:
 class _Heard:
     hearing: Hearing
     readings: tuple[Reading, ...]
-    llr: float  # log P(words | request) - log P(words | nobody asked), weighed by reliability
+    llr: float  # log P(words | request) - log P(words | nobody asked), through the channel
     why: str
+    # how far the words speak for a request, weighed by their reliability: which hearing's
+    # reading the record holds (:func:`_speaker`)
+    speaks: float
 
 
 def _weigh(h: Hearing, nm: Namer) -> _Heard:
     readings = tuple(read(t) for t in h.texts)
     cues = [_cue_log_probs(r, nm, h.channel) for r in readings]
     w = [max(float(x), 1e-12) for x in h.weights]
-    l1 = math.log(sum(wi * math.exp(c[0]) for wi, c in zip(w, cues, strict=True)))
-    l0 = math.log(sum(wi * math.exp(c[1]) for wi, c in zip(w, cues, strict=True)))
-    # a tempered likelihood: a reading trusted with reliability r speaks with weight r (r = 0:
-    # its words are noise and say nothing about either hypothesis)
-    return _Heard(h, readings, min(1.0, max(0.0, h.reliability)) * (l1 - l0), cues[0][2])
+    rel = min(1.0, max(0.0, h.reliability))
+    said = (math.log(sum(wi * math.exp(c[0]) for wi, c in zip(w, cues, strict=True)))
+            - math.log(sum(wi * math.exp(c[1]) for wi, c in zip(w, cues, strict=True))))
+    if h.channel.as_said:
+        # the words as said with probability rel, else misheard: words of some utterance, whose
+        # cell is drawn as any utterance's is (the channel's cells mixed at the prior odds) and so
+        # speaks for neither hypothesis. P(cell | H) = rel P(cell | H) + (1 - rel) P(cell): a
+        # garbled transcript ("has me the beans" for "pass me the beans") cannot outweigh the rest
+        p1 = p0 = 0.0
+        for wi, (l1, l0, _) in zip(w, cues, strict=True):
+            slip = (1.0 - rel) * (PRIOR_REQUEST * math.exp(l1) + (1.0 - PRIOR_REQUEST) * math.exp(l0))
+            p1 += wi * (rel * math.exp(l1) + slip)
+            p0 += wi * (rel * math.exp(l0) + slip)
+        llr = math.log(p1 / p0) if p1 > 0.0 and p0 > 0.0 else 0.0
+    else:
+        # a channel counted on the recogniser's own outputs holds its errors already: a tempered
+        # likelihood, the reliability the weight of its (correlated) hypotheses
+        llr = rel * said
+    return _Heard(h, readings, llr, cues[0][2], rel * said)
 
 
-def make_channel(name: str, request: dict[str, float], nobody: dict[str, float]) -> Channel:
-    """A channel from its two distributions over :data:`CELLS` (normalised; every cell given)."""
-    return _channel(name, request, nobody)
+def make_channel(name: str, request: dict[str, float], nobody: dict[str, float], as_said: bool = True) -> Channel:
+    """A channel from its two distributions over :data:`CELLS` (normalised; every cell given);
+    ``as_said=False`` for cells counted on a recogniser's own outputs (:class:`Channel`)."""
+    return _channel(name, request, nobody, as_said)
 
 
 def hearing_log_odds(h: Hearing, classes: Sequence[str], lexicon: Lexicon | None = None) -> float:
@@ -404,9 +431,9 @@ def _speaker(heard: Sequence[_Heard], nm: Namer, request: bool) -> _Heard:
     """The hearing whose reading the record holds: of a request, the one that speaks most for it
     among those that hold an object slot (a lost object counts); else the one most against."""
     if not request:
-        return min(heard, key=lambda x: x.llr)
+        return min(heard, key=lambda x: x.speaks)
     with_slot = [x for x in heard if object_targets(x.readings[0], nm)]
-    return max(with_slot or heard, key=lambda x: x.llr)
+    return max(with_slot or heard, key=lambda x: x.speaks)
 
 
 def _say(m: Mention) -> str:

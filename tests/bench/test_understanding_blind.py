@@ -198,11 +198,14 @@ def test_more_than_the_world_holds_is_understood_as_what_there_is_of_that_object
 
 def test_an_object_outside_the_lexicon_is_understood_when_the_robot_says_it_is_not_here() -> None:
     stapler = item("unknown", Expect(True, absent="stapler"))
-    assert understood(stapler, FakeAnswer("none", decision=Decision("asked for a stapler: not here")))
-    assert understood(stapler, FakeAnswer("none", decision=Decision("no", declined="Sorry, there is no stapler here.")))
+    # the record's explanation is not said to the person: silence ignores them
+    assert not understood(stapler, FakeAnswer("none", decision=Decision("asked for a stapler: not here")))
+    said = FakeAnswer("none", decision=Decision("no", declined="Sorry, there is no stapler here."))
+    assert understood(stapler, said)
+    assert outcome(stapler, said)["nothing"] is False
     assert not understood(stapler, did(Cmd("tape")))
     assert outcome(stapler, did(Cmd("tape")))["other_object"] is True
-    assert outcome(stapler, FakeAnswer("none"))["nothing"] is None  # doing nothing is right here
+    assert outcome(stapler, FakeAnswer("none"))["nothing"] is True  # saying nothing ignores the person
 
 
 def test_nobody_asked_counts_acting_and_asking_back_apart() -> None:
@@ -281,8 +284,8 @@ def test_the_cli_runs_the_blind_set_and_writes_what_went_wrong(tmp_path: Path,
     assert {"nothing", "other_object", "acted_unasked"} <= set(summary["by_kind"]["text"]["plain"])
     assert [g["condition"] for g in summary["gates"]] == ["text"]
     for r in rows:  # the row's flags are the summary's counts
-        assert (r["nothing"] is None) == (not r["expected"]["request"] or not r["expected"]["targets"]
-                                          or bool(r["expected"]["absent"]))
+        assert (r["nothing"] is None) == (not r["expected"]["request"]
+                                          or not (r["expected"]["targets"] or r["expected"]["absent"]))
 
 
 def test_the_cli_runs_only_the_kinds_asked_for_and_names_a_bad_one(tmp_path: Path,

@@ -291,7 +291,6 @@ SCENE = _channel("scene", {c: p[0] for c, p in SCENE_CELLS.items()}, {c: p[1] fo
                  as_said=False)
 
 
-
 def cue_cell(reading: Reading, nm: Namer) -> tuple[str, str]:
     """The cell of a reading (:data:`CELLS`) and, where it speaks against a request, why."""
     targets = object_targets(reading, nm)

@@ -302,7 +302,7 @@ class Observer:
         if understood is not None and understood.request and instruction is not None and typed(instruction) \
                 and mode != "speech-only":
             # written words are not misheard: a word like no object here may name one that is not
-            understood = written_absent(understood, online.world, _lexicon_of(online.world))
+            understood = written_absent(understood, online.world, _lexicon_of(online.world), post)
             post = dataclasses.replace(post, understanding=understood)
         targets = understood.targets if understood is not None and understood.request else ()
         named, left_out = request_parts(targets, MAX_PARTS)

@@ -84,6 +84,22 @@ def test_a_typed_word_near_an_object_stays_a_slip_the_posterior_weighs() -> None
     assert a.action in ("act", "ask") and "cereal" in (a.decision.question + str(a.command))
 
 
+@pytest.mark.parametrize("scenario, text, name", [("kitchen-v0/7", "bring me a towel", "towel"),
+                                                  ("kitchen-v0/0", "can you bring me the scissors", "scissors")])
+def test_a_typed_word_as_near_an_object_as_silver_is_declined_when_the_actions_want_another(
+        scenario: str, text: str, name: str) -> None:
+    # "towel" is as near "apple" as "silver" is to "cereal", but the person is making cereal:
+    # a slip for the apple is unlikely, an object that is not here likelier
+    a = siftom.infer(scenario, None, text)
+    assert a.action == "none" and name in a.decision.declined
+    assert not a.carry_out
+
+
+def test_a_slip_the_actions_support_is_not_declined() -> None:
+    a = siftom.infer("household-table-v0/5", None, "I'd like the lives")
+    assert a.action in ("act", "ask") and not a.decision.declined
+
+
 def test_a_part_with_the_person_is_declined_and_no_command_is_carried_out_twice() -> None:
     a = siftom.infer("kitchen-v0/4", None, "we need pasta and garlic")
     assert a.action == "act" and str(a.command) == "fetch(pasta)"

@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 
+import numpy as np
+
 from siftom.assist import phrasing_en
 from siftom.assist.decide import Decision, Situation, decline_reason
 from siftom.assist.teamvalue import NONE
@@ -30,35 +32,63 @@ def absent(decision: Decision, mention: Mention) -> Decision | None:
                     declined=phrasing_en.sorry(phrasing_en.none_here(mention.named)))
 
 
-# Written words (typed, or one transcript given as what was said) slip less than heard ones: a
-# word whose best fit to a name of the world's objects weighs less than this in the slot channel
-# names an object that is not here. Between the two cases it must keep apart (docs/understanding.md,
-# "What a word names"): "silver" for the cereal (weight 2.5e-3, as "lives" for the knives) stays a
-# slip; "stapler" beside tape (3e-4) and "hammer" beside scissors (5e-5) name objects not here.
-WRITTEN_SLIP = 8e-4
+# Written words (typed, or one transcript given as what was said) slip less than heard ones. A
+# target whose words name no object of the world is a slip for one of them or names an object
+# that is not here; a slip for object k is as likely as its words' fit to k's names in the slot
+# channel, weighed by how likely the person's actions make a request for k. The prior weight of
+# "names an object that is not here" against those (docs/understanding.md, "What a word names"):
+# between the slips it must keep ("pass me the silver" while the person makes cereal, 6.9e-4;
+# "I'd like the lives" at a set table, 3.7e-4) and the objects not here it must decline
+# ("scissors" while the person makes cereal, 2.9e-5; "towel", 5e-7), at their geometric middle.
+WRITTEN_ABSENT = 1e-4
 
 
-def written_absent(u: Understanding, world: World, lexicon: object = None) -> Understanding:
+def action_weights(post: Posterior | None, classes: Sequence[str]) -> np.ndarray | None:
+    """P(a request for each class | the person's actions): the joint posterior without what the
+    words say of each command, summed over goals and counts; None when there is no joint."""
+    j = None if post is None else post.joint
+    if j is None or not len(j.commands):
+        return None
+    la = np.asarray(j.log_joint, dtype=float)
+    if j.log_words is not None:
+        la = la - np.asarray(j.log_words, dtype=float)[j.cmd_idx]
+    if not np.isfinite(la).any():
+        return None
+    w = np.exp(la - la[np.isfinite(la)].max())
+    w[~np.isfinite(w)] = 0.0
+    at = {c: i for i, c in enumerate(classes)}
+    out = np.zeros(len(classes))
+    for k, cmd in enumerate(j.commands):
+        i = at.get(str(cmd.obj_class))
+        if i is not None:
+            out[i] += float(w[j.cmd_idx == k].sum())
+    total = float(out.sum())
+    return out / total if total > 0.0 else None
+
+
+def written_absent(u: Understanding, world: World, lexicon: object = None,
+                   post: Posterior | None = None) -> Understanding:
     """``u`` with each target whose words name no object of the world read as naming an object
     that is not here, when that is likelier than a slip for one of the world's objects:
 
-        P(not here | words) = WRITTEN_SLIP / (WRITTEN_SLIP + max_k exp(-s max(0, r_k - slack)))
+        P(not here | words, actions) = A / (A + sum_k P(k | actions) exp(-s max(0, r_k - slack)))
 
-    (r_k the words' phoneme distance to class k's names, s and slack the slot channel's). Which
-    object a slip was for is the posterior's to weigh (the person's actions among it)."""
-    import dataclasses
-
-    import numpy as np
-
+    (A = ``WRITTEN_ABSENT``, r_k the words' phoneme distance to class k's names, s and slack the
+    slot channel's, P(k | actions) from ``post``'s joint without the words, :func:`action_weights`;
+    without a joint, the best fit alone stands for the sum). Which object a slip was for is the
+    posterior's to weigh."""
     from siftom.language.understand import SLOT_SHARPNESS, SLOT_SLACK, namer
 
     if not any(m.role == "target" and m.obj_class is None and not m.named and m.words for m in u.mentions):
         return u
     nm = namer(tuple(world.classes), lexicon)
+    acts = action_weights(post, nm.classes)
 
     def far(m: Mention) -> bool:
-        r = float(np.min(nm.costs(m.words.split())))
-        return float(np.exp(-SLOT_SHARPNESS * max(0.0, r - SLOT_SLACK))) < WRITTEN_SLIP
+        r = np.asarray(nm.costs(m.words.split()), dtype=float)
+        fit = np.exp(-SLOT_SHARPNESS * np.maximum(0.0, r - SLOT_SLACK))
+        slip = float(fit.max()) if acts is None else float(acts @ fit)
+        return slip < WRITTEN_ABSENT
 
     targets = [m for m in u.mentions if m.role == "target"]
     unnamed = [m for m in targets if m.obj_class is None and not m.named and m.words]

@@ -172,3 +172,42 @@ def test_an_absent_name_before_a_head_that_sounds_like_an_object_modifies_it(tex
 
     u = understand([text], [1.0], get_scenario("household-table-v0/3").world.classes)
     assert u.request and [m.obj_class for m in u.targets] == [want]
+
+
+@pytest.mark.parametrize(("text", "roles"), [
+    ("I'm looking for the jeans", [("target", "jeans")]),
+    ("we are after the cereal", [("target", "cereal")]),
+    ("I'm asking for two plates", [("target", "plates")]),
+    ("could you bring the bowl for the cereal", [("target", "bowl"), ("context", "cereal")]),
+    ("I made the pasta for the kids", [("context", "pasta"), ("context", "kids")]),
+])
+def test_a_relation_word_after_the_speaker_and_a_bare_verb_takes_what_they_seek(text, roles):
+    from siftom.language.parse import read
+
+    r = read(text)
+    assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == roles
+    assert r.frame == any(role == "target" for role, _ in roles)
+
+
+@pytest.mark.parametrize(("text", "roles"), [
+    ("skip the bowl for now", [("negated", "bowl")]),
+    ("skip the jam, bring the honey", [("negated", "jam"), ("target", "honey")]),
+])
+def test_a_verb_of_omission_refuses_its_object(text, roles):
+    from siftom.language.parse import read
+
+    r = read(text)
+    assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == roles
+
+
+@pytest.mark.parametrize(("text", "roles"), [
+    ("I'm after the syrup, oh, hang on, I mean the bread",
+     [("retracted", "syrup"), ("target", "hang"), ("target", "bread")]),
+    ("pasta, I mean rice", [("retracted", "pasta"), ("target", "rice")]),
+    ("bring the milk and butter, I mean the honey", [("target", "milk"), ("retracted", "butter"), ("target", "honey")]),
+])
+def test_a_correction_takes_back_the_last_object_said_not_a_bare_word_between(text, roles):
+    from siftom.language.parse import read
+
+    r = read(text)
+    assert [(s.role, r.words[s.nouns[-1]]) for s in r.slots] == roles

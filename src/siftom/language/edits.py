@@ -63,8 +63,9 @@ def repairs(words: tuple[str, ...], kinds: tuple[str, ...], at: int, kind: str) 
     return kind == "MEAN"
 
 
-# negating verbs: they refuse the object that follows them ("forget the milk", "leave the cereal")
-VERB_NEG = frozenset({"forget", "leave"})
+# verbs of omission: they refuse the object that follows them ("forget the milk", "leave the
+# cereal", "skip the bowl")
+VERB_NEG = frozenset({"forget", "leave", "skip"})
 # hesitations between two objects asked for that leave them adjacent ("the carrot, uh, the onion")
 HESITATIONS = frozenset({"um", "uh", "er", "erm", "hmm"})
 # a phrase after an object that starts with one of these says whose or where, not which ("the

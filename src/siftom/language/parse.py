@@ -190,10 +190,20 @@ class _RoleReader:
     said_count: int | None = None  # a count heard as its homophone ("to", "for")
     asyndetic: list[int] = field(default_factory=list)  # targets followed by another with nothing between
     listed: bool = False  # a slot joined by "and": the targets are a list ("the oil, the coffee and the tea")
+    in_list: set[int] = field(default_factory=set)  # slots joined to the one before by "and"
     _slot_piece: int = -1  # the piece of the last slot
 
     def _last_target(self) -> int | None:
         return next((k for k in range(len(self.slots) - 1, -1, -1) if self.slots[k].role == "target"), None)
+
+    def _taken_back(self) -> int | None:
+        """The target a correction takes back: the last one said as a noun phrase, past bare words
+        between ("the syrup, oh, hang on, I mean the bread"); else the last target ("pasta, I
+        mean rice")."""
+        phrase = next((k for k in range(len(self.slots) - 1, -1, -1) if self.slots[k].role == "target"
+                       and (k in self.in_list or self.slots[k].end - self.slots[k].start > len(self.slots[k].nouns))),
+                      None)
+        return phrase if phrase is not None else self._last_target()
 
     def marker(self, j: int, kind: str, items: list[tuple[str, int]]) -> None:
         words, kinds, pieces = self.words, self.kinds, self.pieces
@@ -211,13 +221,13 @@ class _RoleReader:
         if kind == "NEG" and rejects(words, self.kinds_of_words, at):
             # a discourse "no" ("no, the flour", "the jam, no, the honey", "no I need the
             # oats"): what came before is taken back, the next slot is asked for
-            self.retract = self._last_target()
+            self.retract = self._taken_back()
             self.pending = "target"
         elif kind == "NEG":
             self.pending = "negated"
         elif kind == "MEAN":
             # "the jam, I mean the honey": the target before is taken back when another follows
-            self.retract = self._last_target()
+            self.retract = self._taken_back()
             self.pending = "target"
         elif kind == "CTX" and words[at] in _COUNT_LIKE and j > 0 and kinds[j - 1] in _ASKS_BEFORE \
                 and (self.frame or self.pending == "target") and words_of(pieces, j + 1)[:1] == ("WORD",):
@@ -225,6 +235,10 @@ class _RoleReader:
             # word before a bare noun is a count the recogniser wrote as its homophone
             self.said_count = _COUNT_LIKE[words[at]]
             self.pending = self.pending if self.pending == "negated" else ""
+        elif kind == "CTX" and self.pending != "negated" and _seeks(words, kinds, pieces, j):
+            # "I'm looking for the jeans", "we're after the cereal": the relation word is the
+            # speaker's verb's own ("look for", "ask for", "be after"), its object what they want
+            self.pending, self.frame = "target", True
         elif kind == "CTX" and self.pending != "negated":
             self.pending = "context"
         elif kind == "HAVE" and _verb_before_me(kinds, j):
@@ -316,6 +330,7 @@ class _RoleReader:
             self.asyndetic.append(len(slots) - 1)  # "the jam the honey": a repair, unless a list follows
         if self.joined:
             self.listed = True
+            self.in_list.add(len(slots))
         slots.append(Slot(role, items[0][1], items[-1][1] + 1, nouns, counts[0] if counts else None))
         self._slot_piece = j
         self.pending, self.joined = "", False
@@ -408,6 +423,27 @@ def _speaker_does(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: 
     if subject in _WISHING or subject in _NOT_PLANS or (j + 1 < len(kinds) and kinds[j + 1] == "ME"):
         return False  # nobody brings themselves something: "we bring me the beans" misheard "could you"
     return not (k >= 1 and kinds[k - 1] == "MODAL")
+
+
+# relation words that take the object a subject is after ("I'm looking for the X", "I'm after the X")
+_SEEKING = frozenset({"for", "after"})
+
+
+def _seeks(words: tuple[str, ...], kinds: list[str], pieces: _Pieces, j: int) -> bool:
+    """Whether the relation word at piece ``j`` ("for", "after") follows the speaker as subject
+    with at most a bare verb between ("I'm looking for", "we are after", "I'm asking for"): a
+    prepositional verb whose object is what the speaker seeks, not a relation to another object
+    ("the bowl for the cereal")."""
+    if words[pieces[j][1][0][1]] not in _SEEKING:
+        return False
+    k = j - 1
+    while k >= 0 and kinds[k] == "FILLER":
+        k -= 1
+    if k >= 0 and kinds[k] == "np" and len(pieces[k][1]) == 1 and pieces[k][1][0][0] == "WORD":
+        k -= 1  # the bare verb ("looking"), read by the grammar as a one-word phrase
+    if k >= 0 and kinds[k] == "COP":
+        k -= 1  # "I am looking for"
+    return k >= 0 and kinds[k] == "SELF" and words[pieces[k][1][0][1]] not in ("let's",)
 
 
 def _has_frame(kinds: list[str], j: int) -> bool:

@@ -70,6 +70,9 @@ def test_more_than_the_world_holds_brings_what_there_is_never_another_object() -
     assert m.action == "act" and str(m.command) == "deliver(pen,2)"
     one = siftom.infer("kitchen-cereal-v0", None, "bring me three bowls")
     assert [p.obj_class for p in one.parts] == ["bowl"] and "only one bowl" in one.decision.question
+    # a fetch carries one object: a count said picks among the cups' commands, never another object
+    cups = siftom.infer("kitchen-cereal-v0", None, "bring me two cups")
+    assert [p.obj_class for p in cups.parts] == ["cup"] and str(cups.command) == "fetch(cup)"
 
 
 @pytest.mark.parametrize("text, name", [("could you grab the stapler for me", "stapler"),

@@ -522,7 +522,13 @@ def slot_log_factor(texts: Sequence[str], weights: Any, commands: Sequence[Any],
             pen = sharpness * np.maximum(0.0, r - SLOT_SLACK)
             pen = np.minimum(pen - pen.min(), cap)[idx]
             if s.count is not None:
-                pen = pen + sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) for n in counts])
+                # the count said picks among the counts of one object, never another object: more
+                # than the world holds ("two cups" where a fetch carries one, "three mugs" where
+                # two are left) is the object asked for, beyond its supply
+                cc = sharpness * np.array([max(0.0, _count_cost(s.count, n) - SLOT_SLACK) for n in counts])
+                least = np.full(len(nm.classes), np.inf)
+                np.minimum.at(least, idx, cc)
+                pen = pen + cc - least[idx]
             best = np.minimum(best, pen)
         mix += float(w) * np.exp(-np.minimum(best, cap))
     return np.log(np.maximum(mix, 1e-300))

@@ -83,6 +83,18 @@ def test_neither_twice_never_comes_back_to_an_option_refused():
             assert set(got.pending.refused) == refused
 
 
+def test_neither_to_a_confirmation_refuses_its_one_option() -> None:
+    """"Shall I get the sugar?" -> "neither": the sugar is refused as by "no", and the robot
+    goes on asking; the question is not left waiting as if nothing was said."""
+    a = siftom.infer("kitchen-cereal-v0", None, "can you pass me the silver")
+    b = siftom.infer("kitchen-cereal-v0", None, "neither", pending=a.pending)
+    assert b.pending is not None and b.pending.question.kind == "confirm"
+    asked = b.pending.question.options[0]
+    c = siftom.infer("kitchen-cereal-v0", None, "neither", pending=b.pending)
+    assert c.reply_to is not None and c.prob(asked) == 0.0
+    assert c.action == "ask" and asked not in offered(c)
+
+
 def test_asking_again_by_name_lifts_a_refusal():
     got = ask(CEREAL, CEREAL_3, FLOUR_OR_CEREAL, "Which one: the flour or the cereal?")
     got = siftom.infer(CEREAL, CEREAL_3, "neither", pending=got.pending)

@@ -48,6 +48,8 @@ NOTHING = ("nothing", "nothing thanks", "i don't need any")  # the count questio
 # words that name a cell; a heard answer maps to the cell whose key words it contains
 YES_KEYS = ("yes", "yeah", "yep", "yup")
 NO_KEYS = ("no", "nope", "nah")
+# words that refuse every option offered: a choice's third cell, a confirmation's "no"
+REFUSE_ALL_KEYS = ("neither", "none")
 OTHER_KEYS = ("other",)  # "the other one": not the option offered (assist/reply.py reads it)
 # "the first one", "the second one", "the last one": an option of a choice by its place
 ORDINAL_KEYS = {"first": 0, "second": 1, "last": -1}
@@ -168,7 +170,7 @@ def choose_question(a: str, b: str, lexicon: Any = None) -> Question:
     na, nb = _choice_names(ca, cb, lexicon)
     cells = tuple((n, f"{n} please") for n in (na, nb)) + (NEITHER,)
     wa, wb = set(na.split()) - {"the"}, set(nb.split()) - {"the"}
-    keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), ("neither", "none"))
+    keys = (tuple(sorted(wa - wb)), tuple(sorted(wb - wa)), REFUSE_ALL_KEYS)
     # the count is said where it tells the two apart ("two plates or three plates"), else the names
     text = phrasing_en.which_one([describe(a, lexicon), describe(b, lexicon)] if ca.obj_class == cb.obj_class
                                  else [na, nb])

@@ -12,7 +12,15 @@ from typing import Any
 
 import numpy as np
 
-from siftom.assist.questions import NO_KEYS, ORDINAL_KEYS, OTHER_KEYS, YES_KEYS, Question, channel
+from siftom.assist.questions import (
+    NO_KEYS,
+    ORDINAL_KEYS,
+    OTHER_KEYS,
+    REFUSE_ALL_KEYS,
+    YES_KEYS,
+    Question,
+    channel,
+)
 from siftom.errors import CommandParseError
 from siftom.inference.model import Posterior
 from siftom.observation import Instruction
@@ -144,7 +152,8 @@ def _parse_command(command: str) -> RobotCommand | None:
 def _reply_words(question: Question) -> frozenset[str]:
     """The words that answer without naming an object: the keys of the question's "anything
     else" cell ("neither", "nothing") and the yes / no / "the other one" / "the first one" words."""
-    return frozenset(set(question.keys[-1]) | set(YES_KEYS) | set(NO_KEYS) | set(OTHER_KEYS) | set(ORDINAL_KEYS))
+    return frozenset(set(question.keys[-1]) | set(YES_KEYS) | set(NO_KEYS) | set(REFUSE_ALL_KEYS) | set(OTHER_KEYS)
+                     | set(ORDINAL_KEYS))
 
 
 def _answer_vocabulary(question: Question) -> frozenset[str]:
@@ -260,7 +269,8 @@ def read_answer(question: Question, text: str, nm: Any) -> tuple[float, tuple[fl
                 (negated if i in in_negated else named).add(options[ORDINAL_KEYS[w]])
     said = [w for i, w in enumerate(words) if i not in in_negated]
     yes = any(w in YES_KEYS for w in said)
-    no = any(w in NO_KEYS for w in said) or negated_nothing
+    # "neither" to "Shall I get the sugar?" refuses the one option offered: a "no"
+    no = any(w in NO_KEYS or (question.kind == "confirm" and w in REFUSE_ALL_KEYS) for w in said) or negated_nothing
     neither = any(w in question.keys[-1] for w in said)
     other_one = any(w in OTHER_KEYS for w in said)
     intent, why, refuses_all = _intent(question, named, negated, other_named, unnamed,

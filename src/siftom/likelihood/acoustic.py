@@ -40,6 +40,12 @@ gets the lowest aligned value minus how much less likely the N-best makes it tha
 aligned command: it held almost no mass, the pruning never makes it more likely than an
 aligned command, and commands the N-best tells apart stay apart. Scores compare only across
 the commands of one call.
+
+**Whisper's share** (``whisper_candidates``, K): each text Whisper scores costs one teacher-forced
+decoder pass (about 8 ms for tiny.en on two cores), and a pruned set of 6-9 commands gives 10-20
+texts. Of the pruned commands, every one whose key phrase Whisper heard is scored, then the best of
+the others by N-best x context, K in all; a command left out gets the worst scored w, as a pruned
+one does. K = 4 (``DEFAULT_WHISPER_CANDIDATES``; docs/likelihoods.md gives the measurements).
 """
 
 from __future__ import annotations
@@ -93,6 +99,9 @@ DEFAULT_GAP_SCALE = 4.0
 DEFAULT_WHISPER_TEMPERATURE = 3.0
 DEFAULT_WHISPER_PAD_S = 3.0
 DEFAULT_WHISPER_PRIOR = 0.0  # lambda of the content-free debiasing: no gain on dev or test sets (docs/likelihoods.md)
+# at most this many commands get Whisper's teacher-forced score (the best by N-best x context, and those
+# Whisper heard named); chosen on a seed-5 kitchen set, checked on held-out sets (docs/likelihoods.md)
+DEFAULT_WHISPER_CANDIDATES = 4
 
 
 class AcousticLikelihood:
@@ -129,6 +138,8 @@ class AcousticLikelihood:
             ``"tempered"`` (``likelihood.pooling``; docs/likelihoods.md).
         whisper_slot_confidence: weigh Whisper's transcript in the slot channel by its own confidence
             (default); False reads it at full weight (``likelihood.pooling``).
+        whisper_candidates: at most this many of the pruned commands get the Whisper factor (module
+            doc, "Whisper's share"); default ``DEFAULT_WHISPER_CANDIDATES``.
         whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
             default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
         tie_counts: when no count word was heard, no count of a class is favoured over another
@@ -164,6 +175,7 @@ class AcousticLikelihood:
         lexicon: Lexicon | None = None,
         pool: str = DEFAULT_POOL,
         whisper_slot_confidence: bool = True,
+        whisper_candidates: int | None = None,
     ) -> None:
         """Validate the options; the aligner loads on first use."""
         if not np.isfinite(temperature) or temperature <= 0:
@@ -174,6 +186,10 @@ class AcousticLikelihood:
             raise SiftomError(f"gap_scale must be a number >= 0, got {gap_scale}")
         if not 0 < prune_mass <= 1 or max_candidates < 1 or top_nbest < 0:
             raise SiftomError("prune_mass must be in (0, 1], max_candidates >= 1 and top_nbest >= 0")
+        wc = DEFAULT_WHISPER_CANDIDATES if whisper_candidates is None else whisper_candidates
+        if wc < 1:
+            raise SiftomError(f"whisper_candidates must be at least 1, got {whisper_candidates}")
+        self.whisper_candidates = int(wc)
         if pool not in POOLS:
             raise SiftomError(f"pool must be one of {', '.join(POOLS)}, got {pool!r}")
         self.pool, self.whisper_slot_confidence = pool, bool(whisper_slot_confidence)
@@ -305,11 +321,13 @@ class AcousticLikelihood:
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
         prepared = self._whisper.listen(x, commands) if self._whisper is not None and instruction.nbest else None
-        if prepared is not None and prepared[1] and len(keep) < len(commands):
+        named: list[int] = []
+        if prepared is not None and prepared[1]:
             # a command whose key phrase Whisper heard is scored even when the N-best and the actions
             # alone would have pruned it
             named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c, lexicon=self.lexicon)))]
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
+        wkeep = self.whisper_share(keep, named, phon, context)
         kept = [commands[i] for i in keep]
         aligned = 0
         items: list[list[tuple[float, float]]] = []
@@ -334,7 +352,7 @@ class AcousticLikelihood:
                 else:
                     items, aligned = self._align(x, kept, self.phrasings or self._top_phrasings)
                 mode = "sentence"
-        wh = (self._whisper.scores(instruction, commands, keep, x, prepared)
+        wh = (self._whisper.scores(instruction, commands, wkeep, x, prepared)
               if self._whisper is not None and prepared is not None else None)
         if wh is not None and not self.aligns:
             mode = f"whisper-{wh.mode}"  # "whisper-key" or "whisper-sentence"
@@ -347,8 +365,22 @@ class AcousticLikelihood:
             evidence["whisper_use"] = wh.use if wh is not None else "none"  # "carrier", "guesses" or "none"
             if wh is not None and wh.heard:
                 evidence["whisper_logprob"] = round(wh.logprob, 4)
+        if wh is not None:
+            evidence["whisper_scored"], evidence["whisper_texts"] = len(wkeep), wh.texts
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None,
-                         wh.values if wh is not None else None, evidence)
+                         wh.values if wh is not None else None, evidence, wkeep if wh is not None else None)
+
+    def whisper_share(self, keep: np.ndarray, named: Sequence[int], phon: np.ndarray | None,
+                      context: np.ndarray | None) -> np.ndarray:
+        """The kept commands that get the Whisper factor (module doc, "Whisper's share"): every one
+        Whisper heard named, then the best of the others by N-best x context, ``whisper_candidates``
+        in all (more when Whisper named more); sorted indices."""
+        if len(keep) <= self.whisper_candidates or phon is None:
+            return keep
+        q = phon + (np.asarray(context, dtype=float) if context is not None else 0.0)
+        first = [int(i) for i in named if i in set(keep.tolist())]
+        rest = [int(i) for i in keep[np.argsort(-q[keep], kind="stable")] if int(i) not in first]
+        return np.array(sorted(first + rest[: max(0, self.whisper_candidates - len(first))]))
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

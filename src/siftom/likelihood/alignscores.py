@@ -38,6 +38,7 @@ class RawScores:
     gap: float | None = None  # (free phone loop - best alignment) / frames over the aligned audio, when measured
     whisper: np.ndarray | None = None  # the Whisper factor w of each kept command (nats), when used
     evidence: Mapping[str, Any] = field(default_factory=dict)  # how this call scored (Scores.evidence)
+    whisper_keep: np.ndarray | None = None  # the commands ``whisper`` scores, when not all of ``keep``
 
     def temperature(self, T: float, scale: float) -> float:
         """T grown by exp(scale * gap) when the best key phrase fits the frames worse than free phones."""
@@ -77,11 +78,11 @@ def combine_scores(raw: RawScores, n: int, T0: float, gap_scale: float, with_pho
 
 
 def whisper_term(raw: RawScores, n: int, whisper_temperature: float) -> np.ndarray | float:
-    """w / T_w per command; a pruned command gets the worst kept w (it held almost no mass)."""
+    """w / T_w per command; a command Whisper did not score gets the worst scored w (it held almost no mass)."""
     if raw.whisper is None or not len(raw.whisper):
         return 0.0
     w = np.full(n, float(np.min(raw.whisper)))
-    w[raw.keep] = raw.whisper
+    w[raw.keep if raw.whisper_keep is None else raw.whisper_keep] = raw.whisper
     return w / whisper_temperature
 
 

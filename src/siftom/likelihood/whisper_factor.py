@@ -51,6 +51,19 @@ Encoded = tuple[Any, int]  # WhisperScorer.encode's answer: (encoder output, num
 _NULL_SCORES: Memo[float] = memo("whisper.null_scores", 100_000)
 # the encoded silence itself, by (model, seconds)
 _NULL_ENCODED: Memo[Encoded] = memo("whisper.null_encoded", 32)
+# one clip's encoding and Whisper's transcript of it, by (model, window, clip digest, prompt): a request
+# of several parts scores the same clip once per part, and the encoder and the transcript are the same
+_LISTENED: Memo[tuple[Encoded, list[str], float]] = memo("whisper.listened", 16)
+# log P_whisper(text | clip), by (model, window, clip digest, text): the parts share many texts
+_SCORED: Memo[float] = memo("whisper.scored", 4096)
+
+
+def clip_digest(samples: np.ndarray) -> str:
+    """A key for one clip's samples (their dtype, length and bytes)."""
+    import hashlib
+
+    x = np.ascontiguousarray(samples)
+    return f"{x.dtype.str}:{x.shape}:" + hashlib.blake2b(x.tobytes(), digest_size=16).hexdigest()
 
 
 def candidate_texts(instruction: Instruction, commands: Sequence[RobotCommand],
@@ -167,6 +180,7 @@ class WhisperScores:
         heard: Whisper's own words for the clip (empty when it does not listen).
         use: how those words were used: "carrier", "guesses" or "none".
         logprob: Whisper's mean token log-probability for those words (``hear_encoded``).
+        texts: how many texts this call scored (those not scored on the clip before).
     """
 
     values: np.ndarray
@@ -174,6 +188,7 @@ class WhisperScores:
     heard: tuple[str, ...] = ()
     use: str = "none"
     logprob: float = float("-inf")
+    texts: int = 0
 
 
 class WhisperFactor:
@@ -220,11 +235,19 @@ class WhisperFactor:
         ``listen`` is off), for :meth:`scores`. With ``prompt`` on, ``commands``' object names are
         the transcript's prompt."""
         ws = self.scorer
-        enc = ws.encode(samples)
-        if not self.listens:
-            return enc, [], float("-inf")
-        words, logprob = ws.hear_encoded(enc, prompt=scene_prompt(commands, self.lexicon) if self.prompts else None)
-        return enc, words, logprob
+        prompt = scene_prompt(commands, self.lexicon) if self.prompts and self.listens else None
+        fp = getattr(ws, "fingerprint", None)  # a stand-in without one is not memoised
+
+        def make() -> tuple[Encoded, list[str], float]:
+            enc = ws.encode(samples)
+            if not self.listens:
+                return enc, [], float("-inf")
+            words, logprob = ws.hear_encoded(enc, prompt=prompt)
+            return enc, words, logprob
+
+        enc, words, logprob = make() if fp is None else _LISTENED.get(
+            (fp, clip_digest(samples), self.listens, prompt), make)
+        return enc, list(words), logprob
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
                samples: np.ndarray, prepared: tuple[Encoded, list[str], float] | None = None) -> WhisperScores:
@@ -233,6 +256,8 @@ class WhisperFactor:
 
         ws = self.scorer
         enc, heard, logprob = self.listen(samples, commands) if prepared is None else prepared
+        fp = getattr(ws, "fingerprint", None)  # a stand-in without one is not memoised
+        clip = None if fp is None else (fp, clip_digest(samples))
         also = [heard] if heard else []
         texts, mode = candidate_texts(instruction, commands, keep, also, self.lexicon)
         # how Whisper's words were used: "carrier" (they hold a key word: b … c for every command),
@@ -246,9 +271,15 @@ class WhisperFactor:
             forms = key_word_forms(k for c in commands for k, _ in key_phrases(c, lexicon=self.lexicon))
             use = "carrier" if any(w in forms for w in heard) else "none"
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
-        val = ws.score_encoded(enc, uniq)
+        # every text is scored once per clip, the texts not seen before in one batch
+        got = {t: None if clip is None else _SCORED.peek((clip, t)) for t in uniq}
+        missing = [t for t, v in got.items() if v is None]
+        if missing:
+            for t, v in zip(missing, np.asarray(ws.score_encoded(enc, missing), dtype=float).tolist(), strict=True):
+                got[t] = float(v) if clip is None else _SCORED.put((clip, t), float(v))
+        val = np.array([got[t] for t in uniq], dtype=float)
         if self.prior_weight:
             val = val - self.prior_weight * content_free_scores(ws, uniq, null_seconds(len(samples), self.pad_s))
         of = dict(zip(uniq, val.tolist(), strict=True))
         values = np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
-        return WhisperScores(values, mode, tuple(heard), use, logprob)
+        return WhisperScores(values, mode, tuple(heard), use, logprob, len(missing))

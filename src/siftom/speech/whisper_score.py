@@ -117,6 +117,8 @@ class WhisperScorer:
                                    self.model.is_multilingual, task="transcribe", language="en")
         self.features = FeatureExtractor(feature_size=self.model.n_mels)
         self.pad_s = float(pad_s)
+        # what a score depends on besides the clip and the text: memo keys (``likelihood.whisper_factor``)
+        self.fingerprint = (str(path), compute_type, device, self.pad_s)
         self.start = [*self.tokenizer.sot_sequence, self.tokenizer.no_timestamps]
         self.last_seconds = 0.0
 

@@ -320,7 +320,9 @@ class AcousticLikelihood:
         phon = self._phonetic_lp(instruction, commands) if instruction.nbest and (
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
-        prepared = self._whisper.listen(x, commands) if self._whisper is not None and instruction.nbest else None
+        # while Whisper transcribes, the commands it will most likely score are scored in the 1-best's carrier
+        prepared = (self._whisper.listen(x, commands, instruction, self.whisper_share(keep, [], phon, context))
+                    if self._whisper is not None and instruction.nbest else None)
         named: list[int] = []
         if prepared is not None and prepared[1]:
             # a command whose key phrase Whisper heard is scored even when the N-best and the actions

@@ -31,7 +31,7 @@ as before. docs/likelihoods.md gives the measurements behind the default.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -56,6 +56,13 @@ _NULL_ENCODED: Memo[Encoded] = memo("whisper.null_encoded", 32)
 _LISTENED: Memo[tuple[Encoded, list[str], float]] = memo("whisper.listened", 16)
 # log P_whisper(text | clip), by (model, window, clip digest, text): the parts share many texts
 _SCORED: Memo[float] = memo("whisper.scored", 4096)
+
+
+def forget_clips() -> None:
+    """Empty the memos keyed by a clip (its encoding, transcript and scored texts): a benchmark that
+    times one recording several times times it as heard for the first time."""
+    _LISTENED.clear()
+    _SCORED.clear()
 
 
 def clip_digest(samples: np.ndarray) -> str:
@@ -230,10 +237,17 @@ class WhisperFactor:
         scorer: WhisperScorer = self._scorer
         return scorer
 
-    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = ()) -> tuple[Encoded, list[str], float]:
+    def listen(self, samples: np.ndarray, commands: Sequence[RobotCommand] = (),
+               instruction: Instruction | None = None,
+               first: Sequence[int] | np.ndarray = ()) -> tuple[Encoded, list[str], float]:
         """(encoded clip, Whisper's own words, their mean token log-probability; [] and -inf when
         ``listen`` is off), for :meth:`scores`. With ``prompt`` on, ``commands``' object names are
-        the transcript's prompt."""
+        the transcript's prompt.
+
+        ``instruction`` and ``first`` (indices of ``commands``): while Whisper transcribes, the
+        second CTranslate2 worker scores those commands' texts in the recogniser's carrier alone
+        (the texts :meth:`scores` will ask for unless Whisper's words change the mode), and keeps
+        them in the clip's memo; only with a scorer that has a ``fingerprint``."""
         ws = self.scorer
         prompt = scene_prompt(commands, self.lexicon) if self.prompts and self.listens else None
         fp = getattr(ws, "fingerprint", None)  # a stand-in without one is not memoised
@@ -242,12 +256,38 @@ class WhisperFactor:
             enc = ws.encode(samples)
             if not self.listens:
                 return enc, [], float("-inf")
+            ahead = self._score_ahead(enc, samples, instruction, commands, first) if fp is not None else None
             words, logprob = ws.hear_encoded(enc, prompt=prompt)
+            if ahead is not None:
+                ahead()
             return enc, words, logprob
 
         enc, words, logprob = make() if fp is None else _LISTENED.get(
             (fp, clip_digest(samples), self.listens, prompt), make)
         return enc, list(words), logprob
+
+    def _score_ahead(self, enc: Encoded, samples: np.ndarray, instruction: Instruction | None,
+                     commands: Sequence[RobotCommand], first: Sequence[int] | np.ndarray) -> Callable[[], None] | None:
+        """Start scoring ``first``'s texts in the 1-best carrier on the side; the callable waits for
+        them and stores them in the clip's memo (see :meth:`listen`)."""
+        if instruction is None or not instruction.nbest or not len(first):
+            return None
+        from siftom.speech.whisper_score import side_pool
+
+        texts, _ = candidate_texts(instruction, commands, first, (), self.lexicon)
+        uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
+        ws = self.scorer
+        clip = (getattr(ws, "fingerprint", None), clip_digest(samples))
+        todo = [t for t in uniq if _SCORED.peek((clip, t)) is None]
+        if not todo:
+            return None
+        side = side_pool().submit(ws.score_encoded, enc, todo, False)
+
+        def done() -> None:
+            for t, v in zip(todo, np.asarray(side.result(), dtype=float).tolist(), strict=True):
+                _SCORED.put((clip, t), float(v))
+
+        return done
 
     def scores(self, instruction: Instruction, commands: Sequence[RobotCommand], keep: Sequence[int] | np.ndarray,
                samples: np.ndarray, prepared: tuple[Encoded, list[str], float] | None = None) -> WhisperScores:

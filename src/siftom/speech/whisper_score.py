@@ -20,8 +20,10 @@ the measurements behind the default.
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections.abc import Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +53,20 @@ def ct2_threads() -> tuple[int, int]:
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     inter = 2 if cores >= 2 else 1
     return inter, max(1, min(4, cores // inter))
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def side_pool() -> ThreadPoolExecutor:
+    """The threads that hand CTranslate2 a second call beside the caller's (its ``inter_threads``
+    workers run calls side by side, outside the interpreter's lock): one per extra worker."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(max(1, ct2_threads()[0] - 1), thread_name_prefix="siftom-whisper")
+        return _POOL
 
 
 def whisper_text(text: str) -> str:
@@ -110,9 +126,9 @@ class WhisperScorer:
         inter, intra = ct2_threads()
         threads = cpu_threads if cpu_threads is not None else intra
         self._ct2 = ctranslate2
+        self.inter_threads = inter_threads if inter_threads is not None else inter
         self.model = ctranslate2.models.Whisper(str(path), device=device, compute_type=compute_type,
-                                                intra_threads=threads,
-                                                inter_threads=inter_threads if inter_threads is not None else inter)
+                                                intra_threads=threads, inter_threads=self.inter_threads)
         self.tokenizer = Tokenizer(HFTokenizer.from_file(str(path / "tokenizer.json")),
                                    self.model.is_multilingual, task="transcribe", language="en")
         self.features = FeatureExtractor(feature_size=self.model.n_mels)
@@ -141,8 +157,14 @@ class WhisperScorer:
         sv = self._ct2.StorageView.from_array(np.ascontiguousarray(feats[None], dtype=np.float32))
         return self.model.encode(sv, to_cpu=True), n
 
-    def score_encoded(self, encoded: tuple[Any, int], texts: Sequence[str]) -> np.ndarray:
-        """Summed token log-probabilities (nats) of each text given the encoded clip."""
+    def score_encoded(self, encoded: tuple[Any, int], texts: Sequence[str], split: bool = True) -> np.ndarray:
+        """Summed token log-probabilities (nats) of each text given the encoded clip.
+
+        With two CTranslate2 workers (``inter_threads``) and several texts, half of them are
+        scored in a second call beside the first (:func:`side_pool`): each text's score depends
+        on its own tokens only, so the values are those of one call, in about half the time
+        where a core is free; ``split=False`` makes one call (a caller that keeps the second
+        worker busy itself)."""
         if not texts:
             return np.zeros(0)
         enc, n = encoded
@@ -152,15 +174,23 @@ class WhisperScorer:
         idx = [i for i, t in enumerate(toks) if t]
         if idx:
             arr = np.asarray(enc)
-            batch = self._ct2.StorageView.from_array(np.ascontiguousarray(np.repeat(arr, len(idx), axis=0)))
-            # the end-of-text token is appended for the aligner and its probability is not reported
-            res = self.model.align(batch, self.start, [toks[i] + [self.tokenizer.eot] for i in idx],
-                                   [max(2, n)] * len(idx))
-            for i, r in zip(idx, res, strict=True):
-                p = np.asarray(r.text_token_probs[: len(toks[i])], dtype=float)
-                out[i] = float(np.sum(np.log(np.maximum(p, 1e-30))))
+            half = len(idx) // 2 if split and self.inter_threads > 1 and len(idx) > 1 else 0
+            side: Future[list[float]] | None = (side_pool().submit(self._align, arr, n, [toks[i] for i in idx[:half]])
+                                                if half else None)
+            mine = self._align(arr, n, [toks[i] for i in idx[half:]])
+            got = (side.result() if side is not None else []) + mine
+            for i, v in zip(idx, got, strict=True):
+                out[i] = v
         self.last_seconds = time.perf_counter() - t0
         return out
+
+    def _align(self, arr: np.ndarray, n: int, toks: list[list[int]]) -> list[float]:
+        """One CTranslate2 ``align`` call: each token list's summed log-probability."""
+        batch = self._ct2.StorageView.from_array(np.ascontiguousarray(np.repeat(arr, len(toks), axis=0)))
+        # the end-of-text token is appended for the aligner and its probability is not reported
+        res = self.model.align(batch, self.start, [t + [self.tokenizer.eot] for t in toks], [max(2, n)] * len(toks))
+        return [float(np.sum(np.log(np.maximum(np.asarray(r.text_token_probs[: len(t)], dtype=float), 1e-30))))
+                for t, r in zip(toks, res, strict=True)]
 
     def transcribe_encoded(self, encoded: tuple[Any, int], prompt: str | None = None) -> list[str]:
         """Whisper's own greedy transcript of an encoded clip (:meth:`hear_encoded`'s words)."""

@@ -1,0 +1,76 @@
+"""Scoring beside the caller (a second CTranslate2 call, texts scored while Whisper transcribes,
+a clip's work kept for the parts of a request) gives the values of one plain call."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from siftom.likelihood.whisper_factor import forget_clips, whisper_available
+from siftom.observation import Hypothesis, Instruction
+from siftom.world.commands import RobotCommand
+
+pytestmark = [pytest.mark.skipif(not whisper_available(), reason="needs the whisper extra"),
+              pytest.mark.skipif(shutil.which("flite") is None, reason="flite is not installed")]
+FOODS = ("cereal", "oatmeal", "milk", "sugar", "coffee", "honey", "flour", "pasta")
+
+
+class Plain:
+    """A WhisperScorer seen without its fingerprint and scoring every batch in one call: no memo,
+    nothing on the side."""
+
+    def __init__(self, inner: object) -> None:
+        self.inner = inner
+
+    def encode(self, samples: np.ndarray) -> object:
+        return self.inner.encode(samples)  # type: ignore[attr-defined]
+
+    def hear_encoded(self, enc: object, prompt: str | None = None) -> object:
+        return self.inner.hear_encoded(enc, prompt)  # type: ignore[attr-defined]
+
+    def score_encoded(self, enc: object, texts: list[str]) -> np.ndarray:
+        return self.inner.score_encoded(enc, texts, split=False)  # type: ignore[attr-defined]
+
+
+@pytest.fixture(scope="module")
+def clip() -> np.ndarray:
+    from siftom.speech.noise import get_noise, mix_at_snr
+    from siftom.speech.tts import synthesize
+
+    return mix_at_snr(synthesize("could you pass me the sugar please", "flite-rms"), get_noise("babble"), 10.0, 3)
+
+
+def test_a_split_batch_scores_as_one_call(clip):
+    from siftom.speech.whisper_score import WhisperScorer
+
+    ws = WhisperScorer(pad_s=3.0, inter_threads=2, cpu_threads=1)
+    enc = ws.encode(clip)
+    texts = [f"could you pass me the {f} please" for f in FOODS] + [""]
+    together = ws.score_encoded(enc, texts, split=False)
+    assert np.array_equal(ws.score_encoded(enc, texts), together)
+    assert np.isneginf(together[-1]) and np.argmax(together) == FOODS.index("sugar")
+
+
+def test_the_acoustic_likelihood_scores_as_without_side_calls_or_memos(clip):
+    from siftom.likelihood.acoustic import AcousticLikelihood
+    from siftom.speech.whisper_score import WhisperScorer
+
+    cmds = [RobotCommand.parse(f"fetch({f})") for f in FOODS]
+    said = Instruction(nbest=(Hypothesis("could you pass me the sugar please", -1.0),
+                              Hypothesis("could you pass me the honey please", -2.0)), samples=clip)
+    ws = WhisperScorer(pad_s=3.0, inter_threads=2, cpu_threads=1)
+    fast = AcousticLikelihood(whisper=True, whisper_candidates=3)
+    fast._whisper._scorer = ws  # type: ignore[union-attr]
+    plain = AcousticLikelihood(whisper=True, whisper_candidates=3)
+    plain._whisper._scorer = Plain(ws)  # type: ignore[union-attr]
+    ctx = np.linspace(0.0, -1.0, len(cmds))
+    forget_clips()
+    want = plain.log_prob(said, cmds, ctx)
+    got = fast.log_prob(said, cmds, ctx)
+    assert np.array_equal(got.log_probs, want.log_probs)
+    assert got.evidence["whisper_heard"] == want.evidence["whisper_heard"]
+    # the second part of a request (the same clip again): nothing to encode, transcribe or score
+    again = fast.log_prob(said, cmds, ctx)
+    assert np.array_equal(again.log_probs, want.log_probs) and again.evidence["whisper_texts"] == 0

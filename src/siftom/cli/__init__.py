@@ -28,7 +28,7 @@ from siftom.registry import Registry  # noqa: E402
 # Plug-in packages add areas the same way (siftom.registry, entry points "siftom.plugins").
 CLI_AREAS = Registry("CLI area")
 for _area in ("world", "agents", "inference", "speech", "bench", "bench_speed", "bench_understanding", "people",
-              "service", "stream", "perception", "demo", "plugins", "results", "config"):
+              "service", "bench_serve", "stream", "perception", "demo", "plugins", "results", "config"):
     CLI_AREAS.register(_area, f"siftom.cli.{_area}:register", summary=f"siftom.cli.{_area}")
 
 

@@ -3,12 +3,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import Any
 
 import click
 
 from siftom.cli.outputs import force_option, prepare_output
+from siftom.cli.records import pass_options
 
 
 @click.command("simulate")
@@ -91,6 +93,25 @@ def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_reques
                f"questions {res.questions}, refusals {res.refusals}")
 
 
+@dataclasses.dataclass(frozen=True)
+class TrialsBenchFlags:
+    """The ``siftom bench trials`` flags as one record."""
+
+    domain: str
+    seeds: int
+    seed_start: int
+    rules: str
+    max_requests: int
+    channel: str
+    p_err: float
+    ask_for: str
+    scenarios: tuple[str, ...]
+    out: str | None
+    force: bool
+    as_json: bool
+    no_progress: bool
+
+
 @click.command("trials")
 @click.option("--domain", default="kitchen-v0", show_default=True, help="kitchen-v0 | household-table-v0")
 @click.option("--seeds", type=click.IntRange(min=1), default=5, show_default=True, help="seeds per scenario")
@@ -108,9 +129,8 @@ def simulate_trial_cmd(scenario_id: str, rule: str | None, seed: int, max_reques
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="print the per-rule summary as JSON")
 @click.option("--no-progress", is_flag=True, help="no progress bar")
-def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_requests: int, channel: str,
-                     p_err: float, ask_for: str, scenarios: tuple[str, ...], out: str | None, force: bool,
-                     as_json: bool, no_progress: bool) -> None:
+@pass_options(TrialsBenchFlags)
+def bench_trials_cmd(args: TrialsBenchFlags) -> None:
     """Whole trials over a domain's scenarios x seeds x rules: mean speedup, wrong fetches,
     questions and refusals per trial, per rule (docs/team-simulation.md, "Whole trials")."""
     import contextlib
@@ -119,26 +139,26 @@ def bench_trials_cmd(domain: str, seeds: int, seed_start: int, rules: str, max_r
     from siftom.cli.bench import _bar, _csv
     from siftom.observer import Observer
 
-    rule_list, channels = _csv(rules), _csv(channel)
-    out_path = prepare_output(out, force) if out else None
+    rule_list, channels = _csv(args.rules), _csv(args.channel)
+    out_path = prepare_output(args.out, args.force) if args.out else None
     rows = []
     with contextlib.ExitStack() as stack:
         fh = stack.enter_context(out_path.open("w", encoding="utf-8")) if out_path else None
-        bar = stack.enter_context(_bar(f"trials {domain}", enabled=not no_progress))
-        for row in run_trials(domain, range(seed_start, seed_start + seeds), rule_list, Observer(),
-                              channels=channels, max_requests=max_requests, p_err=p_err,
-                              scenarios=scenarios or None, ask_for=_csv(ask_for), progress=bar):
+        bar = stack.enter_context(_bar(f"trials {args.domain}", enabled=not args.no_progress))
+        for row in run_trials(args.domain, range(args.seed_start, args.seed_start + args.seeds), rule_list, Observer(),
+                              channels=channels, max_requests=args.max_requests, p_err=args.p_err,
+                              scenarios=args.scenarios or None, ask_for=_csv(args.ask_for), progress=bar):
             rows.append(row)
             if fh is not None:
                 fh.write(json.dumps(row) + "\n")
                 fh.flush()
     summary = summarise(rows)
-    if as_json:
+    if args.as_json:
         click.echo(json.dumps(summary, indent=2))
         return
     click.echo(markdown(summary))
-    if out:
-        click.echo(f"\n{len(rows)} trials; wrote {out}")
+    if args.out:
+        click.echo(f"\n{len(rows)} trials; wrote {args.out}")
 
 
 def register(root: click.Group) -> None:

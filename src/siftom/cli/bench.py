@@ -3,6 +3,7 @@ the ``bench`` group (``bench understanding``: :mod:`siftom.cli.bench_understandi
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -12,6 +13,7 @@ from contextlib import contextmanager, nullcontext
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
+from siftom.cli.records import pass_options
 from siftom.errors import DatasetError
 from siftom.speech.asr import DEFAULT_NBEST
 from siftom.speech.asr.base import ENGINES
@@ -114,6 +116,30 @@ def dataset_group() -> None:
     """Build and check UnclearInstruct-style benchmark datasets."""
 
 
+@dataclasses.dataclass(frozen=True)
+class BuildFlags:
+    """The ``siftom dataset build`` flags as one record."""
+
+    domain: str
+    out: str
+    scenarios: int
+    speakers: int
+    voices: str | None
+    noise_dir: str | None
+    noises: str | None
+    snr: str
+    seed: int
+    world_seed: int | None
+    room: float | None
+    rooms: str | None
+    distances: str | None
+    phrasings: str | None
+    workers: int | None
+    backend: str
+    ray_address: str | None
+    as_json: bool
+
+
 @dataset_group.command("build")
 @click.option("--domain", default="household-table-v0", show_default=True, help="household-table-v0 | kitchen-v0")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="dataset folder to write")
@@ -144,28 +170,25 @@ def dataset_group() -> None:
 @click.option("--workers", type=int, default=None, help="processes or Ray CPUs (default: number of CPUs, at most 4)")
 @_backend_options
 @click.option("--json", "as_json", is_flag=True, help="print a JSON summary")
-def build_cmd(domain: str, out: str, scenarios: int, speakers: int, voices: str | None, noise_dir: str | None,
-              noises: str | None, snr: str, seed: int, world_seed: int | None, room: float | None,
-              rooms: str | None, distances: str | None, phrasings: str | None, workers: int | None,
-              backend: str,
-              ray_address: str | None,
-              as_json: bool) -> None:
+@pass_options(BuildFlags)
+def build_cmd(args: BuildFlags) -> None:
     """Build a dataset: each speaker asks for the robot's part of each scenario, clean and in noise."""
     from siftom.bench.dataset import build_dataset
     from siftom.people.stimuli import DEFAULT_VOICES, BuildOptions
 
-    opts = BuildOptions(domain=domain, scenarios=scenarios, speakers=speakers,
-                        voices=_csv(voices) or DEFAULT_VOICES, noise_dir=noise_dir, noises=_csv(noises),
-                        snrs=_snrs(snr), seed=seed, phrasings=phrasings, room=room, world_seed=world_seed,
-                        rooms=_csv(rooms), distances=_distances(distances))
+    opts = BuildOptions(domain=args.domain, scenarios=args.scenarios, speakers=args.speakers,
+                        voices=_csv(args.voices) or DEFAULT_VOICES, noise_dir=args.noise_dir,
+                        noises=_csv(args.noises), snrs=_snrs(args.snr), seed=args.seed, phrasings=args.phrasings,
+                        room=args.room, world_seed=args.world_seed, rooms=_csv(args.rooms),
+                        distances=_distances(args.distances))
     from siftom.cli.audio_out import FOLDER_FIX, writing_audio
 
     t0 = time.perf_counter()
-    with _backend(backend, workers, ray_address) as be, _bar("building", not as_json) as bar, \
-            writing_audio(out, "the dataset into", fix=FOLDER_FIX):
-        ds = build_dataset(opts, out, progress=bar, backend=be)
+    with _backend(args.backend, args.workers, args.ray_address) as be, _bar("building", not args.as_json) as bar, \
+            writing_audio(args.out, "the dataset into", fix=FOLDER_FIX):
+        ds = build_dataset(opts, args.out, progress=bar, backend=be)
     secs = time.perf_counter() - t0
-    if as_json:
+    if args.as_json:
         click.echo(json.dumps({"out": str(ds.root), "stimuli": len(ds.stimuli), "seconds": round(secs, 1)}))
     else:
         click.echo(f"wrote {len(ds.stimuli)} stimuli to {ds.root} in {secs:.0f} s "
@@ -186,6 +209,27 @@ def check_cmd(folder: str) -> None:
     conds = Counter(s.condition.split("@")[0] for s in ds.stimuli)
     click.echo(f"ok: {len(ds.stimuli)} stimuli, {len({s.scenario for s in ds.stimuli})} scenarios, "
                f"{len({s.speaker for s in ds.stimuli})} speakers; " + ", ".join(f"{k} {v}" for k, v in sorted(conds.items())))
+
+
+@dataclasses.dataclass(frozen=True)
+class EvalFlags:
+    """The ``siftom eval`` flags as one record."""
+
+    dataset: str
+    out: str
+    models: str | None
+    engine: str
+    nbest: int
+    workers: int | None
+    backend: str
+    ray_address: str | None
+    seed: int
+    overwrite: bool
+    as_json: bool
+    human: str | None
+    llm_backend: str | None
+    llm_base_url: str | None
+    llm_model: str | None
 
 
 @click.command("eval")
@@ -210,44 +254,43 @@ def check_cmd(folder: str) -> None:
 @click.option("--human", "human", type=click.Path(file_okay=False), default=None,
               help="an annotation folder (siftom annotate --out): its answers join the report as the model 'human'")
 @llm_options
-def eval_cmd(dataset: str, out: str, models: str | None, engine: str, nbest: int, workers: int | None,
-             backend: str, ray_address: str | None, seed: int, overwrite: bool, as_json: bool, human: str | None,
-             llm_backend: str | None, llm_base_url: str | None, llm_model: str | None) -> None:
+@pass_options(EvalFlags)
+def eval_cmd(args: EvalFlags) -> None:
     """Transcribe every stimulus once, run every model, write results, summary, report and figures."""
     from siftom.backends.config import llm_configured
     from siftom.bench.evaluate import EvalOptions, evaluate
     from siftom.bench.models import default_models, eval_model
     from siftom.bench.report import main_table, participants_table, write_report
 
-    configured = llm_configured() or flags_given(llm_backend, llm_base_url, llm_model)
+    configured = llm_configured() or flags_given(args.llm_backend, args.llm_base_url, args.llm_model)
     default = default_models(llm=configured)
-    if not configured and not as_json and not models:
+    if not configured and not args.as_json and not args.models:
         click.echo("note: no LLM configured, so the LLM models are skipped (set SIFTOM_LLM_BASE_URL and "
                    "SIFTOM_LLM_MODEL, SIFTOM_LLM_BACKEND=llama, or the --llm-* flags; docs/llm.md)", err=True)
-    chosen = _csv(models) or default
-    llm = (llm_config(llm_backend, llm_base_url, llm_model)
+    chosen = _csv(args.models) or default
+    llm = (llm_config(args.llm_backend, args.llm_base_url, args.llm_model)
            if any(m in default_models(llm=True) and eval_model(m).needs_llm for m in chosen) else None)
-    opts = EvalOptions(models=chosen, engine=engine, nbest=nbest, seed=seed, llm=llm)
+    opts = EvalOptions(models=chosen, engine=args.engine, nbest=args.nbest, seed=args.seed, llm=llm)
     from siftom.bench.backends import check_backend_args
     from siftom.bench.runlock import RunLock
 
-    check_backend_args(backend, ray_address)
-    with RunLock(out), _backend(backend, workers, ray_address) as be:
-        with _bar("evaluating", not as_json) as bar:
-            run = evaluate(dataset, out, opts, overwrite=overwrite, progress=bar, backend=be)
-        if human is not None:
+    check_backend_args(args.backend, args.ray_address)
+    with RunLock(args.out), _backend(args.backend, args.workers, args.ray_address) as be:
+        with _bar("evaluating", not args.as_json) as bar:
+            run = evaluate(args.dataset, args.out, opts, overwrite=args.overwrite, progress=bar, backend=be)
+        if args.human is not None:
             from siftom.bench.human import score_answers
 
-            score_answers(human, out, dataset)
-        summary = write_report(out)
-    if as_json:
+            score_answers(args.human, args.out, args.dataset)
+        summary = write_report(args.out)
+    if args.as_json:
         click.echo(json.dumps(summary, indent=2))
         return
     click.echo(main_table(summary))
     if summary.get("participants"):  # collected recordings: each participant's rows too
         click.echo("\nby participant:\n" + participants_table(summary["participants"]))
     click.echo(f"\n{run.evaluated} stimuli evaluated, {run.resumed} resumed, in {run.seconds:.0f} s; "
-               f"wrote {out}/results.jsonl, summary.json, report.md and figures")
+               f"wrote {args.out}/results.jsonl, summary.json, report.md and figures")
 
 
 @click.command("report")

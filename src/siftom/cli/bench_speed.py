@@ -3,6 +3,7 @@ and several robots streaming into one server."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import click
 from siftom.bench.latency import SCENARIO, run_latency
 from siftom.bench.speed import run_inference_bench, run_planner_bench
 from siftom.cli.outputs import force_option, prepare_output
+from siftom.cli.records import pass_options
 from siftom.speech.cli_options import whisper_model_option
 
 
@@ -70,6 +72,23 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
                    f"ratio_p90 {r.ratio_p90:.3f}  cpu_ratio_p50 {r.cpu_ratio_p50:.3f}  commands {list(r.commands)}")
 
 
+@dataclasses.dataclass(frozen=True)
+class RobotsBenchFlags:
+    """The ``siftom bench robots`` flags as one record."""
+
+    streams: int
+    instructions: int
+    http_rps: float
+    url: str | None
+    token: str | None
+    seed: int
+    burst: bool
+    in_process: bool
+    out: Path | None
+    as_json: bool
+    force: bool
+
+
 @click.command("robots")
 @click.option("--streams", type=click.IntRange(1, 64), default=8, show_default=True,
               help="sessions streaming real-time speech at once")
@@ -88,30 +107,30 @@ def bench_latency_cmd(noise: str, snr: float, repeats: int, quick: bool, as_json
               help="also write the result as JSON here")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @force_option
-def bench_robots_cmd(streams: int, instructions: int, http_rps: float, url: str | None, token: str | None,
-                     seed: int, burst: bool, in_process: bool, out: Path | None, as_json: bool,
-                     force: bool) -> None:
+@pass_options(RobotsBenchFlags)
+def bench_robots_cmd(args: RobotsBenchFlags) -> None:
     """Several robots: N sessions stream real-time speech while /v1/infer is polled; per stream the
     delay from the end of speech to the decision, and the HTTP percentiles idle and under load."""
     from siftom.bench.robots import ServeBenchOptions, run_serve_bench
 
-    if out is not None:
-        prepare_output(out, force)
+    if args.out is not None:
+        prepare_output(args.out, args.force)
 
-    res = run_serve_bench(ServeBenchOptions(streams=streams, instructions=instructions, http_rps=http_rps,
-                                            url=url, token=token, seed=seed, in_process=in_process,
-                                            burst=burst))
+    res = run_serve_bench(ServeBenchOptions(streams=args.streams, instructions=args.instructions,
+                                            http_rps=args.http_rps, url=args.url, token=args.token, seed=args.seed,
+                                            in_process=args.in_process, burst=args.burst))
     data = res.to_json()
-    if out is not None:
+    if args.out is not None:
         from siftom.bench.speech import write_json
 
-        write_json(data, out)
-    if as_json:
+        write_json(data, args.out)
+    if args.as_json:
         click.echo(json.dumps(data, indent=2))
         return
     m = res.machine
-    click.echo(f"{streams} streams x {instructions} instructions{' (burst: speech ends at once)' if burst else ''}, "
-               f"/v1/infer at {http_rps:g}/s; "
+    burst = " (burst: speech ends at once)" if args.burst else ""
+    click.echo(f"{args.streams} streams x {args.instructions} instructions{burst}, "
+               f"/v1/infer at {args.http_rps:g}/s; "
                f"{m.cpus} CPUs ({m.processor}), load before {m.load_avg}, after {res.load_avg_after}")
     click.echo(f"decisions {res.answered}/{res.expected}; end of speech -> decision p50 {res.delay_p50_s} s, "
                f"p90 {res.delay_p90_s} s")

@@ -3,12 +3,14 @@ utterance and condition (docs/understanding.md)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import click
 
 from siftom.cli.bench import _bar, _csv
 from siftom.cli.outputs import force_option, prepare_output
+from siftom.cli.records import pass_options
 
 _CONDITIONS = ("text", "clean", "10dB", "5dB")
 
@@ -25,6 +27,26 @@ def _conditions(value: str) -> tuple[str, ...]:
     if not got:
         raise click.BadParameter(f"no condition given; choose from {', '.join(_CONDITIONS)}", param_hint="--conditions")
     return tuple(dict.fromkeys(got))
+
+
+@dataclasses.dataclass(frozen=True)
+class UnderstandingBenchFlags:
+    """The ``siftom bench understanding`` flags as one record."""
+
+    set_name: str
+    items_file: str | None
+    world_seed: int | None
+    worlds: int
+    conditions: str
+    kinds: str | None
+    voices: str | None
+    limit: int | None
+    out: str | None
+    seed: int
+    as_json: bool
+    from_files: tuple[str, ...]
+    measure: str
+    force: bool
 
 
 @click.command("understanding")
@@ -65,10 +87,8 @@ def _conditions(value: str) -> tuple[str, ...]:
               help="with --from: the share understood, or the share of requests answered with nothing, carried "
                    "out on another object, nobody-asked acted on or asked back")
 @force_option
-def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: int | None, worlds: int,
-                            conditions: str, kinds: str | None, voices: str | None, limit: int | None,
-                            out: str | None, seed: int, as_json: bool, from_files: tuple[str, ...], measure: str,
-                            force: bool) -> None:
+@pass_options(UnderstandingBenchFlags)
+def bench_understanding_cmd(args: UnderstandingBenchFlags) -> None:
     """How often the robot understands what people say: per kind of utterance and condition.
 
     Beside the share understood, per kind: requests answered with nothing (no action, no
@@ -95,9 +115,9 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
     )
     from siftom.bench.understanding_report import calibration_lines
 
-    if from_files:
+    if args.from_files:
         summaries = []
-        for f in from_files:
+        for f in args.from_files:
             try:
                 with open(f, encoding="utf-8") as fh:
                     got = json.load(fh)
@@ -108,33 +128,35 @@ def bench_understanding_cmd(set_name: str, items_file: str | None, world_seed: i
                 raise click.BadParameter(f"{f} is not a summary of bench understanding (FILE.summary.json); "
                                          "give the .summary.json an --out run wrote", param_hint="--from")
             summaries.append((str(got.get("set", f)), got))
-        click.echo(markdown(summaries, measure))
+        click.echo(markdown(summaries, args.measure))
         for _, got in summaries:
             for line in gate_lines(got):
                 click.echo(f"{got.get('set', '?')}: {line}")
         return
-    conds = _conditions(conditions)
-    if out is not None:
-        prepare_output(out, force)
-    blind = set_name == BLIND or items_file is not None
-    ws = None if blind else (WORLD_SEEDS[set_name] if world_seed is None else world_seed)
-    items = items_of(BLIND if items_file is not None else set_name, ws, worlds, seed, items_file)
-    want = _csv(kinds)
+    conds = _conditions(args.conditions)
+    if args.out is not None:
+        prepare_output(args.out, args.force)
+    blind = args.set_name == BLIND or args.items_file is not None
+    ws = None if blind else (WORLD_SEEDS[args.set_name] if args.world_seed is None else args.world_seed)
+    items = items_of(BLIND if args.items_file is not None else args.set_name, ws, args.worlds, args.seed,
+                     args.items_file)
+    want = _csv(args.kinds)
     if want:
         bad = [k for k in want if k not in BLIND_KINDS]
         if bad:
             raise click.BadParameter(f"unknown kind {bad[0]!r}; kinds: {', '.join(BLIND_KINDS)}", param_hint="--kinds")
         items = [i for i in items if i.kind in want]
-    items = items[:limit]
+    items = items[:args.limit]
     if not items:
         raise click.BadParameter(f"no item of kind(s) {', '.join(want)} in this set", param_hint="--kinds")
-    meta: dict[str, object] = {"set": BLIND if items_file is None and blind else (items_file or set_name),
-                               "world_seed": ws, "worlds_per_domain": None if blind else worlds, "seed": seed,
-                               "limit": limit, "kinds": list(want) or None}
-    with _bar("understanding", not as_json) as bar:
-        run = run_benchmark(items, conds, seed=seed, out=out, meta=meta, progress=bar,
-                            voices=_csv(voices) or None)
-    if as_json:
+    named = BLIND if args.items_file is None and blind else (args.items_file or args.set_name)
+    meta: dict[str, object] = {"set": named, "world_seed": ws,
+                               "worlds_per_domain": None if blind else args.worlds, "seed": args.seed,
+                               "limit": args.limit, "kinds": list(want) or None}
+    with _bar("understanding", not args.as_json) as bar:
+        run = run_benchmark(items, conds, seed=args.seed, out=args.out, meta=meta, progress=bar,
+                            voices=_csv(args.voices) or None)
+    if args.as_json:
         click.echo(json.dumps(run.summary, indent=2))
         return
     Console().print(table(run))

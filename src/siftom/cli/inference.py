@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -14,6 +15,7 @@ from rich.table import Table
 
 from siftom.assist.decide import RULES
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
+from siftom.cli.records import pass_options
 from siftom.errors import ObservationError
 from siftom.inference.model import ModelConfig
 from siftom.likelihood.registry import LIKELIHOODS
@@ -124,6 +126,30 @@ def _read_nbest(path: Path) -> list[Any]:
     return data
 
 
+@dataclasses.dataclass(frozen=True)
+class InferFlags:
+    """The ``siftom infer`` flags as one record."""
+
+    scenario_id: str | None
+    scene_file: Path | None
+    actions_file: Path | None
+    goal_space: str | None
+    target: str | None
+    transcript: str | None
+    nbest_file: Path | None
+    audio: Path | None
+    mode: str | None
+    likelihood: str | None
+    engine: str | None
+    config_file: Path | None
+    png: Path | None
+    rule: str | None
+    as_json: bool
+    llm_backend: str | None
+    llm_base_url: str | None
+    llm_model: str | None
+
+
 @click.command("infer")
 @whisper_model_option
 @click.option("--scenario", "scenario_id", default=None, help="A registered scenario id (see `siftom scenarios list`).")
@@ -157,11 +183,8 @@ def _read_nbest(path: Path) -> list[Any]:
                    "(docs/decisions.md).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @llm_options
-def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Path | None, goal_space: str | None,
-              target: str | None, transcript: str | None, nbest_file: Path | None, audio: Path | None,
-              mode: str | None, likelihood: str | None, engine: str | None, config_file: Path | None,
-              png: Path | None, rule: str | None, as_json: bool, llm_backend: str | None, llm_base_url: str | None,
-              llm_model: str | None) -> None:
+@pass_options(InferFlags)
+def infer_cmd(args: InferFlags) -> None:
     """Infer the goal and the robot command from what the human did and said.
 
     With --likelihood llm the language model comes from the --llm-* flags or SIFTOM_LLM_*.
@@ -171,65 +194,66 @@ def infer_cmd(scenario_id: str | None, scene_file: Path | None, actions_file: Pa
     from siftom.inputs import resolve_scene
     from siftom.settings import Settings
 
-    if rule is not None:
-        get_rule(rule)  # an unknown name fails before any work
+    if args.rule is not None:
+        get_rule(args.rule)  # an unknown name fails before any work
+    png = args.png
     if png is not None:
-        if scenario_id is None:
+        if args.scenario_id is None:
             raise click.BadParameter("the picture is drawn for a registered scenario (--scenario); leave --png out "
                                      "with --scene", param_hint="--png")
         png = png_target(png)
-    flags: dict[str, object] = {"model.mode": mode, "infer.likelihood": likelihood, "infer.engine": engine,
-                                "infer.decide": rule}
-    resolved = Settings.load(config_file, flags=flags)
-    mode, likelihood, engine = resolved.model.mode, resolved.infer.likelihood, resolved.infer.engine
+    flags: dict[str, object] = {"model.mode": args.mode, "infer.likelihood": args.likelihood,
+                                "infer.engine": args.engine, "infer.decide": args.rule}
+    resolved = Settings.load(args.config_file, flags=flags)
+    mode, likelihood = resolved.model.mode, resolved.infer.likelihood
     if likelihood == "llm":
-        cfg = llm_config(llm_backend, llm_base_url, llm_model)
+        cfg = llm_config(args.llm_backend, args.llm_base_url, args.llm_model)
         flags.update({f"llm.{k}": v for k, v in (("backend", cfg.backend), ("base_url", cfg.base_url),
                                                   ("model", cfg.model))})
-    elif flags_given(llm_backend, llm_base_url, llm_model):
+    elif flags_given(args.llm_backend, args.llm_base_url, args.llm_model):
         click.echo(f"note: the --llm-* flags only apply to --likelihood llm (not {likelihood})", err=True)
-    settings = Settings.load(config_file, flags=flags)
+    settings = Settings.load(args.config_file, flags=flags)
 
-    if (scenario_id is None) == (scene_file is None):
+    if (args.scenario_id is None) == (args.scene_file is None):
         raise ObservationError("give exactly one of --scenario ID or --scene FILE")
-    heard_flags = [f for f, v in (("--transcript", transcript), ("--nbest", nbest_file), ("--audio", audio))
-                   if v is not None]
+    heard_flags = [f for f, v in (("--transcript", args.transcript), ("--nbest", args.nbest_file),
+                                  ("--audio", args.audio)) if v is not None]
     if len(heard_flags) > 1:
         raise ObservationError(f"give only one of {', '.join(heard_flags)}: each is what was heard")
     warnings: list[str] = []
     scene: str | LoadedScene
-    if scenario_id is not None:
-        scene = scenario_id
+    if args.scenario_id is not None:
+        scene = args.scenario_id
     else:
-        assert scene_file is not None  # exactly one of the two, checked above
+        assert args.scene_file is not None  # exactly one of the two, checked above
         from siftom.world.io import load_scene
 
-        scene = load_scene(scene_file, goal_space=goal_space, target=target)
-        warnings = _unmentioned(scene_file, scene, goal_space)
-        if not as_json:  # with --json they are a field of the output
+        scene = load_scene(args.scene_file, goal_space=args.goal_space, target=args.target)
+        warnings = _unmentioned(args.scene_file, scene, args.goal_space)
+        if not args.as_json:  # with --json they are a field of the output
             for w in fold_warnings(warnings):
                 click.echo(f"warning: {w}", err=True)
-    nbest = _read_nbest(nbest_file) if nbest_file else None
-    heard = nbest if nbest else transcript if transcript is not None else audio
+    nbest = _read_nbest(args.nbest_file) if args.nbest_file else None
+    heard = nbest if nbest else args.transcript if args.transcript is not None else args.audio
     if heard is None and mode != "action-only":
         raise ObservationError("give --transcript, --nbest or --audio (or use --model action-only)")
-    if audio is not None and not nbest and transcript is None:
+    if args.audio is not None and not nbest and args.transcript is None:
         # a recording: the same path, with the recogniser's output and timings kept for display
         note = audio_likelihood_note(likelihood)
         if note:
             click.echo(note, err=True)
-        sc = resolve_scene(scene, actions_file)
-        ans = listen(audio, scenario=scene, actions=list(sc.actions), settings=settings)
+        sc = resolve_scene(scene, args.actions_file)
+        ans = listen(args.audio, scenario=scene, actions=list(sc.actions), settings=settings)
     else:
-        ans = infer(scene, actions_file, heard, settings=settings)
+        ans = infer(scene, args.actions_file, heard, settings=settings)
     post, body = ans.posterior, ans.to_json()
-    if png is not None and scenario_id is not None:
+    if png is not None and args.scenario_id is not None:
         from siftom.scenarios.base import get_scenario
         from siftom.world.render import render_scenario
 
-        render_scenario(get_scenario(scenario_id), png, posterior=post, doing=ans.doing)
-    if as_json:
-        if scene_file is not None:
+        render_scenario(get_scenario(args.scenario_id), png, posterior=post, doing=ans.doing)
+    if args.as_json:
+        if args.scene_file is not None:
             body["warnings"] = warnings
         click.echo(json.dumps(body, indent=2))
         return

@@ -3,12 +3,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
 
+from siftom.cli.records import pass_options
 from siftom.cli.service import with_access_options
 from siftom.errors import DatasetError
 from siftom.private import private_dir, private_umask
@@ -54,6 +56,25 @@ _host = click.option("--host", default="127.0.0.1", show_default=True,
                      help="interface to listen on (loopback: nothing leaves the machine)")
 
 
+@dataclasses.dataclass(frozen=True)
+class CollectFlags:
+    """The ``siftom collect`` flags as one record."""
+
+    domain: str
+    out: str
+    scenarios: int
+    participant: str | None
+    new_key: bool
+    consent: str | None
+    max_seconds: float
+    host: str
+    port: int
+    token: str | None
+    token_file: Path | None
+    allow_host: tuple[str, ...]
+    allow_origin: tuple[str, ...]
+
+
 @click.command("collect")
 @click.option("--domain", default="household-table-v0", show_default=True, help="household-table-v0 | kitchen-v0")
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True,
@@ -71,9 +92,8 @@ _host = click.option("--host", default="127.0.0.1", show_default=True,
 @_host
 @click.option("--port", type=click.IntRange(1, 65535), default=8010, show_default=True, help="TCP port")
 @with_access_options
-def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, new_key: bool,
-                consent: str | None, max_seconds: float, host: str, port: int, token: str | None, token_file: Path | None,
-                allow_host: tuple[str, ...], allow_origin: tuple[str, ...]) -> None:
+@pass_options(CollectFlags)
+def collect_cmd(args: CollectFlags) -> None:
     """Serve a page that records participants asking the robot for help, into a dataset folder.
 
     Each participant agrees to the consent text, then sees each scenario (the scene after each of
@@ -87,21 +107,40 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
     from siftom.people.collect import CONSENT_TEXT, CollectOptions
     from siftom.service.collect_app import create_collect_app
 
-    if new_key and participant is None:
+    if args.new_key and args.participant is None:
         raise click.UsageError("--new-key resets one participant's key: give --participant ID too")
-    opts = CollectOptions(domain=domain, scenarios=scenarios, participant=participant,
-                          consent=_consent(consent, CONSENT_TEXT), max_seconds=max_seconds)
-    access, generated = _access(host, token, token_file, allow_host, allow_origin)
-    private_dir(out)
-    with RunLock(out):  # one server per folder: several participants may share it, two servers may not
-        app = create_collect_app(out, opts, access)
-        if new_key and participant is not None:
-            if app.state.collection.reset_key(participant):
-                click.echo(f"siftom: {participant}'s old key no longer works; their next agreement on this page "
+    opts = CollectOptions(domain=args.domain, scenarios=args.scenarios, participant=args.participant,
+                          consent=_consent(args.consent, CONSENT_TEXT), max_seconds=args.max_seconds)
+    access, generated = _access(args.host, args.token, args.token_file, args.allow_host, args.allow_origin)
+    private_dir(args.out)
+    with RunLock(args.out):  # one server per folder: several participants may share it, two servers may not
+        app = create_collect_app(args.out, opts, access)
+        if args.new_key and args.participant is not None:
+            if app.state.collection.reset_key(args.participant):
+                click.echo(f"siftom: {args.participant}'s old key no longer works; their next agreement on this page "
                            "gets a new one", err=True)
             else:
-                click.echo(f"siftom: {participant} has no key yet (they have not agreed); nothing to reset", err=True)
-        _serve(app, host, port, f"recording page for {out}", access, generated)
+                click.echo(f"siftom: {args.participant} has no key yet (they have not agreed); nothing to reset",
+                           err=True)
+        _serve(app, args.host, args.port, f"recording page for {args.out}", access, generated)
+
+
+@dataclasses.dataclass(frozen=True)
+class AnnotateFlags:
+    """The ``siftom annotate`` argument and flags as one record."""
+
+    dataset: str
+    out: str
+    per_stimulus: int
+    per_annotator: int | None
+    seed: int
+    consent: str | None
+    host: str
+    port: int
+    token: str | None
+    token_file: Path | None
+    allow_host: tuple[str, ...]
+    allow_origin: tuple[str, ...]
 
 
 @click.command("annotate")
@@ -119,9 +158,8 @@ def collect_cmd(domain: str, out: str, scenarios: int, participant: str | None, 
 @_host
 @click.option("--port", type=click.IntRange(1, 65535), default=8011, show_default=True, help="TCP port")
 @with_access_options
-def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int | None, seed: int,
-                 consent: str | None, host: str, port: int, token: str | None, token_file: Path | None,
-                 allow_host: tuple[str, ...], allow_origin: tuple[str, ...]) -> None:
+@pass_options(AnnotateFlags)
+def annotate_cmd(args: AnnotateFlags) -> None:
     """Serve the human-baseline page: people hear each stimulus, type it and choose what to bring.
 
     Score the answers next to the models with: siftom report RESULTS --human OUT (RESULTS: siftom
@@ -130,16 +168,16 @@ def annotate_cmd(dataset: str, out: str, per_stimulus: int, per_annotator: int |
     from siftom.people.annotate import ANNOTATOR_CONSENT, AnnotateOptions
     from siftom.service.annotate_app import create_annotate_app
 
-    opts = AnnotateOptions(per_stimulus=per_stimulus, per_annotator=per_annotator, seed=seed,
-                           consent=_consent(consent, ANNOTATOR_CONSENT))
+    opts = AnnotateOptions(per_stimulus=args.per_stimulus, per_annotator=args.per_annotator, seed=args.seed,
+                           consent=_consent(args.consent, ANNOTATOR_CONSENT))
     from siftom.bench.runlock import RunLock
 
-    access, generated = _access(host, token, token_file, allow_host, allow_origin)
-    private_dir(out)
-    with RunLock(out):
-        app = create_annotate_app(dataset, out, opts, access)
-        _serve(app, host, port, f"annotation page ({len(app.state.annotation.assignments)} assignments)", access,
-               generated)
+    access, generated = _access(args.host, args.token, args.token_file, args.allow_host, args.allow_origin)
+    private_dir(args.out)
+    with RunLock(args.out):
+        app = create_annotate_app(args.dataset, args.out, opts, access)
+        _serve(app, args.host, args.port, f"annotation page ({len(app.state.annotation.assignments)} assignments)",
+               access, generated)
 
 
 @click.command("mix")

@@ -2,10 +2,32 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
 import click
+
+from siftom.cli.records import pass_options
+
+
+@dataclasses.dataclass(frozen=True)
+class PerceiveFlags:
+    """The ``siftom perceive`` frames and flags as one record."""
+
+    frames: tuple[Path, ...]
+    world_file: Path | None
+    out: Path
+    actions_out: Path
+    graph_out: Path | None
+    goal_space: str | None
+    target: str | None
+    no_goals: bool
+    model: str | None
+    llm_base_url: str | None
+    no_cache: bool
+    max_tokens: int
+    as_json: bool
 
 
 @click.command("perceive")
@@ -27,43 +49,42 @@ import click
 @click.option("--max-tokens", type=click.IntRange(256, 1_000_000), default=8192, show_default=True,
               help="The longest answer asked for (a 50-object scene graph is ~6k tokens).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def perceive_cmd(frames: tuple[Path, ...], world_file: Path | None, out: Path, actions_out: Path,
-                 graph_out: Path | None, goal_space: str | None, target: str | None, no_goals: bool,
-                 model: str | None, llm_base_url: str | None, no_cache: bool, max_tokens: int,
-                 as_json: bool) -> None:
+@pass_options(PerceiveFlags)
+def perceive_cmd(args: PerceiveFlags) -> None:
     """Turn camera FRAMES (in time order) into a world and the person's actions with a vision model."""
     from siftom.errors import PerceptionError
     from siftom.perception import Frame, VisionModel, perceive
 
-    images = [Frame.from_path(f) for f in frames]
+    images = [Frame.from_path(f) for f in args.frames]
     world = None
-    if world_file is not None:
+    if args.world_file is not None:
         from siftom.perception.pipeline import KnownWorld
         from siftom.safejson import loads, read_text
 
-        raw = loads(read_text(world_file, "world file", PerceptionError), f"world file {world_file!r}",
+        raw = loads(read_text(args.world_file, "world file", PerceptionError), f"world file {args.world_file!r}",
                     PerceptionError)
         if not isinstance(raw, dict):
-            raise PerceptionError(f"{world_file}: a world must be a JSON object")
+            raise PerceptionError(f"{args.world_file}: a world must be a JSON object")
         world = KnownWorld.from_json(raw)
-    result = perceive(images, world=world, goal_space=goal_space, target=target, propose_goals=not no_goals,
-                      model=VisionModel(model=model, use_cache=not no_cache, base_url=llm_base_url,
-                                        max_tokens=max_tokens))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result.world, indent=1) + "\n", encoding="utf-8")
-    actions_out.parent.mkdir(parents=True, exist_ok=True)
-    actions_out.write_text("".join(a + "\n" for a in result.actions), encoding="utf-8")
-    if graph_out is not None and result.graph is not None:
-        graph_out.write_text(json.dumps(result.graph.to_json(), indent=1) + "\n", encoding="utf-8")
-    if as_json:
+    result = perceive(images, world=world, goal_space=args.goal_space, target=args.target,
+                      propose_goals=not args.no_goals,
+                      model=VisionModel(model=args.model, use_cache=not args.no_cache, base_url=args.llm_base_url,
+                                        max_tokens=args.max_tokens))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result.world, indent=1) + "\n", encoding="utf-8")
+    args.actions_out.parent.mkdir(parents=True, exist_ok=True)
+    args.actions_out.write_text("".join(a + "\n" for a in result.actions), encoding="utf-8")
+    if args.graph_out is not None and result.graph is not None:
+        args.graph_out.write_text(json.dumps(result.graph.to_json(), indent=1) + "\n", encoding="utf-8")
+    if args.as_json:
         click.echo(json.dumps(result.to_json(), indent=2))
         return
     w = result.world
     click.echo(f"{len(images)} frames -> {len(w['places'])} places, {len(w['items'])} objects, "
                f"{len(result.actions)} actions, {len(w['goals'])} goals ({len(result.proposed_goals)} proposed) "
                f"on {result.target}; {result.requests} model requests, {result.cache_hits} cached")
-    click.echo(f"world: {out}   actions: {actions_out}")
-    click.echo(f"next: siftom infer --scene {out} --actions {actions_out} --transcript \"...\"")
+    click.echo(f"world: {args.out}   actions: {args.actions_out}")
+    click.echo(f"next: siftom infer --scene {args.out} --actions {args.actions_out} --transcript \"...\"")
 
 
 def register(root: click.Group) -> None:

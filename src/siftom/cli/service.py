@@ -1,9 +1,8 @@
-"""Service subcommands: ``serve`` and ``bench serve``."""
+"""Service subcommand: ``serve`` (``siftom.cli.bench_serve`` load-tests it)."""
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import socket
 import sys
 from collections.abc import Callable, Iterator
@@ -14,6 +13,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 from siftom.backends.cli_options import flags_given, llm_config, llm_options
+from siftom.cli.records import pass_options
 from siftom.cli.serve_checks import check_port as check_port
 from siftom.cli.serve_checks import interruptible
 from siftom.errors import missing_extra
@@ -270,7 +270,8 @@ class ServeOptions:
                    "are believed (repeatable; default: none, every client is its connection's address)")
 @with_access_options
 @llm_options
-def serve_cmd(**flags: Any) -> None:
+@pass_options(ServeOptions)
+def serve_cmd(opts: ServeOptions) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
     Beyond loopback every request needs a token (printed at start with a ready URL, or given with
@@ -278,7 +279,7 @@ def serve_cmd(**flags: Any) -> None:
     (``siftom config show``: sessions.*, service.*). The "llm" likelihood uses the --llm-* flags
     or SIFTOM_LLM_* (GET /healthz shows which).
     """
-    _serve(ServeOptions(**flags))
+    _serve(opts)
 
 
 def _serve(opts: ServeOptions) -> None:
@@ -340,56 +341,6 @@ def _serve(opts: ServeOptions) -> None:
                 lock.release()
 
 
-@click.command("serve")
-@click.option("-n", "--requests", "n", type=click.IntRange(1, 100_000), default=500, show_default=True,
-              help="measured requests")
-@click.option("-c", "--concurrency", type=click.IntRange(1, 256), default=8, show_default=True,
-              help="requests in flight at once")
-@click.option("--warmup", type=click.IntRange(0, 10_000), default=20, show_default=True,
-              help="unmeasured requests first (fill the caches)")
-@click.option("--url", default=None, help="an already running server; default: start one on loopback")
-@click.option("--json", "as_json", is_flag=True, help="print the result as JSON")
-@click.option("--sessions", type=click.IntRange(1, 1000), default=None,
-              help="load-test the session API instead: this many sessions at once, each streaming "
-                   "--actions actions and one instruction")
-@click.option("--actions", "n_actions", type=click.IntRange(1, 12), default=10, show_default=True,
-              help="with --sessions: actions streamed per session, one request each")
-@click.option("--interval", type=click.FloatRange(0, 10), default=1.0, show_default=True,
-              help="with --sessions: seconds between one session's requests (a person acts about once a "
-                   "second; 0: back to back, all sessions in flight at once)")
-@click.option("--audio", "audio", is_flag=True,
-              help="send recordings (synthetic speech, multipart) instead of transcripts")
-@click.option("--likelihood", default="phonetic", show_default=True,
-              help="with --audio: the instruction likelihood the requests ask for (phonetic or acoustic)")
-@click.option("--audio-workers", type=click.IntRange(0, 64), default=None,
-              help="with --audio and no --url: the server's audio worker processes "
-                   "(default: service.audio_workers of the settings)")
-def bench_serve_cmd(n: int, concurrency: int, warmup: int, url: str | None, as_json: bool, sessions: int | None,
-                    n_actions: int, interval: float, audio: bool, likelihood: str,
-                    audio_workers: int | None) -> None:
-    """Load-test POST /v1/infer with transcripts on loopback: req/s and latency percentiles
-    (--audio: recordings; --sessions: the session API). Without --url, ``siftom serve`` is started
-    as its own process on a free loopback port."""
-    _need_serve_extra()
-    if sessions is not None:
-        from siftom.bench.session_load import run_session_load
-
-        res_s = run_session_load(sessions=sessions, actions=n_actions, interval=interval, url=url)
-        click.echo(json.dumps({**res_s.to_json(), "meets_target": res_s.meets()}, indent=2) if as_json
-                   else res_s.summary())
-        return
-    from siftom.bench.loadtest import DEFAULT_BODIES, audio_bodies, run_load_test
-
-    bodies = audio_bodies(likelihood) if audio else DEFAULT_BODIES
-    res = run_load_test(requests=n, concurrency=concurrency, warmup=warmup, url=url, bodies=bodies,
-                        audio_workers=audio_workers)
-    click.echo(json.dumps({**res.to_json(), **({} if audio else {"meets_target": res.meets()})}, indent=2)
-               if as_json else res.summary(verdict=not audio))
-
-
 def register(root: click.Group) -> None:
-    """Add ``serve`` and ``bench serve`` to the root group."""
+    """Add ``serve`` to the root group."""
     root.add_command(serve_cmd)
-    from siftom.cli.bench import bench_group
-
-    bench_group.add_command(bench_serve_cmd)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import threading
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from siftom.cli.records import pass_options
 from siftom.errors import ObservationError, SiftomError
 
 if TYPE_CHECKING:
@@ -18,6 +20,23 @@ if TYPE_CHECKING:
     from siftom.speech.segment import Utterance
 
 LIKELIHOOD_CHOICES = ("auto", "phonetic", "acoustic", "llm")
+
+
+@dataclasses.dataclass(frozen=True)
+class HomeFlags:
+    """The flags of ``_home_options`` (the home, the model, the decision, the cutting) as one record."""
+
+    scenario: str | None
+    scene: str | None
+    likelihood: str | None
+    mode: str | None
+    decide: str | None
+    top: int | None
+    config_file: Path | None
+    threshold: float
+    cost: float
+    min_silence: float | None
+    max_utterance: float
 
 
 def _home_options(f: Any) -> Any:
@@ -49,9 +68,7 @@ def _home_options(f: Any) -> Any:
     return f
 
 
-def _home_listener(scenario: str | None, scene: str | None, likelihood: str | None, mode: str | None,
-                   decide: str | None, top: int | None, config_file: Path | None, threshold: float,
-                   cost: float, min_silence: float | None, max_utterance: float, recorded: bool = True) -> Any:
+def _home_listener(home: HomeFlags, recorded: bool = True) -> Any:
     from siftom.assist.clarify import ClarifyPolicy
     from siftom.assist.decide import get_rule
     from siftom.listener import HomeListener, load_home
@@ -59,15 +76,16 @@ def _home_listener(scenario: str | None, scene: str | None, likelihood: str | No
     from siftom.settings import Settings
     from siftom.speech.segment import SegmentOptions
 
-    if decide is not None:
-        get_rule(decide)  # an unknown name fails before any work
-    observer = observer_for(Settings.load(config_file))
-    opts: dict[str, Any] = {"max_utterance_s": max_utterance}
-    if min_silence is not None:
-        opts["min_silence_s"] = min_silence
-        opts["post_roll_s"] = min(SegmentOptions().post_roll_s, min_silence)
-    return HomeListener(load_home(scenario, scene), observer=observer, mode=mode, likelihood=likelihood, top=top,
-                        decide=decide, policy=ClarifyPolicy(threshold, cost), options=SegmentOptions(**opts),
+    if home.decide is not None:
+        get_rule(home.decide)  # an unknown name fails before any work
+    observer = observer_for(Settings.load(home.config_file))
+    opts: dict[str, Any] = {"max_utterance_s": home.max_utterance}
+    if home.min_silence is not None:
+        opts["min_silence_s"] = home.min_silence
+        opts["post_roll_s"] = min(SegmentOptions().post_roll_s, home.min_silence)
+    return HomeListener(load_home(home.scenario, home.scene), observer=observer, mode=home.mode,
+                        likelihood=home.likelihood, top=home.top, decide=home.decide,
+                        policy=ClarifyPolicy(home.threshold, home.cost), options=SegmentOptions(**opts),
                         recorded=recorded)
 
 
@@ -161,6 +179,21 @@ def _printer(as_json: bool = True) -> Any:
     return say
 
 
+@dataclasses.dataclass(frozen=True)
+class ListenFlags:
+    """The ``siftom listen`` flags as one record."""
+
+    mic: bool
+    wav: str | None
+    realtime: bool
+    device: str | None
+    seconds: float | None
+    actions: str | None
+    events: bool
+    as_json: bool
+    home: HomeFlags
+
+
 @click.command("listen")
 @click.option("--mic", is_flag=True, help="listen to the microphone (PortAudio through sounddevice)")
 @click.option("--wav", type=click.Path(dir_okay=False), default=None, help="play this audio file as the microphone")
@@ -175,8 +208,8 @@ def _printer(as_json: bool = True) -> Any:
 @click.option("--json", "as_json", is_flag=True,
               help="print one JSON line per event (for programs) instead of one readable line")
 @_home_options
-def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, seconds: float | None,
-               actions: str | None, events: bool, as_json: bool, **home_opts: Any) -> None:
+@pass_options(ListenFlags)
+def listen_cmd(args: ListenFlags) -> None:
     """Listen like a robot: cut utterances out of a live stream and print one line per utterance:
     when it was said, what was heard (by which recogniser, scored by which likelihood, decided by
     which rule) and what the robot does. With --json, one JSON line each (the command, its
@@ -190,22 +223,23 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
     from siftom.listener import Compact, run_listener
     from siftom.speech.sources import file_chunks, mic_chunks
 
-    if mic == (wav is not None):
+    mic, device = args.mic, args.device
+    if mic == (args.wav is not None):
         raise ObservationError("give exactly one audio source: --mic or --wav FILE")
-    if realtime and mic:
+    if args.realtime and mic:
         raise ObservationError("--realtime is for --wav (a microphone is always real time)")
-    say = _printer(as_json)
-    chunks = mic_chunks(int(device) if device and device.isdigit() else device, seconds=seconds) if mic \
-        else file_chunks(wav, realtime=realtime)  # type: ignore[arg-type]
+    say = _printer(args.as_json)
+    chunks = mic_chunks(int(device) if device and device.isdigit() else device, seconds=args.seconds) if mic \
+        else file_chunks(args.wav, realtime=args.realtime)  # type: ignore[arg-type]
     if mic:
         chunks = iter(chunks)
         first = next(chunks)  # open the device now: a missing PortAudio or device fails before loading
     # a scenario's recorded actions are observed first, unless --actions gives the person's own
-    home = _home_listener(**home_opts, recorded=actions is None)
-    _note_scoring(home_opts.get("likelihood"))
-    if actions is not None and actions != "-":
-        home.observe(_read_action_file(actions))
-    elif actions == "-":
+    home = _home_listener(args.home, recorded=args.actions is None)
+    _note_scoring(args.home.likelihood)
+    if args.actions is not None and args.actions != "-":
+        home.observe(_read_action_file(args.actions))
+    elif args.actions == "-":
         _stdin_actions(home, say)
     if mic:
         import itertools
@@ -213,8 +247,8 @@ def listen_cmd(mic: bool, wav: str | None, realtime: bool, device: str | None, s
         chunks = itertools.chain([first], chunks)
         click.echo("listening… (Ctrl-C to stop)", err=True)
     try:
-        run_listener(home, chunks, lambda ev: say(Compact(ev) if as_json and isinstance(ev, Decided | NoSpeech)
-                                                  else ev), realtime=realtime or mic, events=events)
+        run_listener(home, chunks, lambda ev: say(Compact(ev) if args.as_json and isinstance(ev, Decided | NoSpeech)
+                                                  else ev), realtime=args.realtime or mic, events=args.events)
     except KeyboardInterrupt:
         pass
     finally:
@@ -228,6 +262,23 @@ def _note_scoring(likelihood: str | None) -> None:
     note = audio_likelihood_note(likelihood)
     if note:
         click.echo(note, err=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class RosFlags:
+    """The ``siftom ros`` flags as one record."""
+
+    url: str
+    audio_topic: str
+    audio_type: str
+    text_topic: str
+    text_type: str
+    actions_topic: str
+    actions_type: str
+    decision_topic: str
+    decision_type: str
+    actions: str | None
+    home: HomeFlags
 
 
 @click.command("ros")
@@ -246,8 +297,8 @@ def _note_scoring(likelihood: str | None) -> None:
 @click.option("--actions", "actions", type=click.Path(exists=True, dir_okay=False), default=None,
               help="actions already seen before the bridge started (a file, one line each)")
 @_home_options
-def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_type: str, actions_topic: str,
-            actions_type: str, decision_topic: str, decision_type: str, actions: str | None, **home_opts: Any) -> None:
+@pass_options(RosFlags)
+def ros_cmd(args: RosFlags) -> None:
     """Bridge to ROS through rosbridge: listen to the robot's microphone (and/or a text topic) and
     its perception of the person's actions; publish each decision on /siftom/decision.
 
@@ -257,18 +308,18 @@ def ros_cmd(url: str, audio_topic: str, audio_type: str, text_topic: str, text_t
     """
     from siftom.service.ros import RosBridge, RosTopics, parse_url
 
-    parse_url(url)  # a malformed URL fails before the model is built
-    topics = RosTopics(audio=audio_topic, audio_type=audio_type, text=text_topic, text_type=text_type,
-                       actions=actions_topic, actions_type=actions_type, decision=decision_topic,
-                       decision_type=decision_type)
-    home = _home_listener(**home_opts, recorded=actions is None)
-    if audio_topic:
-        _note_scoring(home_opts.get("likelihood"))
-    if actions is not None:
-        home.observe(_read_action_file(actions))
+    parse_url(args.url)  # a malformed URL fails before the model is built
+    topics = RosTopics(audio=args.audio_topic, audio_type=args.audio_type, text=args.text_topic,
+                       text_type=args.text_type, actions=args.actions_topic, actions_type=args.actions_type,
+                       decision=args.decision_topic, decision_type=args.decision_type)
+    home = _home_listener(args.home, recorded=args.actions is None)
+    if args.audio_topic:
+        _note_scoring(args.home.likelihood)
+    if args.actions is not None:
+        home.observe(_read_action_file(args.actions))
     say = _printer()
-    bridge = RosBridge(home, url, topics, out=lambda obj: say(obj))
-    click.echo(f"siftom ros: connected to {url}; publishing decisions on {topics.decision} (Ctrl-C to stop)",
+    bridge = RosBridge(home, args.url, topics, out=lambda obj: say(obj))
+    click.echo(f"siftom ros: connected to {args.url}; publishing decisions on {topics.decision} (Ctrl-C to stop)",
                err=True)
     try:
         bridge.run()

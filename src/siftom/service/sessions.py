@@ -21,6 +21,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
+from typing import Unpack
 
 from pydantic import ValidationError
 
@@ -31,6 +32,7 @@ from siftom.inference.model import OnlineInference
 from siftom.observation import Instruction
 from siftom.observer import Heard, Observer
 from siftom.options import SessionLimits
+from siftom.service.answer_with import AnswerWith
 from siftom.service.idempotency import Idem, check_same
 from siftom.service.problems import ProblemError
 from siftom.service.session_records import Prepared, SessionOptions, SessionReply, SessionSpec
@@ -339,17 +341,15 @@ class SessionManager:
 
     # ----- instruction -------------------------------------------------------------------------
     def instruct(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,
-                 heard: Heard | None = None, idem: Idem | None = None, decide: str | DecisionRule | None = None,
-                 likelihood: str | None = None) -> SessionReply:
+                 heard: Heard | None = None, idem: Idem | None = None, **how: Unpack[AnswerWith]) -> SessionReply:
         """What the robot does about what was heard, given everything so far (the observer's answer);
-        ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`;
-        ``likelihood``: this answer's, instead of the session's (a server under load, admission.py)."""
+        ``heard``: the clip it was recognised from; ``idem``: see :meth:`append_reply`; ``how``: :class:`AnswerWith`."""
         sess = self.get(sid)
         with sess.lock:
             first = self._replayed(sess, idem)
             if first is not None:
                 return first
-            body = self._answer(sess, instruction, top, policy, heard, decide, likelihood)
+            body = self._answer(sess, instruction, top, policy, heard, how.get("decide"), how.get("likelihood"))
             return self._store_last(sess, body, idem)
 
     def prepare(self, sid: str, instruction: Instruction | None, top: int | None, policy: ClarifyPolicy,

@@ -12,10 +12,12 @@ import pytest
 from click.testing import CliRunner
 
 from siftom.cli import service
+from siftom.cli.records import options_of
 from siftom.cli.service import ServeOptions, serve_cmd
 
 
 def test_every_flag_is_a_field() -> None:
+    assert options_of(serve_cmd) is ServeOptions
     fields = {f.name for f in dataclasses.fields(ServeOptions)}
     params = {p.name for p in serve_cmd.params if p.expose_value}
     assert params == fields

@@ -205,7 +205,7 @@ def claim_data_dir(data_dir: str) -> RunLock:
 
 @dataclasses.dataclass(frozen=True)
 class ServeOptions:
-    """The ``siftom serve`` flags as one record (click's keyword arguments, by name)."""
+    """The ``siftom serve`` flags as one record."""
 
     host: str
     port: int
@@ -271,7 +271,7 @@ class ServeOptions:
 @with_access_options
 @llm_options
 @pass_options(ServeOptions)
-def serve_cmd(opts: ServeOptions) -> None:
+def serve_cmd(args: ServeOptions) -> None:
     """Serve the HTTP API and the web page (open http://HOST:PORT/).
 
     Beyond loopback every request needs a token (printed at start with a ready URL, or given with
@@ -279,7 +279,7 @@ def serve_cmd(opts: ServeOptions) -> None:
     (``siftom config show``: sessions.*, service.*). The "llm" likelihood uses the --llm-* flags
     or SIFTOM_LLM_* (GET /healthz shows which).
     """
-    _serve(opts)
+    _serve(args)
 
 
 def _serve(opts: ServeOptions) -> None:

@@ -247,7 +247,8 @@ class WhisperFactor:
         ``instruction`` and ``first`` (indices of ``commands``): while Whisper transcribes, the
         second CTranslate2 worker scores those commands' texts in the recogniser's carrier alone
         (the texts :meth:`scores` will ask for unless Whisper's words change the mode), and keeps
-        them in the clip's memo; only with a scorer that has a ``fingerprint``."""
+        them in the clip's memo; only with a scorer that has a ``fingerprint``, and only when no
+        other Whisper call of the process is running (``whisper_score.side_free``)."""
         ws = self.scorer
         prompt = scene_prompt(commands, self.lexicon) if self.prompts and self.listens else None
         fp = getattr(ws, "fingerprint", None)  # a stand-in without one is not memoised
@@ -270,9 +271,10 @@ class WhisperFactor:
                      commands: Sequence[RobotCommand], first: Sequence[int] | np.ndarray) -> Callable[[], None] | None:
         """Start scoring ``first``'s texts in the 1-best carrier on the side; the callable waits for
         them and stores them in the clip's memo (see :meth:`listen`)."""
-        if instruction is None or not instruction.nbest or not len(first):
+        from siftom.speech.whisper_score import side_free, side_pool
+
+        if instruction is None or not instruction.nbest or not len(first) or not side_free():
             return None
-        from siftom.speech.whisper_score import side_pool
 
         texts, _ = candidate_texts(instruction, commands, first, (), self.lexicon)
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))

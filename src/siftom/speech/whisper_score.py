@@ -19,10 +19,11 @@ the measurements behind the default.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,27 @@ def ct2_threads() -> tuple[int, int]:
 
 _POOL: ThreadPoolExecutor | None = None
 _POOL_LOCK = threading.Lock()
+_BUSY = 0  # CTranslate2 calls of this process in flight (under _POOL_LOCK)
+
+
+def side_free() -> bool:
+    """Whether no Whisper call of this process is running: only then does one clip take the second
+    worker for itself (:meth:`WhisperScorer.score_encoded`, the factor's texts scored ahead), so a
+    busy server runs one utterance per worker as before and keeps its cores for the others."""
+    with _POOL_LOCK:
+        return _BUSY == 0
+
+
+@contextlib.contextmanager
+def _calling() -> Iterator[None]:
+    global _BUSY
+    with _POOL_LOCK:
+        _BUSY += 1
+    try:
+        yield
+    finally:
+        with _POOL_LOCK:
+            _BUSY -= 1
 
 
 def side_pool() -> ThreadPoolExecutor:
@@ -155,13 +177,15 @@ class WhisperScorer:
             silence = float(feats.max()) - 2.0
             feats = np.concatenate([feats, np.full((feats.shape[0], want - n), silence, feats.dtype)], axis=1)
         sv = self._ct2.StorageView.from_array(np.ascontiguousarray(feats[None], dtype=np.float32))
-        return self.model.encode(sv, to_cpu=True), n
+        with _calling():
+            return self.model.encode(sv, to_cpu=True), n
 
     def score_encoded(self, encoded: tuple[Any, int], texts: Sequence[str], split: bool = True) -> np.ndarray:
         """Summed token log-probabilities (nats) of each text given the encoded clip.
 
-        With two CTranslate2 workers (``inter_threads``) and several texts, half of them are
-        scored in a second call beside the first (:func:`side_pool`): each text's score depends
+        With two CTranslate2 workers (``inter_threads``), several texts and no other Whisper call
+        of the process running (:func:`side_free`), half of them are scored in a second call
+        beside the first (:func:`side_pool`): each text's score depends
         on its own tokens only, so the values are those of one call, in about half the time
         where a core is free; ``split=False`` makes one call (a caller that keeps the second
         worker busy itself)."""
@@ -174,7 +198,7 @@ class WhisperScorer:
         idx = [i for i, t in enumerate(toks) if t]
         if idx:
             arr = np.asarray(enc)
-            half = len(idx) // 2 if split and self.inter_threads > 1 and len(idx) > 1 else 0
+            half = len(idx) // 2 if split and self.inter_threads > 1 and len(idx) > 1 and side_free() else 0
             side: Future[list[float]] | None = (side_pool().submit(self._align, arr, n, [toks[i] for i in idx[:half]])
                                                 if half else None)
             mine = self._align(arr, n, [toks[i] for i in idx[half:]])
@@ -186,6 +210,10 @@ class WhisperScorer:
 
     def _align(self, arr: np.ndarray, n: int, toks: list[list[int]]) -> list[float]:
         """One CTranslate2 ``align`` call: each token list's summed log-probability."""
+        with _calling():
+            return self._align_now(arr, n, toks)
+
+    def _align_now(self, arr: np.ndarray, n: int, toks: list[list[int]]) -> list[float]:
         batch = self._ct2.StorageView.from_array(np.ascontiguousarray(np.repeat(arr, len(toks), axis=0)))
         # the end-of-text token is appended for the aligner and its probability is not reported
         res = self.model.align(batch, self.start, [t + [self.tokenizer.eot] for t in toks], [max(2, n)] * len(toks))
@@ -216,9 +244,10 @@ class WhisperScorer:
         if prompt:
             start = [self.tokenizer.sot_prev, *self.tokenizer.encode(" " + prompt.strip())[-(MAX_TOKENS // 2):],
                      *self.start]
-        res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [start], beam_size=1,
-                                  max_length=int(min(MAX_TOKENS, 20 + n / 10)) + len(start) - len(self.start),
-                                  no_repeat_ngram_size=3, return_scores=True)
+        with _calling():
+            res = self.model.generate(self._ct2.StorageView.from_array(np.asarray(enc)), [start], beam_size=1,
+                                      max_length=int(min(MAX_TOKENS, 20 + n / 10)) + len(start) - len(self.start),
+                                      no_repeat_ngram_size=3, return_scores=True)
         ids = res[0].sequences_ids[0]
         # CTranslate2's score is the summed log-probability over length ** length_penalty (1)
         logprob = float(res[0].scores[0]) * len(ids) / (len(ids) + 1) if res[0].scores else float("-inf")

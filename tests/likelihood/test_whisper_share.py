@@ -82,16 +82,17 @@ def test_a_clip_is_encoded_and_transcribed_once_and_each_text_scored_once():
     stub = Stub(fingerprint=("stub", clip_digest(np.arange(3))))  # a key no other test uses
     wf = WhisperFactor(3.0, scorer=stub)
     first = wf.scores(HEARD, CMDS, [0, 2, 4], x)
-    assert (stub.encodes, stub.hears) == (1, 1) and first.texts == len(stub.texts) > 0
+    assert (stub.encodes, stub.hears) == (1, 1) and first.scored == first.texts == len(stub.texts) > 0
     n = len(stub.texts)
     again = wf.scores(HEARD, CMDS, [0, 1, 2, 4], x)  # one more command: only its texts are new
     assert (stub.encodes, stub.hears) == (1, 1)
-    assert 0 < again.texts == len(stub.texts) - n < n and len(set(stub.texts)) == len(stub.texts)
+    assert 0 < again.scored == len(stub.texts) - n < n and len(set(stub.texts)) == len(stub.texts)
+    assert again.texts == len(stub.texts)
     fresh = WhisperFactor(3.0, scorer=Stub()).scores(HEARD, CMDS, [0, 1, 2, 4], x)  # not memoised
     assert np.array_equal(again.values, fresh.values) and again.heard == fresh.heard
     # another clip is another key
     other = wf.scores(HEARD, CMDS, [0, 2, 4], x[::-1].copy())
-    assert stub.encodes == 2 and other.texts == first.texts
+    assert stub.encodes == 2 and other.scored == first.scored
 
 
 def test_clip_digest_tells_clips_apart():

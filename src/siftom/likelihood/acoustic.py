@@ -368,7 +368,7 @@ class AcousticLikelihood:
             if wh is not None and wh.heard:
                 evidence["whisper_logprob"] = round(wh.logprob, 4)
         if wh is not None:
-            evidence["whisper_scored"], evidence["whisper_texts"] = len(wkeep), wh.texts
+            evidence["whisper_commands"], evidence["whisper_texts"] = len(wkeep), wh.texts
         return RawScores(keep, tuple(items), mode, phon, self._gap(seg, items) if items else None,
                          wh.values if wh is not None else None, evidence, wkeep if wh is not None else None)
 

@@ -187,7 +187,9 @@ class WhisperScores:
         heard: Whisper's own words for the clip (empty when it does not listen).
         use: how those words were used: "carrier", "guesses" or "none".
         logprob: Whisper's mean token log-probability for those words (``hear_encoded``).
-        texts: how many texts this call scored (those not scored on the clip before).
+        texts: how many distinct texts the values come from (each scored once per clip: now,
+            while Whisper transcribed, or for an earlier part of the request).
+        scored: how many of them this call scored itself.
     """
 
     values: np.ndarray
@@ -196,6 +198,7 @@ class WhisperScores:
     use: str = "none"
     logprob: float = float("-inf")
     texts: int = 0
+    scored: int = 0
 
 
 class WhisperFactor:
@@ -324,4 +327,4 @@ class WhisperFactor:
             val = val - self.prior_weight * content_free_scores(ws, uniq, null_seconds(len(samples), self.pad_s))
         of = dict(zip(uniq, val.tolist(), strict=True))
         values = np.array([float(logsumexp([of[t] + lp for t, lp in items])) for items in texts])
-        return WhisperScores(values, mode, tuple(heard), use, logprob, len(missing))
+        return WhisperScores(values, mode, tuple(heard), use, logprob, len(uniq), len(missing))

@@ -81,3 +81,29 @@ def test_the_acoustic_likelihood_scores_as_without_side_calls_or_memos(clip):
         setattr(ws, name, no_work)
     again = fast.log_prob(said, cmds, ctx)
     assert np.array_equal(again.log_probs, want.log_probs)
+
+
+def test_while_another_whisper_call_runs_a_clip_keeps_to_one_worker(clip, monkeypatch):
+    """A busy server runs one utterance per CTranslate2 worker: no batch is split and nothing is
+    scored ahead while another call of the process is in flight."""
+    from siftom.likelihood.whisper_factor import WhisperFactor
+    from siftom.speech import whisper_score
+    from siftom.speech.whisper_score import WhisperScorer
+
+    ws = WhisperScorer(pad_s=3.0, inter_threads=2, cpu_threads=1)
+    enc = ws.encode(clip)
+    texts = [f"could you pass me the {f} please" for f in FOODS]
+    alone = ws.score_encoded(enc, texts)
+
+    def no_side() -> None:
+        raise AssertionError("a call went to the second worker while another call ran")
+
+    monkeypatch.setattr(whisper_score, "side_pool", no_side)
+    monkeypatch.setattr(whisper_score, "_BUSY", 1)
+    assert not whisper_score.side_free()
+    assert np.array_equal(ws.score_encoded(enc, texts), alone)
+    forget_clips()
+    said = Instruction(nbest=(Hypothesis("could you pass me the sugar please", -1.0),), samples=clip)
+    cmds = [RobotCommand.parse(f"fetch({f})") for f in FOODS]
+    wf = WhisperFactor(3.0, scorer=ws)
+    assert wf.listen(clip, cmds, said, [0, 1, 2])[1]  # transcribed, with nothing scored on the side

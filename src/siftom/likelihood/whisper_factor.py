@@ -250,8 +250,8 @@ class WhisperFactor:
         ``instruction`` and ``first`` (indices of ``commands``): while Whisper transcribes, the
         second CTranslate2 worker scores those commands' texts in the recogniser's carrier alone
         (the texts :meth:`scores` will ask for unless Whisper's words change the mode), and keeps
-        them in the clip's memo; only with a scorer that has a ``fingerprint``, and only when no
-        other Whisper call of the process is running (``whisper_score.side_free``)."""
+        them in the clip's memo; only with a scorer that has a ``fingerprint`` and two workers, and
+        only when no other Whisper call of the process is running (``whisper_score.side_free``)."""
         ws = self.scorer
         prompt = scene_prompt(commands, self.lexicon) if self.prompts and self.listens else None
         fp = getattr(ws, "fingerprint", None)  # a stand-in without one is not memoised
@@ -276,12 +276,13 @@ class WhisperFactor:
         them and stores them in the clip's memo (see :meth:`listen`)."""
         from siftom.speech.whisper_score import side_free, side_pool
 
-        if instruction is None or not instruction.nbest or not len(first) or not side_free():
+        ws = self.scorer
+        if instruction is None or not instruction.nbest or not len(first) or not side_free() \
+                or getattr(ws, "inter_threads", 1) < 2:  # one CTranslate2 worker: nothing runs beside the transcript
             return None
 
         texts, _ = candidate_texts(instruction, commands, first, (), self.lexicon)
         uniq = list(dict.fromkeys(t for items in texts for t, _ in items))
-        ws = self.scorer
         clip = (getattr(ws, "fingerprint", None), clip_digest(samples))
         todo = [t for t in uniq if _SCORED.peek((clip, t)) is None]
         if not todo:

@@ -101,3 +101,17 @@ def test_clip_digest_tells_clips_apart():
     y[100] = 1e-6
     assert clip_digest(x) == clip_digest(x.copy()) != clip_digest(y)
     assert clip_digest(x) != clip_digest(x.astype(np.float64))
+
+
+def test_the_share_is_counted_in_objects_and_keeps_every_count_of_one():
+    """Counts of one object alone would leave the worst scored w no worse than theirs: the share
+    takes objects, with every kept count of each."""
+    cmds = [RobotCommand.parse(c) for c in ("deliver(bowl,1)", "deliver(bowl,2)", "deliver(bowl,4)",
+                                            "deliver(spoon,2)", "deliver(fork,3)", "deliver(knife,1)")]
+    lk = _lk(2)
+    keep = np.arange(6)
+    phon = np.array([-1.0, -1.1, -1.2, -3.0, -2.0, -5.0])
+    assert lk.whisper_share(keep, [], phon, None, cmds).tolist() == [0, 1, 2, 4]
+    # an object Whisper named comes first, with all its kept counts
+    assert lk.whisper_share(keep, [3], phon, None, cmds).tolist() == [0, 1, 2, 3]
+    assert lk.whisper_share(np.array([0, 2, 3, 4, 5]), [], phon, None, cmds).tolist() == [0, 2, 4]

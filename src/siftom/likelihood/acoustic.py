@@ -43,9 +43,11 @@ the commands of one call.
 
 **Whisper's share** (``whisper_candidates``, K): each text Whisper scores costs one teacher-forced
 decoder pass (about 8 ms for tiny.en on two cores), and a pruned set of 6-9 commands gives 10-20
-texts. Of the pruned commands, every one whose key phrase Whisper heard is scored, then the best of
-the others by N-best x context, K in all; a command left out gets the worst scored w, as a pruned
-one does. K = 4 (``DEFAULT_WHISPER_CANDIDATES``; docs/likelihoods.md gives the measurements).
+texts. Of the pruned commands, those of every object whose key phrase Whisper heard are scored,
+then those of the best other objects by N-best x context, K objects in all (every kept count of
+an object with it: the counts of one object alone would make the worst scored w no worse than
+theirs). A command left out gets the worst scored w, as a pruned one does. K = 4
+(``DEFAULT_WHISPER_CANDIDATES``; docs/likelihoods.md gives the measurements).
 """
 
 from __future__ import annotations
@@ -99,8 +101,8 @@ DEFAULT_GAP_SCALE = 4.0
 DEFAULT_WHISPER_TEMPERATURE = 3.0
 DEFAULT_WHISPER_PAD_S = 3.0
 DEFAULT_WHISPER_PRIOR = 0.0  # lambda of the content-free debiasing: no gain on dev or test sets (docs/likelihoods.md)
-# at most this many commands get Whisper's teacher-forced score (the best by N-best x context, and those
-# Whisper heard named); chosen on a seed-5 kitchen set, checked on held-out sets (docs/likelihoods.md)
+# the commands of at most this many objects get Whisper's teacher-forced score (those Whisper heard named,
+# then the best by N-best x context); chosen on a seed-5 kitchen set, checked on held-out sets (docs/likelihoods.md)
 DEFAULT_WHISPER_CANDIDATES = 4
 
 
@@ -138,8 +140,8 @@ class AcousticLikelihood:
             ``"tempered"`` (``likelihood.pooling``; docs/likelihoods.md).
         whisper_slot_confidence: weigh Whisper's transcript in the slot channel by its own confidence
             (default); False reads it at full weight (``likelihood.pooling``).
-        whisper_candidates: at most this many of the pruned commands get the Whisper factor (module
-            doc, "Whisper's share"); default ``DEFAULT_WHISPER_CANDIDATES``.
+        whisper_candidates: the pruned commands of at most this many objects get the Whisper factor
+            (module doc, "Whisper's share"); default ``DEFAULT_WHISPER_CANDIDATES``.
         whisper_model: the Whisper model (a CTranslate2 folder) that scores and transcribes;
             default: the ``whisper_model`` setting (``$SIFTOM_WHISPER_MODEL``), else the packaged tiny.en.
         tie_counts: when no count word was heard, no count of a class is favoured over another
@@ -321,7 +323,7 @@ class AcousticLikelihood:
             self.with_phonetic or self.prune) else None
         keep = self.candidates(instruction, commands, context, phon)
         # while Whisper transcribes, the commands it will most likely score are scored in the 1-best's carrier
-        prepared = (self._whisper.listen(x, commands, instruction, self.whisper_share(keep, [], phon, context))
+        prepared = (self._whisper.listen(x, commands, instruction, self.whisper_share(keep, [], phon, context, commands))
                     if self._whisper is not None and instruction.nbest else None)
         named: list[int] = []
         if prepared is not None and prepared[1]:
@@ -329,7 +331,7 @@ class AcousticLikelihood:
             # alone would have pruned it
             named = [i for i, c in enumerate(commands) if names(prepared[1], (k for k, _ in key_phrases(c, lexicon=self.lexicon)))]
             keep = np.array(sorted(set(keep.tolist()) | set(named)))
-        wkeep = self.whisper_share(keep, named, phon, context)
+        wkeep = self.whisper_share(keep, named, phon, context, commands)
         kept = [commands[i] for i in keep]
         aligned = 0
         items: list[list[tuple[float, float]]] = []
@@ -373,16 +375,26 @@ class AcousticLikelihood:
                          wh.values if wh is not None else None, evidence, wkeep if wh is not None else None)
 
     def whisper_share(self, keep: np.ndarray, named: Sequence[int], phon: np.ndarray | None,
-                      context: np.ndarray | None) -> np.ndarray:
-        """The kept commands that get the Whisper factor (module doc, "Whisper's share"): every one
-        Whisper heard named, then the best of the others by N-best x context, ``whisper_candidates``
-        in all (more when Whisper named more); sorted indices."""
+                      context: np.ndarray | None, commands: Sequence[RobotCommand] | None = None) -> np.ndarray:
+        """The kept commands that get the Whisper factor (module doc, "Whisper's share"): those of
+        the objects Whisper heard named, then of the best other objects by N-best x context,
+        ``whisper_candidates`` objects in all (more when Whisper named more); sorted indices. An
+        object is a command's class (``commands``; without them, every command is its own)."""
         if len(keep) <= self.whisper_candidates or phon is None:
             return keep
         q = phon + (np.asarray(context, dtype=float) if context is not None else 0.0)
-        first = [int(i) for i in named if i in set(keep.tolist())]
-        rest = [int(i) for i in keep[np.argsort(-q[keep], kind="stable")] if int(i) not in first]
-        return np.array(sorted(first + rest[: max(0, self.whisper_candidates - len(first))]))
+
+        def obj(i: int) -> object:
+            return i if commands is None else commands[i].obj_class
+
+        kept = set(keep.tolist())
+        chosen = list(dict.fromkeys(obj(int(i)) for i in named if int(i) in kept))
+        for i in keep[np.argsort(-q[keep], kind="stable")]:
+            if len(chosen) >= self.whisper_candidates:
+                break
+            if obj(int(i)) not in chosen:
+                chosen.append(obj(int(i)))
+        return np.array([int(i) for i in keep if obj(int(i)) in chosen])
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""

@@ -43,6 +43,7 @@ from siftom.assist.requested import (
     one_command_once,
     request_parts,
     said_object,
+    words_refused,
     written_absent,
 )
 from siftom.assist.teamvalue import NONE
@@ -330,7 +331,8 @@ class Observer:
         post = dataclasses.replace(post, decision=decision)
         asking = next((pp for pp, d in zip(part_posts, decisions, strict=True) if d.action == "ask"), post) \
             if decisions else post
-        keep = self._pending(online, asking, decision, mode) if decision.action == "ask" else (
+        keep = self._pending(online, asking, decision, mode, refused=words_refused(asking)) \
+            if decision.action == "ask" else (
             pending if nothing else None)  # words that asked nothing leave a question waiting
         timings = {**(heard.timings if heard is not None else {}), "infer": time.perf_counter() - t0}
         return Answer(post, decision, speech, heard.asr if heard is not None else None,

@@ -110,3 +110,30 @@ def test_a_part_with_the_person_is_declined_and_no_command_is_carried_out_twice(
     assert "garlic" in a.decision.declined
     b = siftom.infer("kitchen-v0/3", None, "could you bring me the beans, the onion's already chopped")
     assert [str(p) for p in b.parts] == ["fetch(beans)"]
+
+
+def test_an_object_the_words_took_back_is_asked_about_not_carried_out() -> None:
+    """The likelihoods may still favour an object the weighed words took back (a recording of
+    "bring the coffee, scratch that, the tea" whose scene N-best lost the edit term): the robot
+    asks about the object asked for instead of fetching the one taken back."""
+    import dataclasses
+
+    from siftom.assist.requested import taken_back
+    from siftom.inputs import resolve_scene
+    from siftom.language.record import Mention
+
+    a = siftom.infer("kitchen-v0/0", None, "bring me the coffee")
+    assert a.action == "act" and str(a.command) == "fetch(coffee)"
+    u = dataclasses.replace(a.understanding, mentions=(Mention("retracted", "coffee", "coffee", None, ""),
+                                                       Mention("target", "tea", "tea", None, "")))
+    world = resolve_scene("kitchen-v0/0", None).world
+    asked = taken_back(a.decision, u, a.posterior, world)
+    assert asked is not None and asked.action == "ask" and asked.question == "Shall I get the tea?"
+    assert asked.options == ("fetch(tea)",)
+    # words that took nothing back leave the decision as it is
+    assert taken_back(a.decision, a.understanding, a.posterior, world) is None
+    # and a question it asks keeps the coffee refused for the exchange
+    from siftom.assist.requested import words_refused
+
+    assert words_refused(dataclasses.replace(a.posterior, understanding=u)) == ("fetch(coffee)",)
+    assert words_refused(a.posterior) == ()

@@ -127,7 +127,48 @@ def said_object(decision: Decision, parts: tuple[RobotCommand, ...], mention: Me
     more = None if here is not None else beyond_supply(decision, mention, post, world, target, verb)
     if more is not None:
         return more
+    if post.understanding is not None and (back := taken_back(decision, post.understanding, post, world)) is not None:
+        return back, parts
     return absent(decision, mention) or decision, parts
+
+
+def taken_back(decision: Decision, u: Understanding, post: Posterior, world: World) -> Decision | None:
+    """A question instead of carrying out an object the words took back or refused ("bring the
+    coffee, scratch that, the tea" with the likelihoods still on the coffee): "Shall I get the
+    tea?" when a target names an object of the world, else None (the decision stands)."""
+    from siftom.assist.asking import lexicon_of
+    from siftom.assist.questions import confirm_question
+
+    if decision.action in (NONE, "ask") or not decision.command or decision.command == NONE:
+        return None
+    try:
+        cls = RobotCommand.parse(decision.command).obj_class
+    except ValueError:
+        return None
+    refused = {m.obj_class for m in u.mentions if m.role in ("negated", "retracted") and m.obj_class}
+    wanted = [m.obj_class for m in u.mentions if m.role == "target" and m.obj_class in world.classes]
+    if cls not in refused or cls in wanted or not wanted:
+        return None
+    options = [c for c, _ in post.commands if c.obj_class == wanted[0]]
+    if not options:
+        return None
+    ask = str(options[0])
+    q = confirm_question(ask, lexicon_of(world))
+    return Decision(decision.rule, "ask", ask, post.prob(ask), float("nan"), q.text, q.options,
+                    reason=f"{decision.command} was taken back in the words, which ask for {wanted[0]}: asking first",
+                    question_kind=q.kind, asked=q)
+
+
+def words_refused(post: Posterior) -> tuple[str, ...]:
+    """The commands of ``post`` whose object the words negated or took back and did not ask for
+    ("not the cheese", "the coffee, scratch that, the tea"): refused for the exchange a question
+    opens, so no answer brings them back."""
+    u = post.understanding
+    if u is None or not u.request:
+        return ()
+    refused = {m.obj_class for m in u.mentions if m.role in ("negated", "retracted") and m.obj_class}
+    refused -= {m.obj_class for m in u.mentions if m.role == "target" and m.obj_class}
+    return tuple(str(c) for c, _ in post.commands if c.obj_class in refused)
 
 
 # rules that ask (the others carry out what there is)

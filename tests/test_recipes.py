@@ -320,3 +320,13 @@ def test_channel_cells_counts_and_fits_captured_hearings(tmp_path: Path) -> None
     # the stated table reads both right: a request well above 1/3, the weather talk below
     stated = next(line for line in res.stdout.splitlines() if line.strip().startswith("stated open cells"))
     assert stated.rstrip().endswith("0.0, 0.0)")
+
+
+@pytest.mark.slow  # the acoustic likelihood and Whisper per stimulus and K
+def test_whisper_share_recipe_runs(tiny_eval: tuple[Path, Path], tmp_path: Path) -> None:
+    pytest.importorskip("faster_whisper")
+    ds, _res = tiny_eval
+    res = _run(str(RECIPES / "whisper_share.py"), "--dataset", str(ds), "--limit", "2", "--ks", "2,all", "--json",
+               cwd=tmp_path)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "all" in res.stdout

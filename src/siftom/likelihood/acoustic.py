@@ -32,22 +32,11 @@ what was heard (``sentence`` mode). T is a temperature in nats that turns alignm
 scores, which are over-confident, into a likelihood (paper, Methods, Instruction Likelihood);
 docs/likelihoods.md gives the calibration.
 
-**Pruning** (``prune=True``): before aligning, the commands are ranked by the N-best phonetic
-likelihood times the context (the action term and command prior the model passes as
-``context``); the smallest set holding ``prune_mass`` of that posterior (at most
-``max_candidates``) plus the ``top_nbest`` best N-best matches is aligned. Every other command
-gets the lowest aligned value minus how much less likely the N-best makes it than the worst
-aligned command: it held almost no mass, the pruning never makes it more likely than an
-aligned command, and commands the N-best tells apart stay apart. Scores compare only across
-the commands of one call.
-
-**Whisper's share** (``whisper_candidates``, K): each text Whisper scores costs one teacher-forced
-decoder pass (about 8 ms for tiny.en on two cores), and a pruned set of 6-9 commands gives 10-20
-texts. Of the pruned commands, those of every object whose key phrase Whisper heard are scored,
-then those of the best other objects by N-best x context, K objects in all (every kept count of
-an object with it: the counts of one object alone would make the worst scored w no worse than
-theirs). A command left out gets the worst scored w, as a pruned one does. K = 4
-(``DEFAULT_WHISPER_CANDIDATES``; docs/likelihoods.md gives the measurements).
+**Pruning** (``prune=True``) aligns only the commands the N-best times the context makes likely
+(``prune_mass``, ``max_candidates``, ``top_nbest``); every other command gets the lowest aligned
+value less how much less likely the N-best makes it. **Whisper's share** (``whisper_candidates``)
+scores with Whisper the pruned commands of at most K objects (``whisper_factor.whisper_share``).
+docs/likelihoods.md gives both rules and their measurements.
 """
 
 from __future__ import annotations
@@ -345,23 +334,23 @@ class AcousticLikelihood:
             if frame is not None:
                 start, end, before, after = frame
                 seg = x[int(start * 16000):] if end is None else x[int(start * 16000):int(end * 16000)]
-                items, aligned = self._align(
+                items, aligned = align_phrasings(self.aligner,
                     seg, kept, lambda c: [(" ".join([*before, k, *after]), lp) for k, lp in key_phrases(c, lexicon=self.lexicon)])
                 mode = "key"
             else:
                 seg = x
                 heard = instruction.text if instruction.nbest else None
                 if heard is not None and self.phrasings is None:
-                    items, aligned = self._align(x, kept, lambda c: [closest_phrasing(c, heard, self.lexicon)])
+                    items, aligned = align_phrasings(self.aligner, x, kept, lambda c: [closest_phrasing(c, heard, self.lexicon)])
                 else:
-                    items, aligned = self._align(x, kept, self.phrasings or self._top_phrasings)
+                    items, aligned = align_phrasings(self.aligner, x, kept, self.phrasings or self._top_phrasings)
                 mode = "sentence"
         wh = (self._whisper.scores(instruction, commands, wkeep, x, prepared)
               if self._whisper is not None and prepared is not None else None)
         if wh is not None and not self.aligns:
             mode = f"whisper-{wh.mode}"  # "whisper-key" or "whisper-sentence"
         if not items and wh is None:  # no N-best (the Whisper factor needs the heard words): align phrasings
-            (items, aligned), mode = self._align(x, kept, self.phrasings or self._top_phrasings), "sentence"
+            (items, aligned), mode = align_phrasings(self.aligner, x, kept, self.phrasings or self._top_phrasings), "sentence"
         # what this call used besides the N-best: its mode and, with the Whisper factor, Whisper's words
         evidence: dict[str, Any] = {"acoustic_mode": mode, "commands_scored": len(kept), "phrases_aligned": aligned}
         if self._whisper is not None and self._whisper.listens:
@@ -376,25 +365,10 @@ class AcousticLikelihood:
 
     def whisper_share(self, keep: np.ndarray, named: Sequence[int], phon: np.ndarray | None,
                       context: np.ndarray | None, commands: Sequence[RobotCommand] | None = None) -> np.ndarray:
-        """The kept commands that get the Whisper factor (module doc, "Whisper's share"): those of
-        the objects Whisper heard named, then of the best other objects by N-best x context,
-        ``whisper_candidates`` objects in all (more when Whisper named more); sorted indices. An
-        object is a command's class (``commands``; without them, every command is its own)."""
-        if len(keep) <= self.whisper_candidates or phon is None:
-            return keep
-        q = phon + (np.asarray(context, dtype=float) if context is not None else 0.0)
+        """The kept commands that get the Whisper factor (``whisper_factor.whisper_share``)."""
+        from siftom.likelihood.whisper_factor import whisper_share
 
-        def obj(i: int) -> object:
-            return i if commands is None else commands[i].obj_class
-
-        kept = set(keep.tolist())
-        chosen = list(dict.fromkeys(obj(int(i)) for i in named if int(i) in kept))
-        for i in keep[np.argsort(-q[keep], kind="stable")]:
-            if len(chosen) >= self.whisper_candidates:
-                break
-            if obj(int(i)) not in chosen:
-                chosen.append(obj(int(i)))
-        return np.array([int(i) for i in keep if obj(int(i)) in chosen])
+        return whisper_share(keep, named, phon, context, self.whisper_candidates, commands)
 
     def _gap(self, seg: np.ndarray, items: Sequence[Sequence[tuple[float, float]]]) -> float | None:
         """(phone-loop score - best alignment score) per 10 ms frame over the aligned audio."""
@@ -408,29 +382,19 @@ class AcousticLikelihood:
         loop = self._loop.score(seg)
         return None if not np.isfinite(loop) else (loop - max(ok)) / (len(seg) / 160)
 
-    def _align(self, x: np.ndarray, commands: Sequence[RobotCommand],
-               items_of: Callable[[RobotCommand], Sequence[tuple[str, float]]]
-               ) -> tuple[list[list[tuple[float, float]]], int]:
-        """(score, log prior) items per command, and how many distinct texts were aligned."""
-        return align_phrasings(self.aligner, x, commands, items_of)
-
     def log_prob_audio(self, audio: np.ndarray | str | Path, commands: Sequence[RobotCommand],
                        heard: str | None = None) -> Scores:
-        """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned.
-
-        With ``heard`` (an ASR 1-best), each command is scored with its phrasing closest in
-        words to what was heard: the carrier ("can you pass me the ...") then matches the audio
-        and the scores differ where the object words do.
-        """
+        """Whole-sentence log-likelihoods for raw 16 kHz samples or a path, every command aligned
+        (with ``heard``, an ASR 1-best, in its phrasing closest in words to what was heard)."""
         if not commands:
             return Scores(np.zeros(0))
         from siftom.speech.audio import as_audio
 
         x = as_audio(audio)
         if heard is not None and self.phrasings is None:
-            items, aligned = self._align(x, commands, lambda c: [closest_phrasing(c, heard, self.lexicon)])
+            items, aligned = align_phrasings(self.aligner, x, commands, lambda c: [closest_phrasing(c, heard, self.lexicon)])
         else:
-            items, aligned = self._align(x, commands, self.phrasings or self._top_phrasings)
+            items, aligned = align_phrasings(self.aligner, x, commands, self.phrasings or self._top_phrasings)
         raw = RawScores(np.arange(len(commands)), tuple(items), "sentence")
         return Scores(self.combine(raw, len(commands)),
                       {"acoustic_mode": "sentence", "commands_scored": len(commands), "phrases_aligned": aligned})

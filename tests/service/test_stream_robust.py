@@ -44,6 +44,18 @@ def new_session(url: str) -> str:
     return httpx.post(f"{url}/v1/sessions", json={"world": WORLD}, timeout=30).raise_for_status().json()["id"]
 
 
+def every_recogniser(app, world, verb) -> list:
+    """Every recogniser of the scene's pool (streams decode on the first free one), put back."""
+    pool = app.state.runtime._pool(world, verb)
+    recs = []
+    while not pool.empty():
+        recs.append(pool.get_nowait())
+    for rec in recs:
+        pool.put(rec)
+    assert recs
+    return recs
+
+
 def ws_url(url: str, sid: str, query: str = "") -> str:
     return url.replace("http://", "ws://") + f"/v1/sessions/{sid}/listen" + (f"?{query}" if query else "")
 
@@ -128,11 +140,12 @@ def test_a_closed_streams_unanswered_utterance_is_cancelled(served, clip):
     app, url = served
     sid = new_session(url)
     sess = app.state.sessions.get(sid)
-    rec = app.state.runtime.observer.recogniser(sess.scene.world, sess.scene.verb)
+    recs = every_recogniser(app, sess.scene.world, sess.scene.verb)
     with ws_client.connect(ws_url(url, sid)) as ws:
         got = Collector(ws)
         got.ready()
-        rec.lock.acquire()  # the recogniser is busy: the utterance waits for it
+        for rec in recs:  # every recogniser of the pool is busy: the utterance waits for one
+            rec.lock.acquire()
         try:
             stream(ws, pcm16(np.concatenate([silence(0.3), clip, silence(1.0)])), realtime=False)
             deadline = time.monotonic() + 20
@@ -145,7 +158,8 @@ def test_a_closed_streams_unanswered_utterance_is_cancelled(served, clip):
                 time.sleep(0.02)
             assert sid not in app.state.streams
         finally:
-            rec.lock.release()
+            for rec in recs:
+                rec.lock.release()
     time.sleep(2.0)  # long enough to recognise and answer, were it still running
     view = httpx.get(f"{url}/v1/sessions/{sid}").json()
     assert view["last_instruction"] is None
